@@ -1,0 +1,21 @@
+//! Pure physics of the vestnav tactile vest: no IO, no threads, no clock.
+//!
+//! Time is always a parameter. The modules follow the MIT thesis the vest comes from:
+//! - [`tactor`]: the pancake-motor tactor ODE (thesis §3.2) and its summary figures;
+//! - [`sweep`]: damping sweeps, power-law fits and damping calibration (§3.2.2–3.2.3);
+//! - [`analysis`]: measured force/acceleration series (§3.1): peak frequency, envelope, statistics;
+//! - [`wave`]: skin travelling waves and their linear superposition (§4.1.3);
+//! - [`twopoint`]: the two-point simulation, a two-Gaussian sum fitted by one Gaussian (§4.2).
+//!
+//! ```
+//! use vestnav_core::tactor::{TactorParams, Preset};
+//! let p = TactorParams::preset(Preset::ThesisSim);
+//! // Closed-form steady speed omega = Kt u / (R b + Kt^2), thesis: 834.2 rad/s.
+//! assert!((p.steady_state().omega_rad_s - 834.22).abs() < 0.01);
+//! ```
+
+pub mod analysis;
+pub mod sweep;
+pub mod tactor;
+pub mod twopoint;
+pub mod wave;

@@ -1,0 +1,11 @@
+//! Everything in vestnav that talks to hardware.
+//!
+//! Protocols are sans-IO state machines (fed bytes and the current time, drained of events and bytes to
+//! send); transports are thin `Read + Write` adapters owned by one worker thread each.
+//! - [`gps`]: NMEA 0183 decoding and fix assembly, GPS sources (serial, log replay, gpsd, simulator);
+//! - [`wtcu`]: the Wireless Tactile Control Unit protocol, link, and vest emulator;
+//! - [`serial`]: serial-port discovery and opening (Bluetooth SPP ports are serial ports).
+
+pub mod gps;
+pub mod serial;
+pub mod wtcu;

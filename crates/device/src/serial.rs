@@ -1,0 +1,132 @@
+//! Serial-port discovery and opening.
+//!
+//! A Bluetooth SPP device (the BT-359 GPS, the WTCU) shows up as an ordinary serial port: `/dev/rfcomm*`
+//! on Linux, an outgoing `COMn` on Windows, `/dev/cu.*` on macOS. Pseudo-terminals from the emulators
+//! (`/dev/pts/N`) are serial ports too, and the console opens them exactly like hardware.
+
+use std::time::Duration;
+
+use serialport::{SerialPort, SerialPortType};
+
+/// What kind of device a port most likely is, for the operator's port picker.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub enum PortKind {
+    /// A Bluetooth serial link (SPP / RFCOMM).
+    Bluetooth,
+    /// A USB serial adapter or USB GPS mouse.
+    Usb,
+    /// A PCI or on-board UART.
+    Pci,
+    /// A pseudo-terminal, usually one of vestnav's own emulators.
+    Pty,
+    /// Anything else the OS reports.
+    Other,
+}
+
+/// One serial port the operator can pick.
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct PortInfo {
+    /// The path or name to open (`/dev/rfcomm0`, `COM5`, `/dev/pts/3`).
+    pub name: String,
+    /// Our best guess of the kind of device behind it.
+    pub kind: PortKind,
+    /// A human description (USB product string, "Bluetooth", ...), empty when unknown.
+    pub description: String,
+}
+
+/// Errors opening or listing serial ports.
+#[derive(Debug, thiserror::Error)]
+pub enum SerialError {
+    /// The OS refused to list or open the port (missing, busy, no permission).
+    #[error("serial port {port}: {source}")]
+    Port {
+        /// The port we tried.
+        port: String,
+        /// What the OS said.
+        #[source]
+        source: serialport::Error,
+    },
+}
+
+/// Lists the serial ports, Bluetooth ones first, then USB, then the rest, each group by name.
+///
+/// `/dev/rfcomm*` nodes are listed even where the enumerator misses them (it often does: they are
+/// created on demand by `rfcomm bind`).
+pub fn list_ports() -> Vec<PortInfo> {
+    let mut ports: Vec<PortInfo> = serialport::available_ports()
+        .unwrap_or_default()
+        .into_iter()
+        .map(|p| {
+            let (kind, description) = match &p.port_type {
+                SerialPortType::BluetoothPort => (PortKind::Bluetooth, "Bluetooth".to_owned()),
+                SerialPortType::UsbPort(usb) => (
+                    PortKind::Usb,
+                    usb.product.clone().unwrap_or_else(|| format!("USB {:04x}:{:04x}", usb.vid, usb.pid)),
+                ),
+                SerialPortType::PciPort => (PortKind::Pci, String::new()),
+                SerialPortType::Unknown => (kind_from_name(&p.port_name), String::new()),
+            };
+            PortInfo { name: p.port_name, kind, description }
+        })
+        .collect();
+    if let Ok(dir) = std::fs::read_dir("/dev") {
+        for entry in dir.flatten() {
+            let name = format!("/dev/{}", entry.file_name().to_string_lossy());
+            if name.starts_with("/dev/rfcomm") && !ports.iter().any(|p| p.name == name) {
+                ports.push(PortInfo { name, kind: PortKind::Bluetooth, description: "Bluetooth".to_owned() });
+            }
+        }
+    }
+    ports.sort_by(|a, b| rank(a.kind).cmp(&rank(b.kind)).then_with(|| a.name.cmp(&b.name)));
+    ports
+}
+
+fn rank(kind: PortKind) -> u8 {
+    match kind {
+        PortKind::Bluetooth => 0,
+        PortKind::Usb => 1,
+        PortKind::Pty => 2,
+        PortKind::Pci => 3,
+        PortKind::Other => 4,
+    }
+}
+
+/// Guesses a port's kind from its name alone.
+pub fn kind_from_name(name: &str) -> PortKind {
+    if name.starts_with("/dev/rfcomm") || name.contains("Bluetooth") {
+        PortKind::Bluetooth
+    } else if name.starts_with("/dev/ttyUSB") || name.starts_with("/dev/ttyACM") || name.contains("usbserial") {
+        PortKind::Usb
+    } else if name.starts_with("/dev/pts/") {
+        PortKind::Pty
+    } else {
+        PortKind::Other
+    }
+}
+
+/// Opens `port` at `baud`, 8N1, with a short read timeout so a worker can check for shutdown between reads.
+pub fn open(port: &str, baud: u32, read_timeout: Duration) -> Result<Box<dyn SerialPort>, SerialError> {
+    serialport::new(port, baud)
+        .timeout(read_timeout)
+        .open()
+        .map_err(|source| SerialError::Port { port: port.to_owned(), source })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_classify() {
+        assert_eq!(kind_from_name("/dev/rfcomm0"), PortKind::Bluetooth);
+        assert_eq!(kind_from_name("/dev/ttyUSB3"), PortKind::Usb);
+        assert_eq!(kind_from_name("/dev/pts/7"), PortKind::Pty);
+        assert_eq!(kind_from_name("COM4"), PortKind::Other);
+    }
+
+    #[test]
+    fn missing_port_is_a_clear_error() {
+        let err = open("/dev/does-not-exist-vestnav", 4800, Duration::from_millis(10)).unwrap_err();
+        assert!(err.to_string().contains("/dev/does-not-exist-vestnav"));
+    }
+}

@@ -1,0 +1,2 @@
+//! vestnav: the console (no subcommand) and headless subcommands.
+fn main() {}
