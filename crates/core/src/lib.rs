@@ -3,6 +3,7 @@
 //! Time is always a parameter. The modules follow the MIT thesis the vest comes from:
 //! - [`tactor`]: the pancake-motor tactor ODE (thesis §3.2) and its summary figures;
 //! - [`sweep`]: damping sweeps, power-law fits and damping calibration (§3.2.2–3.2.3);
+//! - [`fit`]: least-squares line and power-law fits with R^2;
 //! - [`analysis`]: measured force/acceleration series (§3.1): peak frequency, envelope, statistics;
 //! - [`wave`]: skin travelling waves and their linear superposition (§4.1.3);
 //! - [`twopoint`]: the two-point simulation, a two-Gaussian sum fitted by one Gaussian (§4.2).
@@ -15,6 +16,7 @@
 //! ```
 
 pub mod analysis;
+pub mod fit;
 pub mod sweep;
 pub mod tactor;
 pub mod twopoint;
