@@ -7,6 +7,7 @@
 //! - [`analysis`]: measured force/acceleration series (§3.1): peak frequency, envelope, statistics;
 //! - [`wave`]: skin travelling waves and their linear superposition (§4.1.3);
 //! - [`twopoint`]: the two-point simulation, a two-Gaussian sum fitted by one Gaussian (§4.2).
+//! - [`vest`]: the 4x4 tactor grid, tactor masks, timed patterns and the named cues.
 //!
 //! ```
 //! use vestnav_core::tactor::{TactorParams, Preset};
@@ -20,4 +21,5 @@ pub mod fit;
 pub mod sweep;
 pub mod tactor;
 pub mod twopoint;
+pub mod vest;
 pub mod wave;

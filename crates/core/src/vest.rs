@@ -1,0 +1,280 @@
+//! The vest: 16 tactors in a 4x4 grid on the lower back, masks of tactors and timed patterns (thesis §6).
+//!
+//! Numbering, used everywhere in vestnav (CLI, protocol, UI): the grid is seen **from behind the wearer**
+//! (the operator's view of the back), row-major from the top-left. Row 0 is the top row, column 0 is on the
+//! wearer's left. Tactor `i` sits at row `i / 4`, column `i % 4`; bit `i` of a [`TactorMask`] is tactor `i`.
+//!
+//! ```text
+//!   wearer's left            wearer's right
+//!        0    1    2    3      (top)
+//!        4    5    6    7
+//!        8    9   10   11
+//!       12   13   14   15      (bottom, near the waist)
+//! ```
+//!
+//! Published patterns (thesis §6): "stop" fires the four corners; "turn left/right" sweeps a vibrating column
+//! across the back toward the turn; a tactor is normally on for 500 ms. The rest of the vocabulary below
+//! (forward, slight turns, turn around, attention, arrived) is vestnav's own design in the same spirit.
+
+use serde::{Deserialize, Serialize};
+
+/// Number of tactors on the vest.
+pub const TACTOR_COUNT: usize = 16;
+/// Rows and columns of the grid.
+pub const GRID: usize = 4;
+/// Default on-time of a tactor, as in the thesis's vest controller [ms].
+pub const DEFAULT_ON_MS: u16 = 500;
+/// Current drawn by one running tactor [A] (thesis §4: ~70 mA at 200 Hz drive).
+pub const TACTOR_CURRENT_A: f64 = 0.070;
+
+/// A set of tactors: bit `i` is tactor `i` (see the module doc for the numbering).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
+pub struct TactorMask(pub u16);
+
+impl TactorMask {
+    /// No tactor.
+    pub const NONE: Self = Self(0);
+    /// All 16 tactors.
+    pub const ALL: Self = Self(0xFFFF);
+    /// The four corners: 0, 3, 12, 15.
+    pub const CORNERS: Self = Self(1 | 1 << 3 | 1 << 12 | 1 << 15);
+
+    /// The single tactor `index`; `None` if `index >= 16`.
+    pub fn single(index: usize) -> Option<Self> {
+        (index < TACTOR_COUNT).then(|| Self(1 << index))
+    }
+
+    /// The tactor at `row`, `col` (0-based, see the module doc); `None` outside the grid.
+    pub fn at(row: usize, col: usize) -> Option<Self> {
+        (row < GRID && col < GRID).then(|| Self(1 << (row * GRID + col)))
+    }
+
+    /// Every tactor of column `col` (0 = wearer's left).
+    pub fn column(col: usize) -> Self {
+        (0..GRID).filter_map(|row| Self::at(row, col)).fold(Self::NONE, |a, b| a | b)
+    }
+
+    /// Every tactor of row `row` (0 = top).
+    pub fn row(row: usize) -> Self {
+        (0..GRID).filter_map(|col| Self::at(row, col)).fold(Self::NONE, |a, b| a | b)
+    }
+
+    /// Builds a mask from tactor indices; indices `>= 16` are ignored.
+    pub fn from_indices(indices: impl IntoIterator<Item = usize>) -> Self {
+        indices.into_iter().filter_map(Self::single).fold(Self::NONE, |a, b| a | b)
+    }
+
+    /// Whether tactor `index` is in the set.
+    pub fn contains(self, index: usize) -> bool {
+        index < TACTOR_COUNT && self.0 & (1 << index) != 0
+    }
+
+    /// How many tactors are in the set.
+    pub fn count(self) -> u32 {
+        self.0.count_ones()
+    }
+
+    /// Whether the set is empty.
+    pub fn is_empty(self) -> bool {
+        self.0 == 0
+    }
+
+    /// The indices in the set, ascending.
+    pub fn indices(self) -> impl Iterator<Item = usize> {
+        (0..TACTOR_COUNT).filter(move |&i| self.contains(i))
+    }
+
+    /// Supply current if every tactor in the set runs [A], at [`TACTOR_CURRENT_A`] each.
+    pub fn current_a(self) -> f64 {
+        f64::from(self.count()) * TACTOR_CURRENT_A
+    }
+}
+
+impl std::ops::BitOr for TactorMask {
+    type Output = Self;
+    fn bitor(self, rhs: Self) -> Self {
+        Self(self.0 | rhs.0)
+    }
+}
+
+impl std::ops::BitAnd for TactorMask {
+    type Output = Self;
+    fn bitand(self, rhs: Self) -> Self {
+        Self(self.0 & rhs.0)
+    }
+}
+
+/// One step of a pattern: these tactors on for this long (then the next frame starts).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Frame {
+    /// Tactors on during the frame (an empty mask is a pause).
+    pub mask: TactorMask,
+    /// Length of the frame [ms].
+    pub duration_ms: u16,
+}
+
+/// A timed sequence of frames, played `repeats` times (1 = once).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Pattern {
+    /// Name shown to the operator.
+    pub name: String,
+    /// The frames, in order.
+    pub frames: Vec<Frame>,
+    /// How many times the frames are played; at least 1.
+    pub repeats: u8,
+}
+
+impl Pattern {
+    /// Total time the pattern takes [ms], all repeats included.
+    pub fn total_ms(&self) -> u32 {
+        let once: u32 = self.frames.iter().map(|f| u32::from(f.duration_ms)).sum();
+        once * u32::from(self.repeats.max(1))
+    }
+
+    /// Longest continuous on-time of any single tactor [ms], counting consecutive frames (and the wrap from
+    /// the last frame to the first when the pattern repeats) in which it stays on.
+    pub fn longest_on_ms(&self) -> u32 {
+        let mut longest = 0;
+        for t in 0..TACTOR_COUNT {
+            let passes = if self.repeats > 1 { 2 } else { 1 };
+            let mut run = 0u32;
+            for f in self.frames.iter().cycle().take(self.frames.len() * passes) {
+                if f.mask.contains(t) {
+                    run += u32::from(f.duration_ms);
+                    longest = longest.max(run);
+                } else {
+                    run = 0;
+                }
+            }
+        }
+        longest
+    }
+
+    /// Largest number of tactors on at once in any frame.
+    pub fn max_simultaneous(&self) -> u32 {
+        self.frames.iter().map(|f| f.mask.count()).max().unwrap_or(0)
+    }
+}
+
+/// The named cues of vestnav's tactile vocabulary.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum Cue {
+    /// Keep going straight: the two middle columns pulse bottom-to-top.
+    Forward,
+    /// Bear slightly left: the left column, once.
+    SlightLeft,
+    /// Bear slightly right: the right column, once.
+    SlightRight,
+    /// Turn left: a column sweeps right-to-left across the back (thesis §6).
+    TurnLeft,
+    /// Turn right: a column sweeps left-to-right across the back (thesis §6).
+    TurnRight,
+    /// Turn around: the bottom row then a sweep top-to-bottom, twice.
+    TurnAround,
+    /// Stop: the four corners (thesis §6).
+    Stop,
+    /// Attention / hold (no reliable direction): the middle four, twice.
+    Attention,
+    /// Waypoint reached: a short burst of all tactors (waypoint belts, thesis §6), as two halves to stay
+    /// inside the current budget.
+    Arrived,
+}
+
+impl Cue {
+    /// Every cue, in the order shown to the operator.
+    pub const ALL: [Self; 9] = [
+        Self::Stop,
+        Self::Forward,
+        Self::SlightLeft,
+        Self::SlightRight,
+        Self::TurnLeft,
+        Self::TurnRight,
+        Self::TurnAround,
+        Self::Attention,
+        Self::Arrived,
+    ];
+
+    /// Human name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Forward => "forward",
+            Self::SlightLeft => "slight left",
+            Self::SlightRight => "slight right",
+            Self::TurnLeft => "turn left",
+            Self::TurnRight => "turn right",
+            Self::TurnAround => "turn around",
+            Self::Stop => "stop",
+            Self::Attention => "attention",
+            Self::Arrived => "arrived",
+        }
+    }
+
+    /// The pattern of this cue with `on_ms` per step (the thesis's 500 ms by default).
+    pub fn pattern(self, on_ms: u16) -> Pattern {
+        let step = |mask: TactorMask| Frame { mask, duration_ms: on_ms };
+        let short = |mask: TactorMask| Frame { mask, duration_ms: on_ms / 2 };
+        let pause = Frame { mask: TactorMask::NONE, duration_ms: on_ms / 2 };
+        let middle_cols = TactorMask::column(1) | TactorMask::column(2);
+        let (frames, repeats) = match self {
+            Self::Forward => (
+                (0..GRID).rev().map(|r| short(TactorMask::row(r) & middle_cols)).collect(),
+                1,
+            ),
+            Self::SlightLeft => (vec![step(TactorMask::column(0))], 1),
+            Self::SlightRight => (vec![step(TactorMask::column(3))], 1),
+            Self::TurnLeft => ((0..GRID).rev().map(|c| short(TactorMask::column(c))).collect(), 1),
+            Self::TurnRight => ((0..GRID).map(|c| short(TactorMask::column(c))).collect(), 1),
+            Self::TurnAround => {
+                let mut f: Vec<Frame> = (0..GRID).map(|r| short(TactorMask::row(r))).collect();
+                f.push(pause);
+                (f, 2)
+            }
+            Self::Stop => (vec![step(TactorMask::CORNERS)], 1),
+            Self::Attention => {
+                let centre = TactorMask::from_indices([5, 6, 9, 10]);
+                (vec![short(centre), pause], 2)
+            }
+            Self::Arrived => {
+                let top = TactorMask::row(0) | TactorMask::row(1);
+                let bottom = TactorMask::row(2) | TactorMask::row(3);
+                (vec![short(top), short(bottom), short(top), short(bottom)], 1)
+            }
+        };
+        Pattern { name: self.name().to_owned(), frames, repeats }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn numbering_matches_the_grid() {
+        assert_eq!(TactorMask::at(0, 0), Some(TactorMask(1)));
+        assert_eq!(TactorMask::at(3, 3), Some(TactorMask(1 << 15)));
+        assert_eq!(TactorMask::column(0), TactorMask::from_indices([0, 4, 8, 12]));
+        assert_eq!(TactorMask::row(3), TactorMask::from_indices([12, 13, 14, 15]));
+        assert_eq!(TactorMask::CORNERS.indices().collect::<Vec<_>>(), vec![0, 3, 12, 15]);
+        assert!(TactorMask::single(16).is_none());
+    }
+
+    #[test]
+    fn turn_cues_sweep_toward_the_turn() {
+        let left = Cue::TurnLeft.pattern(500);
+        let cols: Vec<_> = left.frames.iter().map(|f| f.mask.indices().next().unwrap() % GRID).collect();
+        assert_eq!(cols, vec![3, 2, 1, 0]);
+        let right = Cue::TurnRight.pattern(500);
+        let cols: Vec<_> = right.frames.iter().map(|f| f.mask.indices().next().unwrap() % GRID).collect();
+        assert_eq!(cols, vec![0, 1, 2, 3]);
+    }
+
+    #[test]
+    fn every_cue_stays_within_half_the_vest_and_the_on_time() {
+        for cue in Cue::ALL {
+            let p = cue.pattern(DEFAULT_ON_MS);
+            assert!(p.max_simultaneous() <= 8, "{cue:?}");
+            assert!(p.longest_on_ms() <= u32::from(DEFAULT_ON_MS), "{cue:?}: {}", p.longest_on_ms());
+            assert!(p.total_ms() > 0);
+        }
+    }
+}

@@ -1,0 +1,97 @@
+//! Command-line interface: the top-level command tree (clap derive).
+//!
+//! Each subcommand family keeps its own argument structs in its own module; this file only names them.
+
+use clap::{Parser, Subcommand};
+
+use crate::{analyze, emulate_gps, emulate_vest, fieldtest, nav, nmea, sim_tactor, sim_wave};
+
+/// vestnav: a navigation console for a 16-tactor haptic vest, and the physics behind it.
+///
+/// With no subcommand, opens the console. Subcommands run headless and are scriptable.
+#[derive(Debug, Parser)]
+#[command(name = "vestnav", version, about, long_about = None)]
+pub struct Cli {
+    /// What to run; none opens the console.
+    #[command(subcommand)]
+    pub command: Option<Command>,
+}
+
+/// The headless subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Simulate the thesis physics: tactor motor, damping sweep, skin waves, two-point.
+    #[command(subcommand)]
+    Sim(SimCommand),
+    /// Analyse measured data.
+    #[command(subcommand)]
+    Analyze(AnalyzeCommand),
+    /// Decode and record NMEA 0183.
+    #[command(subcommand)]
+    Nmea(NmeaCommand),
+    /// Run a device emulator on a pseudo-terminal (the console connects to it like to hardware).
+    #[command(subcommand)]
+    Emulate(EmulateCommand),
+    /// Navigation: closed-loop simulation of guidance strategies.
+    #[command(subcommand)]
+    Nav(NavCommand),
+    /// GPS field tests: stationary drift and the cone test (thesis §5).
+    #[command(subcommand)]
+    Fieldtest(FieldtestCommand),
+}
+
+/// `vestnav sim ...`
+#[derive(Debug, Subcommand)]
+pub enum SimCommand {
+    /// Simulate one tactor from rest (thesis §3.2, Figs 28–34).
+    Tactor(sim_tactor::TactorArgs),
+    /// Sweep the damping and fit frequency against force and current (Figs 35–38).
+    Sweep(sim_tactor::SweepArgs),
+    /// Print the damping that makes a tactor run at a measured peak frequency.
+    DampingFor(sim_tactor::DampingForArgs),
+    /// Two tactors' Gaussians summed and fitted by one Gaussian (§4.2, Figs 60–63).
+    TwoPoint(sim_wave::TwoPointArgs),
+    /// Skin travelling waves: attenuation, phase lag, and the field of the vest (§4.1.3, Figs 52, 57, 59).
+    Wave(sim_wave::WaveArgs),
+}
+
+/// `vestnav analyze ...`
+#[derive(Debug, Subcommand)]
+pub enum AnalyzeCommand {
+    /// Peak frequency, envelope, overshoot, settling of measured tactor traces (CSV, 10 kHz) (§3.1).
+    TactorData(analyze::TactorDataArgs),
+}
+
+/// `vestnav nmea ...`
+#[derive(Debug, Subcommand)]
+pub enum NmeaCommand {
+    /// Decode NMEA logs into one JSON object (or text line) per epoch.
+    Decode(nmea::DecodeArgs),
+    /// Record raw NMEA from a serial port with timestamps.
+    Record(nmea::RecordArgs),
+}
+
+/// `vestnav emulate ...`
+#[derive(Debug, Subcommand)]
+pub enum EmulateCommand {
+    /// Emulate the vest's WTCU: device side of the protocol, watchdog, limits, live 4x4 view.
+    Vest(emulate_vest::VestArgs),
+    /// Emulate a Bluetooth NMEA GPS: replay a log or simulate a walker.
+    Gps(emulate_gps::GpsArgs),
+}
+
+/// `vestnav nav ...`
+#[derive(Debug, Subcommand)]
+pub enum NavCommand {
+    /// Closed-loop simulation of a wearer guided along a route by a strategy.
+    Simulate(nav::SimulateArgs),
+}
+
+/// `vestnav fieldtest ...`
+#[derive(Debug, Subcommand)]
+pub enum FieldtestCommand {
+    /// Stationary drift: distance from the first fix and from the mean, CEP, DRMS.
+    Drift(fieldtest::DriftArgs),
+    /// Cone test: consecutive distances between operator marks against the nominal spacing.
+    Cones(fieldtest::ConesArgs),
+}
