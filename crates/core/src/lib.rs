@@ -18,6 +18,8 @@
 
 pub mod analysis;
 pub mod fit;
+pub mod geo;
+pub mod gnss_sim;
 pub mod sweep;
 pub mod tactor;
 pub mod twopoint;

@@ -1,1 +1,912 @@
-//! (being written)
+//! The pancake-motor tactor: an eccentric rotating mass on a free body, driven by a DC motor (thesis §3.2).
+//!
+//! State `[x, v, theta, omega, i]`: body position and velocity along its one free axis, eccentric angle and
+//! rate, motor current. Equations of motion (thesis §3.2, with the coupling term's missing `l` restored, see
+//! `physics.md` §1):
+//!
+//! ```text
+//! Mt v'            + m l cos(theta) omega' = m l omega^2 sin(theta)
+//! m l cos(theta) v' + m l^2 omega'          = Kt i - b omega + m g l sin(theta)
+//! L i'                                      = u - R i - Kt omega
+//! x' = v,  theta' = omega
+//! ```
+//!
+//! The electrical time constant `L/R` (17.7 us) is ~400 times shorter than a rotation period (7.5 ms), so the
+//! system is stiff. [`simulate`] uses a fourth-order exponential time-differencing Runge–Kutta scheme
+//! (ETDRK4, Cox & Matthews 2002): the linear current decay `-R/L i` is integrated exactly through its
+//! `phi`-functions, everything else (mechanics and the back-emf forcing `(u - Kt omega)/L`) by the classical
+//! fourth-order stages. The step is 100 us away from the start and ~1 us during the first 0.35 ms, where the
+//! current rises; for a constant back-emf the current is exact for any step.
+
+use rustfft::{FftPlanner, num_complex::Complex};
+use serde::{Deserialize, Serialize};
+
+/// Standard gravity used by the thesis [m/s^2].
+pub const GRAVITY_M_S2: f64 = 9.81;
+
+/// Largest integrator step away from the start transient [s].
+const MAX_STEP_S: f64 = 100e-6;
+/// The start transient (current rise) is resolved with steps of `L/R / FINE_STEPS_PER_TAU`...
+const FINE_STEPS_PER_TAU: f64 = 16.0;
+/// ...for the first `FINE_TAUS` electrical time constants.
+const FINE_TAUS: f64 = 20.0;
+/// Most output samples a traced simulation may store (9 traces of f64: 5 M samples = 360 MB).
+const MAX_TRACE_SAMPLES: f64 = 5.0e6;
+/// Longest simulated time accepted [s] (the summary path stores theta at every output sample).
+const MAX_DURATION_S: f64 = 3600.0;
+/// Highest output rate accepted [Hz].
+const MAX_OUTPUT_RATE_HZ: f64 = 10.0e6;
+
+/// Parameter preset: the two resistances the thesis uses (physics.md §1).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Preset {
+    /// R = 62 ohm: reproduces the thesis's simulation numbers (steady speed 834.2 rad/s).
+    ThesisSim,
+    /// R = 67 ohm: the measured winding resistance, used by the thesis's current-versus-frequency line.
+    Measured,
+}
+
+impl Preset {
+    /// The preset's name as used on the command line and in JSON (`thesis-sim`, `measured`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Preset::ThesisSim => "thesis-sim",
+            Preset::Measured => "measured",
+        }
+    }
+
+    /// Winding resistance of the preset [ohm].
+    pub fn resistance_ohm(self) -> f64 {
+        match self {
+            Preset::ThesisSim => 62.0,
+            Preset::Measured => 67.0,
+        }
+    }
+}
+
+/// The tactor body's mass configuration (masses include the mounting screw and the eccentric).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum BodyMass {
+    /// Bare motor: 3.7 g.
+    Unencased,
+    /// Motor in its case: 4.95 g.
+    Encased,
+}
+
+impl BodyMass {
+    /// Total moving mass `Mt` [kg].
+    pub fn kg(self) -> f64 {
+        match self {
+            BodyMass::Unencased => 3.7e-3,
+            BodyMass::Encased => 4.95e-3,
+        }
+    }
+
+    /// `unencased` or `encased`.
+    pub fn name(self) -> &'static str {
+        match self {
+            BodyMass::Unencased => "unencased",
+            BodyMass::Encased => "encased",
+        }
+    }
+}
+
+/// Radius of the eccentric's centre of mass from the CAD model [m] (thesis §3.2).
+pub const RADIUS_CAD_M: f64 = 2.57e-3;
+/// Radius that fits the measured force–frequency cloud better [m] (thesis §3.2.3).
+pub const RADIUS_FITTED_M: f64 = 3.2e-3;
+/// Damping of the thesis's figures [N m s].
+pub const DAMPING_THESIS_N_M_S: f64 = 6.3e-8;
+
+/// Why a tactor simulation was refused.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum TactorError {
+    /// A parameter that must be strictly positive and finite is not.
+    #[error("{name} must be a finite number > 0, got {value}")]
+    NotPositive {
+        /// Parameter name with unit.
+        name: &'static str,
+        /// The rejected value.
+        value: f64,
+    },
+    /// A parameter that must be finite and non-negative is not.
+    #[error("{name} must be a finite number >= 0, got {value}")]
+    Negative {
+        /// Parameter name with unit.
+        name: &'static str,
+        /// The rejected value.
+        value: f64,
+    },
+    /// The body mass includes the eccentric, so it must be larger (else the mass matrix is singular).
+    #[error("body mass {body_kg} kg must exceed the eccentric mass {eccentric_kg} kg it includes")]
+    BodyLighterThanEccentric {
+        /// Body mass `Mt`.
+        body_kg: f64,
+        /// Eccentric mass `m`.
+        eccentric_kg: f64,
+    },
+    /// A value is outside the range this implementation accepts.
+    #[error("{name} = {value} is above the limit {limit}")]
+    TooLarge {
+        /// Parameter name with unit.
+        name: &'static str,
+        /// The rejected value.
+        value: f64,
+        /// The largest accepted value.
+        limit: f64,
+    },
+    /// The integration produced a non-finite state (cannot happen for validated parameters; kept as a guard).
+    #[error("the simulation diverged at t = {t_s} s")]
+    Diverged {
+        /// Simulated time of the first non-finite state.
+        t_s: f64,
+    },
+}
+
+fn check_positive(name: &'static str, value: f64) -> Result<(), TactorError> {
+    if value.is_finite() && value > 0.0 { Ok(()) } else { Err(TactorError::NotPositive { name, value }) }
+}
+
+fn check_non_negative(name: &'static str, value: f64) -> Result<(), TactorError> {
+    if value.is_finite() && value >= 0.0 { Ok(()) } else { Err(TactorError::Negative { name, value }) }
+}
+
+/// Physical parameters of one tactor (thesis §3.2, physics.md §1). SI units throughout.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct TactorParams {
+    /// The preset these parameters started from. Overriding mass, radius, voltage or damping keeps it; it
+    /// names the resistance choice (62 or 67 ohm).
+    pub preset: Preset,
+    /// Body mass configuration the preset was built with (informative; `body_mass_kg` is what is simulated).
+    pub body: BodyMass,
+    /// Eccentric mass `m` [kg] (0.55 g).
+    pub eccentric_mass_kg: f64,
+    /// Radius of the eccentric's centre of mass `l` [m] (2.57 mm CAD, 3.2 mm fitted).
+    pub radius_m: f64,
+    /// Total moving mass `Mt` [kg], eccentric included (3.7 g unencased, 4.95 g encased).
+    pub body_mass_kg: f64,
+    /// Torque constant `Kt` [N m/A], equal to the back-emf constant [V s/rad] (0.0019).
+    pub torque_constant_n_m_per_a: f64,
+    /// Winding inductance `L` [H] (1.1 mH).
+    pub inductance_h: f64,
+    /// Winding resistance `R` [ohm] (62 thesis-sim, 67 measured).
+    pub resistance_ohm: f64,
+    /// Drive voltage `u` [V] (3.3).
+    pub voltage_v: f64,
+    /// Viscous damping `b` [N m s] (6.3e-8 in the thesis's figures).
+    pub damping_n_m_s: f64,
+    /// Gravity `g` [m/s^2] acting on the eccentric in the angular equation (9.81).
+    pub gravity_m_s2: f64,
+}
+
+impl TactorParams {
+    /// The preset's parameters, unencased, l = 2.57 mm, u = 3.3 V, b = 6.3e-8 N m s (physics.md §1 table).
+    pub fn preset(preset: Preset) -> Self {
+        Self {
+            preset,
+            body: BodyMass::Unencased,
+            eccentric_mass_kg: 0.55e-3,
+            radius_m: RADIUS_CAD_M,
+            body_mass_kg: BodyMass::Unencased.kg(),
+            torque_constant_n_m_per_a: 0.0019,
+            inductance_h: 1.1e-3,
+            resistance_ohm: preset.resistance_ohm(),
+            voltage_v: 3.3,
+            damping_n_m_s: DAMPING_THESIS_N_M_S,
+            gravity_m_s2: GRAVITY_M_S2,
+        }
+    }
+
+    /// The same tactor with another body mass.
+    #[must_use]
+    pub fn with_body(mut self, body: BodyMass) -> Self {
+        self.body = body;
+        self.body_mass_kg = body.kg();
+        self
+    }
+
+    /// The same tactor with another damping `b` [N m s].
+    #[must_use]
+    pub fn with_damping(mut self, damping_n_m_s: f64) -> Self {
+        self.damping_n_m_s = damping_n_m_s;
+        self
+    }
+
+    /// The same tactor with another drive voltage [V].
+    #[must_use]
+    pub fn with_voltage(mut self, voltage_v: f64) -> Self {
+        self.voltage_v = voltage_v;
+        self
+    }
+
+    /// The same tactor with another eccentric radius [m].
+    #[must_use]
+    pub fn with_radius(mut self, radius_m: f64) -> Self {
+        self.radius_m = radius_m;
+        self
+    }
+
+    /// Checks every parameter: masses, radius, `Kt`, `L`, `R`, `u` finite and > 0; `b` and `g` finite and
+    /// >= 0; `Mt > m` (the body mass includes the eccentric).
+    pub fn validate(&self) -> Result<(), TactorError> {
+        check_positive("eccentric mass [kg]", self.eccentric_mass_kg)?;
+        check_positive("radius [m]", self.radius_m)?;
+        check_positive("body mass [kg]", self.body_mass_kg)?;
+        check_positive("torque constant [N m/A]", self.torque_constant_n_m_per_a)?;
+        check_positive("inductance [H]", self.inductance_h)?;
+        check_positive("resistance [ohm]", self.resistance_ohm)?;
+        check_positive("voltage [V]", self.voltage_v)?;
+        check_non_negative("damping [N m s]", self.damping_n_m_s)?;
+        check_non_negative("gravity [m/s^2]", self.gravity_m_s2)?;
+        if self.body_mass_kg <= self.eccentric_mass_kg {
+            return Err(TactorError::BodyLighterThanEccentric {
+                body_kg: self.body_mass_kg,
+                eccentric_kg: self.eccentric_mass_kg,
+            });
+        }
+        Ok(())
+    }
+
+    /// Electrical time constant `L/R` [s] (17.7 us for the thesis-sim preset).
+    pub fn electrical_time_constant_s(&self) -> f64 {
+        self.inductance_h / self.resistance_ohm
+    }
+
+    /// Closed-form steady state, speed ripple ignored (physics.md §1, thesis §3.2.1):
+    ///
+    /// - `omega = Kt u / (R b + Kt^2)` (torque balance `Kt i = b omega` with `i = (u - Kt omega)/R`);
+    /// - `i = (u - Kt omega)/R`, `T = Kt i`, peak frequency `T/(2 pi b) = omega/(2 pi)`;
+    /// - start current `u/R` and start torque `Kt u/R` (the `L = 0` limit at `omega = 0`);
+    /// - body: momentum conservation `Mt v + m l omega cos(theta) = 0` gives `x = -(m l/Mt) sin(theta)`, so
+    ///   the x amplitude is `m l/Mt`, and at constant `omega` the force amplitude is `m l omega^2` and the
+    ///   acceleration amplitude `m l omega^2 / Mt`.
+    pub fn steady_state(&self) -> SteadyState {
+        let kt = self.torque_constant_n_m_per_a;
+        let r = self.resistance_ohm;
+        let u = self.voltage_v;
+        let omega = kt * u / (r * self.damping_n_m_s + kt * kt);
+        let current = (u - kt * omega) / r;
+        let ml = self.eccentric_mass_kg * self.radius_m;
+        SteadyState {
+            omega_rad_s: omega,
+            f_rot_hz: omega / std::f64::consts::TAU,
+            current_a: current,
+            torque_n_m: kt * current,
+            start_current_a: u / r,
+            start_torque_n_m: kt * u / r,
+            force_amplitude_n: ml * omega * omega,
+            accel_amplitude_m_s2: ml * omega * omega / self.body_mass_kg,
+            x_amplitude_m: ml / self.body_mass_kg,
+            electrical_time_constant_s: self.electrical_time_constant_s(),
+        }
+    }
+
+    /// Right-hand side of the ODE at state `[x, v, theta, omega, i]`, as `[x', v', theta', omega', i']`.
+    ///
+    /// The 2x2 mass matrix `[[Mt, m l c], [m l c, m l^2]]` (c = cos theta) has determinant
+    /// `m l^2 (Mt - m c^2) > 0`; with `F1 = m l omega^2 sin(theta)` and
+    /// `F2 = Kt i - b omega + m g l sin(theta)` its solution is
+    /// `v' = (F1 - c F2 / l) / (Mt - m c^2)` and `omega' = (Mt F2 / (m l^2) - c F1 / l) / (Mt - m c^2)`;
+    /// `i' = (u - R i - Kt omega)/L` (thesis §3.2).
+    pub fn derivatives(&self, state: &[f64; 5]) -> [f64; 5] {
+        let k = Consts::new(self);
+        let (v_dot, omega_dot) = k.accelerations(state[2], state[3], state[4]);
+        [state[1], v_dot, state[3], omega_dot, k.current_forcing(state[3]) - k.decay * state[4]]
+    }
+}
+
+/// Closed-form steady state of a tactor (see [`TactorParams::steady_state`]).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct SteadyState {
+    /// Steady speed `Kt u / (R b + Kt^2)` [rad/s].
+    pub omega_rad_s: f64,
+    /// Steady rotation (= peak) frequency `omega / 2 pi` [Hz].
+    pub f_rot_hz: f64,
+    /// Steady current `(u - Kt omega)/R` [A].
+    pub current_a: f64,
+    /// Steady torque `Kt i` [N m].
+    pub torque_n_m: f64,
+    /// Start current `u/R` in the `L = 0` limit [A].
+    pub start_current_a: f64,
+    /// Start torque `Kt u/R` [N m].
+    pub start_torque_n_m: f64,
+    /// Force amplitude at constant speed `m l omega^2` [N].
+    pub force_amplitude_n: f64,
+    /// Acceleration amplitude at constant speed `m l omega^2 / Mt` [m/s^2].
+    pub accel_amplitude_m_s2: f64,
+    /// Body displacement amplitude `m l / Mt` [m] (exact, from momentum conservation).
+    pub x_amplitude_m: f64,
+    /// Electrical time constant `L/R` [s].
+    pub electrical_time_constant_s: f64,
+}
+
+/// Length and output rate of a simulation.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct SimOptions {
+    /// Simulated time from rest [s]; the analysis window is the last half.
+    pub duration_s: f64,
+    /// Output sampling rate [Hz] (10 kHz as in the thesis).
+    pub output_rate_hz: f64,
+}
+
+impl Default for SimOptions {
+    fn default() -> Self {
+        Self { duration_s: 10.0, output_rate_hz: 10_000.0 }
+    }
+}
+
+impl SimOptions {
+    /// Checks duration (0 < T <= 3600 s) and output rate (0 < rate <= 10 MHz, at least 4 samples).
+    pub fn validate(&self) -> Result<(), TactorError> {
+        check_positive("duration [s]", self.duration_s)?;
+        check_positive("output rate [Hz]", self.output_rate_hz)?;
+        if self.duration_s > MAX_DURATION_S {
+            return Err(TactorError::TooLarge {
+                name: "duration [s]",
+                value: self.duration_s,
+                limit: MAX_DURATION_S,
+            });
+        }
+        if self.output_rate_hz > MAX_OUTPUT_RATE_HZ {
+            return Err(TactorError::TooLarge {
+                name: "output rate [Hz]",
+                value: self.output_rate_hz,
+                limit: MAX_OUTPUT_RATE_HZ,
+            });
+        }
+        if self.duration_s * self.output_rate_hz < 4.0 {
+            return Err(TactorError::NotPositive {
+                name: "output samples (duration x rate) - 4",
+                value: self.duration_s * self.output_rate_hz - 4.0,
+            });
+        }
+        Ok(())
+    }
+
+    fn sample_count(&self) -> usize {
+        // Samples at t = k/rate for k = 0..=n; the tiny slack absorbs rounding of e.g. 10 s x 10 kHz.
+        (self.duration_s * self.output_rate_hz + 1e-9).floor() as usize + 1
+    }
+}
+
+/// Time traces of a simulation at the output rate (thesis Figs 28–34). All vectors have equal length.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Traces {
+    /// Time [s].
+    pub t_s: Vec<f64>,
+    /// Eccentric angle [rad] (unwrapped).
+    pub theta_rad: Vec<f64>,
+    /// Eccentric rate [rad/s].
+    pub omega_rad_s: Vec<f64>,
+    /// Body position [m].
+    pub x_m: Vec<f64>,
+    /// Body velocity [m/s].
+    pub v_m_s: Vec<f64>,
+    /// Body acceleration `v'` [m/s^2].
+    pub accel_m_s2: Vec<f64>,
+    /// Force `Mt v'` [N] (the thesis's "acceleration multiplied by its mass").
+    pub force_n: Vec<f64>,
+    /// Motor torque `Kt i` [N m].
+    pub torque_n_m: Vec<f64>,
+    /// Motor current [A].
+    pub current_a: Vec<f64>,
+}
+
+impl Traces {
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        self.t_s.len()
+    }
+
+    /// True when there is no sample.
+    pub fn is_empty(&self) -> bool {
+        self.t_s.is_empty()
+    }
+}
+
+/// The figures of merit of one simulation (physics.md §1 "Definitions").
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Summary {
+    /// Parameters simulated (their `preset` names the resistance choice).
+    pub params: TactorParams,
+    /// Duration and output rate.
+    pub options: SimOptions,
+    /// Start of the analysis window, half the duration [s].
+    pub window_start_s: f64,
+    /// End of the analysis window, the duration [s].
+    pub window_end_s: f64,
+    /// Mean speed over the window `delta theta / delta t` [rad/s].
+    pub omega_mean_rad_s: f64,
+    /// Rotation frequency `omega_mean / 2 pi` [Hz].
+    pub f_rot_hz: f64,
+    /// Smallest sampled speed in the window [rad/s].
+    pub omega_min_rad_s: f64,
+    /// Largest sampled speed in the window [rad/s].
+    pub omega_max_rad_s: f64,
+    /// Half the peak-to-peak speed ripple relative to the mean, `(max - min) / (2 mean)`.
+    pub omega_ripple: f64,
+    /// Peak |v'| in the window [m/s^2].
+    pub accel_peak_m_s2: f64,
+    /// Force amplitude `Mt * accel_peak` [N].
+    pub force_amplitude_n: f64,
+    /// Half the peak-to-peak body position in the window [m].
+    pub x_amplitude_m: f64,
+    /// Peak of the acceleration spectrum over the last 1 s (rectangular window, 1 Hz bins) [Hz].
+    pub fft_peak_1s_hz: f64,
+    /// Length of the FFT window actually used (1 s, or the whole window if shorter) [s].
+    pub fft_window_s: f64,
+    /// Largest current of the whole run: the start peak, close to `u/R` [A].
+    pub current_peak_a: f64,
+    /// Mean current over the window [A].
+    pub current_mean_a: f64,
+    /// Largest torque of the whole run, `Kt * current_peak` [N m].
+    pub torque_peak_n_m: f64,
+    /// Mean torque over the window [N m].
+    pub torque_mean_n_m: f64,
+    /// 2 % settling time of the speed averaged over one revolution (centred), [s]; `None` if it never settles
+    /// inside the run (or the rotor does not turn).
+    pub settling_time_s: Option<f64>,
+    /// Closed-form steady state of the same parameters.
+    pub steady_state: SteadyState,
+}
+
+/// Traces and summary of one simulation.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TactorRun {
+    /// Time traces at the output rate.
+    pub traces: Traces,
+    /// Figures of merit.
+    pub summary: Summary,
+}
+
+/// Per-evaluation constants.
+#[derive(Debug, Clone, Copy)]
+struct Consts {
+    ml: f64,
+    m: f64,
+    inv_l: f64,
+    mt: f64,
+    mt_over_ml2: f64,
+    kt: f64,
+    b: f64,
+    mgl: f64,
+    u_over_l: f64,
+    kt_over_l: f64,
+    decay: f64,
+}
+
+impl Consts {
+    fn new(p: &TactorParams) -> Self {
+        let m = p.eccentric_mass_kg;
+        let l = p.radius_m;
+        Self {
+            ml: m * l,
+            m,
+            inv_l: 1.0 / l,
+            mt: p.body_mass_kg,
+            mt_over_ml2: p.body_mass_kg / (m * l * l),
+            kt: p.torque_constant_n_m_per_a,
+            b: p.damping_n_m_s,
+            mgl: m * p.gravity_m_s2 * l,
+            u_over_l: p.voltage_v / p.inductance_h,
+            kt_over_l: p.torque_constant_n_m_per_a / p.inductance_h,
+            decay: p.resistance_ohm / p.inductance_h,
+        }
+    }
+
+    /// `(v', omega')` from the mass-matrix solve documented on [`TactorParams::derivatives`].
+    #[inline]
+    fn accelerations(&self, theta: f64, omega: f64, current: f64) -> (f64, f64) {
+        let (s, c) = theta.sin_cos();
+        let f1 = self.ml * omega * omega * s;
+        let f2 = self.kt * current - self.b * omega + self.mgl * s;
+        let inv_det = 1.0 / (self.mt - self.m * c * c);
+        let v_dot = (f1 - c * f2 * self.inv_l) * inv_det;
+        let omega_dot = (self.mt_over_ml2 * f2 - c * f1 * self.inv_l) * inv_det;
+        (v_dot, omega_dot)
+    }
+
+    /// Non-stiff part of `i'`: `(u - Kt omega)/L`.
+    #[inline]
+    fn current_forcing(&self, omega: f64) -> f64 {
+        self.u_over_l - self.kt_over_l * omega
+    }
+}
+
+/// `phi_1(z) = (e^z - 1)/z`, `phi_2 = (e^z - 1 - z)/z^2`, `phi_3 = (e^z - 1 - z - z^2/2)/z^3`, by Taylor
+/// series for small |z| (where the closed forms cancel) and the closed forms elsewhere.
+fn phi123(z: f64) -> (f64, f64, f64) {
+    if z.abs() < 0.5 {
+        // phi_k(z) = sum_j z^j / (j + k)!
+        let (mut p1, mut p2, mut p3) = (0.0, 0.0, 0.0);
+        let mut zj = 1.0;
+        let mut fact = 1.0; // j!
+        for j in 0..24 {
+            let jf = f64::from(j);
+            let f1 = fact * (jf + 1.0);
+            let f2 = f1 * (jf + 2.0);
+            let f3 = f2 * (jf + 3.0);
+            p1 += zj / f1;
+            p2 += zj / f2;
+            p3 += zj / f3;
+            zj *= z;
+            fact *= jf + 1.0;
+        }
+        (p1, p2, p3)
+    } else {
+        let ez = z.exp();
+        let p1 = (ez - 1.0) / z;
+        let p2 = (ez - 1.0 - z) / (z * z);
+        let p3 = (ez - 1.0 - z - 0.5 * z * z) / (z * z * z);
+        (p1, p2, p3)
+    }
+}
+
+/// ETDRK4 coefficients of the current equation for one step size.
+#[derive(Debug, Clone, Copy)]
+struct EtdCoeffs {
+    h: f64,
+    /// `e^{z}`, `e^{z/2}` with `z = -h R/L`.
+    e: f64,
+    e_half: f64,
+    /// `h/2 phi_1(z/2)`.
+    half_phi1: f64,
+    /// `h (phi1 - 3 phi2 + 4 phi3)`, `h (2 phi2 - 4 phi3)`, `h (4 phi3 - phi2)` (Cox & Matthews 2002).
+    w1: f64,
+    w23: f64,
+    w4: f64,
+}
+
+impl EtdCoeffs {
+    fn new(h: f64, decay: f64) -> Self {
+        let z = -h * decay;
+        let (p1, p2, p3) = phi123(z);
+        let (q1, _, _) = phi123(0.5 * z);
+        Self {
+            h,
+            e: z.exp(),
+            e_half: (0.5 * z).exp(),
+            half_phi1: 0.5 * h * q1,
+            w1: h * (p1 - 3.0 * p2 + 4.0 * p3),
+            w23: h * (2.0 * p2 - 4.0 * p3),
+            w4: h * (4.0 * p3 - p2),
+        }
+    }
+}
+
+/// The integrator: one ETDRK4 step of `[x, v, theta, omega, i]`.
+///
+/// With `N(y)` the non-stiff right-hand side (mechanics, and `(u - Kt omega)/L` for the current) and
+/// `-R/L` the current's linear part, the stages are `a = e^{z/2} y + h/2 phi1(z/2) N(y)`,
+/// `b = e^{z/2} y + h/2 phi1(z/2) N(a)`, `c = e^{z/2} a + h/2 phi1(z/2) (2 N(b) - N(y))` and
+/// `y+ = e^z y + h[(phi1 - 3phi2 + 4phi3) N(y) + (2phi2 - 4phi3)(N(a) + N(b)) + (4phi3 - phi2) N(c)]`
+/// (Cox & Matthews 2002, eqs. 26–29). For the mechanical components (zero linear part) this is exactly the
+/// classical Runge–Kutta 4 step. `d0` is `N(y)`'s mechanical accelerations `(v', omega')`, already known.
+#[inline]
+fn etd_step(k: &Consts, c: &EtdCoeffs, y: &mut [f64; 5], d0: (f64, f64)) {
+    let [x, v, th, om, i] = *y;
+    let h = c.h;
+    let hh = 0.5 * h;
+    let n0 = k.current_forcing(om);
+    // stage a
+    let (va, tha, oma) = (v + hh * d0.0, th + hh * om, om + hh * d0.1);
+    let ia = c.e_half * i + c.half_phi1 * n0;
+    let da = k.accelerations(tha, oma, ia);
+    let na = k.current_forcing(oma);
+    // stage b
+    let (vb, thb, omb) = (v + hh * da.0, th + hh * oma, om + hh * da.1);
+    let ib = c.e_half * i + c.half_phi1 * na;
+    let db = k.accelerations(thb, omb, ib);
+    let nb = k.current_forcing(omb);
+    // stage c
+    let (vc, thc, omc) = (v + h * db.0, th + h * omb, om + h * db.1);
+    let ic = c.e_half * ia + c.half_phi1 * (2.0 * nb - n0);
+    let dc = k.accelerations(thc, omc, ic);
+    let nc = k.current_forcing(omc);
+    let h6 = h / 6.0;
+    *y = [
+        x + h6 * (v + 2.0 * (va + vb) + vc),
+        v + h6 * (d0.0 + 2.0 * (da.0 + db.0) + dc.0),
+        th + h6 * (om + 2.0 * (oma + omb) + omc),
+        om + h6 * (d0.1 + 2.0 * (da.1 + db.1) + dc.1),
+        c.e * i + c.w1 * n0 + c.w23 * (na + nb) + c.w4 * nc,
+    ];
+}
+
+/// One output sample as the integrator produces it.
+#[derive(Debug, Clone, Copy)]
+struct Sample {
+    t_s: f64,
+    state: [f64; 5],
+    accel_m_s2: f64,
+}
+
+/// Integrates from rest and hands every output sample to `sink`, in time order.
+fn integrate(
+    params: &TactorParams,
+    options: &SimOptions,
+    mut sink: impl FnMut(&Sample),
+) -> Result<(), TactorError> {
+    let k = Consts::new(params);
+    let n_samples = options.sample_count();
+    let dt_out = 1.0 / options.output_rate_hz;
+    let tau = params.electrical_time_constant_s();
+    let fine_end_s = FINE_TAUS * tau;
+    let h_fine = tau / FINE_STEPS_PER_TAU;
+    let mut y = [0.0_f64; 5];
+    let mut cache: Option<(usize, EtdCoeffs)> = None;
+    for n in 0..n_samples {
+        let t = n as f64 * dt_out;
+        let d0 = k.accelerations(y[2], y[3], y[4]);
+        if !(y.iter().all(|v| v.is_finite()) && d0.0.is_finite()) {
+            return Err(TactorError::Diverged { t_s: t });
+        }
+        sink(&Sample { t_s: t, state: y, accel_m_s2: d0.0 });
+        if n + 1 == n_samples {
+            break;
+        }
+        let h_max = if t < fine_end_s { h_fine.min(MAX_STEP_S) } else { MAX_STEP_S };
+        let sub = (dt_out / h_max - 1e-9).ceil().max(1.0) as usize;
+        let coeffs = match cache {
+            Some((s, c)) if s == sub => c,
+            _ => {
+                let c = EtdCoeffs::new(dt_out / sub as f64, k.decay);
+                cache = Some((sub, c));
+                c
+            }
+        };
+        etd_step(&k, &coeffs, &mut y, d0);
+        for _ in 1..sub {
+            let d = k.accelerations(y[2], y[3], y[4]);
+            etd_step(&k, &coeffs, &mut y, d);
+        }
+    }
+    Ok(())
+}
+
+/// Streaming accumulator of the summary; stores only theta (for the settling time) and the last second of
+/// acceleration (for the FFT).
+struct SummaryBuilder {
+    window_start_s: f64,
+    fft_start_s: f64,
+    dt_out: f64,
+    theta: Vec<f64>,
+    fft_accel: Vec<f64>,
+    theta_window_start: Option<(f64, f64)>,
+    theta_last: (f64, f64),
+    omega_min: f64,
+    omega_max: f64,
+    accel_peak: f64,
+    x_min: f64,
+    x_max: f64,
+    current_peak: f64,
+    current_sum: f64,
+    window_samples: usize,
+}
+
+impl SummaryBuilder {
+    fn new(options: &SimOptions) -> Self {
+        let duration = options.duration_s;
+        let window_start_s = 0.5 * duration;
+        let fft_window = (duration - window_start_s).min(1.0);
+        let n = options.sample_count();
+        Self {
+            window_start_s,
+            fft_start_s: duration - fft_window,
+            dt_out: 1.0 / options.output_rate_hz,
+            theta: Vec::with_capacity(n),
+            fft_accel: Vec::with_capacity((fft_window * options.output_rate_hz) as usize + 2),
+            theta_window_start: None,
+            theta_last: (0.0, 0.0),
+            omega_min: f64::INFINITY,
+            omega_max: f64::NEG_INFINITY,
+            accel_peak: 0.0,
+            x_min: f64::INFINITY,
+            x_max: f64::NEG_INFINITY,
+            current_peak: f64::NEG_INFINITY,
+            current_sum: 0.0,
+            window_samples: 0,
+        }
+    }
+
+    #[inline]
+    fn push(&mut self, s: &Sample) {
+        let [x, _, theta, omega, current] = s.state;
+        self.theta.push(theta);
+        self.current_peak = self.current_peak.max(current);
+        // Sample times are k * dt; compare with half a step of slack so that t = T/2 is in the window.
+        if s.t_s + 0.5 * self.dt_out >= self.window_start_s {
+            if self.theta_window_start.is_none() {
+                self.theta_window_start = Some((s.t_s, theta));
+            }
+            self.theta_last = (s.t_s, theta);
+            self.omega_min = self.omega_min.min(omega);
+            self.omega_max = self.omega_max.max(omega);
+            self.accel_peak = self.accel_peak.max(s.accel_m_s2.abs());
+            self.x_min = self.x_min.min(x);
+            self.x_max = self.x_max.max(x);
+            self.current_sum += current;
+            self.window_samples += 1;
+        }
+        if s.t_s + 0.5 * self.dt_out >= self.fft_start_s {
+            self.fft_accel.push(s.accel_m_s2);
+        }
+    }
+
+    fn finish(mut self, params: &TactorParams, options: &SimOptions) -> Summary {
+        let (t0, th0) = self.theta_window_start.unwrap_or((0.0, 0.0));
+        let (t1, th1) = self.theta_last;
+        let omega_mean = if t1 > t0 { (th1 - th0) / (t1 - t0) } else { f64::NAN };
+        let current_mean = self.current_sum / self.window_samples.max(1) as f64;
+        let kt = params.torque_constant_n_m_per_a;
+        // The FFT window holds n samples spanning n * dt seconds (rectangular, bins 1/(n dt) wide).
+        if self.fft_accel.len() > 1 {
+            self.fft_accel.pop();
+        }
+        let fft_window_s = self.fft_accel.len() as f64 * self.dt_out;
+        let fft_peak = spectrum_peak_hz(&self.fft_accel, options.output_rate_hz).unwrap_or(f64::NAN);
+        let settling = settling_time_s(&self.theta, self.dt_out, omega_mean, 0.02);
+        Summary {
+            params: *params,
+            options: *options,
+            window_start_s: self.window_start_s,
+            window_end_s: options.duration_s,
+            omega_mean_rad_s: omega_mean,
+            f_rot_hz: omega_mean / std::f64::consts::TAU,
+            omega_min_rad_s: self.omega_min,
+            omega_max_rad_s: self.omega_max,
+            omega_ripple: (self.omega_max - self.omega_min) / (2.0 * omega_mean),
+            accel_peak_m_s2: self.accel_peak,
+            force_amplitude_n: self.accel_peak * params.body_mass_kg,
+            x_amplitude_m: 0.5 * (self.x_max - self.x_min),
+            fft_peak_1s_hz: fft_peak,
+            fft_window_s,
+            current_peak_a: self.current_peak,
+            current_mean_a: current_mean,
+            torque_peak_n_m: kt * self.current_peak,
+            torque_mean_n_m: kt * current_mean,
+            settling_time_s: settling,
+            steady_state: params.steady_state(),
+        }
+    }
+}
+
+/// Simulates the tactor from rest (all states zero, theta0 = 0) and returns the traces at the output rate
+/// and the summary. See the module doc for the solver.
+pub fn simulate(params: &TactorParams, options: &SimOptions) -> Result<TactorRun, TactorError> {
+    params.validate()?;
+    options.validate()?;
+    let n = options.sample_count();
+    if n as f64 > MAX_TRACE_SAMPLES {
+        return Err(TactorError::TooLarge {
+            name: "output samples (duration x rate)",
+            value: n as f64,
+            limit: MAX_TRACE_SAMPLES,
+        });
+    }
+    let mut tr = Traces {
+        t_s: Vec::with_capacity(n),
+        theta_rad: Vec::with_capacity(n),
+        omega_rad_s: Vec::with_capacity(n),
+        x_m: Vec::with_capacity(n),
+        v_m_s: Vec::with_capacity(n),
+        accel_m_s2: Vec::with_capacity(n),
+        force_n: Vec::with_capacity(n),
+        torque_n_m: Vec::with_capacity(n),
+        current_a: Vec::with_capacity(n),
+    };
+    let mut builder = SummaryBuilder::new(options);
+    let mt = params.body_mass_kg;
+    let kt = params.torque_constant_n_m_per_a;
+    integrate(params, options, |s| {
+        builder.push(s);
+        let [x, v, theta, omega, i] = s.state;
+        tr.t_s.push(s.t_s);
+        tr.theta_rad.push(theta);
+        tr.omega_rad_s.push(omega);
+        tr.x_m.push(x);
+        tr.v_m_s.push(v);
+        tr.accel_m_s2.push(s.accel_m_s2);
+        tr.force_n.push(mt * s.accel_m_s2);
+        tr.torque_n_m.push(kt * i);
+        tr.current_a.push(i);
+    })?;
+    Ok(TactorRun { traces: tr, summary: builder.finish(params, options) })
+}
+
+/// Like [`simulate`] but keeps no traces: the fast path for sweeps and calibration.
+pub fn simulate_summary(params: &TactorParams, options: &SimOptions) -> Result<Summary, TactorError> {
+    params.validate()?;
+    options.validate()?;
+    let mut builder = SummaryBuilder::new(options);
+    integrate(params, options, |s| builder.push(s))?;
+    Ok(builder.finish(params, options))
+}
+
+/// Single-sided amplitude spectrum of `signal` sampled at `rate_hz`, rectangular window (rustfft):
+/// `A_k = |X_k| * 2/N` for `k = 0..=N/2` (DC not doubled), at frequencies `k * rate / N`.
+/// Returns `(frequencies_hz, amplitudes)`; empty for an empty signal.
+pub fn amplitude_spectrum(signal: &[f64], rate_hz: f64) -> (Vec<f64>, Vec<f64>) {
+    let n = signal.len();
+    if n == 0 {
+        return (Vec::new(), Vec::new());
+    }
+    let mut buf: Vec<Complex<f64>> = signal.iter().map(|&v| Complex::new(v, 0.0)).collect();
+    FftPlanner::new().plan_fft_forward(n).process(&mut buf);
+    let half = n / 2;
+    let scale = 2.0 / n as f64;
+    let freqs = (0..=half).map(|k| k as f64 * rate_hz / n as f64).collect();
+    let amps = buf[..=half]
+        .iter()
+        .enumerate()
+        .map(|(k, c)| if k == 0 { c.norm() / n as f64 } else { c.norm() * scale })
+        .collect();
+    (freqs, amps)
+}
+
+/// Frequency of the largest non-DC bin of [`amplitude_spectrum`]; `None` for fewer than 4 samples.
+pub fn spectrum_peak_hz(signal: &[f64], rate_hz: f64) -> Option<f64> {
+    if signal.len() < 4 {
+        return None;
+    }
+    let (f, a) = amplitude_spectrum(signal, rate_hz);
+    let (k, _) = a.iter().enumerate().skip(1).max_by(|x, y| x.1.total_cmp(y.1))?;
+    Some(f[k])
+}
+
+/// Time of sample index `n + frac`.
+fn time_at(index: usize, frac: f64, dt_s: f64) -> f64 {
+    (index as f64 + frac) * dt_s
+}
+
+/// First sample time at which `theta` reaches `target` (theta increases, linear interpolation between
+/// samples); `None` if it never does.
+fn crossing_time(theta: &[f64], start: usize, target: f64, dt_s: f64) -> Option<(usize, f64)> {
+    let mut k = start;
+    while k + 1 < theta.len() {
+        if theta[k + 1] >= target && theta[k] < target {
+            let frac = (target - theta[k]) / (theta[k + 1] - theta[k]);
+            return Some((k, time_at(k, frac, dt_s)));
+        }
+        k += 1;
+    }
+    None
+}
+
+/// 2 % settling time of the revolution-averaged speed (physics.md §1).
+///
+/// At each sample time `t` with angle `theta(t)`, the speed averaged over the revolution centred on it is
+/// `2 pi / (t+ - t-)`, where `theta(t+) = theta(t) + pi` and `theta(t-) = theta(t) - pi` (linear
+/// interpolation between samples). The settling time is the last sample time at which that average lies
+/// outside `final (1 +- tolerance)`, with `final` the window's mean speed; `None` if the average is still
+/// outside at the last full revolution or the rotor never turns a full revolution.
+pub fn settling_time_s(theta: &[f64], dt_s: f64, final_omega: f64, tolerance: f64) -> Option<f64> {
+    use std::f64::consts::PI;
+    if !(final_omega.is_finite() && final_omega > 0.0) || theta.len() < 3 {
+        return None;
+    }
+    let lo = final_omega * (1.0 - tolerance);
+    let hi = final_omega * (1.0 + tolerance);
+    let mut last_outside = 0.0;
+    let mut last_inside = false;
+    // Cursors into theta for the trailing and leading half revolutions (both advance monotonically).
+    let mut back = 0usize;
+    let mut front = 0usize;
+    for (n, &th) in theta.iter().enumerate() {
+        if th - PI < theta[0] {
+            continue;
+        }
+        let Some((bk, t_minus)) = crossing_time(theta, back, th - PI, dt_s) else { continue };
+        back = bk;
+        let Some((fk, t_plus)) = crossing_time(theta, front.max(n), th + PI, dt_s) else { break };
+        front = fk;
+        let avg = 2.0 * PI / (t_plus - t_minus);
+        last_inside = (lo..=hi).contains(&avg);
+        if !last_inside {
+            last_outside = time_at(n, 0.0, dt_s);
+        }
+    }
+    last_inside.then_some(last_outside)
+}

@@ -1,1 +1,44 @@
-//! (being written)
+//! The vest's Wireless Tactile Control Unit (WTCU): vestnav's wire protocol, the console-side link, the
+//! unit-side engine (what the emulator runs) and the worker thread that owns a serial port.
+//!
+//! Layers, each usable alone:
+//! - [`message`]: requests and replies, independent of framing;
+//! - [`codec`]: [`codec::WireCodec`] and vestnav's framing [`codec::V1Codec`] (COBS + CRC-16, see
+//!   `docs/wtcu-protocol.md`);
+//! - [`limits`]: on-time, current budget and duty-cycle limits, shared by console and unit;
+//! - [`link`]: the console side as a sans-IO state machine (handshake, acks, retransmit, heartbeat, loss),
+//!   plus a pure reconnect [`link::Backoff`];
+//! - [`engine`]: the unit side as a sans-IO state machine (limits, patterns, watchdog);
+//! - [`worker`]: [`worker::VestHandle`], a named thread owning a port (or the in-process emulator);
+//! - [`emulator`]: the engine served on a pseudo-terminal or any `Read + Write`.
+//!
+//! ```
+//! use std::time::Instant;
+//! use vestnav_core::vest::TactorMask;
+//! use vestnav_device::wtcu::{engine::{Engine, EngineConfig}, link::{Link, LinkConfig}};
+//!
+//! let now = Instant::now();
+//! let (mut console, mut unit) = (Link::new(LinkConfig::default()), Engine::new(EngineConfig::default()));
+//! console.connect(now);
+//! for _ in 0..4 {
+//!     while let Some(bytes) = console.poll_transmit() { unit.handle_bytes(&bytes, now); }
+//!     while let Some(bytes) = unit.poll_transmit() { console.handle_bytes(&bytes, now); }
+//!     if console.is_ready() && unit.tactors_on().is_empty() { console.fire(TactorMask::CORNERS, 500, now).unwrap(); }
+//! }
+//! assert_eq!(unit.tactors_on(), TactorMask::CORNERS);
+//! assert_eq!(console.tactors_on(), Some(TactorMask::CORNERS));
+//! ```
+
+pub mod codec;
+pub mod emulator;
+pub mod engine;
+pub mod limits;
+pub mod link;
+pub mod message;
+pub mod worker;
+
+pub use codec::{V1Codec, WireCodec};
+pub use limits::Limits;
+pub use link::{Backoff, Link, LinkConfig, LinkEvent, LinkState};
+pub use message::{CommandKind, DeviceInfo, NakReason, Reply, Request, UnitStatus};
+pub use worker::{VestCommand, VestConfig, VestEvent, VestHandle};

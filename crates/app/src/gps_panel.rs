@@ -1,0 +1,373 @@
+//! The GPS panel: source picker, connection, the fix in numbers, sky plot, signal bars, alarm.
+
+use std::path::PathBuf;
+
+use egui::{Color32, RichText, Stroke, vec2};
+use vestnav_device::serial::{PortInfo, PortKind};
+
+use crate::config::GpsSourceConfig;
+use crate::console::{Console, GpsAlarm};
+use crate::model::{FixMode, GpsFix, Satellite};
+
+/// Baud rates offered (the BT-359 talks 4800 by default); `None` = automatic detection.
+pub const BAUDS: [Option<u32>; 7] = [None, Some(4800), Some(9600), Some(19200), Some(38400), Some(57600), Some(115_200)];
+
+/// Which source kind the picker shows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum SourceKind {
+    /// Built-in simulator.
+    #[default]
+    Simulator,
+    /// Serial / Bluetooth port.
+    Serial,
+    /// NMEA log replay.
+    Replay,
+    /// gpsd over TCP.
+    Gpsd,
+}
+
+/// The editable fields of the source picker (kept while the operator switches kinds).
+#[derive(Debug, Clone, Default)]
+pub struct SourcePicker {
+    /// Kind shown.
+    pub kind: SourceKind,
+    /// Serial port.
+    pub port: String,
+    /// Baud, `None` = auto.
+    pub baud: Option<u32>,
+    /// Replay file.
+    pub replay_path: String,
+    /// Replay speed factor (0 = as fast as possible).
+    pub replay_speed: f64,
+    /// gpsd host.
+    pub gpsd_host: String,
+    /// gpsd port.
+    pub gpsd_port: u16,
+    /// Ports found by the last scan.
+    pub ports: Vec<PortInfo>,
+    /// A port scan was done.
+    pub scanned: bool,
+}
+
+impl SourcePicker {
+    /// The picker showing `cfg`.
+    pub fn from_config(cfg: &GpsSourceConfig) -> Self {
+        let mut p = Self {
+            replay_speed: 1.0,
+            gpsd_host: "127.0.0.1".into(),
+            gpsd_port: 2947,
+            ..Self::default()
+        };
+        match cfg {
+            GpsSourceConfig::Simulator => p.kind = SourceKind::Simulator,
+            GpsSourceConfig::Serial { port, baud } => {
+                p.kind = SourceKind::Serial;
+                p.port.clone_from(port);
+                p.baud = *baud;
+            }
+            GpsSourceConfig::Replay { path, speed } => {
+                p.kind = SourceKind::Replay;
+                p.replay_path = path.display().to_string();
+                p.replay_speed = *speed;
+            }
+            GpsSourceConfig::Gpsd { host, port } => {
+                p.kind = SourceKind::Gpsd;
+                p.gpsd_host.clone_from(host);
+                p.gpsd_port = *port;
+            }
+        }
+        p
+    }
+
+    /// The source the picker describes, or why it is incomplete.
+    pub fn to_config(&self) -> Result<GpsSourceConfig, String> {
+        match self.kind {
+            SourceKind::Simulator => Ok(GpsSourceConfig::Simulator),
+            SourceKind::Serial if self.port.trim().is_empty() => Err("pick a serial port".into()),
+            SourceKind::Serial => Ok(GpsSourceConfig::Serial { port: self.port.trim().to_owned(), baud: self.baud }),
+            SourceKind::Replay if self.replay_path.trim().is_empty() => Err("enter an NMEA file".into()),
+            SourceKind::Replay => Ok(GpsSourceConfig::Replay {
+                path: PathBuf::from(self.replay_path.trim()),
+                speed: self.replay_speed,
+            }),
+            SourceKind::Gpsd if self.gpsd_host.trim().is_empty() => Err("enter the gpsd host".into()),
+            SourceKind::Gpsd => {
+                Ok(GpsSourceConfig::Gpsd { host: self.gpsd_host.trim().to_owned(), port: self.gpsd_port })
+            }
+        }
+    }
+}
+
+/// Degrees as `42° 21' 22.32" N`.
+pub fn dms(value_deg: f64, pos: char, neg: char) -> String {
+    let hemi = if value_deg < 0.0 { neg } else { pos };
+    let total_s = (value_deg.abs() * 3600.0 * 100.0).round() / 100.0;
+    let d = (total_s / 3600.0).floor();
+    let m = ((total_s - d * 3600.0) / 60.0).floor();
+    let s = total_s - d * 3600.0 - m * 60.0;
+    format!("{d:.0}° {m:02.0}' {s:05.2}\" {hemi}")
+}
+
+/// Draws the GPS section.
+pub fn show(c: &mut Console, ui: &mut egui::Ui, now_s: f64) {
+    picker_ui(c, ui);
+    ui.horizontal(|ui| {
+        let connected = c.gps_connected();
+        if ui.add_enabled(!connected, egui::Button::new("Connect GPS")).clicked() {
+            match c.gps.picker.to_config() {
+                Ok(src) => {
+                    c.cfg.gps = src;
+                    c.connect_gps();
+                }
+                Err(e) => c.status = format!("GPS: {e}"),
+            }
+        }
+        if ui.add_enabled(connected, egui::Button::new("Disconnect GPS")).clicked() {
+            c.disconnect_gps();
+        }
+        ui.label(RichText::new(c.gps.link.label()).strong());
+    });
+    if let Some(n) = &c.gps.notice {
+        ui.label(RichText::new(n).small().weak());
+    }
+
+    let alarm = c.gps_alarm(now_s);
+    if let Some(a) = &alarm {
+        if !c.gps.alarm_silenced {
+            let blink = (now_s * 2.0).fract() < 0.5;
+            let (text, color) = match a {
+                GpsAlarm::Lost { reason } => (format!("⚠ GPS FIX LOST: {reason}"), Color32::from_rgb(220, 30, 30)),
+                GpsAlarm::Stale { age_s } => {
+                    (format!("⚠ GPS STALE: last fix {age_s:.0} s ago"), Color32::from_rgb(220, 140, 0))
+                }
+            };
+            egui::Frame::new().fill(if blink { color } else { color.gamma_multiply(0.7) }).inner_margin(6.0).show(
+                ui,
+                |ui| {
+                    ui.label(RichText::new(text).color(Color32::WHITE).strong());
+                    if ui.button("Silence alarm").clicked() {
+                        c.gps.alarm_silenced = true;
+                    }
+                },
+            );
+            ui.ctx().request_repaint_after(std::time::Duration::from_millis(250));
+        }
+    }
+
+    let Some(fix) = c.gps.fix.clone() else {
+        ui.label("no fix yet");
+        return;
+    };
+    let age = c.gps.fix_at_s.map(|t| now_s - t);
+    fix_grid(ui, &fix, age, c.gps.fixes);
+    if !fix.satellites.is_empty() {
+        ui.horizontal(|ui| {
+            sky_plot(ui, &fix.satellites, 130.0);
+            signal_bars(ui, &fix.satellites, vec2(170.0, 130.0));
+        });
+    }
+}
+
+fn picker_ui(c: &mut Console, ui: &mut egui::Ui) {
+    let p = &mut c.gps.picker;
+    let label = |k: SourceKind| match k {
+        SourceKind::Simulator => "Simulator",
+        SourceKind::Serial => "Serial / Bluetooth port",
+        SourceKind::Replay => "NMEA file replay",
+        SourceKind::Gpsd => "gpsd",
+    };
+    egui::ComboBox::from_label("GPS source").selected_text(label(p.kind)).show_ui(ui, |ui| {
+        for k in [SourceKind::Simulator, SourceKind::Serial, SourceKind::Replay, SourceKind::Gpsd] {
+            ui.selectable_value(&mut p.kind, k, label(k));
+        }
+    });
+    match p.kind {
+        SourceKind::Simulator => {
+            ui.label(RichText::new("walks the loaded route with a SiRF-like error model").small().weak());
+        }
+        SourceKind::Serial => {
+            if !p.scanned {
+                p.ports = vestnav_device::serial::list_ports();
+                p.scanned = true;
+            }
+            ui.horizontal(|ui| {
+                egui::ComboBox::from_id_salt("gps-port")
+                    .selected_text(if p.port.is_empty() { "pick a port" } else { p.port.as_str() })
+                    .show_ui(ui, |ui| {
+                        for port in &p.ports {
+                            let bt = if port.kind == PortKind::Bluetooth { "ᛒ " } else { "" };
+                            let text = format!("{bt}{} {}", port.name, port.description);
+                            ui.selectable_value(&mut p.port, port.name.clone(), text);
+                        }
+                        if p.ports.is_empty() {
+                            ui.label("no serial ports found");
+                        }
+                    });
+                if ui.button("⟳").on_hover_text("Scan ports again").clicked() {
+                    p.ports = vestnav_device::serial::list_ports();
+                }
+            });
+            ui.horizontal(|ui| {
+                ui.label("Port");
+                ui.text_edit_singleline(&mut p.port);
+            });
+            egui::ComboBox::from_label("Baud")
+                .selected_text(p.baud.map_or_else(|| "auto".to_owned(), |b| b.to_string()))
+                .show_ui(ui, |ui| {
+                    for b in BAUDS {
+                        ui.selectable_value(&mut p.baud, b, b.map_or_else(|| "auto".to_owned(), |b| b.to_string()));
+                    }
+                });
+        }
+        SourceKind::Replay => {
+            ui.horizontal(|ui| {
+                ui.label("File");
+                ui.text_edit_singleline(&mut p.replay_path);
+            });
+            ui.add(
+                egui::Slider::new(&mut p.replay_speed, 0.0..=100.0)
+                    .logarithmic(true)
+                    .text("speed ×")
+                    .custom_formatter(|v, _| if v <= 0.0 { "max".into() } else { format!("{v:.1}") }),
+            );
+        }
+        SourceKind::Gpsd => {
+            ui.horizontal(|ui| {
+                ui.label("Host");
+                ui.add(egui::TextEdit::singleline(&mut p.gpsd_host).desired_width(120.0));
+                ui.label("Port");
+                ui.add(egui::DragValue::new(&mut p.gpsd_port).range(1..=65535));
+            });
+        }
+    }
+}
+
+fn fix_grid(ui: &mut egui::Ui, f: &GpsFix, age_s: Option<f64>, fixes: u64) {
+    let opt = |v: Option<f64>, unit: &str, prec: usize| {
+        v.filter(|x| x.is_finite()).map_or_else(|| "—".to_owned(), |x| format!("{x:.prec$} {unit}"))
+    };
+    egui::Grid::new("gps-fix").num_columns(2).striped(true).show(ui, |ui| {
+        if f.has_position() {
+            ui.label("Latitude");
+            ui.label(format!("{:.7}°  {}", f.lat_deg, dms(f.lat_deg, 'N', 'S')));
+            ui.end_row();
+            ui.label("Longitude");
+            ui.label(format!("{:.7}°  {}", f.lon_deg, dms(f.lon_deg, 'E', 'W')));
+            ui.end_row();
+        }
+        ui.label("UTC");
+        ui.label(f.time_utc.as_deref().unwrap_or("—"));
+        ui.end_row();
+        ui.label("Fix");
+        let mode = match f.mode {
+            FixMode::NoFix => "no fix",
+            FixMode::Fix2d => "2D",
+            FixMode::Fix3d => "3D",
+        };
+        ui.label(format!("{mode} · {}", if f.quality.is_empty() { "—" } else { &f.quality }));
+        ui.end_row();
+        ui.label("Satellites");
+        let n = |v: Option<u32>| v.map_or_else(|| "—".to_owned(), |v| v.to_string());
+        ui.label(format!("{} used / {} in view", n(f.sats_used), n(f.sats_visible)));
+        ui.end_row();
+        ui.label("HDOP / PDOP");
+        ui.label(format!("{} / {}", opt(f.hdop, "", 1), opt(f.pdop, "", 1)));
+        ui.end_row();
+        ui.label("Error estimate");
+        ui.label(opt(f.error_m, "m", 1));
+        ui.end_row();
+        ui.label("Altitude");
+        ui.label(opt(f.alt_m, "m", 1));
+        ui.end_row();
+        ui.label("Speed");
+        ui.label(opt(f.speed_m_s, "m/s", 2));
+        ui.end_row();
+        ui.label("Course");
+        ui.label(opt(f.course_deg, "°", 0));
+        ui.end_row();
+        ui.label("Fix age");
+        ui.label(format!("{} ({fixes} fixes)", opt(age_s, "s", 1)));
+        ui.end_row();
+    });
+}
+
+fn snr_color(snr: Option<f64>, used: bool) -> Color32 {
+    let base = match snr {
+        Some(s) if s >= 35.0 => Color32::from_rgb(40, 170, 60),
+        Some(s) if s >= 25.0 => Color32::from_rgb(200, 170, 30),
+        Some(_) => Color32::from_rgb(220, 90, 40),
+        None => Color32::GRAY,
+    };
+    if used { base } else { base.gamma_multiply(0.45) }
+}
+
+/// Polar sky plot: north up, elevation 90° at the centre, the horizon on the rim.
+fn sky_plot(ui: &mut egui::Ui, sats: &[Satellite], size: f32) {
+    let (rect, _) = ui.allocate_exact_size(vec2(size, size), egui::Sense::hover());
+    let p = ui.painter_at(rect);
+    let c = rect.center();
+    let r = size / 2.0 - 10.0;
+    let grid = Stroke::new(1.0, ui.visuals().weak_text_color());
+    for el in [0.0_f32, 30.0, 60.0] {
+        p.circle_stroke(c, r * (90.0 - el) / 90.0, grid);
+    }
+    p.line_segment([c - vec2(0.0, r), c + vec2(0.0, r)], grid);
+    p.line_segment([c - vec2(r, 0.0), c + vec2(r, 0.0)], grid);
+    let font = egui::FontId::proportional(10.0);
+    p.text(c - vec2(0.0, r + 5.0), egui::Align2::CENTER_CENTER, "N", font.clone(), ui.visuals().text_color());
+    for s in sats {
+        let (Some(el), Some(az)) = (s.elevation_deg, s.azimuth_deg) else { continue };
+        if !(el.is_finite() && az.is_finite()) {
+            continue;
+        }
+        let rr = r * ((90.0 - el.clamp(0.0, 90.0)) / 90.0) as f32;
+        let a = (az as f32).to_radians();
+        let pos = c + vec2(rr * a.sin(), -rr * a.cos());
+        p.circle_filled(pos, 5.0, snr_color(s.snr_db, s.used));
+        p.text(pos + vec2(0.0, -9.0), egui::Align2::CENTER_CENTER, s.prn.to_string(), font.clone(), ui.visuals().text_color());
+    }
+}
+
+/// Signal bars: one per satellite, height = C/N0 (0..50 dB-Hz), bright when used.
+fn signal_bars(ui: &mut egui::Ui, sats: &[Satellite], size: egui::Vec2) {
+    let (rect, _) = ui.allocate_exact_size(size, egui::Sense::hover());
+    let p = ui.painter_at(rect);
+    let n = sats.len().clamp(1, 24);
+    let w = rect.width() / n as f32;
+    let font = egui::FontId::proportional(9.0);
+    for (i, s) in sats.iter().take(n).enumerate() {
+        let h = (rect.height() - 14.0) * (s.snr_db.unwrap_or(0.0).clamp(0.0, 50.0) / 50.0) as f32;
+        let x0 = rect.left() + i as f32 * w + 1.0;
+        let bottom = rect.bottom() - 12.0;
+        p.rect_filled(
+            egui::Rect::from_min_max(egui::pos2(x0, bottom - h), egui::pos2(x0 + w - 2.0, bottom)),
+            1.0,
+            snr_color(s.snr_db, s.used),
+        );
+        p.text(egui::pos2(x0 + w / 2.0, bottom + 6.0), egui::Align2::CENTER_CENTER, s.prn.to_string(), font.clone(), ui.visuals().text_color());
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn dms_formats_hemispheres() {
+        // 42.3562° = 42° 21' 22.32"
+        assert_eq!(dms(42.3562, 'N', 'S'), "42° 21' 22.32\" N");
+        assert_eq!(dms(-71.1, 'E', 'W'), "71° 06' 00.00\" W");
+    }
+
+    #[test]
+    fn picker_round_trips_every_source() {
+        for src in [
+            GpsSourceConfig::Simulator,
+            GpsSourceConfig::Serial { port: "/dev/rfcomm0".into(), baud: None },
+            GpsSourceConfig::Replay { path: "a.nmea".into(), speed: 4.0 },
+            GpsSourceConfig::Gpsd { host: "h".into(), port: 1234 },
+        ] {
+            assert_eq!(SourcePicker::from_config(&src).to_config().unwrap(), src);
+        }
+    }
+}

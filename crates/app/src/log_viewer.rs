@@ -1,0 +1,136 @@
+//! Session log viewer and replay: pick a log, read its records, scrub through the session on the map.
+
+use std::path::{Path, PathBuf};
+
+use egui::RichText;
+
+use crate::map_panel::MapView;
+use crate::session_log::{LoadedLog, LogEntry, list_logs, read_log};
+
+/// Viewer state.
+#[derive(Debug, Default)]
+pub struct LogViewer {
+    /// Path typed or picked.
+    pub path: String,
+    /// The log loaded.
+    pub loaded: Option<(PathBuf, LoadedLog)>,
+    /// Replay position [s since session start].
+    pub cursor_s: f64,
+    /// Replay running.
+    pub playing: bool,
+    /// Replay speed factor.
+    pub speed: f64,
+    /// Error of the last load.
+    pub error: Option<String>,
+}
+
+impl LogViewer {
+    /// Loads `path`.
+    pub fn load(&mut self, path: &Path) {
+        match read_log(path) {
+            Ok(l) => {
+                self.loaded = Some((path.to_path_buf(), l));
+                self.cursor_s = 0.0;
+                self.error = None;
+                if self.speed <= 0.0 {
+                    self.speed = 10.0;
+                }
+            }
+            Err(e) => self.error = Some(format!("cannot read {}: {e}", path.display())),
+        }
+    }
+
+    /// Draws the tab; the replayed track goes to `map` (shown on the Map tab).
+    pub fn ui(&mut self, ui: &mut egui::Ui, dir: &Path, current: Option<&Path>, map: &mut MapView) {
+        ui.horizontal(|ui| {
+            ui.label("Log file");
+            ui.add(egui::TextEdit::singleline(&mut self.path).desired_width(380.0));
+            if ui.button("Open").clicked() {
+                let p = PathBuf::from(self.path.trim());
+                self.load(&p);
+            }
+        });
+        ui.collapsing(format!("Logs in {}", dir.display()), |ui| {
+            for p in list_logs(dir).into_iter().take(50) {
+                let cur = current.is_some_and(|c| c == p);
+                let name = p.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+                if ui.selectable_label(false, if cur { format!("{name} (this session)") } else { name }).clicked() {
+                    self.path = p.display().to_string();
+                    self.load(&p);
+                }
+            }
+        });
+        if let Some(e) = &self.error {
+            ui.colored_label(egui::Color32::from_rgb(220, 40, 40), e);
+        }
+        let Some((path, log)) = &self.loaded else {
+            ui.label("Open a session log (JSON Lines, see docs/console.md) to view and replay it.");
+            return;
+        };
+        let track = log.track();
+        let (mut fixes, mut cmds, mut acks, mut marks) = (0, 0, 0, 0);
+        for r in &log.records {
+            match r.entry {
+                LogEntry::Fix { .. } => fixes += 1,
+                LogEntry::Command { .. } => cmds += 1,
+                LogEntry::Ack { .. } | LogEntry::TactorsOn { .. } => acks += 1,
+                LogEntry::Mark { .. } => marks += 1,
+                LogEntry::Note { .. } => {}
+            }
+        }
+        ui.label(format!(
+            "{}: {:.0} s, {fixes} fixes, {cmds} commands, {acks} acks, {marks} marks, {} unreadable lines",
+            path.display(),
+            log.duration_s(),
+            log.bad_lines
+        ));
+        let dur = log.duration_s();
+        ui.horizontal(|ui| {
+            if ui.button(if self.playing { "⏸ Pause" } else { "▶ Replay" }).clicked() {
+                self.playing = !self.playing;
+                if self.cursor_s >= dur {
+                    self.cursor_s = 0.0;
+                }
+            }
+            ui.add(egui::Slider::new(&mut self.cursor_s, 0.0..=dur.max(0.001)).text("t [s]"));
+            ui.add(egui::Slider::new(&mut self.speed, 1.0..=100.0).logarithmic(true).text("speed ×"));
+        });
+        if self.playing {
+            self.cursor_s += f64::from(ui.input(|i| i.stable_dt).min(0.1)) * self.speed;
+            if self.cursor_s >= dur {
+                self.cursor_s = dur;
+                self.playing = false;
+            }
+            ui.ctx().request_repaint();
+        }
+        let upto = track.partition_point(|p| p.0 <= self.cursor_s);
+        map.replay = Some((track.iter().map(|p| (p.1, p.2)).collect(), upto));
+        ui.label(RichText::new("The replayed track is drawn in purple on the Map tab.").weak());
+        // The records around the cursor.
+        let i0 = log.records.partition_point(|r| r.t_s < self.cursor_s);
+        egui::ScrollArea::vertical().max_height(ui.available_height()).show(ui, |ui| {
+            egui::Grid::new("log-records").striped(true).num_columns(2).show(ui, |ui| {
+                for r in log.records.iter().skip(i0.saturating_sub(20)).take(60) {
+                    ui.label(format!("{:9.2}", r.t_s));
+                    ui.label(summary(&r.entry));
+                    ui.end_row();
+                }
+            });
+        });
+    }
+}
+
+fn summary(e: &LogEntry) -> String {
+    match e {
+        LogEntry::Fix { lat_deg, lon_deg, error_m, .. } => {
+            format!("fix {lat_deg:.6}, {lon_deg:.6}{}", error_m.map_or(String::new(), |e| format!(" ±{e:.1} m")))
+        }
+        LogEntry::Command { origin, command, reason } => format!("{origin:?} command {command:?} ({reason})"),
+        LogEntry::Ack { what } => format!("ack {what}"),
+        LogEntry::TactorsOn { mask } => {
+            format!("on: [{}]", mask.indices().map(|i| i.to_string()).collect::<Vec<_>>().join(" "))
+        }
+        LogEntry::Mark { label, .. } => format!("MARK {label}"),
+        LogEntry::Note { text } => text.clone(),
+    }
+}

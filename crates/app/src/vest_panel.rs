@@ -1,0 +1,198 @@
+//! The vest panel: connection, the 4x4 grid as worn (back view), patterns, live tactor state.
+//!
+//! Grid buttons are labelled `T0`..`T15` with the numbering of `vestnav_core::vest` (seen from behind the
+//! wearer, row-major from the top-left). A click fires that tactor for the configured on-time; with
+//! "Multi-select" on (or Ctrl held), clicks toggle a selection that "Fire selected" sends at once.
+
+use egui::{Color32, RichText, vec2};
+use vestnav_core::vest::{Cue, Frame, GRID, Pattern, TactorMask};
+
+use crate::config::VestSourceConfig;
+use crate::console::Console;
+use crate::model::VestCommand;
+
+/// Draws the Vest section.
+pub fn show(c: &mut Console, ui: &mut egui::Ui) {
+    connection_ui(c, ui);
+    ui.separator();
+    ui.horizontal(|ui| {
+        ui.label("On-time");
+        ui.add(egui::Slider::new(&mut c.cfg.on_ms, 50..=2000).suffix(" ms"));
+    });
+    ui.horizontal(|ui| {
+        ui.checkbox(&mut c.vest.select_mode, "Multi-select");
+        let n = c.vest.selected.count();
+        if ui.add_enabled(n > 0, egui::Button::new(format!("Fire selected ({n})"))).clicked() {
+            c.send_manual(VestCommand::Fire { mask: c.vest.selected, on_ms: c.cfg.on_ms });
+        }
+        if ui.add_enabled(n > 0, egui::Button::new("Clear")).clicked() {
+            c.vest.selected = TactorMask::NONE;
+        }
+    });
+    grid_ui(c, ui);
+    ui.label(
+        RichText::new(format!(
+            "on now: {}",
+            if c.vest.tactors_on.is_empty() {
+                "none".to_owned()
+            } else {
+                c.vest.tactors_on.indices().map(|i| i.to_string()).collect::<Vec<_>>().join(", ")
+            }
+        ))
+        .small(),
+    );
+    if let Some(r) = &c.vest.last_reply {
+        ui.label(RichText::new(r).small().weak());
+    }
+    ui.separator();
+    patterns_ui(c, ui);
+}
+
+fn connection_ui(c: &mut Console, ui: &mut egui::Ui) {
+    let emulated = matches!(c.cfg.vest, VestSourceConfig::Emulated);
+    ui.horizontal(|ui| {
+        let mut choice = emulated;
+        ui.radio_value(&mut choice, true, "Emulated vest");
+        ui.radio_value(&mut choice, false, "WTCU port");
+        if choice != emulated {
+            c.cfg.vest = if choice {
+                VestSourceConfig::Emulated
+            } else {
+                VestSourceConfig::Serial { port: c.vest.port.clone() }
+            };
+        }
+    });
+    if let VestSourceConfig::Serial { port } = &mut c.cfg.vest {
+        ui.horizontal(|ui| {
+            ui.label("Port");
+            egui::ComboBox::from_id_salt("vest-port")
+                .selected_text(if port.is_empty() { "pick" } else { port.as_str() })
+                .show_ui(ui, |ui| {
+                    for p in vestnav_device::serial::list_ports() {
+                        let bt = if p.kind == vestnav_device::serial::PortKind::Bluetooth { "ᛒ " } else { "" };
+                        ui.selectable_value(port, p.name.clone(), format!("{bt}{} {}", p.name, p.description));
+                    }
+                });
+            ui.text_edit_singleline(port);
+        });
+        c.vest.port.clone_from(port);
+    }
+    ui.horizontal(|ui| {
+        let connected = c.vest_connected();
+        if ui.add_enabled(!connected, egui::Button::new("Connect vest")).clicked() {
+            c.connect_vest();
+        }
+        if ui.add_enabled(connected, egui::Button::new("Disconnect vest")).clicked() {
+            c.disconnect_vest();
+        }
+        ui.label(RichText::new(c.vest.link.label()).strong());
+    });
+    let battery = c.vest.battery_pct.map_or_else(|| "—".to_owned(), |b| format!("{b} %"));
+    let fw = if c.vest.firmware.is_empty() { "—" } else { c.vest.firmware.as_str() };
+    ui.label(format!("battery {battery} · firmware {fw}"));
+}
+
+fn grid_ui(c: &mut Console, ui: &mut egui::Ui) {
+    ui.label(RichText::new("back view (as seen behind the wearer)").small().weak());
+    ui.horizontal(|ui| {
+        ui.label(RichText::new("wearer's left").small());
+        ui.add_space(110.0);
+        ui.label(RichText::new("right").small());
+    });
+    let ctrl = ui.input(|i| i.modifiers.command);
+    egui::Grid::new("vest-grid").spacing(vec2(6.0, 6.0)).show(ui, |ui| {
+        for row in 0..GRID {
+            for col in 0..GRID {
+                let i = row * GRID + col;
+                let on = c.vest.tactors_on.contains(i);
+                let selected = c.vest.selected.contains(i);
+                let fill = if on {
+                    Color32::from_rgb(250, 170, 20)
+                } else if selected {
+                    Color32::from_rgb(70, 110, 190)
+                } else {
+                    ui.visuals().widgets.inactive.bg_fill
+                };
+                let text = RichText::new(format!("T{i}")).strong().color(if on || selected {
+                    Color32::BLACK
+                } else {
+                    ui.visuals().text_color()
+                });
+                let b = egui::Button::new(text).fill(fill).min_size(vec2(52.0, 40.0));
+                let resp = ui.add(b).on_hover_text(format!("tactor {i}: row {row}, column {col}"));
+                if resp.clicked() {
+                    if c.vest.select_mode || ctrl {
+                        c.vest.selected = TactorMask(c.vest.selected.0 ^ (1 << i));
+                    } else if let Some(mask) = TactorMask::single(i) {
+                        c.send_manual(VestCommand::Fire { mask, on_ms: c.cfg.on_ms });
+                    }
+                }
+            }
+            ui.end_row();
+        }
+    });
+    // The live state comes from acks; keep repainting while something is on.
+    if !c.vest.tactors_on.is_empty() {
+        ui.ctx().request_repaint_after(std::time::Duration::from_millis(50));
+    }
+}
+
+fn patterns_ui(c: &mut Console, ui: &mut egui::Ui) {
+    ui.label("Patterns");
+    ui.horizontal_wrapped(|ui| {
+        for cue in Cue::ALL {
+            if ui.button(cue.name()).on_hover_text(describe(&cue.pattern(c.cfg.on_ms))).clicked() {
+                c.send_manual(VestCommand::Play(cue.pattern(c.cfg.on_ms)));
+            }
+        }
+    });
+    let mut remove = None;
+    let mut play = None;
+    for (k, p) in c.cfg.user_patterns.iter().enumerate() {
+        ui.horizontal(|ui| {
+            if ui.button(format!("▶ {}", p.name)).on_hover_text(describe(p)).clicked() {
+                play = Some(p.clone());
+            }
+            if ui.small_button("✖").on_hover_text("Delete this pattern").clicked() {
+                remove = Some(k);
+            }
+        });
+    }
+    if let Some(p) = play {
+        c.send_manual(VestCommand::Play(p));
+    }
+    if let Some(k) = remove {
+        c.cfg.user_patterns.remove(k);
+    }
+    ui.horizontal(|ui| {
+        ui.add(egui::TextEdit::singleline(&mut c.vest.new_pattern_name).hint_text("name").desired_width(90.0));
+        let ok = !c.vest.selected.is_empty() && !c.vest.new_pattern_name.trim().is_empty();
+        if ui
+            .add_enabled(ok, egui::Button::new("Save selection as pattern"))
+            .on_hover_text("The selected tactors, on for the on-time, then off for as long, three times")
+            .clicked()
+        {
+            c.cfg.user_patterns.push(Pattern {
+                name: c.vest.new_pattern_name.trim().to_owned(),
+                frames: vec![
+                    Frame { mask: c.vest.selected, duration_ms: c.cfg.on_ms },
+                    Frame { mask: TactorMask::NONE, duration_ms: c.cfg.on_ms },
+                ],
+                repeats: 3,
+            });
+            c.vest.new_pattern_name.clear();
+        }
+    });
+}
+
+fn describe(p: &Pattern) -> String {
+    let frames: Vec<String> = p
+        .frames
+        .iter()
+        .map(|f| {
+            let idx: Vec<String> = f.mask.indices().map(|i| i.to_string()).collect();
+            format!("[{}] {} ms", idx.join(" "), f.duration_ms)
+        })
+        .collect();
+    format!("{} × {}: {}", p.repeats, p.name, frames.join(" → "))
+}

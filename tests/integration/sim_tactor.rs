@@ -1,0 +1,1 @@
+//! Integration tests: sim_tactor (being written).

@@ -1,0 +1,1 @@
+//! Integration tests: sim_wave (being written).
