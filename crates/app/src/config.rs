@@ -12,7 +12,7 @@ use serde::{Deserialize, Serialize};
 use vestnav_core::vest::{DEFAULT_ON_MS, Pattern};
 
 /// Where the GPS fixes come from.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub enum GpsSourceConfig {
     /// The built-in simulator walking the loaded route.
     Simulator,

@@ -105,7 +105,6 @@ pub struct Console {
     cfg_path: Option<PathBuf>,
     cfg_saved: Config,
     factory: Box<dyn DeviceFactory>,
-    waker: Option<egui::Context>,
     /// Active central tab.
     pub tab: Tab,
     /// GPS state.
@@ -240,7 +239,6 @@ impl Console {
             cfg,
             cfg_path,
             factory,
-            waker,
             tab: Tab::Map,
             map,
             guidance: None,
@@ -495,7 +493,8 @@ impl Console {
             }
             Tab::SessionLog => {
                 let dir = self.log_dir();
-                self.log_viewer.ui(ui, &dir, self.log_path(), &mut self.map);
+                let current = self.log.as_ref().map(|l| l.path().to_path_buf());
+                self.log_viewer.ui(ui, &dir, current.as_deref(), &mut self.map);
             }
         });
 

@@ -1,35 +1,706 @@
-//! The Field-test panel: drift and cone tests as guided procedures (being built).
+//! The Field-test panel: the thesis's GPS accuracy tests (§5) as guided procedures on live fixes.
+//!
+//! - **Drift test** (thesis Fig 65): the receiver lies still; Start records every fix until the duration target
+//!   (default 3 min) is reached or Stop is pressed. Live: the distance of each fix from the first against time,
+//!   the scatter in local metres about the mean with the CEP50/CEP95 circles, and max / CEP50 / CEP95 / DRMS /
+//!   2DRMS.
+//! - **Cone test** (Figs 67–70): cones every `spacing` metres on a line (default 10 cones, 10 m); the operator
+//!   walks the line and presses **Mark cone N** (or the key **M**) at each cone. The panel returns
+//!   [`FieldTestAction::Mark`] so the app logs the mark, and shows the consecutive distances, their mean, the
+//!   RMSE against the spacing and the along-/cross-line components.
+//!
+//! Both warn when the receiver looks pinned: SiRF Star III "static navigation" holds the position while the
+//! speed is below about 1.2 m/s (physics.md §5), which flatters a drift test and distorts cone marks.
+//! Statistics come from `vestnav_core::fieldtest`, geodesy from `vestnav_core::geo`; reports export as JSON
+//! and as a PNG sheet (`vestnav_plot`) of exactly the plots shown.
+
+use serde::Serialize;
+use vestnav_core::fieldtest::{self, ConeConfig, ConeMark, ConeStats, DriftStats, TimedFix};
+use vestnav_core::geo::{Earth, LatLon, LocalFrame};
+
+use crate::sim_panel::{ChartSpec, ExportFormat, Exporter, PanelSpec, SeriesSpec, render_png};
+
+/// Speed below which SiRF Star III static navigation may pin the position [m/s] (physics.md §5).
+pub const STATIC_NAV_SPEED_M_S: f64 = 1.2;
+/// Default drift-test duration [s] (thesis: 3 min).
+pub const DEFAULT_DRIFT_TARGET_S: f64 = 180.0;
+/// Default nominal cone spacing [m] (thesis: 10 m).
+pub const DEFAULT_CONE_SPACING_M: f64 = 10.0;
+/// Default number of cones (thesis: 10).
+pub const DEFAULT_CONE_COUNT: usize = 10;
+/// Identical consecutive fixes for this long while walking raise the live pinning warning [s].
+const LIVE_PINNED_RUN_S: f64 = 5.0;
 
 /// What the operator did in the panel that the app must act on.
 #[derive(Debug, Clone, PartialEq)]
 pub enum FieldTestAction {
     /// The operator marked a cone: the app logs it in the session log.
     Mark {
-        /// Human-readable label of the mark, e.g. "cone 3".
+        /// Label of the mark, `"cone N"` (N counts from 1).
         label: String,
     },
 }
 
+/// Which procedure the panel shows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Procedure {
+    Drift,
+    Cones,
+}
+
+/// Where a procedure is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Phase {
+    /// Not started (or reset).
+    Idle,
+    /// Recording fixes.
+    Running,
+    /// Stopped; results frozen until a new run starts.
+    Done,
+}
+
+/// Stationary drift test state.
+struct DriftTest {
+    phase: Phase,
+    target_s: f64,
+    fixes: Vec<TimedFix>,
+    stats: Option<DriftStats>,
+    error: Option<String>,
+    /// Bumped whenever `fixes` changes; derived plots are cached per revision.
+    revision: u64,
+}
+
+impl DriftTest {
+    fn new() -> Self {
+        Self {
+            phase: Phase::Idle,
+            target_s: DEFAULT_DRIFT_TARGET_S,
+            fixes: Vec::new(),
+            stats: None,
+            error: None,
+            revision: 0,
+        }
+    }
+
+    fn elapsed_s(&self) -> f64 {
+        match (self.fixes.first(), self.fixes.last()) {
+            (Some(a), Some(b)) => b.t_s - a.t_s,
+            _ => 0.0,
+        }
+    }
+}
+
+/// Cone test state.
+struct ConeTest {
+    phase: Phase,
+    spacing_m: f64,
+    count: usize,
+    /// Use a typed true bearing for the line instead of the first-to-last mark direction.
+    use_bearing: bool,
+    bearing_deg: f64,
+    track: Vec<TimedFix>,
+    marks: Vec<ConeMark>,
+    stats: Option<ConeStats>,
+    error: Option<String>,
+    revision: u64,
+}
+
+impl ConeTest {
+    fn new() -> Self {
+        Self {
+            phase: Phase::Idle,
+            spacing_m: DEFAULT_CONE_SPACING_M,
+            count: DEFAULT_CONE_COUNT,
+            use_bearing: false,
+            bearing_deg: 0.0,
+            track: Vec::new(),
+            marks: Vec::new(),
+            stats: None,
+            error: None,
+            revision: 0,
+        }
+    }
+
+    fn config(&self, earth: Earth) -> ConeConfig {
+        ConeConfig {
+            count: Some(self.count),
+            line_bearing_deg: self.use_bearing.then_some(self.bearing_deg),
+            earth,
+            ..ConeConfig::with_spacing(self.spacing_m)
+        }
+    }
+}
+
+/// The latest fix the panel was given.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Latest {
+    fix: TimedFix,
+    speed_m_s: Option<f64>,
+}
+
 /// Guided drift and cone tests fed with every GPS fix.
-#[derive(Default)]
 pub struct FieldTestPanel {
-    fixes: Vec<(f64, f64, f64, Option<f64>)>,
+    procedure: Procedure,
+    earth: Earth,
+    latest: Option<Latest>,
+    /// Fixes refused: non-finite or out-of-range coordinates, or time going backwards.
+    rejected: usize,
+    drift: DriftTest,
+    cones: ConeTest,
+    plots: Option<(PlotKey, Vec<PanelSpec>)>,
+    exporter: Exporter,
+}
+
+/// What the cached plots were derived from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct PlotKey {
+    procedure: Procedure,
+    revision: u64,
+}
+
+impl Default for FieldTestPanel {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// A JSON report of one test.
+#[derive(Serialize)]
+struct Report<'a, S: Serialize> {
+    test: &'static str,
+    earth: Earth,
+    settings: serde_json::Value,
+    stats: Option<&'a S>,
+    error: Option<&'a str>,
+    fixes: Vec<[f64; 3]>,
+    marks: &'a [ConeMark],
 }
 
 impl FieldTestPanel {
-    /// An idle panel.
+    /// An idle panel: drift test selected, WGS-84 distances, thesis defaults (3 min; 10 cones, 10 m).
     pub fn new() -> Self {
-        Self::default()
+        Self {
+            procedure: Procedure::Drift,
+            earth: Earth::Wgs84,
+            latest: None,
+            rejected: 0,
+            drift: DriftTest::new(),
+            cones: ConeTest::new(),
+            plots: None,
+            exporter: Exporter::new("vestnav-fieldtest.json"),
+        }
     }
 
-    /// Feeds one fix (time in seconds, WGS-84 degrees, speed over ground if known).
+    /// Feeds one fix: time [s] (any origin, increasing), WGS-84 latitude/longitude [deg], speed over ground
+    /// [m/s] if known. Call it for every fix; a running test records it. Fixes with non-finite or
+    /// out-of-range coordinates, or a time earlier than the previous fix, are counted and ignored.
     pub fn push_position(&mut self, t_s: f64, lat_deg: f64, lon_deg: f64, speed_m_s: Option<f64>) {
-        self.fixes.push((t_s, lat_deg, lon_deg, speed_m_s));
+        let Ok(pos) = LatLon::new(lat_deg, lon_deg).validated() else {
+            self.rejected += 1;
+            return;
+        };
+        if !t_s.is_finite() || self.latest.is_some_and(|l| t_s < l.fix.t_s) {
+            self.rejected += 1;
+            return;
+        }
+        let fix = TimedFix { t_s, pos };
+        self.latest = Some(Latest { fix, speed_m_s: speed_m_s.filter(|s| s.is_finite() && *s >= 0.0) });
+        if self.drift.phase == Phase::Running {
+            self.drift.fixes.push(fix);
+            self.drift.revision += 1;
+            self.update_drift_stats();
+            if self.drift.elapsed_s() >= self.drift.target_s {
+                self.drift.phase = Phase::Done;
+            }
+        }
+        if self.cones.phase == Phase::Running {
+            self.cones.track.push(fix);
+            self.cones.revision += 1;
+            self.update_cone_stats();
+        }
     }
 
-    /// Draws the panel; returns an action when the operator marked a cone.
-    pub fn ui(&mut self, ui: &mut egui::Ui) -> Option<FieldTestAction> {
-        ui.label(format!("{} fixes", self.fixes.len()));
+    fn update_drift_stats(&mut self) {
+        match fieldtest::drift(&self.drift.fixes, self.earth) {
+            Ok(s) => {
+                self.drift.stats = Some(s);
+                self.drift.error = None;
+            }
+            Err(e) => {
+                self.drift.stats = None;
+                self.drift.error = Some(e.to_string());
+            }
+        }
+    }
+
+    fn update_cone_stats(&mut self) {
+        if self.cones.marks.len() < 2 {
+            self.cones.stats = None;
+            self.cones.error = None;
+            return;
+        }
+        match fieldtest::cones(&self.cones.marks, &self.cones.track, &self.cones.config(self.earth)) {
+            Ok(s) => {
+                self.cones.stats = Some(s);
+                self.cones.error = None;
+            }
+            Err(e) => {
+                self.cones.stats = None;
+                self.cones.error = Some(e.to_string());
+            }
+        }
+    }
+
+    /// Starts a new drift test (discarding the previous one).
+    fn start_drift(&mut self) {
+        self.drift.phase = Phase::Running;
+        self.drift.fixes.clear();
+        self.drift.stats = None;
+        self.drift.error = None;
+        self.drift.revision += 1;
+    }
+
+    /// Stops the drift test; its results stay shown.
+    fn stop_drift(&mut self) {
+        if self.drift.phase == Phase::Running {
+            self.drift.phase = Phase::Done;
+        }
+    }
+
+    /// Starts a new cone test (discarding the previous one).
+    fn start_cones(&mut self) {
+        self.cones.phase = Phase::Running;
+        self.cones.track.clear();
+        self.cones.marks.clear();
+        self.cones.stats = None;
+        self.cones.error = None;
+        self.cones.revision += 1;
+    }
+
+    /// Ends the cone test; its results stay shown.
+    fn finish_cones(&mut self) {
+        if self.cones.phase == Phase::Running {
+            self.cones.phase = Phase::Done;
+        }
+    }
+
+    /// Marks the next cone at the latest fix. `None` when no test runs or no fix has arrived yet.
+    fn mark_cone(&mut self) -> Option<FieldTestAction> {
+        if self.cones.phase != Phase::Running {
+            return None;
+        }
+        let latest = self.latest?;
+        let label = format!("cone {}", self.cones.marks.len() + 1);
+        let pos = fieldtest::position_at(&self.cones.track, latest.fix.t_s).unwrap_or(latest.fix.pos);
+        self.cones.marks.push(ConeMark { t_s: latest.fix.t_s, label: label.clone(), pos });
+        self.cones.revision += 1;
+        self.update_cone_stats();
+        Some(FieldTestAction::Mark { label })
+    }
+
+    /// The live pinning hint: a run of identical fixes during the last seconds, or a speed below the SiRF
+    /// static-navigation threshold while a cone test runs.
+    fn live_pinning_warning(&self) -> Option<String> {
+        let (track, what) = match self.procedure {
+            Procedure::Drift => (&self.drift.fixes, "drift test"),
+            Procedure::Cones => (&self.cones.track, "cone test"),
+        };
+        let last = track.last()?;
+        let start = track.iter().rposition(|f| last.t_s - f.t_s > 30.0).map_or(0, |i| i + 1);
+        let pin = fieldtest::pinning(&track[start..]);
+        let ongoing = (pin.longest_run_start_s + pin.longest_run_s - last.t_s).abs() < 1e-6;
+        if ongoing && pin.longest_run_s >= LIVE_PINNED_RUN_S {
+            return Some(format!(
+                "{what}: the receiver has repeated one position for {:.0} s — it looks pinned (SiRF static \
+                 navigation)",
+                pin.longest_run_s
+            ));
+        }
+        if self.procedure == Procedure::Cones
+            && let Some(speed) = self.latest.and_then(|l| l.speed_m_s)
+            && speed < STATIC_NAV_SPEED_M_S
+            && self.cones.phase == Phase::Running
+        {
+            return Some(format!(
+                "speed {speed:.2} m/s is below ~{STATIC_NAV_SPEED_M_S} m/s: SiRF static navigation may pin the \
+                 position — walk briskly between cones"
+            ));
+        }
         None
     }
+
+    /// Draws the panel; returns an action when the operator marked a cone (button or key M).
+    pub fn ui(&mut self, ui: &mut egui::Ui) -> Option<FieldTestAction> {
+        let mut action = None;
+        ui.horizontal(|ui| {
+            ui.selectable_value(&mut self.procedure, Procedure::Drift, "Drift test");
+            ui.selectable_value(&mut self.procedure, Procedure::Cones, "Cone test");
+            ui.separator();
+            ui.label("distances:");
+            let before = self.earth;
+            ui.radio_value(&mut self.earth, Earth::Wgs84, "WGS-84 geodesic");
+            ui.radio_value(&mut self.earth, Earth::ThesisSphere, "thesis sphere (haversine)");
+            if before != self.earth {
+                self.update_drift_stats_if_any();
+                self.update_cone_stats();
+                self.drift.revision += 1;
+                self.cones.revision += 1;
+            }
+        });
+        ui.horizontal(|ui| {
+            match self.latest {
+                Some(l) => ui.label(format!(
+                    "latest fix: t = {:.1} s, {:.7}°, {:.7}°{}",
+                    l.fix.t_s,
+                    l.fix.pos.lat_deg,
+                    l.fix.pos.lon_deg,
+                    l.speed_m_s.map_or(String::new(), |s| format!(", {s:.2} m/s"))
+                )),
+                None => ui.label("no fix yet: connect a GPS (or the simulator) first"),
+            };
+            if self.rejected > 0 {
+                ui.weak(format!("({} invalid or out-of-order fixes ignored)", self.rejected));
+            }
+        });
+        if let Some(w) = self.live_pinning_warning() {
+            ui.colored_label(ui.visuals().warn_fg_color, format!("⚠ {w}"));
+        }
+        ui.separator();
+        match self.procedure {
+            Procedure::Drift => self.drift_ui(ui),
+            Procedure::Cones => action = self.cones_ui(ui),
+        }
+        action
+    }
+
+    fn update_drift_stats_if_any(&mut self) {
+        if !self.drift.fixes.is_empty() {
+            self.update_drift_stats();
+        }
+    }
+
+    fn drift_ui(&mut self, ui: &mut egui::Ui) {
+        ui.label(
+            "Lay the receiver still with a clear sky view, press Start and wait. The thesis recorded 3 min \
+             (max 1.17 m from the first fix).",
+        );
+        ui.horizontal(|ui| {
+            let mut minutes = self.drift.target_s / 60.0;
+            ui.add_enabled(
+                self.drift.phase != Phase::Running,
+                egui::DragValue::new(&mut minutes).range(0.5..=240.0).speed(0.1).suffix(" min").prefix("target "),
+            );
+            self.drift.target_s = minutes * 60.0;
+            match self.drift.phase {
+                Phase::Running => {
+                    if ui.button("■ Stop").clicked() {
+                        self.stop_drift();
+                    }
+                }
+                Phase::Idle | Phase::Done => {
+                    let label = if self.drift.phase == Phase::Idle { "▶ Start drift test" } else { "▶ Start again" };
+                    if ui.add_enabled(self.latest.is_some(), egui::Button::new(label)).clicked() {
+                        self.start_drift();
+                    }
+                }
+            }
+            let frac = (self.drift.elapsed_s() / self.drift.target_s).clamp(0.0, 1.0) as f32;
+            ui.add(
+                egui::ProgressBar::new(frac)
+                    .desired_width(200.0)
+                    .text(format!("{:.0} / {:.0} s", self.drift.elapsed_s(), self.drift.target_s)),
+            );
+            ui.label(match self.drift.phase {
+                Phase::Idle => "idle",
+                Phase::Running => "recording",
+                Phase::Done => "done",
+            });
+        });
+        if let Some(e) = &self.drift.error {
+            ui.colored_label(ui.visuals().error_fg_color, e);
+        }
+        if let Some(s) = &self.drift.stats {
+            egui::Grid::new("fieldtest-drift-stats").striped(true).show(ui, |ui| {
+                for (name, value) in drift_rows(s) {
+                    ui.label(name);
+                    ui.monospace(value);
+                    ui.end_row();
+                }
+            });
+            for w in &s.warnings {
+                ui.colored_label(ui.visuals().warn_fg_color, format!("⚠ {w}"));
+            }
+        }
+        self.export_and_plots(ui);
+    }
+
+    fn cones_ui(&mut self, ui: &mut egui::Ui) -> Option<FieldTestAction> {
+        ui.label(
+            "Lay the cones on a line, walk it briskly (above ~1.2 m/s) and press Mark (or the key M) at each cone.",
+        );
+        let running = self.cones.phase == Phase::Running;
+        ui.add_enabled_ui(!running, |ui| {
+            ui.horizontal(|ui| {
+                ui.add(egui::DragValue::new(&mut self.cones.spacing_m).range(0.5..=1000.0).speed(0.1).prefix("spacing ").suffix(" m"));
+                ui.add(egui::DragValue::new(&mut self.cones.count).range(2..=200).prefix("cones "));
+                ui.checkbox(&mut self.cones.use_bearing, "line bearing (true)");
+                ui.add_enabled(
+                    self.cones.use_bearing,
+                    egui::DragValue::new(&mut self.cones.bearing_deg).range(0.0..=360.0).speed(0.5).suffix("°"),
+                );
+                if !self.cones.use_bearing {
+                    ui.weak("(else: first to last mark)");
+                }
+            });
+        });
+        let mut action = None;
+        ui.horizontal(|ui| {
+            if running {
+                let n = self.cones.marks.len() + 1;
+                let big = egui::Button::new(egui::RichText::new(format!("Mark cone {n}  [M]")).size(22.0).strong())
+                    .min_size(egui::vec2(220.0, 48.0));
+                if ui.add_enabled(self.latest.is_some(), big).clicked() {
+                    action = self.mark_cone();
+                }
+                if ui.button("■ Finish").clicked() {
+                    self.finish_cones();
+                }
+                ui.label(format!("{} of {} cones marked", self.cones.marks.len(), self.cones.count));
+            } else {
+                let label = if self.cones.phase == Phase::Idle { "▶ Start cone test" } else { "▶ Start again" };
+                if ui.add_enabled(self.latest.is_some(), egui::Button::new(label)).clicked() {
+                    self.start_cones();
+                }
+            }
+        });
+        if running
+            && action.is_none()
+            && !ui.ctx().egui_wants_keyboard_input()
+            && ui.input(|i| i.key_pressed(egui::Key::M))
+        {
+            action = self.mark_cone();
+        }
+        if running && self.cones.marks.len() == self.cones.count {
+            ui.colored_label(ui.visuals().hyperlink_color, "All cones marked: press Finish.");
+        }
+        if let Some(e) = &self.cones.error {
+            ui.colored_label(ui.visuals().error_fg_color, e);
+        }
+        if let Some(s) = &self.cones.stats {
+            ui.horizontal_wrapped(|ui| {
+                ui.label(format!(
+                    "mean {:.2} m · RMSE vs {} m: {:.2} m · range {:.2}–{:.2} m · along-line RMSE {:.2} m · \
+                     cross-line RMS {:.2} m · line bearing {:.1}°",
+                    s.mean_m, s.spacing_m, s.rmse_m, s.min_m, s.max_m, s.along_rmse_m, s.cross_rms_m,
+                    s.line_bearing_deg
+                ));
+            });
+            egui::CollapsingHeader::new("Consecutive distances").default_open(true).show(ui, |ui| {
+                egui::Grid::new("fieldtest-cone-distances").striped(true).show(ui, |ui| {
+                    ui.strong("from → to");
+                    ui.strong("distance [m]");
+                    ui.strong("along [m]");
+                    ui.strong("cross [m]");
+                    ui.end_row();
+                    for (k, d) in s.distances_m.iter().enumerate() {
+                        let from = s.labels.get(k).map_or("?", String::as_str);
+                        let to = s.labels.get(k + 1).map_or("?", String::as_str);
+                        ui.label(format!("{from} → {to}"));
+                        ui.monospace(format!("{d:.2}"));
+                        ui.monospace(format!("{:.2}", s.along_m.get(k).copied().unwrap_or(f64::NAN)));
+                        ui.monospace(format!("{:.2}", s.cross_m.get(k).copied().unwrap_or(f64::NAN)));
+                        ui.end_row();
+                    }
+                });
+            });
+            for w in &s.warnings {
+                ui.colored_label(ui.visuals().warn_fg_color, format!("⚠ {w}"));
+            }
+        } else if running {
+            ui.label(format!("{} mark(s): statistics appear from the second mark.", self.cones.marks.len()));
+        }
+        self.export_and_plots(ui);
+        action
+    }
+
+    /// The current procedure's plots, rebuilt when its data changed.
+    fn panels(&mut self) -> &[PanelSpec] {
+        let key = PlotKey {
+            procedure: self.procedure,
+            revision: match self.procedure {
+                Procedure::Drift => self.drift.revision,
+                Procedure::Cones => self.cones.revision,
+            },
+        };
+        if self.plots.as_ref().is_none_or(|(k, _)| *k != key) {
+            let panels = match self.procedure {
+                Procedure::Drift => self.drift.stats.as_ref().map(drift_panels).unwrap_or_default(),
+                Procedure::Cones => cone_panels(&self.cones, self.earth),
+            };
+            self.plots = Some((key, panels));
+        }
+        self.plots.as_ref().map_or(&[], |(_, p)| p.as_slice())
+    }
+
+    /// The JSON report of the current procedure.
+    fn report_json(&self) -> Result<Vec<u8>, String> {
+        let result = match self.procedure {
+            Procedure::Drift => serde_json::to_vec_pretty(&Report {
+                test: "drift",
+                earth: self.earth,
+                settings: serde_json::json!({ "target_s": self.drift.target_s }),
+                stats: self.drift.stats.as_ref(),
+                error: self.drift.error.as_deref(),
+                fixes: track_rows(&self.drift.fixes),
+                marks: &[],
+            }),
+            Procedure::Cones => serde_json::to_vec_pretty(&Report {
+                test: "cones",
+                earth: self.earth,
+                settings: serde_json::json!({
+                    "spacing_m": self.cones.spacing_m,
+                    "count": self.cones.count,
+                    "line_bearing_deg": self.cones.use_bearing.then_some(self.cones.bearing_deg),
+                }),
+                stats: self.cones.stats.as_ref(),
+                error: self.cones.error.as_deref(),
+                fixes: track_rows(&self.cones.track),
+                marks: &self.cones.marks,
+            }),
+        };
+        result.map_err(|e| format!("cannot encode the report: {e}"))
+    }
+
+    fn export_and_plots(&mut self, ui: &mut egui::Ui) {
+        let has_data = match self.procedure {
+            Procedure::Drift => !self.drift.fixes.is_empty(),
+            Procedure::Cones => !self.cones.track.is_empty() || !self.cones.marks.is_empty(),
+        };
+        if !has_data {
+            return;
+        }
+        if let Some(format) = self.exporter.ui(ui, &[ExportFormat::Json, ExportFormat::Png]) {
+            let ctx = ui.ctx().clone();
+            match format {
+                ExportFormat::Json => {
+                    let json = self.report_json();
+                    self.exporter.start(&ctx, format, move || json);
+                }
+                ExportFormat::Png | ExportFormat::Csv => {
+                    let title = match self.procedure {
+                        Procedure::Drift => "GPS drift test (thesis §5, Fig 65)",
+                        Procedure::Cones => "GPS cone test (thesis §5, Figs 67-70)",
+                    };
+                    let panels = self.panels().to_vec();
+                    self.exporter.start(&ctx, ExportFormat::Png, move || {
+                        render_png(title, &panels).map_err(|e| format!("cannot render the figure: {e}"))
+                    });
+                }
+            }
+        }
+        let id = match self.procedure {
+            Procedure::Drift => "fieldtest-drift",
+            Procedure::Cones => "fieldtest-cones",
+        };
+        let panels = self.panels().to_vec();
+        egui::ScrollArea::vertical().id_salt(id).show(ui, |ui| {
+            let columns = if ui.available_width() > 900.0 { 2 } else { 1 };
+            for (row, chunk) in panels.chunks(columns).enumerate() {
+                ui.columns(columns, |cols| {
+                    for (k, (col, panel)) in cols.iter_mut().zip(chunk).enumerate() {
+                        panel.show(col, &format!("{id}-{row}-{k}"), 260.0);
+                    }
+                });
+            }
+        });
+    }
+}
+
+/// `[t_s, lat_deg, lon_deg]` rows of a track for the JSON report.
+fn track_rows(track: &[TimedFix]) -> Vec<[f64; 3]> {
+    track.iter().map(|f| [f.t_s, f.pos.lat_deg, f.pos.lon_deg]).collect()
+}
+
+/// Named drift statistics with units.
+fn drift_rows(s: &DriftStats) -> Vec<(&'static str, String)> {
+    vec![
+        ("fixes", format!("{} over {:.0} s", s.fixes, s.duration_s)),
+        ("max distance from the first fix", format!("{:.3} m", s.max_from_first_m)),
+        ("max distance from the mean", format!("{:.3} m", s.max_from_mean_m)),
+        ("CEP50 (about the mean)", format!("{:.3} m", s.cep50_m)),
+        ("CEP95 (about the mean)", format!("{:.3} m", s.cep95_m)),
+        ("DRMS", format!("{:.3} m", s.drms_m)),
+        ("2DRMS", format!("{:.3} m", s.twodrms_m)),
+        ("sigma east / north", format!("{:.3} / {:.3} m", s.sigma_en_m[0], s.sigma_en_m[1])),
+        ("mean position", format!("{:.7}°, {:.7}°", s.mean.lat_deg, s.mean.lon_deg)),
+    ]
+}
+
+/// Drift plots: distance from the first fix against time (Fig 65) and the scatter about the mean.
+fn drift_panels(s: &DriftStats) -> Vec<PanelSpec> {
+    let distance = ChartSpec::new("Distance of each fix from the first (Fig 65)", "time [s]", "distance [m]")
+        .with(SeriesSpec::line("from the first fix", s.t_s.clone(), s.from_first_m.clone()))
+        .with(SeriesSpec::dashed("from the mean", s.t_s.clone(), s.from_mean_m.clone()))
+        .hline(s.max_from_first_m, format!("max {:.2} m", s.max_from_first_m));
+    let (e, n): (Vec<f64>, Vec<f64>) = s.en_about_mean_m.iter().map(|v| (v.x, v.y)).unzip();
+    let scatter = ChartSpec::new("Fixes about the mean position", "east [m]", "north [m]")
+        .equal_aspect()
+        .with(SeriesSpec::scatter("fixes", e, n))
+        .circle(0.0, 0.0, s.cep50_m, format!("CEP50 {:.2} m", s.cep50_m))
+        .circle(0.0, 0.0, s.cep95_m, format!("CEP95 {:.2} m", s.cep95_m));
+    vec![PanelSpec::Chart(distance), PanelSpec::Chart(scatter)]
+}
+
+/// Cone plots: the track with the marks circled (Figs 67/68), the consecutive distances with the spacing and
+/// the RMSE (Figs 69/70), and the along/cross components.
+fn cone_panels(test: &ConeTest, earth: Earth) -> Vec<PanelSpec> {
+    let origin = test.marks.first().map(|m| m.pos).or_else(|| test.track.first().map(|f| f.pos));
+    let Some(origin) = origin else { return Vec::new() };
+    let frame = LocalFrame::new(origin, earth);
+    let (te, tn): (Vec<f64>, Vec<f64>) = test
+        .track
+        .iter()
+        .map(|f| {
+            let v = frame.enu_from_wgs84(f.pos);
+            (v.x, v.y)
+        })
+        .unzip();
+    let mark_en: Vec<(f64, f64)> = test
+        .marks
+        .iter()
+        .map(|m| {
+            let v = frame.enu_from_wgs84(m.pos);
+            (v.x, v.y)
+        })
+        .collect();
+    let mut map = ChartSpec::new("Track and cone marks (Figs 67/68)", "east [m]", "north [m]")
+        .equal_aspect()
+        .with(SeriesSpec::line("track", te, tn))
+        .with(SeriesSpec::scatter(
+            "marks",
+            mark_en.iter().map(|p| p.0).collect(),
+            mark_en.iter().map(|p| p.1).collect(),
+        ));
+    for ((x, y), m) in mark_en.iter().zip(&test.marks) {
+        map = map.circle(*x, *y, 1.0, "");
+        map.annotations.push((*x, *y, m.label.clone()));
+    }
+    let mut panels = vec![PanelSpec::Chart(map)];
+    if let Some(s) = &test.stats {
+        let idx: Vec<f64> = (1..=s.distances_m.len()).map(|k| k as f64).collect();
+        let distances = ChartSpec::new("Distance between consecutive cones (Figs 69/70)", "segment", "distance [m]")
+            .with(SeriesSpec::line("measured", idx.clone(), s.distances_m.clone()))
+            .with(SeriesSpec::scatter("", idx.clone(), s.distances_m.clone()))
+            .hline(s.spacing_m, format!("nominal {} m", s.spacing_m))
+            .hline(s.mean_m, format!("mean {:.2} m", s.mean_m))
+            .hline(s.rmse_m, format!("RMSE {:.2} m", s.rmse_m));
+        let components = ChartSpec::new("Along- and cross-line components", "segment", "component [m]")
+            .with(SeriesSpec::line("along-line", idx.clone(), s.along_m.clone()))
+            .with(SeriesSpec::line("cross-line (right +)", idx, s.cross_m.clone()))
+            .hline(s.spacing_m, "nominal")
+            .hline(0.0, "");
+        panels.push(PanelSpec::Chart(distances));
+        panels.push(PanelSpec::Chart(components));
+    }
+    panels
 }

@@ -33,7 +33,7 @@ pub struct GuidanceSettings {
 }
 
 /// Messages to the guidance worker.
-#[derive(Debug, Clone)]
+#[derive(Clone)]
 pub enum GuidanceInput {
     /// A new fix.
     Fix(GpsFix),

@@ -360,7 +360,7 @@ impl MapView {
                 if !rect.expand(20.0).contains(*p) {
                     continue;
                 }
-                let id = ui.id().with(("wp", i));
+                let id = egui::Id::unique(("vestnav-waypoint", i));
                 let r = ui.interact(egui::Rect::from_center_size(*p, vec2(18.0, 18.0)), id, egui::Sense::click_and_drag());
                 if r.dragged() {
                     if let Some(pos) = r.interact_pointer_pos() {

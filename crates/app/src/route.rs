@@ -104,7 +104,7 @@ pub fn parse_gpx(text: &str) -> Result<GpxContent, String> {
 /// track as one track segment.
 pub fn write_gpx(name: &str, waypoints: &[Waypoint], track: &[(f64, f64)]) -> Result<String, String> {
     let mk = |name: Option<&str>, lat: f64, lon: f64| {
-        let mut w = gpx::Waypoint::new(gpx::Point::new(lon, lat));
+        let mut w = gpx::Waypoint::new(walkers::geo_types::Point::new(lon, lat));
         w.name = name.map(str::to_owned);
         w
     };

@@ -17,11 +17,14 @@
 //! ```
 
 pub mod analysis;
+pub mod fieldtest;
 pub mod fit;
 pub mod geo;
 pub mod gnss_sim;
+pub mod guidance;
 pub mod sweep;
 pub mod tactor;
 pub mod twopoint;
 pub mod vest;
 pub mod wave;
+pub mod wearer;

@@ -26,7 +26,8 @@
 
 use std::f64::consts::{PI, TAU};
 
-use glam::DVec2;
+/// The plane vector type of positions, re-exported so callers need no direct `glam` dependency.
+pub use glam::DVec2;
 use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
 use nalgebra::{DVector, Dyn, Owned, U2, Vector2};
 use serde::{Deserialize, Serialize};
@@ -104,7 +105,11 @@ pub fn spacing_for_fraction_m(width_m: f64, fraction: f64) -> Result<f64, WaveEr
         return Err(WaveError::OutOfRange { name: "fraction", expected: "in (0, 1)", value: fraction });
     }
     if !(width_m > 0.0 && width_m.is_finite()) {
-        return Err(WaveError::OutOfRange { name: "width_m", expected: "positive and finite", value: width_m });
+        return Err(WaveError::OutOfRange {
+            name: "width_m",
+            expected: "positive and finite",
+            value: width_m,
+        });
     }
     Ok(width_m * (1.0 / fraction).ln().sqrt())
 }
@@ -114,13 +119,19 @@ pub fn spacing_for_fraction_m(width_m: f64, fraction: f64) -> Result<f64, WaveEr
 /// Levenberg–Marquardt on the linear-space residuals. `r2` is computed in linear space.
 pub fn fit_attenuation(distance_m: &[f64], amplitude_m_s2: &[f64]) -> Result<AttenuationFit, WaveError> {
     if distance_m.len() != amplitude_m_s2.len() || distance_m.len() < 2 {
-        return Err(FitError::TooFewPoints { needed: 2, got: distance_m.len().min(amplitude_m_s2.len()) }.into());
+        return Err(
+            FitError::TooFewPoints { needed: 2, got: distance_m.len().min(amplitude_m_s2.len()) }.into()
+        );
     }
     if distance_m.iter().chain(amplitude_m_s2).any(|v| !v.is_finite()) {
         return Err(WaveError::OutOfRange { name: "data", expected: "finite", value: f64::NAN });
     }
-    let (d2, ln_a): (Vec<f64>, Vec<f64>) =
-        distance_m.iter().zip(amplitude_m_s2).filter(|(_, a)| **a > 0.0).map(|(d, a)| (d * d, a.ln())).unzip();
+    let (d2, ln_a): (Vec<f64>, Vec<f64>) = distance_m
+        .iter()
+        .zip(amplitude_m_s2)
+        .filter(|(_, a)| **a > 0.0)
+        .map(|(d, a)| (d * d, a.ln()))
+        .unzip();
     let start = fit_line(&d2, &ln_a)?;
     if start.slope >= 0.0 {
         return Err(WaveError::OutOfRange {
@@ -325,7 +336,9 @@ impl Skin {
                     value: d - prev,
                 });
             }
-            let t = self.next_crest_s(source, d, after, sample_rate_hz).ok_or(WaveError::NoCrest { distance_m: d })?;
+            let t = self
+                .next_crest_s(source, d, after, sample_rate_hz)
+                .ok_or(WaveError::NoCrest { distance_m: d })?;
             times.push(t);
             after = t;
             last_d = Some(d);
@@ -513,7 +526,11 @@ mod tests {
         let a = WaveSource::on_line(-0.01, 5.0, 0.03, f, 0.0);
         let b = WaveSource::on_line(0.01, 5.0, 0.03, f, 0.0);
         let p = DVec2::ZERO;
-        assert_relative_eq!(skin.peak_amplitude_m_s2(&[a, b], p), 2.0 * a.envelope_m_s2(p), max_relative = 1e-12);
+        assert_relative_eq!(
+            skin.peak_amplitude_m_s2(&[a, b], p),
+            2.0 * a.envelope_m_s2(p),
+            max_relative = 1e-12
+        );
         let b_opposite = WaveSource { phase_rad: PI, ..b };
         assert!(skin.peak_amplitude_m_s2(&[a, b_opposite], p) < 1e-12);
         // Same source a whole wavelength further away: the phases agree again (same sign, smaller envelope).

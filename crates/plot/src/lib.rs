@@ -1,11 +1,38 @@
-//! Report-quality PNG figures for vestnav, rasterised with tiny-skia and an embedded font.
+//! Report-quality PNG figures for vestnav: line, scatter and log-log charts, maps with equal axes, and
+//! heatmaps with a colorbar, laid out on a sheet and rasterised with tiny-skia.
 //!
-//! Placeholder crate doc while the renderer is being written.
+//! Every figure has a title, axis labels with units, "nice" 1-2-5 ticks (decades with minor ticks on log
+//! axes), a light grid, a frame and a legend placed in the emptiest corner. Text is drawn from glyph outlines
+//! of fonts embedded in the binary (egui's Ubuntu Light with Hack as fallback), so rendering needs no system
+//! fonts. Any input is accepted: NaN/inf values break lines and are skipped, log axes skip non-positive values,
+//! empty or degenerate ranges get a visible default, and lines of millions of points are reduced per pixel
+//! column (first, min, max, last) so they draw fast with every peak kept.
+//!
+//! ```
+//! use vestnav_plot::{Chart, Figure, Scale, Series};
+//!
+//! let t: Vec<f64> = (0..500).map(|i| f64::from(i) * 1e-3).collect();
+//! let theta: Vec<f64> = t.iter().map(|t| 1160.0 * t).collect();
+//! let chart = Chart::new("eccentric angle")
+//!     .x_label("time [s]")
+//!     .y_label("theta [rad]")
+//!     .y_scale(Scale::Linear)
+//!     .series(Series::line("unencased", t, theta))
+//!     .hline(300.0, "reference");
+//! let png = Figure::single(chart).render_png()?;
+//! assert_eq!(&png[1..4], b"PNG");
+//! # Ok::<(), vestnav_plot::PlotError>(())
+//! ```
 
+mod canvas;
 mod chart;
+mod colormap;
+mod draw_chart;
 mod figure;
 mod heatmap;
 mod style;
+mod text;
+mod ticks;
 
 pub use chart::{Chart, Marker, Scale, Series};
 pub use figure::{Figure, Panel};

@@ -1,1 +1,141 @@
-//! (being written)
+//! GPS: NMEA 0183 decoding into fixes, and the sources that produce them.
+//!
+//! - [`framing`]: bytes to checksummed sentences (resync, binary frames, junk, limits);
+//! - [`assembly`]: sentences to epochs to [`Fix`]es — the sans-IO [`NmeaDecoder`];
+//! - [`fix`]: the fix type;
+//! - [`gpsd`]: gpsd's JSON protocol (TPV/SKY to [`Fix`]);
+//! - [`nmea_out`]: NMEA sentence generation (simulator, emulator);
+//! - [`record`]: the timestamped recording format;
+//! - [`source`]: worker threads for serial, replay, gpsd and simulator sources with one event stream.
+//!
+//! ```
+//! use vestnav_device::gps::decode_reader;
+//! let log = "$GPGGA,110518.000,5709.8067,N,00207.2822,W,1,08,1.0,59.3,M,48.2,M,,0000*77\r\n";
+//! let (fixes, stats) = decode_reader(log.as_bytes()).unwrap();
+//! assert_eq!(fixes.len(), 1);
+//! assert!((fixes[0].lat_deg.unwrap() - 57.163445).abs() < 1e-9);
+//! assert_eq!(stats.rejected(), 0);
+//! ```
+
+pub mod assembly;
+pub mod fix;
+pub mod framing;
+pub mod gpsd;
+pub mod nmea_out;
+pub mod record;
+mod sentence;
+pub mod source;
+
+use std::io::Read;
+use std::path::Path;
+use std::time::Instant;
+
+use chrono::{DateTime, NaiveTime, Utc};
+
+pub use assembly::{DecoderConfig, NmeaDecoder};
+pub use fix::{Constellation, ErrorEstimate, ErrorSource, Fix, FixMode, FixQuality, Satellite};
+pub use framing::{DecodeStats, MAX_SENTENCE_LEN};
+pub use source::{GpsHandle, GpsSource, SourceConfig, SourceState};
+
+/// User equivalent range error of an autonomous (SPS) fix, 1 sigma [m], used by the DOP error model
+/// `sigma_h = HDOP * UERE` when the receiver sends no GST. 5 m is the typical single-frequency SPS figure
+/// (Misra & Enge, *Global Positioning System*, Table 7.4: ~5 m with broadcast ionosphere corrections).
+pub const UERE_M: f64 = 5.0;
+/// UERE for differential/SBAS/RTK fixes, 1 sigma [m]: a quarter of the autonomous one (gpsd divides its
+/// error estimates by 4 for DGPS as well).
+pub const UERE_DGPS_M: f64 = UERE_M / 4.0;
+
+/// An operator mark (`$PVNAV,MARK,<n>,<label>*hh` in a log), tied to the receiver time of the current epoch.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Mark {
+    /// Mark number as written (cone number in the cone test).
+    pub number: u32,
+    /// Free text label (may be empty).
+    pub label: String,
+    /// UTC date and time of the epoch the mark falls in, when known.
+    pub time: Option<DateTime<Utc>>,
+    /// UTC time of day of that epoch, when known.
+    pub time_of_day: Option<NaiveTime>,
+    /// The recorder's wall-clock time (the last `$PVNAV,TS` before the mark), Unix ms, when recorded.
+    pub recorded_unix_ms: Option<i64>,
+}
+
+/// Everything a GPS source reports, in order.
+#[derive(Debug, Clone, PartialEq)]
+pub enum GpsEvent {
+    /// A completed epoch.
+    Fix(Box<Fix>),
+    /// An operator mark.
+    Mark(Mark),
+    /// Running counts of accepted and rejected input (sent periodically by sources and at the end).
+    Stats(DecodeStats),
+    /// The source's connection state changed.
+    State(SourceState),
+}
+
+/// Errors of the GPS layer.
+#[derive(Debug, thiserror::Error)]
+pub enum GpsError {
+    /// Reading the input failed.
+    #[error("reading {what}: {source}")]
+    Io {
+        /// What was being read.
+        what: String,
+        /// The OS error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// A route file could not be used.
+    #[error("route {path}: {reason}")]
+    Route {
+        /// The file.
+        path: String,
+        /// Why.
+        reason: String,
+    },
+}
+
+/// Decodes a whole NMEA stream (a log file, a recording) into one fix per epoch, plus the marks.
+pub fn decode_reader_with_marks(mut reader: impl Read) -> std::io::Result<(Vec<Fix>, Vec<Mark>, DecodeStats)> {
+    let mut decoder = NmeaDecoder::new(DecoderConfig::file());
+    let mut fixes = Vec::new();
+    let mut marks = Vec::new();
+    let mut buf = vec![0u8; 64 * 1024];
+    let now = Instant::now();
+    loop {
+        let n = match reader.read(&mut buf) {
+            Ok(0) => break,
+            Ok(n) => n,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+            Err(e) => return Err(e),
+        };
+        decoder.handle_bytes(&buf[..n], now);
+        drain(&mut decoder, &mut fixes, &mut marks);
+    }
+    decoder.finish(now);
+    drain(&mut decoder, &mut fixes, &mut marks);
+    Ok((fixes, marks, *decoder.stats()))
+}
+
+fn drain(decoder: &mut NmeaDecoder, fixes: &mut Vec<Fix>, marks: &mut Vec<Mark>) {
+    while let Some(ev) = decoder.poll_event() {
+        match ev {
+            GpsEvent::Fix(f) => fixes.push(*f),
+            GpsEvent::Mark(m) => marks.push(m),
+            GpsEvent::Stats(_) | GpsEvent::State(_) => {}
+        }
+    }
+}
+
+/// Decodes a whole NMEA stream into one fix per epoch.
+pub fn decode_reader(reader: impl Read) -> std::io::Result<(Vec<Fix>, DecodeStats)> {
+    decode_reader_with_marks(reader).map(|(f, _, s)| (f, s))
+}
+
+/// Decodes an NMEA log file into one fix per epoch.
+pub fn decode_file(path: &Path) -> Result<(Vec<Fix>, DecodeStats), GpsError> {
+    let file = std::fs::File::open(path)
+        .map_err(|source| GpsError::Io { what: path.display().to_string(), source })?;
+    decode_reader(std::io::BufReader::new(file))
+        .map_err(|source| GpsError::Io { what: path.display().to_string(), source })
+}

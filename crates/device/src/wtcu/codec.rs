@@ -121,7 +121,9 @@ impl DecodeError {
     /// The sequence number of the frame, when its CRC was valid (so the header can be trusted).
     pub fn seq(&self) -> Option<u8> {
         match self {
-            Self::Version { seq, .. } | Self::UnknownType { seq, .. } | Self::Malformed { seq, .. } => Some(*seq),
+            Self::Version { seq, .. } | Self::UnknownType { seq, .. } | Self::Malformed { seq, .. } => {
+                Some(*seq)
+            }
             _ => None,
         }
     }
@@ -165,7 +167,7 @@ pub trait WireCodec: Send {
 
 /// COBS-encodes `data` into `out` (no delimiters).
 ///
-/// Consistent Overhead Byte Stuffing (Cheshire & Baker, IEEE/ACM ToN 1999): each run of up to 254 non-zero
+/// Consistent Overhead Byte Stuffing (Cheshire & Baker, IEEE/ACM Transactions on Networking, 1999): each run of up to 254 non-zero
 /// bytes is preceded by a code byte = run length + 1; a code below 0xFF implies a zero after the run.
 pub fn cobs_encode(data: &[u8], out: &mut Vec<u8>) {
     let mut code_at = out.len();
@@ -319,6 +321,8 @@ impl Reader<'_> {
     }
 }
 
+// Outer `None`: malformed payload; inner `None`: unknown type (the `?` on each field keeps it short).
+#[allow(clippy::option_option)]
 fn parse_request(kind: u8, payload: &[u8]) -> Option<Option<Request>> {
     use msg_type::{FIRE, GET_STATUS, HEARTBEAT, HELLO, PLAY, SET_INTENSITY, STOP_ALL};
     let mut r = Reader { data: payload };
@@ -344,6 +348,7 @@ fn parse_request(kind: u8, payload: &[u8]) -> Option<Option<Request>> {
     Some(Some(req))
 }
 
+#[allow(clippy::option_option)]
 fn parse_reply(kind: u8, payload: &[u8]) -> Option<Option<Reply>> {
     use msg_type::{ACK, IDENTIFY, NAK, REPORT, STATUS};
     let mut r = Reader { data: payload };
@@ -387,6 +392,7 @@ fn parse_reply(kind: u8, payload: &[u8]) -> Option<Option<Reply>> {
 }
 
 /// Parses a block with `parse`, which returns `None` for a malformed payload and `Some(None)` for an unknown type.
+#[allow(clippy::option_option)]
 fn decode_block<M>(
     block: Result<&[u8], DecodeError>,
     parse: fn(u8, &[u8]) -> Option<Option<M>>,
@@ -412,7 +418,8 @@ impl WireCodec for V1Codec {
                 FIRE
             }
             Request::Play { frames, repeats } => {
-                let count = u8::try_from(frames.len()).map_err(|_| EncodeError { len: 2 + 4 * frames.len() })?;
+                let count =
+                    u8::try_from(frames.len()).map_err(|_| EncodeError { len: 2 + 4 * frames.len() })?;
                 p.extend_from_slice(&[*repeats, count]);
                 for f in frames {
                     p.extend_from_slice(&f.mask.0.to_le_bytes());

@@ -286,20 +286,17 @@ impl<C: WireCodec> Engine<C> {
     }
 
     fn handle_decode_error(&mut self, err: DecodeError) {
-        match err.nak_reason() {
-            Some(reason) => {
-                if reason == NakReason::BadCrc {
-                    self.stats.bad_crc += 1;
-                    self.faults = self.faults | Faults::LINE_ERRORS;
-                }
-                let seq = err.seq();
-                self.nak(seq.unwrap_or(0), reason, err.to_string(), seq);
-            }
-            None => {
-                self.stats.garbage += 1;
+        if let Some(reason) = err.nak_reason() {
+            if reason == NakReason::BadCrc {
+                self.stats.bad_crc += 1;
                 self.faults = self.faults | Faults::LINE_ERRORS;
-                self.events.push_back(EngineEvent::Dropped(err));
             }
+            let seq = err.seq();
+            self.nak(seq.unwrap_or(0), reason, err.to_string(), seq);
+        } else {
+            self.stats.garbage += 1;
+            self.faults = self.faults | Faults::LINE_ERRORS;
+            self.events.push_back(EngineEvent::Dropped(err));
         }
     }
 

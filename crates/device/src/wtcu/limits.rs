@@ -107,6 +107,7 @@ impl LimitError {
 
 impl Limits {
     /// The stricter of two sets of limits, field by field (console limits against the unit's).
+    #[must_use]
     pub fn tighter(&self, other: &Self) -> Self {
         Self {
             max_on_ms: self.max_on_ms.min(other.max_on_ms),
@@ -127,7 +128,10 @@ impl Limits {
             return Err(LimitError::ZeroDuration);
         }
         if duration_ms > self.max_on_ms {
-            return Err(LimitError::OnTooLong { requested_ms: u32::from(duration_ms), max_ms: self.max_on_ms });
+            return Err(LimitError::OnTooLong {
+                requested_ms: u32::from(duration_ms),
+                max_ms: self.max_on_ms,
+            });
         }
         if mask.count() > u32::from(self.max_simultaneous) {
             return Err(LimitError::TooManyTactors { requested: mask.count(), max: self.max_simultaneous });
@@ -262,7 +266,12 @@ impl DutyLedger {
     }
 
     /// Checks the duty-cycle budget for `planned_ms` more on-time per tactor, starting at `now`.
-    pub fn check(&self, planned_ms: &[u32; TACTOR_COUNT], now: Instant, limits: &Limits) -> Result<(), LimitError> {
+    pub fn check(
+        &self,
+        planned_ms: &[u32; TACTOR_COUNT],
+        now: Instant,
+        limits: &Limits,
+    ) -> Result<(), LimitError> {
         let window = Duration::from_millis(u64::from(limits.duty_window_ms));
         for (tactor, &requested_ms) in planned_ms.iter().enumerate() {
             if requested_ms == 0 {
@@ -343,8 +352,9 @@ mod tests {
         assert_eq!(ledger.spent_ms(0, now, ms(10_000)), 4000);
         assert_eq!(ledger.check(&planned_fire_ms(TactorMask(1), 1000), now, &l), Ok(()));
         assert!(ledger.check(&planned_fire_ms(TactorMask(1), 1001), now, &l).is_err());
-        // 11 s later only the part of the second interval inside [1 s, 11 s] counts.
-        assert_eq!(ledger.spent_ms(0, t0 + ms(11_000), ms(10_000)), 2000);
+        // At 11 s the window is [1 s, 11 s]: 1000 ms of the first interval and all 2000 of the second.
+        assert_eq!(ledger.spent_ms(0, t0 + ms(11_000), ms(10_000)), 3000);
+        assert_eq!(ledger.spent_ms(0, t0 + ms(12_000), ms(10_000)), 2000);
         ledger.truncate_after(t0 + ms(4000));
         assert_eq!(ledger.spent_ms(0, now, ms(10_000)), 3000);
     }

@@ -1,0 +1,498 @@
+//! A closed-loop simulated wearer: a person walking a route, guided only by vest cues, seen through a
+//! simulated GPS receiver.
+//!
+//! Each run is seeded and deterministic. The loop, at a fixed step `dt_s` (default 0.1 s):
+//! 1. the wearer walks at `pace_m_s` on their heading, which wanders as a random walk
+//!    (`veer_deg_per_sqrt_s`: nobody walks perfectly straight without sight of the goal);
+//! 2. every `fix_interval_s` (1 Hz like the SiRF III) the true position goes through
+//!    [`crate::gnss_sim::GnssErrorState`] (noise, wandering bias, static-navigation pinning); the receiver's
+//!    COG is the true heading plus `cog_noise_deg` noise and its speed the true speed;
+//! 3. [`crate::guidance::Guidance::update`] runs every step with the last fix and its age;
+//! 4. a cue is *recognised* with probability `recognition` (thesis §6: ~92 % while walking); a recognised
+//!    cue is acted on `reaction_s` after its pattern **ends**, by turning toward a new heading at
+//!    `turn_rate_deg_s`. Turn amounts per cue: Forward 0, Slight ±`slight_turn_deg` (20°), Turn
+//!    ±`turn_deg` (70°), TurnAround 180°, each plus N(0, `turn_noise_deg`²); Stop halts the walker;
+//!    Attention and Arrived change nothing.
+//!
+//! Metrics: cross-track RMSE of the **true** path to the route polyline (from leaving the first waypoint to
+//! the finish), time to finish, cues per minute, waypoints reached and missed (passed abeam or never
+//! reached), and both paths for plotting.
+//!
+//! ```
+//! use vestnav_core::geo::LatLon;
+//! use vestnav_core::guidance::{StrategyKind, Waypoint};
+//! use vestnav_core::wearer::{SimConfig, simulate};
+//! let wps = vec![
+//!     Waypoint::new("a", LatLon::new(42.3562, -71.1000)),
+//!     Waypoint::new("b", LatLon::new(42.3572, -71.1000)),
+//! ];
+//! let r = simulate(&wps, &SimConfig::new(StrategyKind::Pursuit), 1).unwrap();
+//! assert!(r.finished && r.cross_track_rmse_m < 10.0);
+//! ```
+
+use std::collections::BTreeMap;
+
+use glam::DVec2;
+use rand::rngs::StdRng;
+use rand::{RngExt, SeedableRng};
+use rand_distr::{Distribution, StandardNormal};
+use serde::{Deserialize, Serialize};
+
+use crate::geo::{LocalFrame, bearing_of_enu_deg, normalize_deg, wrap_deg_180};
+use crate::gnss_sim::{GnssErrorModel, GnssErrorState};
+use crate::guidance::{
+    Guidance, GuidanceConfig, NavInput, NavState, Route, RouteConfig, RouteError, RouteEvent, StrategyKind,
+    Waypoint,
+};
+use crate::vest::Cue;
+
+/// How the simulated person walks and reacts.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct WearerModel {
+    /// Walking speed [m/s] (default 1.4, a normal walk; above the SiRF static-navigation threshold 1.2).
+    pub pace_m_s: f64,
+    /// Delay from the end of a cue's pattern to the start of the turn [s] (default 0.8).
+    pub reaction_s: f64,
+    /// Turning rate of a walking person [deg/s] (default 90).
+    pub turn_rate_deg_s: f64,
+    /// Heading change for SlightLeft/Right [deg] (default 20).
+    pub slight_turn_deg: f64,
+    /// Heading change for TurnLeft/Right [deg] (default 70).
+    pub turn_deg: f64,
+    /// Standard deviation of every executed turn [deg] (default 10).
+    pub turn_noise_deg: f64,
+    /// Heading random walk while walking [deg/sqrt(s)] (default 2).
+    pub veer_deg_per_sqrt_s: f64,
+    /// Probability that a cue is recognised (default 0.92, thesis §6 while walking).
+    pub recognition: f64,
+    /// Initial heading error from the first leg's direction, drawn uniformly in ±this [deg] (default 30).
+    pub initial_heading_error_deg: f64,
+}
+
+impl Default for WearerModel {
+    fn default() -> Self {
+        Self {
+            pace_m_s: 1.4,
+            reaction_s: 0.8,
+            turn_rate_deg_s: 90.0,
+            slight_turn_deg: 20.0,
+            turn_deg: 70.0,
+            turn_noise_deg: 10.0,
+            veer_deg_per_sqrt_s: 2.0,
+            recognition: 0.92,
+            initial_heading_error_deg: 30.0,
+        }
+    }
+}
+
+impl WearerModel {
+    /// The heading change a recognised cue asks for [deg] (before noise); `None` for cues that do not turn.
+    pub fn turn_for(&self, cue: Cue) -> Option<f64> {
+        match cue {
+            Cue::Forward => Some(0.0),
+            Cue::SlightLeft => Some(-self.slight_turn_deg),
+            Cue::SlightRight => Some(self.slight_turn_deg),
+            Cue::TurnLeft => Some(-self.turn_deg),
+            Cue::TurnRight => Some(self.turn_deg),
+            Cue::TurnAround => Some(180.0),
+            Cue::Stop | Cue::Attention | Cue::Arrived => None,
+        }
+    }
+}
+
+/// Settings of one simulation.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct SimConfig {
+    /// Strategy under test.
+    pub strategy: StrategyKind,
+    /// Guidance settings.
+    pub guidance: GuidanceConfig,
+    /// Route settings.
+    pub route: RouteConfig,
+    /// The walker.
+    pub wearer: WearerModel,
+    /// The receiver's error model.
+    pub gnss: GnssErrorModel,
+    /// COG noise of the receiver while moving [deg] (default 5).
+    pub cog_noise_deg: f64,
+    /// Simulation step [s] (default 0.1).
+    pub dt_s: f64,
+    /// Interval between fixes [s] (default 1: 1 Hz).
+    pub fix_interval_s: f64,
+    /// Give up after this many times the nominal walking time, plus 120 s (default 3).
+    pub timeout_factor: f64,
+}
+
+impl SimConfig {
+    /// Defaults with the given strategy: SiRF III open-sky errors, 1 Hz, thesis vest timing.
+    pub fn new(strategy: StrategyKind) -> Self {
+        Self {
+            strategy,
+            guidance: GuidanceConfig::default(),
+            route: RouteConfig::default(),
+            wearer: WearerModel::default(),
+            gnss: GnssErrorModel::sirf3_open_sky(),
+            cog_noise_deg: 5.0,
+            dt_s: 0.1,
+            fix_interval_s: 1.0,
+            timeout_factor: 3.0,
+        }
+    }
+}
+
+/// Outcome of one simulated walk.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SimResult {
+    /// Strategy name.
+    pub strategy: String,
+    /// Seed of the run.
+    pub seed: u64,
+    /// Whether the route was finished before the timeout.
+    pub finished: bool,
+    /// Time of the finish (or of the timeout) [s].
+    pub time_s: f64,
+    /// Nominal time: route length / pace [s].
+    pub nominal_time_s: f64,
+    /// Distance actually walked [m].
+    pub walked_m: f64,
+    /// RMS distance of the true path to the route polyline [m].
+    pub cross_track_rmse_m: f64,
+    /// Largest distance of the true path to the route [m].
+    pub max_cross_track_m: f64,
+    /// Cues sent.
+    pub cues: usize,
+    /// Cues per minute.
+    pub cues_per_min: f64,
+    /// Cues by name.
+    pub cue_counts: BTreeMap<String, usize>,
+    /// Waypoints reached (arrival radius).
+    pub waypoints_reached: usize,
+    /// Waypoints missed: passed abeam, or not reached before the timeout.
+    pub waypoints_missed: usize,
+    /// True path, east/north about the first waypoint [m], one point per fix.
+    pub path_true_en_m: Vec<DVec2>,
+    /// Reported fixes, east/north about the first waypoint [m].
+    pub path_fix_en_m: Vec<DVec2>,
+    /// Waypoints, east/north about the first waypoint [m].
+    pub waypoints_en_m: Vec<DVec2>,
+}
+
+/// Distance from `p` to the polyline through `pts` [m] (planar): min over segments of the distance to the
+/// segment, `|p - (a + clamp(t, 0, 1)(b - a))|` with `t = (p - a)·(b - a)/|b - a|^2`.
+pub fn distance_to_polyline_m(p: DVec2, pts: &[DVec2]) -> f64 {
+    match pts {
+        [] => f64::INFINITY,
+        [only] => (p - *only).length(),
+        _ => pts
+            .windows(2)
+            .map(|w| {
+                let (a, b) = (w[0], w[1]);
+                let ab = b - a;
+                let len2 = ab.length_squared();
+                let t = if len2 > 0.0 { ((p - a).dot(ab) / len2).clamp(0.0, 1.0) } else { 0.0 };
+                (p - (a + ab * t)).length()
+            })
+            .fold(f64::INFINITY, f64::min),
+    }
+}
+
+fn normal(rng: &mut StdRng) -> f64 {
+    StandardNormal.sample(rng)
+}
+
+/// Runs one closed-loop walk along `waypoints` (see the module doc). Deterministic for a given `seed`.
+pub fn simulate(waypoints: &[Waypoint], config: &SimConfig, seed: u64) -> Result<SimResult, RouteError> {
+    let route = Route::new(waypoints.to_vec(), config.route)?;
+    let mut guidance = Guidance::new(route, config.guidance, config.strategy);
+    let frame = LocalFrame::new(waypoints[0].pos, config.guidance.earth);
+    let wps_en: Vec<DVec2> = waypoints.iter().map(|w| frame.enu_from_wgs84(w.pos)).collect();
+    let length_m: f64 = wps_en.windows(2).map(|w| (w[1] - w[0]).length()).sum();
+    let w = config.wearer;
+    let pace = w.pace_m_s.max(0.1);
+    let nominal_time_s = length_m / pace;
+    let timeout_s = config.timeout_factor.max(1.0) * nominal_time_s + 120.0;
+    let dt = config.dt_s.clamp(0.01, 1.0);
+    let fix_every = (config.fix_interval_s / dt).round().max(1.0) as u64;
+
+    let mut rng = StdRng::seed_from_u64(seed);
+    let mut gnss = GnssErrorState::new(config.gnss, seed.wrapping_mul(0x9E37_79B9_7F4A_7C15).wrapping_add(1));
+    let first_leg = wps_en.get(1).map_or(DVec2::Y, |b| *b - wps_en[0]);
+    let spread = w.initial_heading_error_deg.abs();
+    let mut heading = normalize_deg(bearing_of_enu_deg(first_leg) + rng.random_range(-spread..=spread));
+    let mut target_heading = heading;
+    let mut pos = wps_en[0];
+    let mut walking = true;
+    let mut pending: Vec<(f64, f64)> = Vec::new(); // (time to act, heading change), in cue order
+    let mut last_fix: Option<(f64, DVec2, f64, f64)> = None; // (time, en, cog, speed)
+    let mut result = SimResult {
+        strategy: config.strategy.name().to_owned(),
+        seed,
+        finished: false,
+        time_s: 0.0,
+        nominal_time_s,
+        walked_m: 0.0,
+        cross_track_rmse_m: 0.0,
+        max_cross_track_m: 0.0,
+        cues: 0,
+        cues_per_min: 0.0,
+        cue_counts: BTreeMap::new(),
+        waypoints_reached: 0,
+        waypoints_missed: 0,
+        path_true_en_m: Vec::new(),
+        path_fix_en_m: Vec::new(),
+        waypoints_en_m: wps_en.clone(),
+    };
+    let (mut xt_sum2, mut xt_n) = (0.0, 0usize);
+    let mut left_start = false;
+    let mut step: u64 = 0;
+    loop {
+        let t = step as f64 * dt;
+        if t > timeout_s {
+            break;
+        }
+        // Sensor: a fix every `fix_every` steps.
+        let speed = if walking { pace } else { 0.0 };
+        if step % fix_every == 0 {
+            let fix_en = gnss.apply(config.fix_interval_s, pos, speed);
+            let cog = normalize_deg(heading + config.cog_noise_deg * normal(&mut rng));
+            last_fix = Some((t, fix_en, cog, speed));
+            result.path_true_en_m.push(pos);
+            result.path_fix_en_m.push(fix_en);
+        }
+        let input = last_fix.map_or_else(NavInput::default, |(tf, en, cog, spd)| NavInput {
+            fix_age_s: t - tf,
+            ..NavInput::moving(frame.wgs84_from_enu(en), cog, spd)
+        });
+        let decision = guidance.update(&input, t);
+        match decision.event {
+            Some(RouteEvent::Arrived(_)) => {
+                result.waypoints_reached += 1;
+                left_start = true;
+            }
+            Some(RouteEvent::Passed(_)) => result.waypoints_missed += 1,
+            Some(RouteEvent::Finished) => {
+                // The last waypoint: reached unless it was passed (the route reports Finished for both).
+                let last = wps_en[wps_en.len() - 1];
+                if (pos - last).length() <= config.route.pass_radius_m {
+                    result.waypoints_reached += 1;
+                } else {
+                    result.waypoints_missed += 1;
+                }
+            }
+            None => {}
+        }
+        if let (Some(cue), Some(pattern)) = (decision.cue, decision.pattern.as_ref()) {
+            result.cues += 1;
+            *result.cue_counts.entry(cue.name().to_owned()).or_default() += 1;
+            if rng.random::<f64>() < w.recognition {
+                let act_at = t + f64::from(pattern.total_ms()) / 1000.0 + w.reaction_s;
+                if cue == Cue::Stop {
+                    walking = false;
+                } else if let Some(turn) = w.turn_for(cue) {
+                    let noise = if turn == 0.0 { 0.0 } else { w.turn_noise_deg * normal(&mut rng) };
+                    pending.push((act_at, turn + noise));
+                }
+            }
+        }
+        if decision.state == NavState::Finished && guidance.route().is_finished() && !result.finished {
+            result.finished = true;
+            result.time_s = t;
+            break;
+        }
+        // Act on each recognised cue when its reaction time has come, in order.
+        while let Some(&(at, change)) = pending.first()
+            && t >= at
+        {
+            target_heading = normalize_deg(heading + change);
+            pending.remove(0);
+        }
+        // Walk: turn toward the target heading at the turn rate, veer, advance.
+        let diff = wrap_deg_180(target_heading - heading);
+        let max_turn = w.turn_rate_deg_s * dt;
+        heading = normalize_deg(heading + diff.clamp(-max_turn, max_turn));
+        let veer = w.veer_deg_per_sqrt_s * dt.sqrt() * normal(&mut rng);
+        heading = normalize_deg(heading + veer);
+        target_heading = normalize_deg(target_heading + veer);
+        if walking {
+            let h = heading.to_radians();
+            let stepv = DVec2::new(h.sin(), h.cos()) * pace * dt;
+            pos += stepv;
+            result.walked_m += stepv.length();
+        }
+        if left_start || (pos - wps_en[0]).length() > config.route.arrival_radius_m {
+            left_start = true;
+            let xt = distance_to_polyline_m(pos, &wps_en);
+            xt_sum2 += xt * xt;
+            xt_n += 1;
+            result.max_cross_track_m = result.max_cross_track_m.max(xt);
+        }
+        step += 1;
+    }
+    if !result.finished {
+        result.time_s = timeout_s;
+        let active = guidance.route().active_index();
+        result.waypoints_missed += waypoints.len().saturating_sub(active);
+    }
+    result.cross_track_rmse_m = if xt_n > 0 { (xt_sum2 / xt_n as f64).sqrt() } else { 0.0 };
+    result.cues_per_min = if result.time_s > 0.0 { result.cues as f64 / (result.time_s / 60.0) } else { 0.0 };
+    Ok(result)
+}
+
+/// Mean, standard deviation and extremes of one metric over runs.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Spread {
+    /// Mean.
+    pub mean: f64,
+    /// Sample standard deviation (n - 1); 0 for one run.
+    pub sd: f64,
+    /// Smallest value.
+    pub min: f64,
+    /// Largest value.
+    pub max: f64,
+}
+
+impl Spread {
+    /// Statistics of `values` (all zeros when empty).
+    pub fn of(values: &[f64]) -> Self {
+        if values.is_empty() {
+            return Self { mean: 0.0, sd: 0.0, min: 0.0, max: 0.0 };
+        }
+        let n = values.len() as f64;
+        let mean = values.iter().sum::<f64>() / n;
+        let sd = if values.len() > 1 {
+            (values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt()
+        } else {
+            0.0
+        };
+        let min = values.iter().copied().fold(f64::INFINITY, f64::min);
+        let max = values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        Self { mean, sd, min, max }
+    }
+}
+
+/// Summary of many runs of one strategy.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SimSummary {
+    /// Strategy name.
+    pub strategy: String,
+    /// Number of runs.
+    pub runs: usize,
+    /// Fraction of runs that finished.
+    pub finish_rate: f64,
+    /// Cross-track RMSE [m].
+    pub cross_track_rmse_m: Spread,
+    /// Time to finish (timeout for unfinished runs) [s].
+    pub time_s: Spread,
+    /// Cues per minute.
+    pub cues_per_min: Spread,
+    /// Waypoints missed per run.
+    pub waypoints_missed: Spread,
+}
+
+impl SimSummary {
+    /// Summarises `results` (all of one strategy).
+    pub fn of(results: &[SimResult]) -> Self {
+        let get = |f: fn(&SimResult) -> f64| Spread::of(&results.iter().map(f).collect::<Vec<_>>());
+        Self {
+            strategy: results.first().map_or_else(String::new, |r| r.strategy.clone()),
+            runs: results.len(),
+            finish_rate: if results.is_empty() {
+                0.0
+            } else {
+                results.iter().filter(|r| r.finished).count() as f64 / results.len() as f64
+            },
+            cross_track_rmse_m: get(|r| r.cross_track_rmse_m),
+            time_s: get(|r| r.time_s),
+            cues_per_min: get(|r| r.cues_per_min),
+            waypoints_missed: get(|r| r.waypoints_missed as f64),
+        }
+    }
+}
+
+/// Runs `runs` walks with seeds `seed, seed + 1, ...` and summarises them.
+pub fn simulate_many(
+    waypoints: &[Waypoint],
+    config: &SimConfig,
+    runs: usize,
+    seed: u64,
+) -> Result<(Vec<SimResult>, SimSummary), RouteError> {
+    let results = (0..runs as u64)
+        .map(|i| simulate(waypoints, config, seed.wrapping_add(i)))
+        .collect::<Result<Vec<_>, _>>()?;
+    let summary = SimSummary::of(&results);
+    Ok((results, summary))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geo::{Earth, LatLon};
+    use approx::assert_relative_eq;
+
+    fn square() -> Vec<Waypoint> {
+        let o = LatLon::new(42.3575, -71.1010);
+        let e = Earth::Wgs84;
+        let a = e.direct(o, 0.0, 100.0);
+        let b = e.direct(a, 90.0, 100.0);
+        let c = e.direct(b, 180.0, 100.0);
+        vec![Waypoint::new("o", o), Waypoint::new("a", a), Waypoint::new("b", b), Waypoint::new("c", c)]
+    }
+
+    fn brief(r: &SimResult) -> String {
+        format!(
+            "finished {} t {:.0}/{:.0} s, xt {:.1} m, cues {:?}, reached {}, missed {}",
+            r.finished, r.time_s, r.nominal_time_s, r.cross_track_rmse_m, r.cue_counts, r.waypoints_reached,
+            r.waypoints_missed
+        )
+    }
+
+    #[test]
+    fn polyline_distance_closed_form() {
+        let pts = [DVec2::ZERO, DVec2::new(10.0, 0.0), DVec2::new(10.0, 10.0)];
+        assert_relative_eq!(distance_to_polyline_m(DVec2::new(5.0, 3.0), &pts), 3.0);
+        assert_relative_eq!(distance_to_polyline_m(DVec2::new(13.0, 5.0), &pts), 3.0);
+        assert_relative_eq!(distance_to_polyline_m(DVec2::new(-3.0, -4.0), &pts), 5.0);
+    }
+
+    #[test]
+    fn perfect_wearer_and_gps_follow_the_route() {
+        let mut cfg = SimConfig::new(StrategyKind::Pursuit);
+        cfg.gnss = GnssErrorModel::perfect();
+        cfg.cog_noise_deg = 0.0;
+        cfg.wearer = WearerModel {
+            turn_noise_deg: 0.0,
+            veer_deg_per_sqrt_s: 0.0,
+            recognition: 1.0,
+            initial_heading_error_deg: 0.0,
+            ..WearerModel::default()
+        };
+        let r = simulate(&square(), &cfg, 3).unwrap();
+        assert!(r.finished, "{}", brief(&r));
+        assert_eq!(r.waypoints_reached, 4);
+        assert_eq!(r.waypoints_missed, 0);
+        // 300 m at 1.4 m/s = 214 s; the corners and their cues add some.
+        assert!(r.time_s > r.nominal_time_s && r.time_s < 1.5 * r.nominal_time_s, "{}", brief(&r));
+        assert!(r.cross_track_rmse_m < 5.0, "{}", r.cross_track_rmse_m);
+    }
+
+    #[test]
+    fn runs_are_deterministic_per_seed() {
+        let cfg = SimConfig::new(StrategyKind::BearingOnly);
+        let a = simulate(&square(), &cfg, 11).unwrap();
+        let b = simulate(&square(), &cfg, 11).unwrap();
+        assert!(a == b, "same seed, different runs");
+        let c = simulate(&square(), &cfg, 12).unwrap();
+        assert_ne!(a.path_true_en_m, c.path_true_en_m);
+    }
+
+    #[test]
+    fn realistic_runs_mostly_finish() {
+        for kind in StrategyKind::ALL {
+            let (_, s) = simulate_many(&square(), &SimConfig::new(kind), 8, 100).unwrap();
+            println!("{s:?}");
+            assert!(s.finish_rate >= 0.75, "{s:?}");
+            assert!(s.cross_track_rmse_m.mean < 15.0, "{s:?}");
+            assert!(s.cues_per_min.mean > 1.0 && s.cues_per_min.mean < 30.0, "{s:?}");
+        }
+    }
+}

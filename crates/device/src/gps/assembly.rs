@@ -1,0 +1,540 @@
+//! Sentences to epochs to fixes: the sans-IO NMEA decoder.
+//!
+//! A receiver sends a burst of sentences per epoch (1 Hz on the BT-359). We group them:
+//! - a time-bearing sentence (GGA, RMC, GLL, GNS, ZDA, GST) whose UTC time differs from the current
+//!   epoch's closes the epoch;
+//! - so does a second sentence of a type already seen in this epoch (except GSA and GSV, which come in
+//!   several parts) — this separates epochs that carry no time at all (a receiver without a fix often
+//!   sends `$GPGGA,,,,,,0,...`);
+//! - with `early_emit` (live sources), the decoder learns the receiver's last sentence of a cycle (the
+//!   type that ended the previous two epochs) and closes the epoch as soon as it arrives, instead of
+//!   waiting for the next epoch's first sentence; [`NmeaDecoder::handle_timeout`] closes an epoch after
+//!   a quiet gap. If a later sentence still carries the closed epoch's time, the learning is reset and an
+//!   amended fix for the same time follows.
+//!
+//! GSA (DOPs, satellites used) and GSV (satellites in view) are receiver state: they persist across
+//! epochs until replaced, because receivers send them less often than GGA/RMC (the GPSlim 236 sends GSA
+//! every 5 s). The date comes from RMC or ZDA and rolls over at midnight on its own when the time of day
+//! wraps before the next date arrives.
+
+use std::collections::{BTreeMap, BTreeSet, VecDeque};
+use std::time::{Duration, Instant};
+
+use chrono::{DateTime, NaiveDate, NaiveTime, Utc};
+
+use super::fix::{Constellation, ErrorEstimate, ErrorSource, Fix, FixMode, FixQuality, Satellite};
+use super::framing::{DecodeStats, Framer};
+use super::sentence::{self, Parsed, Unused};
+use super::{GpsEvent, Mark, UERE_DGPS_M, UERE_M};
+
+/// Decoder settings.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DecoderConfig {
+    /// Close an epoch at the learned last sentence of the cycle (live use) rather than at the next
+    /// epoch's first sentence (file decoding: exactly one fix per epoch).
+    pub early_emit: bool,
+    /// Close the current epoch when no sentence arrived for this long ([`NmeaDecoder::handle_timeout`]).
+    pub quiet_gap: Duration,
+}
+
+impl DecoderConfig {
+    /// For files: one fix per epoch, closed by the next epoch.
+    pub fn file() -> Self {
+        Self { early_emit: false, quiet_gap: Duration::from_millis(400) }
+    }
+
+    /// For live streams: fixes as soon as the epoch is complete.
+    pub fn live() -> Self {
+        Self { early_emit: true, quiet_gap: Duration::from_millis(400) }
+    }
+}
+
+impl Default for DecoderConfig {
+    fn default() -> Self {
+        Self::live()
+    }
+}
+
+/// Sentence kinds that appear once per epoch (a repeat starts a new epoch).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+enum Kind {
+    Gga,
+    Rmc,
+    Gll,
+    Gns,
+    Vtg,
+    Zda,
+    Gst,
+    Heading,
+    Pgrme,
+    Gsa,
+    Gsv,
+    Other,
+}
+
+fn kind_of(p: &Parsed) -> Kind {
+    match p {
+        Parsed::Gga { .. } => Kind::Gga,
+        Parsed::Rmc { .. } => Kind::Rmc,
+        Parsed::Gll { .. } => Kind::Gll,
+        Parsed::Gns { .. } => Kind::Gns,
+        Parsed::Vtg { .. } => Kind::Vtg,
+        Parsed::Zda { .. } => Kind::Zda,
+        Parsed::Gst { .. } => Kind::Gst,
+        Parsed::Heading { .. } => Kind::Heading,
+        Parsed::Pgrme { .. } => Kind::Pgrme,
+        Parsed::Gsa { .. } => Kind::Gsa,
+        Parsed::Gsv { .. } => Kind::Gsv,
+        _ => Kind::Other,
+    }
+}
+
+#[derive(Debug, Clone, Default)]
+struct GsaPart {
+    mode: Option<FixMode>,
+    ids: Vec<(Constellation, u16)>,
+    pdop: Option<f64>,
+    hdop: Option<f64>,
+    vdop: Option<f64>,
+}
+
+/// What the current epoch has said so far.
+#[derive(Debug, Clone, Default)]
+struct Epoch {
+    tod: Option<NaiveTime>,
+    date: Option<NaiveDate>,
+    seen: BTreeSet<Kind>,
+    last_kind: Option<Kind>,
+    gga: Option<(Option<(f64, f64)>, Option<FixQuality>, Option<u32>, Option<f64>, Option<f64>, Option<f64>)>,
+    rmc: Option<(bool, Option<(f64, f64)>, Option<f64>, Option<f64>)>,
+    gll: Option<(bool, Option<(f64, f64)>)>,
+    gns: Option<(bool, Option<(f64, f64)>, Option<u32>, Option<f64>, Option<f64>, Option<f64>)>,
+    vtg: Option<(Option<f64>, Option<f64>)>,
+    gsa: Vec<GsaPart>,
+    gst: Option<(Option<f64>, Option<f64>, Option<f64>)>,
+    pgrme: Option<(Option<f64>, Option<f64>)>,
+    heading_deg: Option<f64>,
+    /// Anything that makes this epoch worth a fix (a position/time sentence).
+    substantive: bool,
+}
+
+/// A GSV group being collected, and the last complete one, per group key.
+#[derive(Debug, Clone, Default)]
+struct SkyGroup {
+    constellation: Option<Constellation>,
+    in_view: u16,
+    pending: Vec<(u16, Option<f64>, Option<f64>, Option<f64>)>,
+    next: u16,
+    complete: Vec<(u16, Option<f64>, Option<f64>, Option<f64>)>,
+    complete_in_view: u16,
+    has_complete: bool,
+}
+
+/// The sans-IO NMEA decoder: bytes in, [`GpsEvent`]s out.
+#[derive(Debug)]
+pub struct NmeaDecoder {
+    config: DecoderConfig,
+    framer: Framer,
+    epoch: Epoch,
+    date: Option<NaiveDate>,
+    last_tod: Option<NaiveTime>,
+    last_closed_tod_ms: Option<u32>,
+    gsa_state: Vec<GsaPart>,
+    sky: BTreeMap<String, SkyGroup>,
+    ender: Option<Kind>,
+    ender_candidate: Option<Kind>,
+    closed_by_ender: bool,
+    last_input: Option<Instant>,
+    now: Option<Instant>,
+    events: VecDeque<GpsEvent>,
+    last_timestamp_ms: Option<i64>,
+}
+
+impl Default for NmeaDecoder {
+    fn default() -> Self {
+        Self::new(DecoderConfig::default())
+    }
+}
+
+impl NmeaDecoder {
+    /// A decoder with no state.
+    pub fn new(config: DecoderConfig) -> Self {
+        Self {
+            config,
+            framer: Framer::new(),
+            epoch: Epoch::default(),
+            date: None,
+            last_tod: None,
+            last_closed_tod_ms: None,
+            gsa_state: Vec::new(),
+            sky: BTreeMap::new(),
+            ender: None,
+            ender_candidate: None,
+            closed_by_ender: false,
+            last_input: None,
+            now: None,
+            events: VecDeque::new(),
+            last_timestamp_ms: None,
+        }
+    }
+
+    /// Counts of accepted and rejected input so far.
+    pub fn stats(&self) -> &DecodeStats {
+        self.framer.stats()
+    }
+
+    /// The last `$PVNAV,TS` recording timestamp seen (Unix milliseconds), if any.
+    pub fn last_timestamp_ms(&self) -> Option<i64> {
+        self.last_timestamp_ms
+    }
+
+    /// Feeds bytes received at `now`.
+    pub fn handle_bytes(&mut self, data: &[u8], now: Instant) {
+        self.now = Some(now);
+        if !data.is_empty() {
+            self.last_input = Some(now);
+        }
+        let mut lines: Vec<String> = Vec::new();
+        self.framer.feed(data, |s, _| lines.push(s.to_owned()));
+        for line in &lines {
+            self.handle_sentence(line);
+        }
+    }
+
+    /// When [`Self::handle_timeout`] wants to be called next (the quiet-gap deadline), if an epoch is open.
+    pub fn poll_timeout(&self) -> Option<Instant> {
+        if self.epoch.substantive { self.last_input.map(|t| t + self.config.quiet_gap) } else { None }
+    }
+
+    /// Closes the open epoch if nothing arrived for the quiet gap.
+    pub fn handle_timeout(&mut self, now: Instant) {
+        self.now = Some(now);
+        if self.poll_timeout().is_some_and(|deadline| now >= deadline) {
+            self.close_epoch();
+        }
+    }
+
+    /// Ends the stream: emits the last epoch (and a final sentence without line end).
+    pub fn finish(&mut self, now: Instant) {
+        self.now = Some(now);
+        let mut lines: Vec<String> = Vec::new();
+        self.framer.finish(|s, _| lines.push(s.to_owned()));
+        for line in &lines {
+            self.handle_sentence(line);
+        }
+        self.close_epoch();
+        self.events.push_back(GpsEvent::Stats(*self.framer.stats()));
+    }
+
+    /// The next event, if any.
+    pub fn poll_event(&mut self) -> Option<GpsEvent> {
+        self.events.pop_front()
+    }
+
+    /// Handles one checksum-verified sentence (`$...*hh`), as if it had come through the framer.
+    fn handle_sentence(&mut self, line: &str) {
+        let parsed = match sentence::parse(line) {
+            Ok(p) => p,
+            Err(Unused::Unsupported) => {
+                self.framer.stats_mut().unsupported += 1;
+                return;
+            }
+            Err(Unused::Malformed) => {
+                self.framer.stats_mut().malformed += 1;
+                return;
+            }
+        };
+        match parsed {
+            Parsed::Mark { number, label } => {
+                self.framer.stats_mut().marks += 1;
+                let tod = self.epoch.tod.or(self.last_tod);
+                let time = tod.and_then(|t| self.date.map(|d| d.and_time(t).and_utc()));
+                self.events.push_back(GpsEvent::Mark(Mark {
+                    number,
+                    label,
+                    time,
+                    time_of_day: tod,
+                    recorded_unix_ms: self.last_timestamp_ms,
+                }));
+                return;
+            }
+            Parsed::Timestamp { unix_ms } => {
+                self.last_timestamp_ms = Some(unix_ms);
+                return;
+            }
+            Parsed::Ignored => return,
+            _ => {}
+        }
+        let kind = kind_of(&parsed);
+        let time = sentence::time_of(&parsed);
+        // Epoch boundaries.
+        if let Some(t) = time {
+            if self.closed_by_ender && self.epoch.seen.is_empty() {
+                if self.last_closed_tod_ms == Some(sentence::tod_ms(t)) {
+                    // The learned cycle end was wrong: this sentence still belongs to the closed epoch.
+                    self.ender = None;
+                    self.ender_candidate = None;
+                }
+                self.closed_by_ender = false;
+            }
+            if let Some(cur) = self.epoch.tod {
+                if sentence::tod_ms(cur) != sentence::tod_ms(t) {
+                    self.boundary();
+                }
+            }
+        }
+        if kind != Kind::Gsa && kind != Kind::Gsv && self.epoch.seen.contains(&kind) {
+            self.boundary();
+        }
+        if let Some(t) = time {
+            self.epoch.tod = Some(t);
+        }
+        self.apply(parsed);
+        self.epoch.seen.insert(kind);
+        self.epoch.last_kind = Some(kind);
+        if self.config.early_emit && self.ender == Some(kind) && self.epoch.substantive {
+            self.close_epoch();
+            self.closed_by_ender = true;
+        }
+    }
+
+    /// A boundary found by the next epoch's first sentence: learn the cycle ender, then close.
+    fn boundary(&mut self) {
+        if let Some(last) = self.epoch.last_kind {
+            if self.ender_candidate == Some(last) {
+                self.ender = Some(last);
+            }
+            self.ender_candidate = Some(last);
+        }
+        self.close_epoch();
+    }
+
+    fn apply(&mut self, p: Parsed) {
+        let e = &mut self.epoch;
+        match p {
+            Parsed::Gga { pos, quality, sats, hdop, alt_m, geoid_sep_m, .. } => {
+                e.gga = Some((pos, quality, sats, hdop, alt_m, geoid_sep_m));
+                e.substantive = true;
+            }
+            Parsed::Rmc { date, valid, pos, speed_m_s, course_deg, .. } => {
+                e.rmc = Some((valid, pos, speed_m_s, course_deg));
+                if date.is_some() {
+                    e.date = date;
+                }
+                e.substantive = true;
+            }
+            Parsed::Gll { pos, valid, .. } => {
+                e.gll = Some((valid, pos));
+                e.substantive = true;
+            }
+            Parsed::Gns { pos, valid, sats, hdop, alt_m, geoid_sep_m, .. } => {
+                e.gns = Some((valid, pos, sats, hdop, alt_m, geoid_sep_m));
+                e.substantive = true;
+            }
+            Parsed::Zda { date, time } => {
+                if date.is_some() {
+                    e.date = date;
+                }
+                e.substantive |= time.is_some();
+            }
+            Parsed::Vtg { course_deg, speed_m_s } => e.vtg = Some((course_deg, speed_m_s)),
+            Parsed::Gst { lat_sd_m, lon_sd_m, alt_sd_m, .. } => e.gst = Some((lat_sd_m, lon_sd_m, alt_sd_m)),
+            Parsed::Pgrme { horizontal_m, vertical_m } => e.pgrme = Some((horizontal_m, vertical_m)),
+            Parsed::Heading { heading_deg } => e.heading_deg = heading_deg,
+            Parsed::Gsa { mode, constellation, ids, pdop, hdop, vdop } => {
+                let ids = ids
+                    .into_iter()
+                    .map(|id| (constellation.unwrap_or_else(|| Constellation::from_nmea_id(id)), id))
+                    .collect();
+                e.gsa.push(GsaPart { mode, ids, pdop, hdop, vdop });
+            }
+            Parsed::Gsv { key, constellation, total, number, in_view, sats } => {
+                let g = self.sky.entry(key).or_default();
+                if number == 1 {
+                    g.pending.clear();
+                    g.next = 1;
+                }
+                if number != g.next {
+                    // Out of order or a part was lost: drop the group.
+                    g.pending.clear();
+                    g.next = 0;
+                    return;
+                }
+                g.constellation = constellation;
+                g.in_view = in_view;
+                g.pending.extend(sats);
+                g.next += 1;
+                if number == total {
+                    g.complete = std::mem::take(&mut g.pending);
+                    g.complete_in_view = g.in_view;
+                    g.has_complete = true;
+                    g.next = 0;
+                }
+            }
+            Parsed::Mark { .. } | Parsed::Timestamp { .. } | Parsed::Ignored => {}
+        }
+    }
+
+    fn close_epoch(&mut self) {
+        let epoch = std::mem::take(&mut self.epoch);
+        if !epoch.gsa.is_empty() {
+            self.gsa_state.clone_from(&epoch.gsa);
+        }
+        if !epoch.substantive {
+            return;
+        }
+        // Date: this epoch's, else the last one rolled over if the time of day wrapped past midnight.
+        if let Some(d) = epoch.date {
+            self.date = Some(d);
+        } else if let (Some(d), Some(prev), Some(t)) = (self.date, self.last_tod, epoch.tod) {
+            if t < prev && prev - t > chrono::TimeDelta::hours(12) {
+                self.date = d.succ_opt();
+            }
+        }
+        if epoch.tod.is_some() {
+            self.last_tod = epoch.tod;
+            self.last_closed_tod_ms = epoch.tod.map(sentence::tod_ms);
+        }
+        let fix = self.build_fix(&epoch);
+        self.framer.stats_mut().epochs += 1;
+        self.events.push_back(GpsEvent::Fix(Box::new(fix)));
+    }
+
+    fn build_fix(&self, e: &Epoch) -> Fix {
+        let mut fix = Fix {
+            time_of_day: e.tod,
+            time: e.tod.and_then(|t| self.date.map(|d| utc(d, t))),
+            received_at: self.now,
+            ..Fix::default()
+        };
+        // Position and validity: GGA, else RMC, else GNS, else GLL.
+        let mut valid = None;
+        let mut pos = None;
+        if let Some((p, q, sats, hdop, alt, sep)) = e.gga {
+            fix.quality = q;
+            let ok = q.is_some_and(FixQuality::has_position);
+            valid = Some(ok);
+            if ok {
+                pos = p;
+                fix.alt_m = alt;
+                fix.geoid_sep_m = sep;
+            }
+            fix.sats_used = sats;
+            fix.hdop = hdop;
+        }
+        if let Some((ok, p, speed, course)) = e.rmc {
+            valid = Some(valid.unwrap_or(false) || ok);
+            if ok {
+                pos = pos.or(p);
+                fix.speed_m_s = speed;
+                fix.course_deg = course;
+            }
+        }
+        if let Some((ok, p, sats, hdop, alt, sep)) = e.gns {
+            valid = Some(valid.unwrap_or(false) || ok);
+            if ok {
+                pos = pos.or(p);
+                fix.alt_m = fix.alt_m.or(alt);
+                fix.geoid_sep_m = fix.geoid_sep_m.or(sep);
+            }
+            fix.sats_used = fix.sats_used.filter(|&n| n > 0).or(sats);
+            fix.hdop = fix.hdop.or(hdop);
+        }
+        if let Some((ok, p)) = e.gll {
+            valid = Some(valid.unwrap_or(false) || ok);
+            if ok {
+                pos = pos.or(p);
+            }
+        }
+        if let Some((course, speed)) = e.vtg {
+            if valid != Some(false) {
+                fix.course_deg = fix.course_deg.or(course);
+                fix.speed_m_s = fix.speed_m_s.or(speed);
+            }
+        }
+        let valid = valid.unwrap_or(false) && pos.is_some();
+        if valid {
+            fix.lat_deg = pos.map(|p| p.0);
+            fix.lon_deg = pos.map(|p| p.1);
+        }
+        fix.true_heading_deg = e.heading_deg;
+        // GSA: the epoch's, else the receiver's last.
+        let gsa: &[GsaPart] = if e.gsa.is_empty() { &self.gsa_state } else { &e.gsa };
+        let gsa_mode = gsa.iter().filter_map(|g| g.mode).max();
+        fix.mode = if valid {
+            Some(match gsa_mode {
+                Some(m @ (FixMode::Fix2D | FixMode::Fix3D)) => m,
+                _ if fix.alt_m.is_some() => FixMode::Fix3D,
+                _ => FixMode::Fix2D,
+            })
+        } else {
+            Some(FixMode::NoFix)
+        };
+        if let Some(g) = gsa.iter().find(|g| g.pdop.is_some() || g.vdop.is_some() || g.hdop.is_some()) {
+            fix.pdop = g.pdop;
+            fix.vdop = g.vdop;
+            fix.hdop = fix.hdop.or(g.hdop);
+        }
+        let used: BTreeSet<(Constellation, u16)> = gsa.iter().flat_map(|g| g.ids.iter().copied()).collect();
+        if !used.is_empty() {
+            fix.sats_used = Some(used.len() as u32);
+            for (c, _) in &used {
+                *fix.sats_used_by.entry(*c).or_insert(0) += 1;
+            }
+        }
+        // Sky: every complete GSV group.
+        let mut visible = 0u32;
+        let mut any_sky = false;
+        for g in self.sky.values().filter(|g| g.has_complete) {
+            any_sky = true;
+            visible += u32::from(g.complete_in_view);
+            for &(id, el, az, snr) in &g.complete {
+                let constellation = g.constellation.unwrap_or_else(|| Constellation::from_nmea_id(id));
+                *fix.sats_visible_by.entry(constellation).or_insert(0) += 1;
+                let is_used = used.contains(&(constellation, id));
+                fix.satellites.push(Satellite {
+                    prn: id,
+                    constellation,
+                    elevation_deg: el,
+                    azimuth_deg: az,
+                    snr_dbhz: snr,
+                    used: is_used,
+                });
+            }
+        }
+        if any_sky {
+            fix.sats_visible = Some(visible);
+        }
+        fix.error = error_estimate(e, &fix);
+        fix
+    }
+}
+
+fn utc(d: NaiveDate, t: NaiveTime) -> DateTime<Utc> {
+    d.and_time(t).and_utc()
+}
+
+/// The error estimate: GST (1-sigma lat/lon/alt from the receiver) when sent, else Garmin PGRME, else the
+/// DOP model `sigma_h = HDOP * UERE`, `sigma_v = VDOP * UERE` with `UERE = UERE_M` (autonomous) or
+/// `UERE_DGPS_M` (differential/RTK quality). GST: `sigma_h = sqrt(sigma_lat^2 + sigma_lon^2)`.
+fn error_estimate(e: &Epoch, fix: &Fix) -> Option<ErrorEstimate> {
+    if !fix.has_position() {
+        return None;
+    }
+    if let Some((Some(lat), Some(lon), alt)) = e.gst {
+        return Some(ErrorEstimate {
+            horizontal_m: lat.hypot(lon),
+            vertical_m: alt,
+            source: ErrorSource::Gst,
+        });
+    }
+    if let Some((Some(h), v)) = e.pgrme {
+        return Some(ErrorEstimate { horizontal_m: h, vertical_m: v, source: ErrorSource::Pgrme });
+    }
+    let uere_m = if fix.quality.is_some_and(FixQuality::is_differential) { UERE_DGPS_M } else { UERE_M };
+    fix.hdop.map(|h| ErrorEstimate {
+        horizontal_m: h * uere_m,
+        vertical_m: fix.vdop.map(|v| v * uere_m),
+        source: ErrorSource::DopModel { uere_m },
+    })
+}

@@ -1,0 +1,424 @@
+//! One checksum-verified sentence to the facts it carries.
+//!
+//! The `nmea` crate parses GGA, RMC, GSA, GLL, GST, ZDA and HDT. We parse the rest ourselves because the
+//! crate rejects valid input there (measured on gpsd's logs with nmea 0.8):
+//! - GNS: mode strings of 3+ letters ("NDD", AeroRust/nmea#108);
+//! - GSV: the crate refuses the `GN` talker, which mixed-constellation receivers use;
+//! - VTG: the crate ignores the km/h field when the knots field is empty, and the magnetic course;
+//! - THS (true heading and status) and GBS are not in the crate; GBS is recognised and ignored;
+//! - proprietary sentences: Garmin `$PGRME` (error estimate) and our own `$PVNAV` (marks, timestamps).
+
+use chrono::{NaiveDate, NaiveTime, Timelike};
+
+use super::fix::{Constellation, FixMode, FixQuality};
+
+/// Knots to metres per second (1 kn = 1852 m / 3600 s).
+pub const MS_PER_KNOT: f64 = 1852.0 / 3600.0;
+/// Kilometres per hour to metres per second.
+const MS_PER_KMH: f64 = 1000.0 / 3600.0;
+
+/// What one sentence says, in SI units.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) enum Parsed {
+    Gga {
+        time: Option<NaiveTime>,
+        pos: Option<(f64, f64)>,
+        quality: Option<FixQuality>,
+        sats: Option<u32>,
+        hdop: Option<f64>,
+        alt_m: Option<f64>,
+        geoid_sep_m: Option<f64>,
+    },
+    Rmc {
+        time: Option<NaiveTime>,
+        date: Option<NaiveDate>,
+        valid: bool,
+        pos: Option<(f64, f64)>,
+        speed_m_s: Option<f64>,
+        course_deg: Option<f64>,
+    },
+    Gll {
+        time: Option<NaiveTime>,
+        pos: Option<(f64, f64)>,
+        valid: bool,
+    },
+    Gns {
+        time: Option<NaiveTime>,
+        pos: Option<(f64, f64)>,
+        valid: bool,
+        sats: Option<u32>,
+        hdop: Option<f64>,
+        alt_m: Option<f64>,
+        geoid_sep_m: Option<f64>,
+    },
+    Gsa {
+        mode: Option<FixMode>,
+        /// Constellation from the talker or the NMEA 4.11 system id; `None` = decide per id (GN).
+        constellation: Option<Constellation>,
+        ids: Vec<u16>,
+        pdop: Option<f64>,
+        hdop: Option<f64>,
+        vdop: Option<f64>,
+    },
+    Gsv {
+        /// Group key: talker plus NMEA 4.11 signal id, so GPS L1 and L5 groups do not overwrite each other.
+        key: String,
+        constellation: Option<Constellation>,
+        total: u16,
+        number: u16,
+        in_view: u16,
+        sats: Vec<(u16, Option<f64>, Option<f64>, Option<f64>)>,
+    },
+    Vtg {
+        course_deg: Option<f64>,
+        speed_m_s: Option<f64>,
+    },
+    Zda {
+        time: Option<NaiveTime>,
+        date: Option<NaiveDate>,
+    },
+    Gst {
+        time: Option<NaiveTime>,
+        lat_sd_m: Option<f64>,
+        lon_sd_m: Option<f64>,
+        alt_sd_m: Option<f64>,
+    },
+    Heading {
+        heading_deg: Option<f64>,
+    },
+    Pgrme {
+        horizontal_m: Option<f64>,
+        vertical_m: Option<f64>,
+    },
+    Mark {
+        number: u32,
+        label: String,
+    },
+    Timestamp {
+        unix_ms: i64,
+    },
+    /// A known type with nothing we use (GBS, TXT, GRS, other proprietary sentences).
+    Ignored,
+}
+
+/// Why a verified sentence was not used.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Unused {
+    /// A type we do not handle.
+    Unsupported,
+    /// A handled type with fields that make no sense.
+    Malformed,
+}
+
+/// Parses a checksum-verified sentence (`$...*hh`).
+pub(crate) fn parse(sentence: &str) -> Result<Parsed, Unused> {
+    let body = sentence.get(1..sentence.len().saturating_sub(3)).ok_or(Unused::Malformed)?;
+    let mut fields = body.split(',');
+    let tag = fields.next().ok_or(Unused::Malformed)?;
+    let f: Vec<&str> = fields.collect();
+    if let Some(rest) = tag.strip_prefix('P') {
+        return parse_proprietary(rest, &f);
+    }
+    if tag.len() != 5 || !sentence.starts_with('$') {
+        return Err(Unused::Unsupported);
+    }
+    let (talker, kind) = tag.split_at(2);
+    match kind {
+        "GGA" | "RMC" | "GSA" | "GLL" | "GST" | "ZDA" | "HDT" => via_crate(sentence, talker),
+        "GNS" => parse_gns(&f),
+        "GSV" => parse_gsv(talker, &f),
+        "VTG" => Ok(parse_vtg(&f)),
+        "THS" => Ok(Parsed::Heading {
+            heading_deg: if f.get(1).is_some_and(|s| *s == "V") { None } else { num(f.first()) },
+        }),
+        "GBS" | "TXT" | "GRS" | "DTM" => Ok(Parsed::Ignored),
+        _ => Err(Unused::Unsupported),
+    }
+}
+
+fn via_crate(sentence: &str, talker: &str) -> Result<Parsed, Unused> {
+    use nmea::ParseResult as P;
+    let parsed = nmea::parse_str(sentence).map_err(|_| Unused::Malformed)?;
+    Ok(match parsed {
+        P::GGA(d) => Parsed::Gga {
+            time: d.fix_time,
+            pos: d.latitude.zip(d.longitude).filter(|p| valid_pos(*p)),
+            quality: d.fix_type.and_then(|t| FixQuality::from_digit(fix_type_digit(t))),
+            sats: d.fix_satellites,
+            hdop: d.hdop.map(f64_of),
+            alt_m: d.altitude.map(f64_of),
+            geoid_sep_m: d.geoid_separation.map(f64_of),
+        },
+        P::RMC(d) => Parsed::Rmc {
+            time: d.fix_time,
+            date: d.fix_date,
+            valid: !matches!(d.status_of_fix, nmea::sentences::RmcStatusOfFix::Invalid),
+            pos: d.lat.zip(d.lon).filter(|p| valid_pos(*p)),
+            speed_m_s: d.speed_over_ground.map(|k| f64_of(k) * MS_PER_KNOT),
+            course_deg: d.true_course.map(f64_of),
+        },
+        P::GLL(d) => Parsed::Gll {
+            time: d.fix_time,
+            pos: d.latitude.zip(d.longitude).filter(|p| valid_pos(*p)),
+            valid: d.valid,
+        },
+        P::GSA(d) => {
+            let constellation = d
+                .system_id
+                .and_then(|s| Constellation::from_system_id(system_id_digit(s)))
+                .or_else(|| Constellation::from_talker(talker));
+            Parsed::Gsa {
+                mode: Some(match d.mode2 {
+                    nmea::sentences::GsaMode2::NoFix => FixMode::NoFix,
+                    nmea::sentences::GsaMode2::Fix2D => FixMode::Fix2D,
+                    nmea::sentences::GsaMode2::Fix3D => FixMode::Fix3D,
+                }),
+                constellation,
+                ids: d.fix_sats_prn.iter().filter_map(|&p| u16::try_from(p).ok()).collect(),
+                pdop: d.pdop.map(f64_of),
+                hdop: d.hdop.map(f64_of),
+                vdop: d.vdop.map(f64_of),
+            }
+        }
+        P::GST(d) => Parsed::Gst {
+            time: d.time,
+            lat_sd_m: d.lat_sd.map(f64_of),
+            lon_sd_m: d.long_sd.map(f64_of),
+            alt_sd_m: d.alt_sd.map(f64_of),
+        },
+        P::ZDA(d) => Parsed::Zda { time: d.utc_time, date: d.utc_date() },
+        P::HDT(d) => Parsed::Heading { heading_deg: d.heading.map(f64_of) },
+        _ => Parsed::Ignored,
+    })
+}
+
+/// f32 fields of the nmea crate back to f64 through their shortest decimal form, so "1.9" stays 1.9.
+fn f64_of(x: f32) -> f64 {
+    format!("{x}").parse().unwrap_or_else(|_| f64::from(x))
+}
+
+fn fix_type_digit(t: nmea::sentences::FixType) -> u8 {
+    use nmea::sentences::FixType as T;
+    match t {
+        T::Invalid => 0,
+        T::Gps => 1,
+        T::DGps => 2,
+        T::Pps => 3,
+        T::Rtk => 4,
+        T::FloatRtk => 5,
+        T::Estimated => 6,
+        T::Manual => 7,
+        T::Simulation => 8,
+    }
+}
+
+fn system_id_digit(s: nmea::sentences::GnssSystemId) -> u8 {
+    use nmea::sentences::GnssSystemId as S;
+    match s {
+        S::Gps => 1,
+        S::Glonass => 2,
+        S::Galileo => 3,
+        S::Beidou => 4,
+        S::Qzss => 5,
+        S::NavIC => 6,
+    }
+}
+
+fn valid_pos((lat, lon): (f64, f64)) -> bool {
+    lat.is_finite() && lon.is_finite() && lat.abs() <= 90.0 && lon.abs() <= 180.0
+}
+
+fn num(s: Option<&&str>) -> Option<f64> {
+    s.and_then(|s| s.trim().parse::<f64>().ok()).filter(|x| x.is_finite())
+}
+
+fn uint(s: Option<&&str>) -> Option<u32> {
+    s.and_then(|s| s.trim().parse::<u32>().ok())
+}
+
+/// `hhmmss[.sss]` to a time of day.
+pub(crate) fn parse_time(s: &str) -> Option<NaiveTime> {
+    let (hh, mm, ss) = (s.get(0..2)?, s.get(2..4)?, s.get(4..)?);
+    let sec: f64 = ss.parse().ok()?;
+    if !(0.0..61.0).contains(&sec) {
+        return None;
+    }
+    let whole = sec.trunc();
+    let nanos = ((sec - whole) * 1e9).round() as u32;
+    NaiveTime::from_hms_nano_opt(hh.parse().ok()?, mm.parse().ok()?, whole as u32, nanos.min(999_999_999))
+}
+
+/// `ddmm.mmmm`/`dddmm.mmmm` plus hemisphere to signed degrees: `deg + min / 60`.
+fn parse_coord(v: Option<&&str>, hemi: Option<&&str>) -> Option<f64> {
+    let v: f64 = v?.parse().ok()?;
+    if !v.is_finite() || v < 0.0 {
+        return None;
+    }
+    let deg = (v / 100.0).trunc();
+    let min = v - deg * 100.0;
+    let d = deg + min / 60.0;
+    match *hemi? {
+        "N" | "E" => Some(d),
+        "S" | "W" => Some(-d),
+        _ => None,
+    }
+}
+
+/// GNS (fix data): `time,lat,N,lon,E,mode,sats,hdop,alt,sep,age,station[,navstatus]`.
+/// The mode field has one letter per constellation (GPS, GLONASS, Galileo, BeiDou, ...); the fix is valid
+/// when any letter is neither `N` (no fix) nor `V` (invalid).
+fn parse_gns(f: &[&str]) -> Result<Parsed, Unused> {
+    let time = f.first().and_then(|s| parse_time(s));
+    let lat = parse_coord(f.get(1), f.get(2));
+    let lon = parse_coord(f.get(3), f.get(4));
+    let modes = f.get(5).copied().unwrap_or("");
+    if !modes.bytes().all(|b| b.is_ascii_uppercase()) {
+        return Err(Unused::Malformed);
+    }
+    let valid = modes.bytes().any(|b| b != b'N' && b != b'V');
+    Ok(Parsed::Gns {
+        time,
+        pos: lat.zip(lon).filter(|p| valid_pos(*p)),
+        valid,
+        sats: uint(f.get(6)),
+        hdop: num(f.get(7)),
+        alt_m: num(f.get(8)),
+        geoid_sep_m: num(f.get(9)),
+    })
+}
+
+/// GSV: `total,number,in_view,(id,elev,azim,snr){0..4}[,signal_id]`.
+fn parse_gsv(talker: &str, f: &[&str]) -> Result<Parsed, Unused> {
+    let total = uint(f.first()).ok_or(Unused::Malformed)?;
+    let number = uint(f.get(1)).ok_or(Unused::Malformed)?;
+    let in_view = uint(f.get(2)).unwrap_or(0);
+    if total == 0 || number == 0 || number > total || total > 99 || in_view > 999 {
+        return Err(Unused::Malformed);
+    }
+    let rest = f.get(3..).unwrap_or(&[]);
+    let quads = rest.len() / 4;
+    let signal = if rest.len() % 4 == 1 { rest.last().copied().unwrap_or("") } else { "" };
+    let mut sats = Vec::with_capacity(quads);
+    for q in rest.chunks_exact(4) {
+        let Some(id) = q[0].trim().parse::<u16>().ok() else { continue };
+        let el = num(q.get(1)).filter(|e| (-90.0..=90.0).contains(e));
+        let az = num(q.get(2)).filter(|a| (0.0..=360.0).contains(a));
+        let snr = num(q.get(3)).filter(|s| (0.0..=99.0).contains(s));
+        sats.push((id, el, az, snr));
+    }
+    Ok(Parsed::Gsv {
+        key: format!("{talker}{signal}"),
+        constellation: Constellation::from_talker(talker),
+        total: total as u16,
+        number: number as u16,
+        in_view: in_view as u16,
+        sats,
+    })
+}
+
+/// VTG, both the NMEA 2.3+ form `course,T,mcourse,M,knots,N,kmh,K[,mode]` and the old form
+/// `course,mcourse,knots,kmh`. Speed from knots when present, else from km/h.
+fn parse_vtg(f: &[&str]) -> Parsed {
+    let new_form = f.get(1).is_some_and(|s| *s == "T");
+    let (course, knots, kmh) =
+        if new_form { (f.first(), f.get(4), f.get(6)) } else { (f.first(), f.get(2), f.get(3)) };
+    let speed = num(knots).map(|k| k * MS_PER_KNOT).or_else(|| num(kmh).map(|k| k * MS_PER_KMH));
+    let mode_invalid = new_form && f.get(8).is_some_and(|m| *m == "N");
+    if mode_invalid {
+        return Parsed::Vtg { course_deg: None, speed_m_s: None };
+    }
+    Parsed::Vtg { course_deg: num(course), speed_m_s: speed }
+}
+
+fn parse_proprietary(rest: &str, f: &[&str]) -> Result<Parsed, Unused> {
+    match rest {
+        // Garmin: $PGRME,hpe,M,vpe,M,spe,M
+        "GRME" => Ok(Parsed::Pgrme { horizontal_m: num(f.first()), vertical_m: num(f.get(2)) }),
+        "VNAV" => match f.first().copied() {
+            Some("MARK") => {
+                let number = uint(f.get(1)).ok_or(Unused::Malformed)?;
+                let label = f.get(2..).map(|l| l.join(",")).unwrap_or_default();
+                Ok(Parsed::Mark { number, label })
+            }
+            Some("TS") => {
+                let unix_ms = f.get(1).and_then(|s| s.parse::<i64>().ok()).ok_or(Unused::Malformed)?;
+                Ok(Parsed::Timestamp { unix_ms })
+            }
+            _ => Err(Unused::Unsupported),
+        },
+        _ => Ok(Parsed::Ignored),
+    }
+}
+
+/// The time a sentence carries, if it is one of the time-bearing types.
+pub(crate) fn time_of(p: &Parsed) -> Option<NaiveTime> {
+    match p {
+        Parsed::Gga { time, .. }
+        | Parsed::Rmc { time, .. }
+        | Parsed::Gll { time, .. }
+        | Parsed::Gns { time, .. }
+        | Parsed::Zda { time, .. }
+        | Parsed::Gst { time, .. } => *time,
+        _ => None,
+    }
+}
+
+/// A time of day rounded to whole milliseconds (epochs are compared at this resolution).
+pub(crate) fn tod_ms(t: NaiveTime) -> u32 {
+    t.num_seconds_from_midnight() * 1000 + t.nanosecond() / 1_000_000
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use approx::assert_relative_eq;
+
+    #[test]
+    fn gns_with_three_letter_mode() {
+        let p = parse("$GNGNS,120213.00,3548.1234,N,13942.5678,E,NDD,11,1.3,20.0,39.0,,,V*00");
+        // checksum is not verified here (the framer does that)
+        let Ok(Parsed::Gns { pos: Some((lat, lon)), valid, sats, .. }) = p else { panic!("{p:?}") };
+        assert!(valid);
+        assert_eq!(sats, Some(11));
+        assert_relative_eq!(lat, 35.0 + 48.1234 / 60.0, max_relative = 1e-12);
+        assert_relative_eq!(lon, 139.0 + 42.5678 / 60.0, max_relative = 1e-12);
+    }
+
+    #[test]
+    fn vtg_forms() {
+        let Ok(Parsed::Vtg { speed_m_s: Some(v), course_deg: Some(c) }) =
+            parse("$GPVTG,054.7,T,034.4,M,,N,010.2,K*00")
+        else {
+            panic!()
+        };
+        assert_relative_eq!(v, 10.2 / 3.6, max_relative = 1e-12);
+        assert_relative_eq!(c, 54.7, max_relative = 1e-12);
+        let Ok(Parsed::Vtg { speed_m_s: Some(v), .. }) = parse("$GPVTG,054.7,034.4,005.5,010.2*00") else {
+            panic!()
+        };
+        assert_relative_eq!(v, 5.5 * MS_PER_KNOT, max_relative = 1e-12);
+    }
+
+    #[test]
+    fn gsv_gn_talker_and_signal_id() {
+        let Ok(Parsed::Gsv { key, constellation, sats, in_view, .. }) =
+            parse("$GNGSV,1,1,02,05,40,083,46,70,17,308,,1*00")
+        else {
+            panic!()
+        };
+        assert_eq!(key, "GN1");
+        assert_eq!(constellation, None);
+        assert_eq!(in_view, 2);
+        assert_eq!(sats.len(), 2);
+        assert_eq!(sats[1].3, None);
+    }
+
+    #[test]
+    fn marks_and_timestamps() {
+        assert_eq!(
+            parse("$PVNAV,MARK,3,cone 3*00"),
+            Ok(Parsed::Mark { number: 3, label: "cone 3".into() })
+        );
+        assert_eq!(parse("$PVNAV,TS,1700000000123*00"), Ok(Parsed::Timestamp { unix_ms: 1_700_000_000_123 }));
+    }
+}

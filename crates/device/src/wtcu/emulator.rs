@@ -1,0 +1,221 @@
+//! The emulated WTCU: the [`Engine`] served on a pseudo-terminal or any `Read + Write`, with the wall clock.
+//!
+//! [`serve`] is the loop (`vestnav emulate vest` runs it on the main thread with a terminal view);
+//! [`PtyEmulator`] runs it on a named thread behind a PTY whose slave path a console can open, with controls
+//! that tests use to make the unit go out of range or vanish mid-frame.
+
+use std::collections::VecDeque;
+use std::io::{self, Read, Write};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex, PoisonError};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use vestnav_core::vest::{TACTOR_COUNT, TactorMask};
+
+use super::codec::WireCodec;
+use super::engine::{Engine, EngineConfig, EngineEvent, EngineStats};
+use super::message::{Faults, Reply};
+
+/// Read timeout of the serving loop: the worst lateness of a pattern step or the watchdog.
+pub const SERVE_POLL: Duration = Duration::from_millis(5);
+
+/// Switches a running emulator reacts to (shared with the thread that serves it).
+#[derive(Debug, Default)]
+pub struct EmulatorControl {
+    /// End the loop.
+    pub stop: AtomicBool,
+    /// Drop everything received and send nothing, as a unit out of Bluetooth range.
+    pub out_of_range: AtomicBool,
+    /// Write half a frame, then close the port (the port vanishing mid-frame).
+    pub vanish: AtomicBool,
+}
+
+/// Why [`serve`] returned.
+#[derive(Debug)]
+pub enum ServeEnd {
+    /// [`EmulatorControl::stop`] was set.
+    Stopped,
+    /// The other side closed (read returned 0 bytes).
+    Eof,
+    /// [`EmulatorControl::vanish`] was set: half a frame was written and the port dropped.
+    Vanished,
+}
+
+/// Serves `engine` on `port` (whose reads must time out, e.g. after [`SERVE_POLL`]) until stopped, EOF or
+/// a port error. `observe` sees the engine after every event it raises.
+pub fn serve<C: WireCodec>(
+    engine: &mut Engine<C>,
+    port: &mut (impl Read + Write + ?Sized),
+    control: &EmulatorControl,
+    mut observe: impl FnMut(&Engine<C>, &EngineEvent),
+) -> io::Result<ServeEnd> {
+    let mut buf = [0u8; 512];
+    loop {
+        if control.stop.load(Ordering::Relaxed) {
+            return Ok(ServeEnd::Stopped);
+        }
+        if control.vanish.load(Ordering::Relaxed) {
+            let frame = super::codec::V1Codec::new().encode_reply(
+                0xEE,
+                &Reply::Report { tactors_on: TactorMask::ALL, faults: Faults::default() },
+            );
+            let half = frame.get(..frame.len() / 2).unwrap_or(&[]);
+            port.write_all(half)?;
+            return Ok(ServeEnd::Vanished);
+        }
+        let muted = control.out_of_range.load(Ordering::Relaxed);
+        match port.read(&mut buf) {
+            Ok(0) => return Ok(ServeEnd::Eof),
+            Ok(n) if !muted => engine.handle_bytes(buf.get(..n).unwrap_or(&[]), Instant::now()),
+            Ok(_) => {}
+            Err(e) if is_timeout(&e) => {}
+            Err(e) => return Err(e),
+        }
+        engine.handle_timeout(Instant::now());
+        while let Some(frame) = engine.poll_transmit() {
+            if !muted {
+                port.write_all(&frame)?;
+            }
+        }
+        while let Some(event) = engine.poll_event() {
+            observe(engine, &event);
+        }
+    }
+}
+
+/// Whether a read error only means "nothing yet".
+pub fn is_timeout(e: &io::Error) -> bool {
+    matches!(e.kind(), io::ErrorKind::TimedOut | io::ErrorKind::WouldBlock | io::ErrorKind::Interrupted)
+}
+
+/// What a running emulator shows: the unit's state and a short history, for views and test assertions.
+#[derive(Debug, Clone, Default)]
+pub struct EmulatorView {
+    /// Tactors on now.
+    pub tactors_on: TactorMask,
+    /// Drive level per tactor.
+    pub intensity: [u8; TACTOR_COUNT],
+    /// Counters.
+    pub stats: EngineStats,
+    /// Fault flags.
+    pub faults: Faults,
+    /// Whether a console said HELLO.
+    pub identified: bool,
+    /// When the last valid frame from the console arrived.
+    pub last_rx: Option<Instant>,
+    /// The last 256 changes of the running tactors, with their time.
+    pub changes: VecDeque<(Instant, TactorMask)>,
+    /// The last 64 events, in words.
+    pub log: VecDeque<String>,
+}
+
+impl EmulatorView {
+    /// Updates the view from `engine` after `event`.
+    pub fn observe<C: WireCodec>(&mut self, engine: &Engine<C>, event: &EngineEvent) {
+        self.tactors_on = engine.tactors_on();
+        self.intensity = engine.intensity();
+        self.stats = engine.stats();
+        self.faults = engine.faults();
+        self.identified = engine.identified();
+        self.last_rx = engine.last_rx();
+        if let EngineEvent::TactorsChanged(mask) = event {
+            if self.changes.len() >= 256 {
+                self.changes.pop_front();
+            }
+            self.changes.push_back((Instant::now(), *mask));
+        }
+        if self.log.len() >= 64 {
+            self.log.pop_front();
+        }
+        self.log.push_back(describe(event));
+    }
+}
+
+/// One line describing an engine event.
+pub fn describe(event: &EngineEvent) -> String {
+    match event {
+        EngineEvent::SessionStarted => "console said hello".to_owned(),
+        EngineEvent::TactorsChanged(m) => format!("on: {:?}", m.indices().collect::<Vec<_>>()),
+        EngineEvent::Accepted { seq, kind } => format!("#{seq} {} accepted", kind.name()),
+        EngineEvent::Rejected { seq, reason, detail } => match seq {
+            Some(s) => format!("#{s} NAK {reason}: {detail}"),
+            None => format!("NAK {reason}: {detail}"),
+        },
+        EngineEvent::WatchdogTripped => "watchdog: console silent, everything stopped".to_owned(),
+        EngineEvent::Dropped(e) => format!("dropped: {e}"),
+    }
+}
+
+/// An emulated unit on its own thread behind a pseudo-terminal (Unix only).
+#[derive(Debug)]
+pub struct PtyEmulator {
+    path: String,
+    view: Arc<Mutex<EmulatorView>>,
+    control: Arc<EmulatorControl>,
+    thread: Option<JoinHandle<io::Result<ServeEnd>>>,
+}
+
+impl PtyEmulator {
+    /// Opens a PTY pair and serves a unit built from `config` on the master side; consoles open
+    /// [`Self::path`]. The emulator keeps its own handle on the slave so consoles may come and go.
+    #[cfg(unix)]
+    pub fn spawn(config: EngineConfig) -> io::Result<Self> {
+        use serialport::SerialPort;
+        let (mut master, slave) = serialport::TTYPort::pair().map_err(io::Error::other)?;
+        master.set_timeout(SERVE_POLL).map_err(io::Error::other)?;
+        let path = slave.name().ok_or_else(|| io::Error::other("PTY without a name"))?;
+        let view = Arc::new(Mutex::new(EmulatorView::default()));
+        let control = Arc::new(EmulatorControl::default());
+        let (v, c) = (view.clone(), control.clone());
+        let thread = std::thread::Builder::new().name("vest-emulator".to_owned()).spawn(move || {
+            let _keep_slave_open = slave;
+            let mut engine = Engine::new(config);
+            serve(&mut engine, &mut master, &c, |engine, event| {
+                v.lock().unwrap_or_else(PoisonError::into_inner).observe(engine, event);
+            })
+        })?;
+        Ok(Self { path, view, control, thread: Some(thread) })
+    }
+
+    /// The slave path a console opens (`/dev/pts/N`).
+    pub fn path(&self) -> &str {
+        &self.path
+    }
+
+    /// A snapshot of the unit.
+    pub fn view(&self) -> EmulatorView {
+        self.view.lock().unwrap_or_else(PoisonError::into_inner).clone()
+    }
+
+    /// Makes the unit deaf and mute (out of range) or brings it back.
+    pub fn set_out_of_range(&self, out: bool) {
+        self.control.out_of_range.store(out, Ordering::Relaxed);
+    }
+
+    /// Writes half a frame and closes the PTY; returns how the loop ended.
+    pub fn vanish_mid_frame(mut self) -> io::Result<ServeEnd> {
+        self.control.vanish.store(true, Ordering::Relaxed);
+        self.join()
+    }
+
+    /// Stops the unit and closes the PTY.
+    pub fn shutdown(mut self) -> io::Result<ServeEnd> {
+        self.control.stop.store(true, Ordering::Relaxed);
+        self.join()
+    }
+
+    fn join(&mut self) -> io::Result<ServeEnd> {
+        match self.thread.take() {
+            Some(t) => t.join().map_err(|_| io::Error::other("emulator thread panicked"))?,
+            None => Ok(ServeEnd::Stopped),
+        }
+    }
+}
+
+impl Drop for PtyEmulator {
+    fn drop(&mut self) {
+        self.control.stop.store(true, Ordering::Relaxed);
+        let _ = self.join();
+    }
+}
