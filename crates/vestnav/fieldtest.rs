@@ -1,23 +1,366 @@
-//! `vestnav fieldtest drift | cones`: GPS accuracy field tests (thesis §5).
+//! `vestnav fieldtest drift | cones`: GPS accuracy field tests (thesis §5) on NMEA logs.
+//!
+//! Logs are decoded by `vestnav_device::gps` (one fix per epoch; operator marks are `$PVNAV,MARK,<n>,<label>`
+//! sentences). Fix times come from the receiver's UTC time of day, unwrapped across midnight; a fix without
+//! time is placed 1 s after the previous one (the receivers are 1 Hz).
 
-use clap::Args;
+use std::path::{Path, PathBuf};
+
+use anyhow::Context as _;
+use chrono::{Datelike as _, NaiveTime, Timelike as _};
+use clap::{Args, ValueEnum};
+use vestnav_core::fieldtest::{
+    ConeConfig, ConeMark, ConeStats, DriftStats, TimedFix, cones, drift, position_at,
+};
+use vestnav_core::geo::{Earth, LatLon, LocalFrame, declination_deg, true_from_magnetic_deg};
+use vestnav_device::gps::{Fix, Mark, decode_reader_with_marks};
+use vestnav_plot::{Chart, Color, Figure, Marker, Series};
+
+/// Earth model on the command line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum EarthArg {
+    /// WGS-84 geodesics (default).
+    Wgs84,
+    /// The thesis's haversine on a 6372.795 km sphere.
+    ThesisSphere,
+}
+
+impl From<EarthArg> for Earth {
+    fn from(e: EarthArg) -> Self {
+        match e {
+            EarthArg::Wgs84 => Earth::Wgs84,
+            EarthArg::ThesisSphere => Earth::ThesisSphere,
+        }
+    }
+}
 
 /// Arguments of `vestnav fieldtest drift`.
 #[derive(Debug, Args)]
-pub struct DriftArgs {}
+pub struct DriftArgs {
+    /// NMEA log of a stationary receiver.
+    pub file: PathBuf,
+    /// Earth model of the distances.
+    #[arg(long, value_enum, default_value = "wgs84")]
+    pub earth: EarthArg,
+    /// Print one JSON object (keys max_from_first_m, cep50_m, cep95_m, drms_m, twodrms_m, fixes, ...).
+    #[arg(long)]
+    pub json: bool,
+    /// Write a figure: scatter with CEP/2DRMS circles, and distance vs time (thesis Fig 65).
+    #[arg(long)]
+    pub png: Option<PathBuf>,
+}
 
 /// Arguments of `vestnav fieldtest cones`.
 #[derive(Debug, Args)]
-pub struct ConesArgs {}
+pub struct ConesArgs {
+    /// NMEA log of the cone walk with `$PVNAV,MARK` records at each cone.
+    pub file: PathBuf,
+    /// Nominal distance between consecutive cones [m].
+    #[arg(long, default_value_t = 10.0)]
+    pub spacing_m: f64,
+    /// Expected number of cones (warns when the marks differ).
+    #[arg(long)]
+    pub count: Option<usize>,
+    /// Bearing of the cone line [deg]; default: from the first mark to the last.
+    #[arg(long)]
+    pub line_bearing_deg: Option<f64>,
+    /// The line bearing is magnetic (laid out by compass): convert it with the WMM declination at the first
+    /// mark on the log's date (or with --declination-deg).
+    #[arg(long)]
+    pub magnetic: bool,
+    /// Declination to use with --magnetic [deg, east positive] instead of the WMM (thesis: -15.4).
+    #[arg(long, allow_negative_numbers = true)]
+    pub declination_deg: Option<f64>,
+    /// Earth model of the distances.
+    #[arg(long, value_enum, default_value = "wgs84")]
+    pub earth: EarthArg,
+    /// Print one JSON object.
+    #[arg(long)]
+    pub json: bool,
+    /// Write a figure: track with the marks circled, consecutive distances with the RMSE line (Figs 67–70).
+    #[arg(long)]
+    pub png: Option<PathBuf>,
+}
+
+/// A decoded log: positioned fixes with times, the marks with times, and the first fix's date.
+struct Log {
+    fixes: Vec<TimedFix>,
+    marks: Vec<(Option<f64>, Mark)>,
+    date: Option<(i32, u8, u8)>,
+    rejected: u64,
+}
+
+fn seconds_of_day(t: NaiveTime) -> f64 {
+    f64::from(t.num_seconds_from_midnight()) + f64::from(t.nanosecond()) / 1e9
+}
+
+/// Unwraps a time of day onto the running time line `prev` (adds days while it would jump back > 12 h).
+fn unwrap_tod(tod_s: f64, prev: Option<f64>) -> f64 {
+    let Some(p) = prev else { return tod_s };
+    let mut t = tod_s + 86_400.0 * ((p - tod_s) / 86_400.0).round();
+    if t < p - 43_200.0 {
+        t += 86_400.0;
+    }
+    t
+}
+
+fn load(path: &Path) -> anyhow::Result<Log> {
+    let file = std::fs::File::open(path).with_context(|| format!("opening {}", path.display()))?;
+    let (raw, marks, stats) = decode_reader_with_marks(std::io::BufReader::new(file))
+        .with_context(|| format!("reading {}", path.display()))?;
+    let mut fixes = Vec::new();
+    let mut prev: Option<f64> = None;
+    let mut date = None;
+    for f in raw.iter().filter(|f| f.has_position()) {
+        let t = match f.time_of_day {
+            Some(tod) => unwrap_tod(seconds_of_day(tod), prev),
+            None => prev.map_or(0.0, |p| p + 1.0),
+        };
+        prev = Some(t);
+        if date.is_none() {
+            date = f.time.map(|d| (d.year(), d.month() as u8, d.day() as u8));
+        }
+        if let Some(pos) = position(f) {
+            fixes.push(TimedFix { t_s: t, pos });
+        }
+    }
+    let first_t = fixes.first().map(|f| f.t_s);
+    let marks = marks
+        .into_iter()
+        .map(|m| (m.time_of_day.map(|tod| unwrap_tod(seconds_of_day(tod), first_t)), m))
+        .collect();
+    Ok(Log { fixes, marks, date, rejected: stats.rejected() })
+}
+
+fn position(f: &Fix) -> Option<LatLon> {
+    LatLon::new(f.lat_deg?, f.lon_deg?).validated().ok()
+}
 
 /// Runs `vestnav fieldtest drift`.
+#[allow(clippy::print_stdout)]
 pub fn run_drift(args: &DriftArgs) -> anyhow::Result<()> {
-    let _ = args;
-    anyhow::bail!("`vestnav fieldtest drift` is being written")
+    let log = load(&args.file)?;
+    let earth = Earth::from(args.earth);
+    let s =
+        drift(&log.fixes, earth).with_context(|| format!("{}: no positioned fixes", args.file.display()))?;
+    if args.json {
+        let v = serde_json::json!({
+            "file": args.file.display().to_string(),
+            "earth": format!("{:?}", args.earth),
+            "fixes": s.fixes,
+            "duration_s": s.duration_s,
+            "max_from_first_m": s.max_from_first_m,
+            "max_from_mean_m": s.max_from_mean_m,
+            "cep50_m": s.cep50_m,
+            "cep95_m": s.cep95_m,
+            "drms_m": s.drms_m,
+            "twodrms_m": s.twodrms_m,
+            "sigma_east_m": s.sigma_en_m[0],
+            "sigma_north_m": s.sigma_en_m[1],
+            "mean_lat_deg": s.mean.lat_deg,
+            "mean_lon_deg": s.mean.lon_deg,
+            "repeated_fixes": s.pinning.repeated_fixes,
+            "longest_pinned_run_s": s.pinning.longest_run_s,
+            "rejected_sentences": log.rejected,
+            "warnings": s.warnings,
+        });
+        println!("{}", serde_json::to_string_pretty(&v)?);
+    } else {
+        println!("{}: {} fixes over {:.0} s ({:?})", args.file.display(), s.fixes, s.duration_s, args.earth);
+        println!("  mean position      {:.7}, {:.7}", s.mean.lat_deg, s.mean.lon_deg);
+        println!("  max from first fix {:8.2} m   (thesis Fig 65: 1.17 m over 3 min)", s.max_from_first_m);
+        println!("  max from mean      {:8.2} m", s.max_from_mean_m);
+        println!(
+            "  CEP50 / CEP95      {:8.2} / {:.2} m (nearest-rank percentiles about the mean)",
+            s.cep50_m, s.cep95_m
+        );
+        println!("  DRMS / 2DRMS       {:8.2} / {:.2} m", s.drms_m, s.twodrms_m);
+        println!("  sigma east / north {:8.2} / {:.2} m", s.sigma_en_m[0], s.sigma_en_m[1]);
+        for w in &s.warnings {
+            println!("  warning: {w}");
+        }
+    }
+    if let Some(path) = &args.png {
+        drift_figure(&s, &args.file).save_png(path).with_context(|| format!("writing {}", path.display()))?;
+    }
+    Ok(())
+}
+
+/// Drift sheet: scatter about the mean with circles, and distance vs time (thesis Fig 65).
+pub fn drift_figure(s: &DriftStats, file: &Path) -> Figure {
+    let name =
+        file.file_name().map_or_else(|| file.display().to_string(), |n| n.to_string_lossy().into_owned());
+    let scatter = Chart::new(format!("{name}: fixes about the mean ({} fixes)", s.fixes))
+        .x_label("east [m]")
+        .y_label("north [m]")
+        .equal_aspect()
+        .series(
+            Series::scatter(
+                "fix",
+                s.en_about_mean_m.iter().map(|p| p.x).collect(),
+                s.en_about_mean_m.iter().map(|p| p.y).collect(),
+            )
+            .marker(Marker::Circle)
+            .color(Color::rgb(30, 90, 200)),
+        )
+        .circle(0.0, 0.0, s.cep50_m, format!("CEP50 {:.2} m", s.cep50_m))
+        .circle(0.0, 0.0, s.cep95_m, format!("CEP95 {:.2} m", s.cep95_m))
+        .circle(0.0, 0.0, s.twodrms_m, format!("2DRMS {:.2} m", s.twodrms_m));
+    let time = Chart::new("Distance vs time (thesis Fig 65)")
+        .x_label("time [s]")
+        .y_label("distance [m]")
+        .series(Series::line("from first fix", s.t_s.clone(), s.from_first_m.clone()).width(2.0))
+        .series(Series::line("from mean", s.t_s.clone(), s.from_mean_m.clone()).dashed())
+        .hline(s.max_from_first_m, format!("max from first {:.2} m", s.max_from_first_m));
+    Figure::new().title("Stationary drift").columns(2).panel_size(640, 480).push(scatter).push(time)
 }
 
 /// Runs `vestnav fieldtest cones`.
+#[allow(clippy::print_stdout)]
 pub fn run_cones(args: &ConesArgs) -> anyhow::Result<()> {
-    let _ = args;
-    anyhow::bail!("`vestnav fieldtest cones` is being written")
+    if !(args.spacing_m.is_finite() && args.spacing_m > 0.0) {
+        anyhow::bail!("--spacing-m must be a positive number of metres");
+    }
+    let log = load(&args.file)?;
+    if log.fixes.is_empty() {
+        anyhow::bail!("{}: no positioned fixes", args.file.display());
+    }
+    let mut marks = Vec::new();
+    let mut untimed = 0;
+    for (t, m) in &log.marks {
+        let Some(t) = *t else {
+            untimed += 1;
+            continue;
+        };
+        if let Some(pos) = position_at(&log.fixes, t) {
+            let label = if m.label.is_empty() { format!("{}", m.number) } else { m.label.clone() };
+            marks.push(ConeMark { t_s: t, label, pos });
+        }
+    }
+    let mut line_bearing = args.line_bearing_deg;
+    let mut declination_used = None;
+    if args.magnetic {
+        let Some(b) = args.line_bearing_deg else {
+            anyhow::bail!("--magnetic needs --line-bearing-deg");
+        };
+        let d = match (args.declination_deg, log.date, marks.first()) {
+            (Some(d), _, _) => d,
+            (None, Some((y, mo, da)), Some(m)) => declination_deg(m.pos, 0.0, y, mo, da)?,
+            (None, None, _) => anyhow::bail!("the log has no date for the WMM: give --declination-deg"),
+            (None, _, None) => anyhow::bail!("no marks"),
+        };
+        declination_used = Some(d);
+        line_bearing = Some(true_from_magnetic_deg(b, d));
+    }
+    let config = ConeConfig {
+        count: args.count,
+        line_bearing_deg: line_bearing,
+        earth: args.earth.into(),
+        ..ConeConfig::with_spacing(args.spacing_m)
+    };
+    let mut s = cones(&marks, &log.fixes, &config)
+        .with_context(|| format!("{}: {} timed marks", args.file.display(), marks.len()))?;
+    if untimed > 0 {
+        s.warnings.push(format!("{untimed} marks without a receiver time were ignored"));
+    }
+    if args.json {
+        let v = serde_json::json!({
+            "file": args.file.display().to_string(),
+            "earth": format!("{:?}", args.earth),
+            "marks": s.marks,
+            "spacing_m": s.spacing_m,
+            "expected_count": s.expected_count,
+            "line_bearing_deg": s.line_bearing_deg,
+            "declination_deg": declination_used,
+            "distances_m": s.distances_m,
+            "min_m": s.min_m,
+            "max_m": s.max_m,
+            "mean_m": s.mean_m,
+            "rmse_m": s.rmse_m,
+            "along_m": s.along_m,
+            "cross_m": s.cross_m,
+            "along_rmse_m": s.along_rmse_m,
+            "cross_rms_m": s.cross_rms_m,
+            "labels": s.labels,
+            "warnings": s.warnings,
+        });
+        println!("{}", serde_json::to_string_pretty(&v)?);
+    } else {
+        println!(
+            "{}: {} marks, nominal spacing {:.2} m, line bearing {:.1}° true",
+            args.file.display(),
+            s.marks,
+            s.spacing_m,
+            s.line_bearing_deg
+        );
+        for (k, d) in s.distances_m.iter().enumerate() {
+            println!(
+                "  {:>10} -> {:<10} {:7.2} m  (along {:7.2}, cross {:+6.2})",
+                s.labels[k],
+                s.labels[k + 1],
+                d,
+                s.along_m[k],
+                s.cross_m[k]
+            );
+        }
+        println!("  min / mean / max   {:.2} / {:.2} / {:.2} m", s.min_m, s.mean_m, s.max_m);
+        println!(
+            "  RMSE vs nominal    {:.2} m (along {:.2}, cross RMS {:.2})",
+            s.rmse_m, s.along_rmse_m, s.cross_rms_m
+        );
+        for w in &s.warnings {
+            println!("  warning: {w}");
+        }
+    }
+    if let Some(path) = &args.png {
+        cones_figure(&s, &log.fixes, config.earth)
+            .save_png(path)
+            .with_context(|| format!("writing {}", path.display()))?;
+    }
+    Ok(())
+}
+
+/// Cone sheet: the track with the marks circled (Figs 67/68) and the consecutive distances with the RMSE
+/// (Figs 69/70).
+pub fn cones_figure(s: &ConeStats, track: &[TimedFix], earth: Earth) -> Figure {
+    let mut map = Chart::new(format!("Track and cone marks (line {:.0}° true)", s.line_bearing_deg))
+        .x_label("east [m]")
+        .y_label("north [m]")
+        .equal_aspect();
+    // The track in the frame of the marks (about the first mark), only during the walk.
+    let frame = LocalFrame::new(s.origin, earth);
+    let (t0, t1) = (s.marks_t0_s, s.marks_t0_s + s.marks_t_s.last().copied().unwrap_or(0.0));
+    let walk: Vec<_> = track
+        .iter()
+        .filter(|f| f.t_s >= t0 - 5.0 && f.t_s <= t1 + 5.0)
+        .map(|f| frame.enu_from_wgs84(f.pos))
+        .collect();
+    map = map.series(
+        Series::line("track", walk.iter().map(|p| p.x).collect(), walk.iter().map(|p| p.y).collect())
+            .color(Color::rgb(30, 90, 200)),
+    );
+    map = map.series(
+        Series::scatter(
+            "marks",
+            s.marks_en_m.iter().map(|p| p.x).collect(),
+            s.marks_en_m.iter().map(|p| p.y).collect(),
+        )
+        .marker(Marker::Circle)
+        .color(Color::rgb(200, 30, 30)),
+    );
+    for (p, label) in s.marks_en_m.iter().zip(&s.labels) {
+        map = map.circle(p.x, p.y, 1.5, "").annotate(p.x, p.y, label.clone());
+    }
+    let idx: Vec<f64> = (1..=s.distances_m.len()).map(|k| k as f64).collect();
+    let dist = Chart::new(format!("Consecutive distances: mean {:.2} m, RMSE {:.2} m", s.mean_m, s.rmse_m))
+        .x_label("cone pair")
+        .y_label("distance [m]")
+        .series(
+            Series::line("distance", idx.clone(), s.distances_m.clone()).marker(Marker::Circle).width(2.0),
+        )
+        .series(Series::scatter("along-line", idx.clone(), s.along_m.clone()).marker(Marker::Square))
+        .series(Series::scatter("cross-line", idx, s.cross_m.clone()).marker(Marker::Cross))
+        .hline(s.spacing_m, format!("nominal {:.0} m", s.spacing_m))
+        .hline(s.rmse_m, format!("RMSE {:.2} m", s.rmse_m));
+    Figure::new().title("Cone test").columns(2).panel_size(640, 480).push(map).push(dist)
 }

@@ -1,13 +1,241 @@
-//! `vestnav nav simulate`: closed-loop guidance simulation.
+//! `vestnav nav simulate`: closed-loop guidance simulation of a wearer walking a GPX route.
 
-use clap::Args;
+use std::path::{Path, PathBuf};
+
+use anyhow::Context as _;
+use clap::{Args, ValueEnum};
+use vestnav_core::geo::LatLon;
+use vestnav_core::gnss_sim::GnssErrorModel;
+use vestnav_core::guidance::{StrategyKind, Waypoint};
+use vestnav_core::wearer::{SimConfig, SimResult, SimSummary, simulate_many};
+use vestnav_plot::{Chart, Color, Figure, Marker, Series};
+
+/// Guidance strategy on the command line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum StrategyArg {
+    /// Aim straight at the next waypoint.
+    Bearing,
+    /// Aim at a look-ahead point on the leg (cross-track corrected).
+    Pursuit,
+    /// Run both and compare them.
+    Both,
+}
+
+/// GPS error model of the simulated receiver.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum GnssArg {
+    /// SiRF Star III, open sky, with static-navigation pinning below 1.2 m/s.
+    Sirf3,
+    /// The same without static navigation.
+    Sirf3NoStatic,
+    /// No error at all.
+    Perfect,
+}
 
 /// Arguments of `vestnav nav simulate`.
 #[derive(Debug, Args)]
-pub struct SimulateArgs {}
+pub struct SimulateArgs {
+    /// Route: a GPX file (its first route, else its waypoints).
+    #[arg(long)]
+    pub route: PathBuf,
+    /// Guidance strategy.
+    #[arg(long, value_enum, default_value = "pursuit")]
+    pub strategy: StrategyArg,
+    /// Number of runs (seeds seed, seed+1, ...).
+    #[arg(long, default_value_t = 20)]
+    pub runs: usize,
+    /// First random seed.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Walking pace [m/s].
+    #[arg(long, default_value_t = 1.4)]
+    pub pace_m_s: f64,
+    /// GPS error model.
+    #[arg(long, value_enum, default_value = "sirf3")]
+    pub gnss: GnssArg,
+    /// Arrival radius of the waypoints [m].
+    #[arg(long, default_value_t = 8.0)]
+    pub arrival_radius_m: f64,
+    /// Look-ahead of the pursuit strategy [m].
+    #[arg(long, default_value_t = 15.0)]
+    pub lookahead_m: f64,
+    /// Print one JSON object (summaries per strategy and every run's numbers).
+    #[arg(long)]
+    pub json: bool,
+    /// Write a figure: the route with the first run's true path and fixes, per strategy.
+    #[arg(long)]
+    pub png: Option<PathBuf>,
+}
+
+/// Reads the waypoints of a GPX route file.
+pub fn load_route(path: &Path) -> anyhow::Result<Vec<Waypoint>> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    let gpx = vestnav_app::route::parse_gpx(&text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    if gpx.waypoints.is_empty() {
+        anyhow::bail!("{}: no route points or waypoints", path.display());
+    }
+    Ok(gpx.waypoints.into_iter().map(|w| Waypoint::new(w.name, LatLon::new(w.lat_deg, w.lon_deg))).collect())
+}
+
+fn strategies(arg: StrategyArg) -> Vec<StrategyKind> {
+    match arg {
+        StrategyArg::Bearing => vec![StrategyKind::BearingOnly],
+        StrategyArg::Pursuit => vec![StrategyKind::Pursuit],
+        StrategyArg::Both => StrategyKind::ALL.to_vec(),
+    }
+}
+
+/// Builds the simulation settings from the arguments.
+fn config(args: &SimulateArgs, kind: StrategyKind) -> anyhow::Result<SimConfig> {
+    let positive = |x: f64| x.is_finite() && x > 0.0;
+    if !positive(args.pace_m_s) || args.pace_m_s > 10.0 {
+        anyhow::bail!("--pace-m-s must be in (0, 10]");
+    }
+    if !positive(args.arrival_radius_m) {
+        anyhow::bail!("--arrival-radius-m must be positive");
+    }
+    if !positive(args.lookahead_m) {
+        anyhow::bail!("--lookahead-m must be positive");
+    }
+    let mut c = SimConfig::new(kind);
+    c.wearer.pace_m_s = args.pace_m_s;
+    c.gnss = match args.gnss {
+        GnssArg::Sirf3 => GnssErrorModel::sirf3_open_sky(),
+        GnssArg::Sirf3NoStatic => GnssErrorModel::sirf3_no_static_nav(),
+        GnssArg::Perfect => GnssErrorModel::perfect(),
+    };
+    c.route.arrival_radius_m = args.arrival_radius_m;
+    c.route.rearm_radius_m = 1.5 * args.arrival_radius_m;
+    c.route.pass_radius_m = 2.0 * args.arrival_radius_m;
+    c.guidance.lookahead_m = args.lookahead_m;
+    Ok(c)
+}
 
 /// Runs `vestnav nav simulate`.
+#[allow(clippy::print_stdout)]
 pub fn run_simulate(args: &SimulateArgs) -> anyhow::Result<()> {
-    let _ = args;
-    anyhow::bail!("`vestnav nav simulate` is being written")
+    if args.runs == 0 || args.runs > 10_000 {
+        anyhow::bail!("--runs must be between 1 and 10000");
+    }
+    let waypoints = load_route(&args.route)?;
+    let mut all: Vec<(SimSummary, Vec<SimResult>)> = Vec::new();
+    for kind in strategies(args.strategy) {
+        let cfg = config(args, kind)?;
+        let (runs, summary) = simulate_many(&waypoints, &cfg, args.runs, args.seed)?;
+        all.push((summary, runs));
+    }
+    if args.json {
+        let v = serde_json::json!({
+            "route": args.route.display().to_string(),
+            "waypoints": waypoints.len(),
+            "runs": args.runs,
+            "seed": args.seed,
+            "strategies": all.iter().map(|(s, runs)| serde_json::json!({
+                "summary": s,
+                "runs": runs.iter().map(|r| serde_json::json!({
+                    "seed": r.seed,
+                    "finished": r.finished,
+                    "time_s": r.time_s,
+                    "nominal_time_s": r.nominal_time_s,
+                    "walked_m": r.walked_m,
+                    "cross_track_rmse_m": r.cross_track_rmse_m,
+                    "max_cross_track_m": r.max_cross_track_m,
+                    "cues": r.cues,
+                    "cues_per_min": r.cues_per_min,
+                    "cue_counts": r.cue_counts,
+                    "waypoints_reached": r.waypoints_reached,
+                    "waypoints_missed": r.waypoints_missed,
+                })).collect::<Vec<_>>(),
+            })).collect::<Vec<_>>(),
+        });
+        println!("{}", serde_json::to_string_pretty(&v)?);
+    } else {
+        println!(
+            "route {} ({} waypoints), {} runs from seed {}, pace {:.2} m/s, GPS {:?}",
+            args.route.display(),
+            waypoints.len(),
+            args.runs,
+            args.seed,
+            args.pace_m_s,
+            args.gnss
+        );
+        println!(
+            "{:<9} {:>8} {:>16} {:>16} {:>14} {:>10}",
+            "strategy", "finished", "xtrack RMSE [m]", "time [s]", "cues/min", "missed"
+        );
+        for (s, _) in &all {
+            println!(
+                "{:<9} {:>7.0}% {:>7.2} ± {:<6.2} {:>7.0} ± {:<6.0} {:>6.1} ± {:<5.1} {:>4.2} ± {:.2}",
+                s.strategy,
+                100.0 * s.finish_rate,
+                s.cross_track_rmse_m.mean,
+                s.cross_track_rmse_m.sd,
+                s.time_s.mean,
+                s.time_s.sd,
+                s.cues_per_min.mean,
+                s.cues_per_min.sd,
+                s.waypoints_missed.mean,
+                s.waypoints_missed.sd
+            );
+        }
+    }
+    if let Some(path) = &args.png {
+        figure(&all, args.arrival_radius_m)
+            .save_png(path)
+            .with_context(|| format!("writing {}", path.display()))?;
+        if !args.json {
+            println!("figure: {}", path.display());
+        }
+    }
+    Ok(())
+}
+
+/// One panel per strategy: route, waypoints with arrival circles, first run's true path and fixes.
+fn figure(all: &[(SimSummary, Vec<SimResult>)], arrival_radius_m: f64) -> Figure {
+    let mut fig =
+        Figure::new().title("Closed-loop guidance: simulated wearer (first run)").columns(all.len().max(1));
+    fig = fig.panel_size(640, 560);
+    for (s, runs) in all {
+        let Some(r) = runs.first() else { continue };
+        // (The binary does not depend on glam: split the east/north vectors by field.)
+        macro_rules! xs {
+            ($v:expr) => {
+                $v.iter().map(|p| p.x).collect::<Vec<f64>>()
+            };
+        }
+        macro_rules! ys {
+            ($v:expr) => {
+                $v.iter().map(|p| p.y).collect::<Vec<f64>>()
+            };
+        }
+        let mut chart = Chart::new(format!(
+            "{}: xtrack RMSE {:.1} m, {:.0} s, {:.1} cues/min, {} missed",
+            s.strategy, r.cross_track_rmse_m, r.time_s, r.cues_per_min, r.waypoints_missed
+        ))
+        .x_label("east [m]")
+        .y_label("north [m]")
+        .equal_aspect()
+        .series(
+            Series::line("route", xs!(r.waypoints_en_m), ys!(r.waypoints_en_m))
+                .dashed()
+                .width(2.0)
+                .color(Color::rgb(90, 90, 90)),
+        )
+        .series(
+            Series::scatter("GPS fixes", xs!(r.path_fix_en_m), ys!(r.path_fix_en_m))
+                .marker(Marker::Cross)
+                .color(Color::rgb(230, 140, 30)),
+        )
+        .series(
+            Series::line("true path", xs!(r.path_true_en_m), ys!(r.path_true_en_m))
+                .width(2.0)
+                .color(Color::rgb(30, 90, 200)),
+        );
+        for (i, w) in r.waypoints_en_m.iter().enumerate() {
+            let label = if i == 0 { "arrival radius" } else { "" };
+            chart = chart.circle(w.x, w.y, arrival_radius_m, label).annotate(w.x, w.y, format!("{}", i + 1));
+        }
+        fig = fig.push(chart);
+    }
+    fig
 }

@@ -72,7 +72,7 @@ pub struct WaveArgs {
     /// For `vest`: time of the snapshot panel [s]; for `travelling`: start of the plotted window [s] [default: 0].
     #[arg(long)]
     pub time_s: Option<f64>,
-    /// For `travelling` and `midpoint`: length of the plotted window [s] [default: 0.05 / 0.2].
+    /// For `travelling` and `midpoint`: length of the plotted window [s] [default: 0.05 / 0.1].
     #[arg(long)]
     pub duration_s: Option<f64>,
     /// For `travelling` and `arrival`: distances from the tactor [mm], increasing [default: 0,20,37,52].
@@ -217,10 +217,10 @@ fn run_sweep(args: &TwoPointArgs, setup: &TwoPointSetup) -> anyhow::Result<()> {
         let d: Vec<f64> = results.iter().map(|r| r.distance_mm).collect();
         let rmse: Vec<f64> = results.iter().map(|r| r.rmse).collect();
         let level = args.relative_rmse * setup.amplitude_m_s2;
-        let mut linear = Chart::new("RMSE of the single-Gaussian fit versus tactor distance")
+        let mut linear = Chart::new("RMSE of the single-Gaussian fit (b = 36.2 mm, 2 x 10 m/s^2)")
             .x_label("distance between tactors d [mm]")
             .y_label("RMSE [m/s^2]")
-            .series(Series::line("RMSE (b = 36.2 mm, 2 x 10 m/s^2)", d.clone(), rmse.clone()).width(2.0))
+            .series(Series::line("", d.clone(), rmse.clone()).width(2.0))
             .hline(level, format!("detection level {level:.2} m/s^2"))
             .vline(sparrow, format!("two peaks (sqrt(2) b = {sparrow:.1} mm)"));
         if let Some(t) = threshold {
@@ -355,27 +355,31 @@ fn attenuation(args: &WaveArgs) -> anyhow::Result<()> {
         println!("mean b = {:.1} mm: spacing {:.1} mm", mean_b * 1000.0, mean_spacing * 1000.0);
     }
     if let Some(path) = &args.png {
-        let mut chart = Chart::new("Fig 52: acceleration amplitude versus distance from the tactor")
+        let mut chart = Chart::new(format!(
+            "Fig 52: amplitude versus distance (dashed: {:.0} % spacing rule for the mean b = {:.1} mm: {:.1} mm)",
+            fraction * 100.0,
+            mean_b * 1000.0,
+            mean_spacing * 1000.0
+        ))
             .x_label("distance from the tactor d [mm]")
             .y_label("acceleration amplitude [m/s^2]");
         for (i, (t, s)) in tactors.iter().zip(&spacing).enumerate() {
             let a: Vec<f64> = d_mm.iter().map(|d| t.amplitude_m_s2(d / 1000.0)).collect();
-            let label = format!("a0 = {} m/s^2, b = {:.2} mm", t.a0_m_s2, t.width_m * 1000.0);
+            let label = format!(
+                "a0 = {} m/s^2, b = {:.2} mm ({:.0} % at {:.1} mm)",
+                t.a0_m_s2,
+                t.width_m * 1000.0,
+                fraction * 100.0,
+                s * 1000.0
+            );
             chart = chart.series(Series::line(label, d_mm.clone(), a).width(2.0).color(Color::palette(i)));
-            let at = t.amplitude_m_s2(*s);
             chart = chart.series(
-                Series::scatter("", vec![s * 1000.0], vec![at])
+                Series::scatter("", vec![s * 1000.0], vec![t.amplitude_m_s2(*s)])
                     .marker(Marker::Circle)
                     .color(Color::palette(i)),
             );
-            chart = chart.annotate(
-                s * 1000.0,
-                at + 0.6,
-                format!("{:.0} % at {:.1} mm", fraction * 100.0, s * 1000.0),
-            );
         }
-        let chart = chart
-            .vline(mean_spacing * 1000.0, format!("spacing rule, mean b: {:.1} mm", mean_spacing * 1000.0));
+        let chart = chart.vline(mean_spacing * 1000.0, "");
         save(&Figure::single(chart), path)?;
     }
     Ok(())
@@ -630,15 +634,18 @@ fn midpoint(args: &WaveArgs) -> anyhow::Result<()> {
         );
     }
     if let Some(path) = &args.png {
-        let duration = args.duration_s.unwrap_or(0.2);
+        let duration = args.duration_s.unwrap_or(0.1);
         let n = ((duration * 10_000.0).round() as usize + 1).clamp(2, 100_001);
         let t = range(0.0, duration, n);
         let t_ms: Vec<f64> = t.iter().map(|v| v * 1000.0).collect();
         let total: Vec<f64> = t.iter().map(|ti| skin.field_m_s2(&[left, right], mid, *ti)).collect();
+        let bound: f64 = comps.iter().map(|c| c.amplitude_m_s2).sum::<f64>().max(1e-9);
+
         let mut chart =
             Chart::new(format!("Signal halfway between two tactors {:.0} mm apart", separation * 1000.0))
                 .x_label("time [ms]")
-                .y_label("acceleration [m/s^2]");
+                .y_label("acceleration [m/s^2]")
+                .y_range(-1.15 * bound, 1.8 * bound);
         for c in &comps {
             let y: Vec<f64> = t.iter().map(|ti| c.at(*ti)).collect();
             let label = format!("{:.2} sin({:.1} t + c)", c.amplitude_m_s2, c.omega_rad_s);

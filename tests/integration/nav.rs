@@ -1,1 +1,274 @@
-//! Integration tests: nav (being written).
+//! Integration tests: geodesy + guidance + field tests across the crates, and the `nav` / `fieldtest` CLI.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use approx::assert_relative_eq;
+use vestnav_core::fieldtest::{TimedFix, drift};
+use vestnav_core::geo::{Earth, LatLon};
+use vestnav_core::gnss_sim::{GnssErrorModel, GnssErrorState, LocalFrame as SimFrame};
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn logs() -> PathBuf {
+    root().join("tests/data/gpsd-logs")
+}
+
+fn vestnav(args: &[&str]) -> (bool, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_vestnav")).args(args).output().expect("run vestnav");
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+fn json(args: &[&str]) -> serde_json::Value {
+    let (ok, out, err) = vestnav(args);
+    assert!(ok, "vestnav {args:?} failed: {err}");
+    serde_json::from_str(&out).unwrap_or_else(|e| panic!("not JSON ({e}): {out}"))
+}
+
+fn timed_fixes(path: &Path) -> Vec<TimedFix> {
+    let file = std::fs::File::open(path).unwrap();
+    let (fixes, _) = vestnav_device::gps::decode_reader(std::io::BufReader::new(file)).unwrap();
+    fixes
+        .iter()
+        .filter(|f| f.has_position())
+        .enumerate()
+        .map(|(i, f)| TimedFix { t_s: i as f64, pos: LatLon::new(f.lat_deg.unwrap(), f.lon_deg.unwrap()) })
+        .collect()
+}
+
+/// Drift on gpsd's stationary logs against an independent computation: python geographiclib 2.0 (Karney's
+/// own code), positions from the GGA sentences with a valid checksum and quality > 0, mean = arithmetic
+/// mean of latitude and longitude (not our local-frame mean), distances from it by `Geodesic.WGS84.Inverse`,
+/// nearest-rank percentiles (the script is in docs/field-tests.md). Output, pasted:
+/// telit-he910:  n=187 max_first=4.522333 cep50=1.380542 cep95=2.301232 drms=1.482050 2drms=2.964100
+/// skytraq-dgps: n=96  max_first=1.615649 cep50=0.407772 cep95=0.972919 drms=0.509834 2drms=1.019668
+/// ublox-zed-f9p_hpg1.11: n=655 max_first=2.801796 cep50=1.284013 cep95=2.217637 drms=1.424184
+#[test]
+fn drift_on_gpsd_stationary_logs_matches_geographiclib() {
+    let cases = [
+        ("telit-he910.log", 187, 4.522_333, 1.380_542, 2.301_232, 1.482_050),
+        ("skytraq-dgps.log", 96, 1.615_649, 0.407_772, 0.972_919, 0.509_834),
+        ("ublox-zed-f9p_hpg1.11.log", 655, 2.801_796, 1.284_013, 2.217_637, 1.424_184),
+    ];
+    for (file, n, max_first, cep50, cep95, drms) in cases {
+        let s = drift(&timed_fixes(&logs().join(file)), Earth::Wgs84).unwrap();
+        assert_eq!(s.fixes, n, "{file}");
+        assert_relative_eq!(s.max_from_first_m, max_first, max_relative = 1e-5);
+        assert_relative_eq!(s.cep50_m, cep50, max_relative = 1e-5);
+        assert_relative_eq!(s.cep95_m, cep95, max_relative = 1e-5);
+        assert_relative_eq!(s.drms_m, drms, max_relative = 1e-5);
+        assert_relative_eq!(s.twodrms_m, 2.0 * drms, max_relative = 1e-5);
+    }
+}
+
+#[test]
+fn drift_cli_json_keys_and_pinning_warning() {
+    let v = json(&["fieldtest", "drift", "--json", logs().join("skytraq-dgps.log").to_str().unwrap()]);
+    for key in ["max_from_first_m", "cep50_m", "cep95_m", "drms_m", "twodrms_m", "fixes"] {
+        assert!(v.get(key).is_some(), "missing {key}: {v}");
+    }
+    assert_eq!(v["fixes"], 96);
+    assert_relative_eq!(v["cep95_m"].as_f64().unwrap(), 0.972_919, max_relative = 1e-5);
+    // nd-1005 (SiRF III): all 16 positions identical -> the pinning warning.
+    let v = json(&["fieldtest", "drift", "--json", logs().join("nd-1005.log").to_str().unwrap()]);
+    assert_eq!(v["warnings"].as_array().unwrap().len(), 1, "{v}");
+    let png = std::env::temp_dir().join(format!("vestnav-drift-{}.png", std::process::id()));
+    let (ok, _, err) = vestnav(&[
+        "fieldtest",
+        "drift",
+        logs().join("telit-he910.log").to_str().unwrap(),
+        "--png",
+        png.to_str().unwrap(),
+    ]);
+    assert!(ok, "{err}");
+    assert!(std::fs::read(&png).unwrap().starts_with(b"\x89PNG"));
+    let _ = std::fs::remove_file(png);
+    // A file that is not NMEA at all: a clear error, no panic.
+    let (ok, _, err) = vestnav(&["fieldtest", "drift", root().join("Cargo.toml").to_str().unwrap()]);
+    assert!(!ok && err.contains("no positioned fixes"), "{err}");
+}
+
+fn nmea(body: &str) -> String {
+    let ck = body.bytes().fold(0u8, |a, b| a ^ b);
+    format!("${body}*{ck:02X}\r\n")
+}
+
+fn ddmm(value: f64, pos: char, neg: char, deg_digits: usize) -> (String, char) {
+    let a = value.abs();
+    let d = a.trunc();
+    let m = (a - d) * 60.0;
+    (format!("{:0w$}{:09.6}", d as u32, m, w = deg_digits), if value >= 0.0 { pos } else { neg })
+}
+
+/// A synthetic cone walk: cones every `spacing_m` on a line from `start` at `bearing_deg`; the walker
+/// walks at `pace_m_s`, stands `dwell_s` at each cone (the operator marks the cone on arrival), and the
+/// receiver's output goes through `model`. Returns the NMEA log and the positions the log reports at the
+/// marks, as east/north of the GPS simulator's own flat frame (an independent formula).
+pub(crate) fn cone_log(model: GnssErrorModel, seed: u64, pace_m_s: f64, dwell_s: u32) -> (String, Vec<(f64, f64)>) {
+    let (cones, spacing_m, bearing_deg) = (10, 10.0, 30.0);
+    let start = LatLon::new(42.3575, -71.1010);
+    let frame = SimFrame::new(start.lat_deg, start.lon_deg);
+    let mut err = GnssErrorState::new(model, seed);
+    let mut log = String::new();
+    let mut marked = Vec::new();
+    let mut t = 0u32;
+    let walk_s = (spacing_m / pace_m_s).ceil() as u32;
+    for k in 0..cones {
+        let segment: Vec<(f64, bool)> = if k == 0 {
+            (0..=dwell_s).map(|i| (0.0, i == 0)).collect()
+        } else {
+            let mut v: Vec<(f64, bool)> = (1..=walk_s)
+                .map(|i| ((f64::from(k - 1) + f64::from(i) / f64::from(walk_s)) * spacing_m, false))
+                .collect();
+            v.last_mut().unwrap().1 = true;
+            v.extend((0..dwell_s).map(|_| (f64::from(k) * spacing_m, false)));
+            v
+        };
+        for (along_m, mark_now) in segment {
+            let truth = Earth::Wgs84.direct(start, bearing_deg, along_m);
+            let en = frame.en_from_latlon(truth.lat_deg, truth.lon_deg);
+            let moving = !mark_now && along_m < f64::from(k) * spacing_m;
+            let reported = err.apply(1.0, en, if moving { pace_m_s } else { 0.0 });
+            let (lat, lon) = frame.latlon_from_en(reported);
+            let tod = format!("{:02}{:02}{:02}.00", 15 + t / 3600, (t / 60) % 60, t % 60);
+            let (la, ns) = ddmm(lat, 'N', 'S', 2);
+            let (lo, ew) = ddmm(lon, 'E', 'W', 3);
+            log.push_str(&nmea(&format!("GPGGA,{tod},{la},{ns},{lo},{ew},1,08,1.0,10.0,M,-33.0,M,,")));
+            log.push_str(&nmea(&format!("GPRMC,{tod},A,{la},{ns},{lo},{ew},0.0,30.0,150625,,,A")));
+            if mark_now {
+                let _ = write!(log, "{}", nmea(&format!("PVNAV,MARK,{},cone {}", k + 1, k + 1)));
+                // What the log says at the mark, re-read through the same 6-decimal rounding.
+                let q = frame.en_from_latlon(
+                    (lat * 60.0 * 1e6).round() / 60.0 / 1e6,
+                    (lon * 60.0 * 1e6).round() / 60.0 / 1e6,
+                );
+                marked.push((q.x, q.y));
+            }
+            t += 1;
+        }
+    }
+    (log, marked)
+}
+
+fn write_tmp(name: &str, text: &str) -> PathBuf {
+    let p = std::env::temp_dir().join(format!("vestnav-{}-{name}", std::process::id()));
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+#[test]
+fn cone_test_with_a_perfect_receiver_measures_the_spacing() {
+    let (log, marked) = cone_log(GnssErrorModel::perfect(), 1, 1.4, 2);
+    assert_eq!(marked.len(), 10);
+    let path = write_tmp("cones-perfect.nmea", &log);
+    let v =
+        json(&["fieldtest", "cones", path.to_str().unwrap(), "--spacing-m", "10", "--count", "10", "--json"]);
+    assert_eq!(v["marks"], 10);
+    for d in v["distances_m"].as_array().unwrap() {
+        assert_relative_eq!(d.as_f64().unwrap(), 10.0, max_relative = 1e-3);
+    }
+    assert!(v["rmse_m"].as_f64().unwrap() < 0.01, "{v}");
+    assert!(v["cross_rms_m"].as_f64().unwrap() < 0.01, "{v}");
+    assert_relative_eq!(v["line_bearing_deg"].as_f64().unwrap(), 30.0, epsilon = 0.05);
+    assert!(v["warnings"].as_array().unwrap().is_empty(), "{v}");
+    // Laid out by compass: magnetic 44.2 deg with WMM declination (~-14.2 in Cambridge, June 2025) = 30 true.
+    let v = json(&[
+        "fieldtest",
+        "cones",
+        path.to_str().unwrap(),
+        "--line-bearing-deg",
+        "44.2",
+        "--magnetic",
+        "--json",
+    ]);
+    let decl = v["declination_deg"].as_f64().unwrap();
+    assert!((-14.8..-13.6).contains(&decl), "{decl}");
+    assert_relative_eq!(v["line_bearing_deg"].as_f64().unwrap(), 44.2 + decl, max_relative = 1e-9);
+    let png = write_tmp("cones.png", "");
+    let (ok, _, err) =
+        vestnav(&["fieldtest", "cones", path.to_str().unwrap(), "--png", png.to_str().unwrap()]);
+    assert!(ok, "{err}");
+    assert!(std::fs::read(&png).unwrap().starts_with(b"\x89PNG"));
+    let _ = std::fs::remove_file(png);
+    let _ = std::fs::remove_file(path);
+}
+
+#[test]
+fn cone_test_with_gps_error_matches_the_generated_truth() {
+    let (log, marked) = cone_log(GnssErrorModel::sirf3_no_static_nav(), 42, 1.4, 2);
+    let path = write_tmp("cones-noisy.nmea", &log);
+    let v = json(&["fieldtest", "cones", path.to_str().unwrap(), "--spacing-m", "10", "--json"]);
+    // Expected from the generator's own flat frame (radii of curvature; not our geodesics).
+    let want: Vec<f64> =
+        marked.windows(2).map(|w| ((w[1].0 - w[0].0).powi(2) + (w[1].1 - w[0].1).powi(2)).sqrt()).collect();
+    let got: Vec<f64> = v["distances_m"].as_array().unwrap().iter().map(|d| d.as_f64().unwrap()).collect();
+    assert_eq!(got.len(), 9);
+    for (g, w) in got.iter().zip(&want) {
+        assert_relative_eq!(*g, *w, max_relative = 2e-3, epsilon = 2e-3);
+    }
+    let rmse = (want.iter().map(|d| (d - 10.0).powi(2)).sum::<f64>() / want.len() as f64).sqrt();
+    assert_relative_eq!(v["rmse_m"].as_f64().unwrap(), rmse, max_relative = 2e-3);
+    assert!(rmse > 0.1, "the error model must show: {rmse}");
+    let _ = std::fs::remove_file(path);
+}
+
+#[test]
+fn cone_test_warns_when_static_navigation_pins_the_receiver() {
+    // Standing 8 s at each cone with SiRF static navigation: runs of identical fixes.
+    let (log, _) = cone_log(GnssErrorModel::sirf3_open_sky(), 7, 1.4, 8);
+    let path = write_tmp("cones-pinned.nmea", &log);
+    let v = json(&["fieldtest", "cones", path.to_str().unwrap(), "--json"]);
+    let warnings = v["warnings"].as_array().unwrap();
+    assert!(warnings.iter().any(|w| w.as_str().unwrap().contains("static navigation")), "{v}");
+    let _ = std::fs::remove_file(path);
+}
+
+#[test]
+fn demo_route_loads_and_both_strategies_finish_it() {
+    let v = json(&[
+        "nav",
+        "simulate",
+        "--route",
+        root().join("assets/routes/demo.gpx").to_str().unwrap(),
+        "--strategy",
+        "both",
+        "--runs",
+        "4",
+        "--json",
+    ]);
+    assert_eq!(v["waypoints"], 7);
+    let strategies = v["strategies"].as_array().unwrap();
+    assert_eq!(strategies.len(), 2);
+    for s in strategies {
+        let summary = &s["summary"];
+        assert_relative_eq!(summary["finish_rate"].as_f64().unwrap(), 1.0);
+        assert!(summary["cross_track_rmse_m"]["mean"].as_f64().unwrap() < 10.0, "{summary}");
+        for run in s["runs"].as_array().unwrap() {
+            // Never faster than walking the route at the pace, minus one arrival radius at each end.
+            let t = run["time_s"].as_f64().unwrap();
+            let nominal = run["nominal_time_s"].as_f64().unwrap();
+            assert!(t > nominal - 2.0 * 8.0 / 1.4 && t < 2.0 * nominal, "{run}");
+        }
+    }
+    let (ok, _, err) = vestnav(&["nav", "simulate", "--route", "/nonexistent.gpx"]);
+    assert!(!ok && err.contains("nonexistent"), "{err}");
+}
+
+#[test]
+fn demo_route_is_a_few_hundred_metres_on_briggs_field() {
+    let text = std::fs::read_to_string(root().join("assets/routes/demo.gpx")).unwrap();
+    let gpx = vestnav_app::route::parse_gpx(&text).unwrap();
+    assert!((6..=8).contains(&gpx.waypoints.len()));
+    let pts: Vec<LatLon> = gpx.waypoints.iter().map(|w| LatLon::new(w.lat_deg, w.lon_deg)).collect();
+    let length: f64 = pts.windows(2).map(|w| Earth::Wgs84.distance_m(w[0], w[1])).sum();
+    assert!((300.0..1000.0).contains(&length), "{length}");
+    let briggs = LatLon::new(42.3575, -71.1010);
+    assert!(pts.iter().all(|p| Earth::Wgs84.distance_m(*p, briggs) < 300.0));
+}

@@ -1,1 +1,791 @@
-//! Integration tests: wtcu (being written).
+//! Integration tests of the WTCU protocol: test vectors of `docs/wtcu-protocol.md`, a simulated-clock pair test of the console link against the device engine (quinn's
+//! `Pair` idea), and end-to-end tests over real pseudo-terminals (worker <-> emulator). The property tests
+//! (proptest) live next to the codec, in `crates/device/src/wtcu/proptests.rs`.
+
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use vestnav_core::vest::{Cue, DEFAULT_ON_MS, Frame, TactorMask};
+use vestnav_device::wtcu::codec::{V1Codec, WireCodec, hex};
+use vestnav_device::wtcu::emulator::PtyEmulator;
+use vestnav_device::wtcu::engine::{Engine, EngineConfig};
+use vestnav_device::wtcu::limits::{LimitError, Limits};
+use vestnav_device::wtcu::link::{CommandError, Link, LinkConfig, LinkEvent, LinkState};
+use vestnav_device::wtcu::message::{
+    Capabilities, CommandKind, DeviceInfo, Faults, FirmwareVersion, NakReason, Packet, Reply, Request,
+    UnitStatus,
+};
+use vestnav_device::wtcu::worker::{
+    Connector, Transport, VestCommand, VestEvent, VestHandle, WorkerSettings,
+};
+
+// ---------------------------------------------------------------------------------------------------------
+// Test vectors. The hex strings were produced by an independent Python implementation of the framing
+// (bitwise CRC-16/CCITT-FALSE, hand-written COBS) and are the ones printed in docs/wtcu-protocol.md.
+
+const DOC: &str = include_str!("../../docs/wtcu-protocol.md");
+
+fn unhex(s: &str) -> Vec<u8> {
+    s.split_whitespace().map(|b| u8::from_str_radix(b, 16).unwrap()).collect()
+}
+
+fn request_vectors() -> Vec<(u8, Request, &'static str)> {
+    let col = TactorMask::column;
+    vec![
+        (0, Request::Hello, "00 03 01 01 01 03 44 c5 00"),
+        (1, Request::Heartbeat, "00 04 01 02 01 03 25 af 00"),
+        (
+            2,
+            Request::Fire { mask: TactorMask::CORNERS, duration_ms: 500 },
+            "00 0b 01 03 02 04 09 90 f4 01 43 e8 00",
+        ),
+        (
+            3,
+            Request::Play {
+                frames: [3, 2, 1, 0].iter().map(|&c| Frame { mask: col(c), duration_ms: 250 }).collect(),
+                repeats: 1,
+            },
+            "00 0a 01 04 03 12 01 04 88 88 fa 04 44 44 fa 04 22 22 fa 04 11 11 fa 03 57 d6 00",
+        ),
+        (
+            4,
+            Request::SetIntensity { mask: TactorMask::ALL, level: 128 },
+            "00 0a 01 05 04 03 ff ff 80 60 45 00",
+        ),
+        (5, Request::StopAll, "00 04 01 06 05 03 21 bf 00"),
+        (6, Request::GetStatus, "00 04 01 07 06 03 42 dd 00"),
+    ]
+}
+
+fn reply_vectors() -> Vec<(u8, Reply, &'static str)> {
+    let fw = FirmwareVersion { major: 1, minor: 0, patch: 0 };
+    let info = DeviceInfo {
+        protocol_version: 1,
+        firmware: fw,
+        tactor_count: 16,
+        capabilities: Capabilities::INTENSITY | Capabilities::PATTERNS,
+        limits: Limits::default(),
+        watchdog_ms: 1500,
+    };
+    vec![
+        (
+            0,
+            Reply::Identify(info),
+            "00 03 01 81 03 11 01 01 11 10 03 d0 07 08 10 27 88 13 20 10 27 dc 05 4a 96 00",
+        ),
+        (2, Reply::Ack { tactors_on: TactorMask::CORNERS }, "00 09 01 82 02 02 09 90 ca 97 00"),
+        (
+            7,
+            Reply::Nak { reason: NakReason::TooManyTactors, tactors_on: TactorMask::NONE },
+            "00 06 01 83 07 03 06 01 03 c7 1d 00",
+        ),
+        (
+            6,
+            Reply::Status(UnitStatus {
+                battery_mv: 3900,
+                battery_pct: 67,
+                tactors_on: TactorMask::NONE,
+                faults: Faults::default(),
+                firmware: fw,
+            }),
+            "00 08 01 84 06 09 3c 0f 43 01 01 02 01 01 03 6e b4 00",
+        ),
+        (
+            1,
+            Reply::Report { tactors_on: TactorMask::NONE, faults: Faults::WATCHDOG },
+            "00 05 01 85 01 03 01 04 01 22 ff 00",
+        ),
+    ]
+}
+
+#[test]
+fn request_vectors_match_the_document_both_ways() {
+    let mut codec = V1Codec::new();
+    for (seq, request, want) in request_vectors() {
+        assert!(DOC.contains(want), "vector missing from docs/wtcu-protocol.md: {want}");
+        assert_eq!(hex(&codec.encode_request(seq, &request).unwrap()), want, "{request:?}");
+        let mut out = Vec::new();
+        codec.decode_requests(&unhex(want), &mut out);
+        assert_eq!(out, vec![Ok(Packet { seq, message: request })]);
+    }
+}
+
+#[test]
+fn reply_vectors_match_the_document_both_ways() {
+    let mut codec = V1Codec::new();
+    for (seq, reply, want) in reply_vectors() {
+        assert!(DOC.contains(want), "vector missing from docs/wtcu-protocol.md: {want}");
+        assert_eq!(hex(&codec.encode_reply(seq, &reply)), want, "{reply:?}");
+        let mut out = Vec::new();
+        codec.decode_replies(&unhex(want), &mut out);
+        assert_eq!(out, vec![Ok(Packet { seq, message: reply })]);
+    }
+}
+
+#[test]
+fn the_emulator_identifies_itself_as_the_vector_says() {
+    let now = Instant::now();
+    let mut engine = Engine::new(EngineConfig::default());
+    engine.handle_bytes(&unhex("00 03 01 01 01 03 44 c5 00"), now);
+    let identify = reply_vectors()[0].2;
+    assert_eq!(hex(&engine.poll_transmit().unwrap()), identify);
+    engine.handle_bytes(&unhex("00 04 01 07 06 03 42 dd 00"), now);
+    assert_eq!(hex(&engine.poll_transmit().unwrap()), reply_vectors()[3].2);
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Simulated-clock pair: the console link against the device engine, no IO, a lossy wire.
+
+struct Pair {
+    now: Instant,
+    console: Link,
+    unit: Engine,
+    /// Console-to-unit frames dropped while this returns true (called with the frame's bytes).
+    drop_to_unit: Box<dyn FnMut(&[u8]) -> bool>,
+    /// Unit-to-console frames dropped while this returns true.
+    drop_to_console: Box<dyn FnMut(&[u8]) -> bool>,
+    events: Vec<LinkEvent>,
+    unit_changes: Vec<(Duration, TactorMask)>,
+    t0: Instant,
+}
+
+impl Pair {
+    fn new() -> Self {
+        let t0 = Instant::now();
+        Self {
+            now: t0,
+            console: Link::new(LinkConfig::default()),
+            unit: Engine::new(EngineConfig::default()),
+            drop_to_unit: Box::new(|_| false),
+            drop_to_console: Box::new(|_| false),
+            events: Vec::new(),
+            unit_changes: Vec::new(),
+            t0,
+        }
+    }
+
+    /// Delivers every pending frame both ways (zero latency) until quiet.
+    fn exchange(&mut self) {
+        loop {
+            let mut moved = false;
+            while let Some(bytes) = self.console.poll_transmit() {
+                moved = true;
+                if !(self.drop_to_unit)(&bytes) {
+                    self.unit.handle_bytes(&bytes, self.now);
+                }
+            }
+            while let Some(bytes) = self.unit.poll_transmit() {
+                moved = true;
+                if !(self.drop_to_console)(&bytes) {
+                    self.console.handle_bytes(&bytes, self.now);
+                }
+            }
+            while let Some(e) = self.console.poll_event() {
+                self.events.push(e);
+            }
+            while let Some(e) = self.unit.poll_event() {
+                if let vestnav_device::wtcu::engine::EngineEvent::TactorsChanged(m) = e {
+                    self.unit_changes.push((self.now - self.t0, m));
+                }
+            }
+            if !moved {
+                break;
+            }
+        }
+    }
+
+    /// Advances the clock to `until`, jumping from deadline to deadline.
+    fn run_until(&mut self, until: Instant) {
+        self.exchange();
+        loop {
+            let next = [self.console.poll_timeout(), self.unit.poll_timeout()].into_iter().flatten().min();
+            match next {
+                Some(t) if t <= until => {
+                    self.now = self.now.max(t);
+                    self.console.handle_timeout(self.now);
+                    self.unit.handle_timeout(self.now);
+                    self.exchange();
+                }
+                _ => break,
+            }
+        }
+        self.now = until;
+        self.console.handle_timeout(self.now);
+        self.unit.handle_timeout(self.now);
+        self.exchange();
+    }
+
+    fn advance_ms(&mut self, ms: u64) {
+        let until = self.now + Duration::from_millis(ms);
+        self.run_until(until);
+    }
+
+    fn connected() -> Self {
+        let mut p = Self::new();
+        p.console.connect(p.now);
+        p.advance_ms(1);
+        assert!(p.console.is_ready(), "{:?}", p.events);
+        p.events.clear();
+        p
+    }
+}
+
+fn frame_kind(bytes: &[u8]) -> Option<u8> {
+    let mut out = Vec::new();
+    V1Codec::new().decode_requests(bytes, &mut out);
+    out.first().and_then(|r| r.as_ref().ok()).map(|p| match p.message {
+        Request::Hello => 1,
+        Request::Heartbeat => 2,
+        Request::Fire { .. } => 3,
+        Request::Play { .. } => 4,
+        Request::SetIntensity { .. } => 5,
+        Request::StopAll => 6,
+        Request::GetStatus => 7,
+    })
+}
+
+#[test]
+fn pair_fire_is_acked_and_ends_by_itself() {
+    let mut p = Pair::connected();
+    let seq = p.console.fire(TactorMask::CORNERS, 500, p.now).unwrap();
+    p.exchange();
+    assert_eq!(p.unit.tactors_on(), TactorMask::CORNERS);
+    assert_eq!(p.console.tactors_on(), Some(TactorMask::CORNERS));
+    assert!(p.events.contains(&LinkEvent::Acked { seq, kind: CommandKind::Fire }));
+    p.advance_ms(499);
+    assert_eq!(p.unit.tactors_on(), TactorMask::CORNERS);
+    p.advance_ms(1);
+    assert_eq!(p.unit.tactors_on(), TactorMask::NONE);
+    // The console learns it from the unit's REPORT, not from its own clock.
+    assert_eq!(p.console.tactors_on(), Some(TactorMask::NONE));
+    // Heartbeats kept the link alive meanwhile; over 10 s idle nothing is lost.
+    p.advance_ms(10_000);
+    assert!(p.console.is_ready());
+    assert_eq!(p.unit.stats().watchdog_trips, 0);
+}
+
+#[test]
+fn pair_pattern_steps_on_the_unit_clock() {
+    let mut p = Pair::connected();
+    let pattern = Cue::TurnRight.pattern(DEFAULT_ON_MS);
+    p.console.play(&pattern, p.now).unwrap();
+    p.advance_ms(2000);
+    let seen: Vec<(u128, u16)> = p.unit_changes.iter().map(|(t, m)| (t.as_millis(), m.0)).collect();
+    let start = seen[0].0;
+    let col = |c| TactorMask::column(c).0;
+    assert_eq!(
+        seen.iter().map(|&(t, m)| (t - start, m)).collect::<Vec<_>>(),
+        vec![(0, col(0)), (250, col(1)), (500, col(2)), (750, col(3)), (1000, 0)]
+    );
+}
+
+#[test]
+fn pair_dropped_command_is_retransmitted_once() {
+    let mut p = Pair::connected();
+    let mut dropped = false;
+    p.drop_to_unit = Box::new(move |b| {
+        if frame_kind(b) == Some(3) && !dropped {
+            dropped = true;
+            return true;
+        }
+        false
+    });
+    let sent_at = p.now;
+    p.console.fire(TactorMask(0b11), 1000, p.now).unwrap();
+    p.exchange();
+    assert_eq!(p.unit.tactors_on(), TactorMask::NONE);
+    p.advance_ms(200);
+    assert_eq!(p.unit.tactors_on(), TactorMask(0b11));
+    assert_eq!(p.console.stats().retransmits, 1);
+    // The retransmitted fire runs its full 1000 ms from when it arrived.
+    p.run_until(sent_at + Duration::from_millis(1199));
+    assert_eq!(p.unit.tactors_on(), TactorMask(0b11));
+    p.run_until(sent_at + Duration::from_millis(1200));
+    assert_eq!(p.unit.tactors_on(), TactorMask::NONE);
+}
+
+#[test]
+fn pair_lost_ack_does_not_run_the_command_twice() {
+    let mut p = Pair::connected();
+    let mut dropped = false;
+    p.drop_to_console = Box::new(move |b| {
+        let mut out = Vec::new();
+        V1Codec::new().decode_replies(b, &mut out);
+        let is_fire_ack = matches!(out.first(), Some(Ok(Packet { message: Reply::Ack { tactors_on }, .. })) if *tactors_on == TactorMask(1));
+        if is_fire_ack && !dropped {
+            dropped = true;
+            return true;
+        }
+        false
+    });
+    let start = p.now;
+    let seq = p.console.fire(TactorMask(1), 600, p.now).unwrap();
+    p.advance_ms(250);
+    assert!(p.events.contains(&LinkEvent::Acked { seq, kind: CommandKind::Fire }));
+    assert_eq!(p.unit.stats().duplicates, 1);
+    // Not restarted by the duplicate: ends 600 ms after the first copy.
+    p.run_until(start + Duration::from_millis(600));
+    assert_eq!(p.unit.tactors_on(), TactorMask::NONE);
+}
+
+#[test]
+fn pair_silence_loses_the_link_and_trips_the_watchdog() {
+    let mut p = Pair::connected();
+    let pattern = vestnav_core::vest::Pattern {
+        name: "long".into(),
+        frames: vec![
+            Frame { mask: TactorMask(0x000F), duration_ms: 500 },
+            Frame { mask: TactorMask(0x00F0), duration_ms: 500 },
+        ],
+        repeats: 5,
+    };
+    p.console.play(&pattern, p.now).unwrap();
+    p.exchange();
+    let cut = p.now;
+    let cut_flag = Arc::new(Mutex::new(true));
+    let f = cut_flag.clone();
+    p.drop_to_unit = Box::new(move |_| *f.lock().unwrap());
+    let f = cut_flag.clone();
+    p.drop_to_console = Box::new(move |_| *f.lock().unwrap());
+    p.advance_ms(3000);
+    // Console: lost after 1000 ms of silence.
+    assert!(p.events.iter().any(|e| matches!(e, LinkEvent::State(LinkState::Lost { .. }))), "{:?}", p.events);
+    assert_eq!(p.console.tactors_on(), None);
+    // Unit: everything off exactly at the watchdog bound after the last frame it heard.
+    assert_eq!(p.unit.tactors_on(), TactorMask::NONE);
+    assert_eq!(p.unit.stats().watchdog_trips, 1);
+    let last_rx = p.unit.last_rx().unwrap();
+    let (off_at, off) = *p.unit_changes.last().unwrap();
+    assert_eq!(off, TactorMask::NONE);
+    assert_eq!(p.t0 + off_at - last_rx, Duration::from_millis(1500));
+    assert!(last_rx >= cut);
+    // Reconnect on the same wire.
+    *cut_flag.lock().unwrap() = false;
+    p.console.connect(p.now);
+    p.advance_ms(1);
+    assert!(p.console.is_ready());
+}
+
+#[test]
+fn pair_stop_all_jumps_the_queue_and_cancels_cues() {
+    let mut p = Pair::connected();
+    // Hold the unit's replies so the fire stays in flight.
+    let hold = Arc::new(Mutex::new(true));
+    let h = hold.clone();
+    p.drop_to_console = Box::new(move |_| *h.lock().unwrap());
+    let fire = p.console.fire(TactorMask(1), 1000, p.now).unwrap();
+    let play = p.console.play(&Cue::Stop.pattern(500), p.now).unwrap();
+    p.exchange();
+    let stop = p.console.stop_all(p.now).unwrap();
+    *hold.lock().unwrap() = false;
+    p.exchange();
+    assert!(p.events.contains(&LinkEvent::Cancelled { seq: fire, kind: CommandKind::Fire }));
+    assert!(p.events.contains(&LinkEvent::Cancelled { seq: play, kind: CommandKind::Play }));
+    assert!(p.events.contains(&LinkEvent::Acked { seq: stop, kind: CommandKind::StopAll }));
+    assert_eq!(p.unit.tactors_on(), TactorMask::NONE);
+    assert_eq!(p.console.tactors_on(), Some(TactorMask::NONE));
+}
+
+#[test]
+fn pair_stop_all_is_retried_until_acknowledged() {
+    let mut p = Pair::connected();
+    p.console.fire(TactorMask(1), 2000, p.now).unwrap();
+    p.exchange();
+    let mut lost = 0;
+    p.drop_to_unit = Box::new(move |b| {
+        if frame_kind(b) == Some(6) && lost < 4 {
+            lost += 1;
+            return true;
+        }
+        false
+    });
+    let stop = p.console.stop_all(p.now).unwrap();
+    p.advance_ms(900);
+    assert!(p.events.contains(&LinkEvent::Acked { seq: stop, kind: CommandKind::StopAll }));
+    assert_eq!(p.unit.tactors_on(), TactorMask::NONE);
+    assert_eq!(p.console.stats().retransmits, 4);
+}
+
+#[test]
+fn console_refuses_out_of_bound_commands_before_sending() {
+    let mut p = Pair::connected();
+    let n = p.console.stats().sent;
+    assert!(matches!(
+        p.console.fire(TactorMask(0x01FF), 100, p.now),
+        Err(CommandError::Limit(LimitError::TooManyTactors { requested: 9, max: 8 }))
+    ));
+    assert!(matches!(
+        p.console.fire(TactorMask(1), 2001, p.now),
+        Err(CommandError::Limit(LimitError::OnTooLong { .. }))
+    ));
+    // Duty cycle: 2 x 2000 ms + 1000 ms fits 5000 ms per 10 s; one more millisecond-heavy fire does not.
+    for _ in 0..2 {
+        p.console.fire(TactorMask(1), 2000, p.now).unwrap();
+        p.advance_ms(2000);
+    }
+    p.console.fire(TactorMask(1), 1000, p.now).unwrap();
+    p.advance_ms(1000);
+    assert!(matches!(
+        p.console.fire(TactorMask(1), 500, p.now),
+        Err(CommandError::Limit(LimitError::DutyCycle { tactor: 0, .. }))
+    ));
+    // Another tactor is fine, and nothing refused was ever sent.
+    p.console.fire(TactorMask(2), 500, p.now).unwrap();
+    assert_eq!(p.unit.stats().naks_sent, 0);
+    assert!(p.console.stats().sent > n);
+}
+
+#[test]
+fn unit_naks_out_of_bound_and_bad_requests() {
+    let t = Instant::now();
+    let codec = V1Codec::new();
+    let mut unit = Engine::new(EngineConfig { intensity: false, ..EngineConfig::default() });
+    let mut replies = V1Codec::new();
+    let mut ask = |unit: &mut Engine, bytes: Vec<u8>| -> Reply {
+        unit.handle_bytes(&bytes, t);
+        let mut out = Vec::new();
+        replies.decode_replies(&unit.poll_transmit().unwrap(), &mut out);
+        out.pop().unwrap().unwrap().message
+    };
+    let nak = |reason| Reply::Nak { reason, tactors_on: TactorMask::NONE };
+    let fire = |mask, ms| {
+        codec.encode_request(1, &Request::Fire { mask: TactorMask(mask), duration_ms: ms }).unwrap()
+    };
+    assert_eq!(ask(&mut unit, fire(1, 100)), nak(NakReason::NotIdentified));
+    assert!(matches!(ask(&mut unit, codec.encode_request(0, &Request::Hello).unwrap()), Reply::Identify(_)));
+    assert_eq!(ask(&mut unit, fire(0x01FF, 100)), nak(NakReason::TooManyTactors));
+    assert_eq!(ask(&mut unit, fire(1, 2001)), nak(NakReason::DurationLimit));
+    assert_eq!(ask(&mut unit, fire(1, 0)), nak(NakReason::DurationLimit));
+    let long = Request::Play { frames: vec![Frame { mask: TactorMask(1), duration_ms: 3000 }], repeats: 1 };
+    assert_eq!(ask(&mut unit, codec.encode_request(2, &long).unwrap()), nak(NakReason::DurationLimit));
+    let many = Request::Play { frames: vec![Frame { mask: TactorMask(0), duration_ms: 10 }; 33], repeats: 1 };
+    assert_eq!(ask(&mut unit, codec.encode_request(3, &many).unwrap()), nak(NakReason::PatternLimit));
+    let intensity = Request::SetIntensity { mask: TactorMask(1), level: 9 };
+    assert_eq!(ask(&mut unit, codec.encode_request(4, &intensity).unwrap()), nak(NakReason::NotSupported));
+    // Unknown type 0x42 with a valid CRC (built by hand: version 1, type 0x42, seq 5, no payload).
+    let mut packet = vec![1, 0x42, 5, 0];
+    let crc = vestnav_device::wtcu::codec::CRC16.checksum(&packet);
+    packet.extend_from_slice(&crc.to_le_bytes());
+    let mut raw = vec![0];
+    vestnav_device::wtcu::codec::cobs_encode(&packet, &mut raw);
+    raw.push(0);
+    assert_eq!(ask(&mut unit, raw), nak(NakReason::UnknownCommand));
+    // A flipped payload bit: bad CRC.
+    let mut bad = fire(1, 100);
+    bad[6] ^= 0x04;
+    assert_eq!(ask(&mut unit, bad), nak(NakReason::BadCrc));
+    assert_eq!(unit.stats().bad_crc, 1);
+    assert!(unit.status().faults.contains(Faults::LIMIT_REJECTED));
+    assert_eq!(unit.tactors_on(), TactorMask::NONE);
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Over real pseudo-terminals.
+
+fn fast_settings() -> WorkerSettings {
+    WorkerSettings {
+        backoff: vestnav_device::wtcu::link::Backoff::new(
+            Duration::from_millis(50),
+            Duration::from_millis(400),
+        ),
+        ..WorkerSettings::default()
+    }
+}
+
+fn pty_connector(path: Arc<Mutex<String>>) -> Connector {
+    Box::new(move || {
+        let p = path.lock().unwrap().clone();
+        let port = vestnav_device::serial::open(&p, 115_200, Duration::from_millis(5))
+            .map_err(std::io::Error::other)?;
+        Ok(Box::new(port) as Box<dyn Transport>)
+    })
+}
+
+/// Collects events until `pred` holds for one of them (returns it) or `timeout` passes (panics).
+fn wait_for(
+    vest: &VestHandle,
+    seen: &mut Vec<VestEvent>,
+    timeout: Duration,
+    pred: impl Fn(&VestEvent) -> bool,
+) -> VestEvent {
+    let deadline = Instant::now() + timeout;
+    while Instant::now() < deadline {
+        if let Some(e) = vest.recv_timeout(Duration::from_millis(20)) {
+            seen.push(e.clone());
+            if pred(&e) {
+                return e;
+            }
+        }
+    }
+    panic!("timed out; events: {seen:#?}");
+}
+
+fn wait_until(timeout: Duration, mut cond: impl FnMut() -> bool) -> bool {
+    let deadline = Instant::now() + timeout;
+    while Instant::now() < deadline {
+        if cond() {
+            return true;
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    cond()
+}
+
+#[test]
+fn pty_fire_pattern_stop_round_trips() {
+    let emu = PtyEmulator::spawn(EngineConfig::default()).unwrap();
+    let path = Arc::new(Mutex::new(emu.path().to_owned()));
+    let wakes = Arc::new(std::sync::atomic::AtomicU64::new(0));
+    let w = wakes.clone();
+    let vest = VestHandle::spawn_with(pty_connector(path), fast_settings(), move || {
+        w.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    })
+    .unwrap();
+    let mut seen = Vec::new();
+    let s = Duration::from_secs(3);
+    wait_for(&vest, &mut seen, s, |e| matches!(e, VestEvent::State(LinkState::Ready)));
+    assert!(seen.iter().any(|e| matches!(e, VestEvent::Identified(d) if d.tactor_count == 16)));
+
+    vest.send(VestCommand::Fire { mask: TactorMask::CORNERS, duration_ms: 300 }).unwrap();
+    wait_for(&vest, &mut seen, s, |e| matches!(e, VestEvent::Acked { kind: CommandKind::Fire, .. }));
+    assert!(wait_until(s, || emu.view().changes.iter().any(|(_, m)| *m == TactorMask::CORNERS)));
+    wait_for(&vest, &mut seen, s, |e| *e == VestEvent::TactorsOn(Some(TactorMask::NONE)));
+
+    vest.send(VestCommand::Play(Cue::TurnLeft.pattern(DEFAULT_ON_MS))).unwrap();
+    wait_for(&vest, &mut seen, s, |e| matches!(e, VestEvent::Acked { kind: CommandKind::Play, .. }));
+    wait_for(&vest, &mut seen, s, |e| *e == VestEvent::TactorsOn(Some(TactorMask::column(1))));
+    vest.send(VestCommand::StopAll).unwrap();
+    wait_for(&vest, &mut seen, s, |e| matches!(e, VestEvent::Acked { kind: CommandKind::StopAll, .. }));
+    assert!(wait_until(s, || emu.view().tactors_on.is_empty()));
+    // The pattern was cut short: column 0 never came on.
+    assert!(!emu.view().changes.iter().any(|(_, m)| *m == TactorMask::column(0)));
+
+    vest.send(VestCommand::Fire { mask: TactorMask(0x01FF), duration_ms: 100 }).unwrap();
+    let e = wait_for(&vest, &mut seen, s, |e| matches!(e, VestEvent::Rejected { .. }));
+    assert!(
+        matches!(e, VestEvent::Rejected { kind: CommandKind::Fire, reason } if reason.contains("current budget"))
+    );
+    vest.send(VestCommand::RequestStatus).unwrap();
+    wait_for(&vest, &mut seen, s, |e| matches!(e, VestEvent::Status(st) if st.battery_mv == 3900));
+    assert!(wakes.load(std::sync::atomic::Ordering::Relaxed) > 0);
+
+    // Dropping the handle sends STOP ALL first.
+    vest.send(VestCommand::Fire { mask: TactorMask(1), duration_ms: 2000 }).unwrap();
+    assert!(wait_until(s, || emu.view().tactors_on == TactorMask(1)));
+    let before = emu.view().stats.frames_ok;
+    drop(vest);
+    assert!(emu.view().tactors_on.is_empty());
+    assert!(emu.view().stats.frames_ok > before);
+    assert_eq!(emu.view().stats.watchdog_trips, 0);
+}
+
+#[test]
+fn pty_port_vanishing_mid_frame_then_returning() {
+    let emu = PtyEmulator::spawn(EngineConfig::default()).unwrap();
+    let path = Arc::new(Mutex::new(emu.path().to_owned()));
+    let vest = VestHandle::spawn_with(pty_connector(path.clone()), fast_settings(), || {}).unwrap();
+    let mut seen = Vec::new();
+    let s = Duration::from_secs(3);
+    wait_for(&vest, &mut seen, s, |e| matches!(e, VestEvent::State(LinkState::Ready)));
+    emu.vanish_mid_frame().unwrap();
+    wait_for(&vest, &mut seen, s, |e| matches!(e, VestEvent::State(LinkState::Lost { .. })));
+    // Reconnect attempts are visible while the port is gone.
+    wait_for(
+        &vest,
+        &mut seen,
+        s,
+        |e| matches!(e, VestEvent::State(LinkState::Connecting { attempt }) if *attempt >= 2),
+    );
+    assert!(seen.iter().any(|e| matches!(e, VestEvent::Transport(_))));
+    // The unit comes back (on a new PTY path, as a re-paired Bluetooth port may).
+    let emu2 = PtyEmulator::spawn(EngineConfig::default()).unwrap();
+    *path.lock().unwrap() = emu2.path().to_owned();
+    wait_for(&vest, &mut seen, s, |e| matches!(e, VestEvent::State(LinkState::Ready)));
+    vest.send(VestCommand::Fire { mask: TactorMask(0b1010), duration_ms: 200 }).unwrap();
+    wait_for(&vest, &mut seen, s, |e| *e == VestEvent::TactorsOn(Some(TactorMask(0b1010))));
+    assert_eq!(emu2.view().stats.garbage, 0);
+}
+
+#[test]
+fn pty_link_loss_leaves_every_tactor_off_within_the_watchdog_bound() {
+    let emu = PtyEmulator::spawn(EngineConfig::default()).unwrap();
+    let path = Arc::new(Mutex::new(emu.path().to_owned()));
+    let vest = VestHandle::spawn_with(pty_connector(path), fast_settings(), || {}).unwrap();
+    let mut seen = Vec::new();
+    let s = Duration::from_secs(3);
+    wait_for(&vest, &mut seen, s, |e| matches!(e, VestEvent::State(LinkState::Ready)));
+    let long = vestnav_core::vest::Pattern {
+        name: "long".into(),
+        frames: vec![
+            Frame { mask: TactorMask(0x0003), duration_ms: 400 },
+            Frame { mask: TactorMask(0x0300), duration_ms: 400 },
+        ],
+        repeats: 10,
+    };
+    vest.send(VestCommand::Play(long)).unwrap();
+    wait_for(&vest, &mut seen, s, |e| matches!(e, VestEvent::Acked { kind: CommandKind::Play, .. }));
+    // Out of Bluetooth range: nothing gets through either way.
+    emu.set_out_of_range(true);
+    let cut = Instant::now();
+    wait_for(&vest, &mut seen, s, |e| matches!(e, VestEvent::State(LinkState::Lost { .. })));
+    assert!(wait_until(Duration::from_secs(3), || emu.view().stats.watchdog_trips == 1));
+    let view = emu.view();
+    assert!(view.tactors_on.is_empty());
+    let last_rx = view.last_rx.unwrap();
+    let (off_at, off) = *view.changes.back().unwrap();
+    assert!(off.is_empty());
+    let bound = Duration::from_millis(1500);
+    let after = off_at.duration_since(last_rx);
+    println!("watchdog: everything off {} ms after the last frame (bound 1500 ms)", after.as_millis());
+    assert!(after >= bound && after < bound + Duration::from_millis(100), "{after:?}");
+    assert!(off_at.duration_since(cut) < bound + Duration::from_millis(100));
+    assert!(off_at.duration_since(cut) < Duration::from_secs(8), "the 8 s pattern was cut short");
+    drop(vest);
+}
+
+#[test]
+fn pty_emulator_drops_garbage_and_naks_out_of_bound_commands() {
+    use std::io::{Read, Write};
+    let emu = PtyEmulator::spawn(EngineConfig::default()).unwrap();
+    let mut port = vestnav_device::serial::open(emu.path(), 115_200, Duration::from_millis(50)).unwrap();
+    let codec = V1Codec::new();
+    let mut replies = V1Codec::new();
+    let mut read_replies = |port: &mut dyn Read, want: usize| {
+        let mut got = Vec::new();
+        let deadline = Instant::now() + Duration::from_secs(2);
+        let mut buf = [0u8; 256];
+        while got.len() < want && Instant::now() < deadline {
+            if let Ok(n) = port.read(&mut buf) {
+                replies.decode_replies(&buf[..n], &mut got);
+            }
+        }
+        got
+    };
+    // Line noise, a truncated frame, an overlong run, then HELLO.
+    let fire = codec.encode_request(1, &Request::Fire { mask: TactorMask(1), duration_ms: 100 }).unwrap();
+    let mut junk = b"\x1b[2J$GPGGA,garbage*00\r\n".to_vec();
+    junk.extend_from_slice(&fire[..fire.len() / 2]);
+    junk.extend(std::iter::repeat_n(0x55u8, 400));
+    port.write_all(&junk).unwrap();
+    port.write_all(&codec.encode_request(0, &Request::Hello).unwrap()).unwrap();
+    let got = read_replies(&mut *port, 1);
+    assert!(matches!(got.last(), Some(Ok(Packet { seq: 0, message: Reply::Identify(_) }))), "{got:?}");
+    assert!(wait_until(Duration::from_secs(1), || emu.view().stats.garbage >= 2), "{:?}", emu.view().stats);
+    // Out of bounds: 9 tactors, 2.5 s.
+    let nine =
+        codec.encode_request(2, &Request::Fire { mask: TactorMask(0x01FF), duration_ms: 100 }).unwrap();
+    let long = codec.encode_request(3, &Request::Fire { mask: TactorMask(1), duration_ms: 2500 }).unwrap();
+    port.write_all(&nine).unwrap();
+    port.write_all(&long).unwrap();
+    let got = read_replies(&mut *port, 2);
+    let naks: Vec<_> = got
+        .into_iter()
+        .filter_map(|r| match r {
+            Ok(Packet { seq, message: Reply::Nak { reason, .. } }) => Some((seq, reason)),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(naks, vec![(2, NakReason::TooManyTactors), (3, NakReason::DurationLimit)]);
+    assert!(emu.view().tactors_on.is_empty());
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Measurements (printed, no timing assertion).
+
+fn percentile(sorted: &[Duration], p: f64) -> Duration {
+    let i = ((sorted.len() as f64 - 1.0) * p).round() as usize;
+    sorted[i.min(sorted.len() - 1)]
+}
+
+#[test]
+fn measure_codec_cost_and_pty_round_trip() {
+    let mut codec = V1Codec::new();
+    let fire = Request::Fire { mask: TactorMask::CORNERS, duration_ms: 500 };
+    let play = Request::Play { frames: Cue::TurnAround.pattern(DEFAULT_ON_MS).frames, repeats: 2 };
+    let n = 20_000u32;
+    for (name, req) in [("fire", &fire), ("play (5 frames)", &play)] {
+        let t = Instant::now();
+        let mut bytes = Vec::new();
+        for i in 0..n {
+            bytes = codec.encode_request(i as u8, req).unwrap();
+        }
+        let enc = t.elapsed() / n;
+        let t = Instant::now();
+        let mut out = Vec::with_capacity(1);
+        for _ in 0..n {
+            out.clear();
+            codec.decode_requests(&bytes, &mut out);
+        }
+        let dec = t.elapsed() / n;
+        assert_eq!(out.len(), 1);
+        println!(
+            "codec {name}: {} bytes, encode {} ns, decode {} ns",
+            bytes.len(),
+            enc.as_nanos(),
+            dec.as_nanos()
+        );
+    }
+
+    // Worker <-> emulator over a PTY: from `send(Fire)` to the `Acked` event.
+    let emu = PtyEmulator::spawn(EngineConfig::default()).unwrap();
+    let path = Arc::new(Mutex::new(emu.path().to_owned()));
+    let vest = VestHandle::spawn_with(pty_connector(path), fast_settings(), || {}).unwrap();
+    let mut seen = Vec::new();
+    wait_for(&vest, &mut seen, Duration::from_secs(3), |e| matches!(e, VestEvent::State(LinkState::Ready)));
+    let mut rtts = Vec::new();
+    for i in 0..200u32 {
+        let mask = TactorMask(1 << (i % 16));
+        let t = Instant::now();
+        vest.send(VestCommand::Fire { mask, duration_ms: 20 }).unwrap();
+        wait_for(&vest, &mut seen, Duration::from_secs(2), |e| {
+            matches!(e, VestEvent::Acked { kind: CommandKind::Fire, .. })
+        });
+        rtts.push(t.elapsed());
+        seen.clear();
+    }
+    rtts.sort();
+    println!(
+        "PTY fire -> ack through the worker (200 commands): p50 {:.2} ms, p99 {:.2} ms, max {:.2} ms",
+        percentile(&rtts, 0.5).as_secs_f64() * 1e3,
+        percentile(&rtts, 0.99).as_secs_f64() * 1e3,
+        rtts.last().unwrap().as_secs_f64() * 1e3
+    );
+    drop(vest);
+
+    // The bare link on the PTY (no worker polling): write FIRE, read until its ACK.
+    use std::io::{Read, Write};
+    let mut port = vestnav_device::serial::open(emu.path(), 115_200, Duration::from_millis(50)).unwrap();
+    let mut replies = V1Codec::new();
+    let mut buf = [0u8; 256];
+    let mut bare = Vec::new();
+    for i in 0..201u32 {
+        let req = if i == 0 {
+            Request::Hello
+        } else {
+            Request::Fire { mask: TactorMask(1 << (i % 16)), duration_ms: 20 }
+        };
+        let bytes = codec.encode_request(i as u8, &req).unwrap();
+        let t = Instant::now();
+        port.write_all(&bytes).unwrap();
+        'wait: loop {
+            let n = port.read(&mut buf).unwrap();
+            let mut got = Vec::new();
+            replies.decode_replies(&buf[..n], &mut got);
+            for r in got {
+                if matches!(r, Ok(Packet { seq, message: Reply::Ack { .. } | Reply::Identify(_) }) if seq == i as u8)
+                {
+                    break 'wait;
+                }
+            }
+        }
+        if i > 0 {
+            bare.push(t.elapsed());
+        }
+    }
+    bare.sort();
+    println!(
+        "PTY fire -> ack, bare link (200 commands): p50 {:.3} ms, p99 {:.3} ms",
+        percentile(&bare, 0.5).as_secs_f64() * 1e3,
+        percentile(&bare, 0.99).as_secs_f64() * 1e3
+    );
+}

@@ -567,21 +567,15 @@ impl Console {
     fn guidance_ui(&mut self, ui: &mut egui::Ui) {
         let mut changed = false;
         changed |= ui.checkbox(&mut self.cfg.guidance_auto, "Automatic cues").changed();
-        egui::Grid::new("guidance-settings").num_columns(2).show(ui, |ui| {
-            ui.label("Arrival radius");
-            changed |= ui
-                .add(egui::Slider::new(&mut self.cfg.arrival_radius_m, 2.0..=50.0).suffix(" m"))
-                .changed();
-            ui.end_row();
-            ui.label("Cue interval");
-            changed |=
-                ui.add(egui::Slider::new(&mut self.cfg.cue_interval_s, 1.0..=30.0).suffix(" s")).changed();
-            ui.end_row();
-            ui.label("Manual hold");
-            changed |=
-                ui.add(egui::Slider::new(&mut self.cfg.manual_hold_s, 0.0..=60.0).suffix(" s")).changed();
-            ui.end_row();
-        });
+        changed |= ui
+            .add(egui::Slider::new(&mut self.cfg.arrival_radius_m, 2.0..=50.0).suffix(" m").text("Arrival radius"))
+            .changed();
+        changed |= ui
+            .add(egui::Slider::new(&mut self.cfg.cue_interval_s, 1.0..=30.0).suffix(" s").text("Cue interval"))
+            .changed();
+        changed |= ui
+            .add(egui::Slider::new(&mut self.cfg.manual_hold_s, 0.0..=60.0).suffix(" s").text("Manual hold"))
+            .changed();
         if changed {
             self.push_settings();
         }
@@ -600,11 +594,11 @@ impl Console {
             }
         }
         ui.horizontal(|ui| {
-            if ui.button("◀ Previous waypoint").clicked() && self.map.next > 0 {
+            if ui.button("< Previous waypoint").clicked() && self.map.next > 0 {
                 self.map.next -= 1;
                 self.push_route();
             }
-            if ui.button("Next waypoint ▶").clicked() && self.map.next < self.map.waypoints.len() {
+            if ui.button("Next waypoint >").clicked() && self.map.next < self.map.waypoints.len() {
                 self.map.next += 1;
                 self.push_route();
             }

@@ -363,7 +363,7 @@ impl FieldTestPanel {
             }
         });
         if let Some(w) = self.live_pinning_warning() {
-            ui.colored_label(ui.visuals().warn_fg_color, format!("⚠ {w}"));
+            ui.colored_label(ui.visuals().warn_fg_color, format!("Warning: {w}"));
         }
         ui.separator();
         match self.procedure {
@@ -393,12 +393,12 @@ impl FieldTestPanel {
             self.drift.target_s = minutes * 60.0;
             match self.drift.phase {
                 Phase::Running => {
-                    if ui.button("■ Stop").clicked() {
+                    if ui.button("Stop").clicked() {
                         self.stop_drift();
                     }
                 }
                 Phase::Idle | Phase::Done => {
-                    let label = if self.drift.phase == Phase::Idle { "▶ Start drift test" } else { "▶ Start again" };
+                    let label = if self.drift.phase == Phase::Idle { "Start drift test" } else { "Start again" };
                     if ui.add_enabled(self.latest.is_some(), egui::Button::new(label)).clicked() {
                         self.start_drift();
                     }
@@ -428,7 +428,7 @@ impl FieldTestPanel {
                 }
             });
             for w in &s.warnings {
-                ui.colored_label(ui.visuals().warn_fg_color, format!("⚠ {w}"));
+                ui.colored_label(ui.visuals().warn_fg_color, format!("Warning: {w}"));
             }
         }
         self.export_and_plots(ui);
@@ -462,12 +462,12 @@ impl FieldTestPanel {
                 if ui.add_enabled(self.latest.is_some(), big).clicked() {
                     action = self.mark_cone();
                 }
-                if ui.button("■ Finish").clicked() {
+                if ui.button("Finish").clicked() {
                     self.finish_cones();
                 }
                 ui.label(format!("{} of {} cones marked", self.cones.marks.len(), self.cones.count));
             } else {
-                let label = if self.cones.phase == Phase::Idle { "▶ Start cone test" } else { "▶ Start again" };
+                let label = if self.cones.phase == Phase::Idle { "Start cone test" } else { "Start again" };
                 if ui.add_enabled(self.latest.is_some(), egui::Button::new(label)).clicked() {
                     self.start_cones();
                 }
@@ -489,15 +489,15 @@ impl FieldTestPanel {
         if let Some(s) = &self.cones.stats {
             ui.horizontal_wrapped(|ui| {
                 ui.label(format!(
-                    "mean {:.2} m · RMSE vs {} m: {:.2} m · range {:.2}–{:.2} m · along-line RMSE {:.2} m · \
-                     cross-line RMS {:.2} m · line bearing {:.1}°",
+                    "mean {:.2} m; RMSE vs {} m: {:.2} m; range {:.2}..{:.2} m; along-line RMSE {:.2} m; \
+                     cross-line RMS {:.2} m; line bearing {:.1}°",
                     s.mean_m, s.spacing_m, s.rmse_m, s.min_m, s.max_m, s.along_rmse_m, s.cross_rms_m,
                     s.line_bearing_deg
                 ));
             });
             egui::CollapsingHeader::new("Consecutive distances").default_open(true).show(ui, |ui| {
                 egui::Grid::new("fieldtest-cone-distances").striped(true).show(ui, |ui| {
-                    ui.strong("from → to");
+                    ui.strong("from -> to");
                     ui.strong("distance [m]");
                     ui.strong("along [m]");
                     ui.strong("cross [m]");
@@ -505,7 +505,7 @@ impl FieldTestPanel {
                     for (k, d) in s.distances_m.iter().enumerate() {
                         let from = s.labels.get(k).map_or("?", String::as_str);
                         let to = s.labels.get(k + 1).map_or("?", String::as_str);
-                        ui.label(format!("{from} → {to}"));
+                        ui.label(format!("{from} -> {to}"));
                         ui.monospace(format!("{d:.2}"));
                         ui.monospace(format!("{:.2}", s.along_m.get(k).copied().unwrap_or(f64::NAN)));
                         ui.monospace(format!("{:.2}", s.cross_m.get(k).copied().unwrap_or(f64::NAN)));
@@ -514,7 +514,7 @@ impl FieldTestPanel {
                 });
             });
             for w in &s.warnings {
-                ui.colored_label(ui.visuals().warn_fg_color, format!("⚠ {w}"));
+                ui.colored_label(ui.visuals().warn_fg_color, format!("Warning: {w}"));
             }
         } else if running {
             ui.label(format!("{} mark(s): statistics appear from the second mark.", self.cones.marks.len()));
@@ -703,4 +703,163 @@ fn cone_panels(test: &ConeTest, earth: Earth) -> Vec<PanelSpec> {
         panels.push(PanelSpec::Chart(components));
     }
     panels
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use approx::assert_relative_eq;
+
+    const C: LatLon = LatLon::new(42.3575, -71.1010);
+
+    /// A point `along_m` metres north of C and `east_m` east of that (WGS-84 geodesics).
+    fn at(along_m: f64, east_m: f64) -> LatLon {
+        let p = Earth::Wgs84.direct(C, 0.0, along_m);
+        Earth::Wgs84.direct(p, 90.0, east_m)
+    }
+
+    fn push(panel: &mut FieldTestPanel, t_s: f64, p: LatLon, speed: Option<f64>) {
+        panel.push_position(t_s, p.lat_deg, p.lon_deg, speed);
+    }
+
+    #[test]
+    fn cone_marks_give_consecutive_distances_mean_and_rmse() {
+        let mut panel = FieldTestPanel::new();
+        assert_eq!(panel.mark_cone(), None, "no test running");
+        push(&mut panel, 0.0, at(0.0, 0.0), Some(1.5));
+        panel.start_cones();
+        // Cones reached at 0, 10, 22 and 30 m along the line: distances 10, 12, 8.
+        let mut t = 0.0;
+        let mut labels = Vec::new();
+        for along in [0.0, 10.0, 22.0, 30.0] {
+            t += 7.0;
+            push(&mut panel, t, at(along, 0.0), Some(1.5));
+            match panel.mark_cone() {
+                Some(FieldTestAction::Mark { label }) => labels.push(label),
+                None => panic!("mark refused"),
+            }
+        }
+        assert_eq!(labels, ["cone 1", "cone 2", "cone 3", "cone 4"]);
+        let s = panel.cones.stats.as_ref().unwrap();
+        for (d, want) in s.distances_m.iter().zip([10.0, 12.0, 8.0]) {
+            assert_relative_eq!(*d, want, max_relative = 1e-9);
+        }
+        assert_relative_eq!(s.mean_m, 10.0, max_relative = 1e-9);
+        assert_relative_eq!(s.rmse_m, (8.0_f64 / 3.0).sqrt(), max_relative = 1e-9);
+        // The line runs north: the components are all along-line.
+        assert_relative_eq!(s.line_bearing_deg, 0.0, epsilon = 1e-6);
+        assert!(s.cross_m.iter().all(|c| c.abs() < 1e-6));
+        assert!(s.warnings.iter().any(|w| w.contains("4 marks for 10 cones")), "{:?}", s.warnings);
+        // The last cone marked 3 m east (right of the northward line), line bearing fixed at 0 degrees.
+        panel.cones.use_bearing = true;
+        panel.cones.marks.last_mut().unwrap().pos = at(30.0, 3.0);
+        panel.update_cone_stats();
+        let s = panel.cones.stats.as_ref().unwrap();
+        assert_relative_eq!(s.cross_m[2], 3.0, max_relative = 1e-6); // east of a northward line = right
+        assert_relative_eq!(s.along_m[2], 8.0, max_relative = 1e-6);
+        panel.finish_cones();
+        assert_eq!(panel.mark_cone(), None, "finished");
+        // The JSON report carries the statistics and the marks.
+        panel.procedure = Procedure::Cones;
+        let json: serde_json::Value = serde_json::from_slice(&panel.report_json().unwrap()).unwrap();
+        assert_eq!(json["test"], "cones");
+        assert_eq!(json["marks"].as_array().unwrap().len(), 4);
+        assert_eq!(json["stats"]["distances_m"].as_array().unwrap().len(), 3);
+        assert_eq!(json["settings"]["spacing_m"], 10.0);
+    }
+
+    #[test]
+    fn drift_test_stops_at_its_target_and_matches_a_circle() {
+        let mut panel = FieldTestPanel::new();
+        push(&mut panel, 100.0, C, None);
+        panel.start_drift();
+        // One fix per second on a 2 m circle about C for 3 min: CEP50 = CEP95 = DRMS = 2 m about the mean
+        // (the mean of a full circle is its centre); the farthest fix from the first is across, 4 m.
+        for k in 0..=200 {
+            let p = Earth::Wgs84.direct(C, 10.0 * f64::from(k), 2.0);
+            push(&mut panel, 101.0 + f64::from(k), p, Some(0.0));
+        }
+        assert_eq!(panel.drift.phase, Phase::Done);
+        assert_eq!(panel.drift.fixes.len(), 181, "recording stops at the 3 min target");
+        let s = panel.drift.stats.as_ref().unwrap();
+        assert_relative_eq!(s.duration_s, 180.0);
+        assert_relative_eq!(s.cep50_m, 2.0, max_relative = 1e-3);
+        assert_relative_eq!(s.drms_m, 2.0, max_relative = 1e-3);
+        assert_relative_eq!(s.max_from_first_m, 4.0, max_relative = 1e-6);
+        let panels = drift_panels(s);
+        let PanelSpec::Chart(scatter) = &panels[1] else { panic!("chart expected") };
+        assert_eq!(scatter.circles.len(), 2);
+        assert_relative_eq!(scatter.circles[0].2, s.cep50_m);
+        panel.procedure = Procedure::Drift;
+        let json: serde_json::Value = serde_json::from_slice(&panel.report_json().unwrap()).unwrap();
+        assert_eq!(json["stats"]["fixes"], 181);
+        assert!(json["stats"]["cep95_m"].is_number() && json["stats"]["twodrms_m"].is_number());
+    }
+
+    #[test]
+    fn hostile_fixes_are_ignored() {
+        let mut panel = FieldTestPanel::new();
+        panel.push_position(f64::NAN, 42.0, -71.0, None);
+        panel.push_position(1.0, f64::NAN, -71.0, None);
+        panel.push_position(1.0, 95.0, -71.0, None);
+        panel.push_position(1.0, 42.0, f64::INFINITY, None);
+        assert!(panel.latest.is_none());
+        panel.push_position(5.0, 42.0, -71.0, Some(f64::NAN));
+        panel.push_position(4.0, 42.0, -71.0, None);
+        assert_eq!(panel.rejected, 5);
+        assert_eq!(panel.latest.unwrap().speed_m_s, None);
+    }
+
+    #[test]
+    fn pinned_receiver_raises_the_live_warning() {
+        let mut panel = FieldTestPanel::new();
+        panel.procedure = Procedure::Cones;
+        push(&mut panel, 0.0, C, Some(1.5));
+        panel.start_cones();
+        for k in 1..=4 {
+            push(&mut panel, f64::from(k), at(1.5 * f64::from(k), 0.0), Some(1.5));
+        }
+        assert_eq!(panel.live_pinning_warning(), None);
+        for k in 5..=12 {
+            push(&mut panel, f64::from(k), at(6.0, 0.0), Some(1.5));
+        }
+        assert!(panel.live_pinning_warning().is_some_and(|w| w.contains("pinned")));
+        push(&mut panel, 13.0, at(8.0, 0.0), Some(0.6));
+        assert!(panel.live_pinning_warning().is_some_and(|w| w.contains("static navigation")));
+    }
+
+    #[test]
+    fn mark_button_and_key_return_the_action() {
+        use egui_kittest::Harness;
+        use egui_kittest::kittest::Queryable as _;
+        let mut panel = FieldTestPanel::new();
+        push(&mut panel, 0.0, C, Some(1.5));
+        let mut harness = Harness::new_ui_state(
+            |ui, state: &mut (FieldTestPanel, Vec<FieldTestAction>)| {
+                if let Some(a) = state.0.ui(ui) {
+                    state.1.push(a);
+                }
+            },
+            (panel, Vec::new()),
+        );
+        harness.set_size(egui::vec2(1200.0, 900.0));
+        harness.run();
+        harness.get_by_label("Cone test").click();
+        harness.run();
+        harness.get_by_label("Start cone test").click();
+        harness.run();
+        harness.get_by_label_contains("Mark cone 1").click();
+        harness.run();
+        push(&mut harness.state_mut().0, 7.0, at(10.0, 0.0), Some(1.5));
+        harness.key_press(egui::Key::M);
+        harness.run();
+        let labels: Vec<String> = harness
+            .state()
+            .1
+            .iter()
+            .map(|FieldTestAction::Mark { label }| label.clone())
+            .collect();
+        assert_eq!(labels, ["cone 1", "cone 2"]);
+        assert_relative_eq!(harness.state().0.cones.stats.as_ref().unwrap().distances_m[0], 10.0, max_relative = 1e-9);
+    }
 }

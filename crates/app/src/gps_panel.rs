@@ -136,9 +136,9 @@ pub fn show(c: &mut Console, ui: &mut egui::Ui, now_s: f64) {
         if !c.gps.alarm_silenced {
             let blink = (now_s * 2.0).fract() < 0.5;
             let (text, color) = match a {
-                GpsAlarm::Lost { reason } => (format!("⚠ GPS FIX LOST: {reason}"), Color32::from_rgb(220, 30, 30)),
+                GpsAlarm::Lost { reason } => (format!("GPS FIX LOST: {reason}"), Color32::from_rgb(220, 30, 30)),
                 GpsAlarm::Stale { age_s } => {
-                    (format!("⚠ GPS STALE: last fix {age_s:.0} s ago"), Color32::from_rgb(220, 140, 0))
+                    (format!("GPS STALE: last fix {age_s:.0} s ago"), Color32::from_rgb(220, 140, 0))
                 }
             };
             egui::Frame::new().fill(if blink { color } else { color.gamma_multiply(0.7) }).inner_margin(6.0).show(
@@ -195,7 +195,7 @@ fn picker_ui(c: &mut Console, ui: &mut egui::Ui) {
                     .selected_text(if p.port.is_empty() { "pick a port" } else { p.port.as_str() })
                     .show_ui(ui, |ui| {
                         for port in &p.ports {
-                            let bt = if port.kind == PortKind::Bluetooth { "ᛒ " } else { "" };
+                            let bt = if port.kind == PortKind::Bluetooth { "[BT] " } else { "" };
                             let text = format!("{bt}{} {}", port.name, port.description);
                             ui.selectable_value(&mut p.port, port.name.clone(), text);
                         }
@@ -203,7 +203,7 @@ fn picker_ui(c: &mut Console, ui: &mut egui::Ui) {
                             ui.label("no serial ports found");
                         }
                     });
-                if ui.button("⟳").on_hover_text("Scan ports again").clicked() {
+                if ui.button("Rescan").on_hover_text("Scan ports again").clicked() {
                     p.ports = vestnav_device::serial::list_ports();
                 }
             });

@@ -86,7 +86,7 @@ impl LogViewer {
         ));
         let dur = log.duration_s();
         ui.horizontal(|ui| {
-            if ui.button(if self.playing { "⏸ Pause" } else { "▶ Replay" }).clicked() {
+            if ui.button(if self.playing { "Pause" } else { "Replay" }).clicked() {
                 self.playing = !self.playing;
                 if self.cursor_s >= dur {
                     self.cursor_s = 0.0;

@@ -156,10 +156,10 @@ impl MapView {
                 self.memory.follow_my_position();
             }
             ui.toggle_value(&mut self.add_mode, "Add waypoints");
-            if ui.button("＋").on_hover_text("Zoom in").clicked() {
+            if ui.button(" + ").on_hover_text("Zoom in").clicked() {
                 let _ = self.memory.zoom_in();
             }
-            if ui.button("－").on_hover_text("Zoom out").clicked() {
+            if ui.button(" - ").on_hover_text("Zoom out").clicked() {
                 let _ = self.memory.zoom_out();
             }
             ui.checkbox(&mut cfg.map_tiles, "OSM tiles");
@@ -233,17 +233,17 @@ impl MapView {
             for i in range {
                 let w = &self.waypoints[i];
                 ui.horizontal(|ui| {
-                    let marker = if i == self.next { "▶" } else { " " };
+                    let marker = if i == self.next { "> " } else { "" };
                     if ui.selectable_label(i == self.next, format!("{marker}{} {}", i + 1, w.name)).clicked() {
                         action = Some((i, 0));
                     }
-                    if ui.small_button("⬆").on_hover_text("Move earlier").clicked() {
+                    if ui.small_button("Up").on_hover_text("Move earlier").clicked() {
                         action = Some((i, -1));
                     }
-                    if ui.small_button("⬇").on_hover_text("Move later").clicked() {
+                    if ui.small_button("Down").on_hover_text("Move later").clicked() {
                         action = Some((i, 1));
                     }
-                    if ui.small_button("✖").on_hover_text("Delete").clicked() {
+                    if ui.small_button("Del").on_hover_text("Delete").clicked() {
                         action = Some((i, 99));
                     }
                 });

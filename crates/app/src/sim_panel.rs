@@ -23,6 +23,7 @@ use std::sync::Arc;
 use std::sync::mpsc::{self, Receiver, TryRecvError};
 use std::time::{Duration, Instant};
 
+use vestnav_core::sweep::{self, Calibration, SweepOptions, SweepResult};
 use vestnav_core::tactor::{self, BodyMass, Preset, SimOptions, TactorParams, TactorRun};
 use vestnav_core::twopoint::{self, TwoPointResult, TwoPointSetup};
 use vestnav_core::vest::{GRID, TACTOR_COUNT, TactorMask};
@@ -186,7 +187,7 @@ impl ChartSpec {
             chart = chart.equal_aspect();
         }
         for (idx, s) in self.series.iter().enumerate() {
-            let mut series = match s.kind {
+            let series = match s.kind {
                 SeriesKind::Line => Series::line(s.label.clone(), s.x.clone(), s.y.clone()),
                 SeriesKind::Dashed => Series::line(s.label.clone(), s.x.clone(), s.y.clone()).dashed(),
                 SeriesKind::Scatter => {
@@ -361,12 +362,19 @@ impl HeatSpec {
         if let Some((lo, hi)) = range {
             ui.horizontal(|ui| {
                 ui.label(format!("{}:", self.colorbar_label));
-                for k in 0..=8 {
-                    let f = f64::from(k) / 8.0;
-                    let c = colormap(f);
-                    ui.label(egui::RichText::new("■").color(c));
+                ui.label(format!("{lo:.3}"));
+                let (rect, _) = ui.allocate_exact_size(egui::vec2(160.0, 12.0), egui::Sense::hover());
+                let steps = 32;
+                for k in 0..steps {
+                    let f0 = k as f32 / steps as f32;
+                    let f1 = (k + 1) as f32 / steps as f32;
+                    let seg = egui::Rect::from_x_y_ranges(
+                        egui::lerp(rect.x_range(), f0)..=egui::lerp(rect.x_range(), f1),
+                        rect.y_range(),
+                    );
+                    ui.painter().rect_filled(seg, 0.0, colormap(f64::from(f0 + f1) / 2.0));
                 }
-                ui.label(format!("{lo:.3} .. {hi:.3}"));
+                ui.label(format!("{hi:.3}"));
             });
         }
         let valid = self.nx > 0 && self.values.len() == self.nx * self.ny;
@@ -650,7 +658,7 @@ where
         ui.horizontal(|ui| {
             if self.is_running() {
                 ui.spinner();
-                ui.label("computing…");
+                ui.label("computing...");
             } else if let Some(d) = self.last_duration {
                 ui.weak(format!("computed in {:.1} ms", d.as_secs_f64() * 1e3));
             }
@@ -906,9 +914,12 @@ impl SimPanel {
             Tab::Tactor => self.tactor.ui(ui),
             Tab::Sweep => {
                 if let Some(damping_n_m_s) = self.sweep.ui(ui) {
-                    self.tactor.inputs.damping_n_m_s = damping_n_m_s;
-                    self.tactor.inputs.body = self.sweep.inputs.body;
-                    self.tactor.inputs.radius_m = self.sweep.inputs.radius_m;
+                    let (t, s) = (&mut self.tactor.inputs, &self.sweep.inputs);
+                    t.damping_n_m_s = damping_n_m_s;
+                    t.preset = s.preset;
+                    t.voltage_v = s.voltage_v;
+                    t.body = s.body;
+                    t.radius_m = s.radius_m;
                     self.tab = Tab::Tactor;
                 }
             }
@@ -1617,26 +1628,303 @@ impl TwoPointView {
 
 // ---------------------------------------------------- Damping sweep ----------------------------------------------------
 
+/// The power law of the 207 measured trials, `f = 124.7 n^0.4839` (thesis §3.2.3, Fig 36; physics.md §1).
+const MEASURED_POWER_LAW: (f64, f64) = (124.7, 0.4839);
+/// Force range of the measured tactors [N] (physics.md §4: 0.52–2.01 N over all mountings).
+const MEASURED_FORCE_RANGE_N: (f64, f64) = (0.5, 2.0);
+
 /// Inputs of the damping sweep.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct SweepInputs {
+    preset: Preset,
+    voltage_v: f64,
     body: BodyMass,
     radius_m: f64,
+    min_hz: f64,
+    max_hz: f64,
+    points: usize,
+}
+
+impl SweepInputs {
+    fn params(&self, body: BodyMass, radius_m: f64) -> TactorParams {
+        TactorParams::preset(self.preset).with_body(body).with_voltage(self.voltage_v).with_radius(radius_m)
+    }
+
+    fn other_body(&self) -> BodyMass {
+        match self.body {
+            BodyMass::Unencased => BodyMass::Encased,
+            BodyMass::Encased => BodyMass::Unencased,
+        }
+    }
+
+    /// The radius compared with in Fig 36: the other of the CAD and fitted radii.
+    fn other_radius_m(&self) -> f64 {
+        if (self.radius_m - tactor::RADIUS_CAD_M).abs() < 1e-9 { tactor::RADIUS_FITTED_M } else { tactor::RADIUS_CAD_M }
+    }
+}
+
+/// Three sweeps: the selected tactor, the other body (Fig 35) and the other radius (Fig 36).
+struct SweepOutput {
+    main: SweepResult,
+    other_body: SweepResult,
+    other_radius: SweepResult,
+}
+
+fn compute_sweeps(i: &SweepInputs) -> Result<SweepOutput, String> {
+    let options = SweepOptions { min_hz: i.min_hz, max_hz: i.max_hz, points: i.points, ..SweepOptions::default() };
+    let run = |body, radius_m| sweep::sweep(&i.params(body, radius_m), &options).map_err(|e| e.to_string());
+    Ok(SweepOutput {
+        main: run(i.body, i.radius_m)?,
+        other_body: run(i.other_body(), i.radius_m)?,
+        other_radius: run(i.body, i.other_radius_m())?,
+    })
+}
+
+/// Inputs of the damping calibration ("damping for frequency").
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct CalibrationInputs {
+    params: TactorParams,
+    frequency_hz: f64,
+}
+
+fn compute_calibration(i: &CalibrationInputs) -> Result<Calibration, String> {
+    sweep::calibrate_damping(&i.params, i.frequency_hz, &SimOptions::default()).map_err(|e| e.to_string())
+}
+
+fn sweep_label(r: &SweepResult) -> String {
+    format!("{}, l = {} mm", r.params.body.name(), r.params.radius_m * 1e3)
+}
+
+/// `n` evenly spaced values over `lo..=hi`.
+fn linspace(lo: f64, hi: f64, n: usize) -> Vec<f64> {
+    let n = n.max(2);
+    (0..n).map(|k| lo + (hi - lo) * k as f64 / (n - 1) as f64).collect()
+}
+
+/// The sweep panels (thesis Figs 35–38), with the calibrated point if there is one.
+fn sweep_panels(out: &SweepOutput, calibration: Option<&Calibration>) -> Vec<PanelSpec> {
+    let force = |r: &SweepResult| r.points.iter().map(|p| p.force_amplitude_n).collect::<Vec<_>>();
+    let freq = |r: &SweepResult| r.points.iter().map(|p| p.f_rot_hz).collect::<Vec<_>>();
+    let fit_curve = |r: &SweepResult| {
+        let f = force(r);
+        let lo = f.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = f.iter().copied().fold(0.0, f64::max);
+        let x = linspace(lo, hi, 100);
+        let y = x.iter().map(|&n| r.power_law.eval(n)).collect();
+        (x, y)
+    };
+
+    let mut fig35 = ChartSpec::new("Peak frequency vs force as b varies (Fig 35)", "force amplitude [N]", "f [Hz]");
+    for r in [&out.main, &out.other_body] {
+        let (x, y) = fit_curve(r);
+        fig35 = fig35.with(SeriesSpec::scatter(sweep_label(r), force(r), freq(r))).with(SeriesSpec::dashed(
+            format!(
+                "fit f = {:.1} n^{:.4} (R^2 = {:.4})",
+                r.power_law.coefficient, r.power_law.exponent, r.power_law.r2
+            ),
+            x,
+            y,
+        ));
+    }
+
+    let mut fig36 =
+        ChartSpec::new("Model curves and the measured trials' fit (Fig 36)", "force amplitude [N]", "f [Hz]");
+    for r in [&out.main, &out.other_radius] {
+        fig36 = fig36.with(SeriesSpec::line(format!("model, {}", sweep_label(r)), force(r), freq(r)));
+    }
+    let (a, b) = MEASURED_POWER_LAW;
+    let x = linspace(MEASURED_FORCE_RANGE_N.0, MEASURED_FORCE_RANGE_N.1, 100);
+    let y = x.iter().map(|n| a * n.powf(b)).collect();
+    fig36 = fig36.with(SeriesSpec::dashed(format!("207 measured trials: f = {a} n^{b}"), x, y).color([20, 20, 20]));
+
+    let r = &out.main;
+    let current_ma: Vec<f64> = r.points.iter().map(|p| p.current_mean_a * 1e3).collect();
+    let line_x = linspace(
+        current_ma.iter().copied().fold(f64::INFINITY, f64::min),
+        current_ma.iter().copied().fold(0.0, f64::max),
+        50,
+    );
+    let line_y = line_x.iter().map(|i| r.current_line.eval(i * 1e-3)).collect();
+    let fig37 = ChartSpec::new("Peak frequency vs steady current (Fig 37)", "mean current [mA]", "f [Hz]")
+        .with(SeriesSpec::scatter(sweep_label(r), current_ma, freq(r)))
+        .with(SeriesSpec::dashed(
+            format!(
+                "fit f = {:.2} {:+.2} i[A] (R^2 = {:.5})",
+                r.current_line.intercept, r.current_line.slope, r.current_line.r2
+            ),
+            line_x,
+            line_y,
+        ));
+
+    let f_axis = linspace(r.options.min_hz, r.options.max_hz, 100);
+    let scale = 1e8;
+    let b_sim: Vec<f64> = r.points.iter().map(|p| p.damping_n_m_s * scale).collect();
+    let inv = &r.inverse_fit;
+    let mut fig38 = ChartSpec::new("Damping vs peak frequency: calibration (Fig 38)", "f [Hz]", "b [1e-8 N m s]")
+        .with(SeriesSpec::scatter("simulated", freq(r), b_sim))
+        .with(SeriesSpec::line(
+            "exact inverse b = a/f + c",
+            f_axis.clone(),
+            f_axis.iter().map(|&f| r.exact_inverse.eval(f) * scale).collect(),
+        ))
+        .with(SeriesSpec::dashed(
+            format!("fit b = p1 (f + p2)^p3 + p4, p3 = {:.4}", inv.p3),
+            f_axis.clone(),
+            f_axis.iter().map(|&f| inv.eval(f) * scale).collect(),
+        ));
+    if let Some(c) = calibration {
+        fig38 = fig38
+            .with(
+                SeriesSpec::scatter(
+                    format!("calibrated: {:.2} Hz", c.frequency_hz),
+                    vec![c.achieved_f_rot_hz],
+                    vec![c.damping_n_m_s * scale],
+                )
+                .color([214, 39, 40]),
+            )
+            .vline(c.frequency_hz, "target frequency");
+    }
+    [fig35, fig36, fig37, fig38].into_iter().map(PanelSpec::Chart).collect()
+}
+
+/// Fit parameters and the calibration, one line each (also the CSV header).
+fn sweep_header(out: &SweepOutput, calibration: Option<&Calibration>) -> Vec<String> {
+    let mut lines = Vec::new();
+    for r in [&out.main, &out.other_body, &out.other_radius] {
+        let inv = &r.inverse_fit;
+        lines.push(format!(
+            "{} ({} preset, u = {} V, {} points {}..{} Hz): f = {:.3} n^{:.5} (R^2 {:.5}); f = {:.3} {:+.3} i              (R^2 {:.6}); b = {:.4e} (f {:+.4})^{:.5} {:+.4e} (max rel. residual {:.2e})",
+            sweep_label(r),
+            r.params.preset.name(),
+            r.params.voltage_v,
+            r.points.len(),
+            r.options.min_hz,
+            r.options.max_hz,
+            r.power_law.coefficient,
+            r.power_law.exponent,
+            r.power_law.r2,
+            r.current_line.intercept,
+            r.current_line.slope,
+            r.current_line.r2,
+            inv.p1,
+            inv.p2,
+            inv.p3,
+            inv.p4,
+            inv.max_rel_residual
+        ));
+    }
+    if let Some(c) = calibration {
+        lines.push(format!(
+            "damping for {} Hz: {:.6e} N m s (closed form {:.6e}), simulated f_rot {:.4} Hz after {} simulations",
+            c.frequency_hz, c.damping_n_m_s, c.damping_closed_form_n_m_s, c.achieved_f_rot_hz, c.iterations
+        ));
+    }
+    lines
 }
 
 struct SweepView {
     inputs: SweepInputs,
+    frequency_hz: f64,
+    job: Recompute<SweepInputs, SweepOutput>,
+    calibration: Recompute<CalibrationInputs, Calibration>,
+    panels: Option<((u64, u64), Vec<PanelSpec>, Vec<String>)>,
+    exporter: Exporter,
 }
 
 impl SweepView {
     fn new() -> Self {
-        Self { inputs: SweepInputs { body: BodyMass::Unencased, radius_m: tactor::RADIUS_CAD_M } }
+        Self {
+            inputs: SweepInputs {
+                preset: Preset::ThesisSim,
+                voltage_v: 3.3,
+                body: BodyMass::Unencased,
+                radius_m: tactor::RADIUS_CAD_M,
+                min_hz: 80.0,
+                max_hz: 200.0,
+                points: 40,
+            },
+            frequency_hz: 133.2,
+            job: Recompute::new(compute_sweeps),
+            calibration: Recompute::new(compute_calibration),
+            panels: None,
+            exporter: Exporter::new("vestnav-sweep.png"),
+        }
+    }
+
+    fn calibration_inputs(&self) -> CalibrationInputs {
+        CalibrationInputs {
+            params: self.inputs.params(self.inputs.body, self.inputs.radius_m),
+            frequency_hz: self.frequency_hz,
+        }
+    }
+
+    fn refresh(&mut self, ctx: &egui::Context) {
+        self.job.update(ctx, &self.inputs);
+        let cal_inputs = self.calibration_inputs();
+        self.calibration.update(ctx, &cal_inputs);
+        let key = (self.job.generation(), self.calibration.generation());
+        if self.panels.as_ref().is_some_and(|(k, ..)| *k == key) {
+            return;
+        }
+        let Some((_, out)) = self.job.shown() else { return };
+        let cal = self.calibration.shown().map(|(_, c)| Arc::clone(c));
+        self.panels = Some((key, sweep_panels(out, cal.as_deref()), sweep_header(out, cal.as_deref())));
     }
 
     /// Draws the view; returns a damping the operator wants simulated in the tactor view.
     fn ui(&mut self, ui: &mut egui::Ui) -> Option<f64> {
-        ui.label(format!("{:?}", self.inputs));
-        None
+        let i = &mut self.inputs;
+        ui.horizontal_wrapped(|ui| {
+            egui::ComboBox::from_label("preset ")
+                .selected_text(i.preset.name())
+                .show_ui(ui, |ui| {
+                    ui.selectable_value(&mut i.preset, Preset::ThesisSim, "thesis-sim (R = 62 ohm)");
+                    ui.selectable_value(&mut i.preset, Preset::Measured, "measured (R = 67 ohm)");
+                });
+            ui.radio_value(&mut i.body, BodyMass::Unencased, "unencased");
+            ui.radio_value(&mut i.body, BodyMass::Encased, "encased");
+            ui.separator();
+            ui.radio_value(&mut i.radius_m, tactor::RADIUS_CAD_M, "l = 2.57 mm (CAD)");
+            ui.radio_value(&mut i.radius_m, tactor::RADIUS_FITTED_M, "l = 3.2 mm (fitted)");
+        });
+        ui.horizontal_wrapped(|ui| {
+            ui.add(egui::Slider::new(&mut i.voltage_v, 0.5..=6.0).text("voltage [V]").fixed_decimals(3));
+            ui.add(egui::DragValue::new(&mut i.min_hz).range(10.0..=1000.0).prefix("from ").suffix(" Hz"));
+            ui.add(egui::DragValue::new(&mut i.max_hz).range(10.0..=2000.0).prefix("to ").suffix(" Hz"));
+            ui.add(egui::DragValue::new(&mut i.points).range(4..=200).prefix("points "));
+        });
+        if i.max_hz <= i.min_hz + 1.0 {
+            i.max_hz = i.min_hz + 1.0;
+        }
+        let mut apply = None;
+        ui.horizontal_wrapped(|ui| {
+            ui.label("Damping for frequency:");
+            ui.add(egui::DragValue::new(&mut self.frequency_hz).range(1.0..=2000.0).speed(0.1).suffix(" Hz"));
+            if let Some((inputs, c)) = self.calibration.shown() {
+                ui.monospace(format!(
+                    "b = {:.5e} N m s (closed form {:.5e}) -> f_rot {:.3} Hz",
+                    c.damping_n_m_s, c.damping_closed_form_n_m_s, c.achieved_f_rot_hz
+                ));
+                let current = *inputs == self.calibration_inputs();
+                if ui.add_enabled(current, egui::Button::new("Simulate this tactor")).clicked() {
+                    apply = Some(c.damping_n_m_s);
+                }
+            }
+        });
+        let ctx = ui.ctx().clone();
+        self.refresh(&ctx);
+        self.job.status_ui(ui);
+        self.calibration.status_ui(ui);
+        if let Some((_, panels, header)) = &self.panels {
+            for line in header {
+                ui.label(line);
+            }
+            export_row(ui, &mut self.exporter, "Damping sweep (thesis Figs 35-38)", header.clone(), panels);
+            egui::ScrollArea::vertical().id_salt("sim-sweep-scroll").show(ui, |ui| {
+                panels_grid(ui, "sim-sweep", panels, PLOT_HEIGHT);
+            });
+        }
+        apply
     }
 }
 
@@ -1832,6 +2120,44 @@ mod tests {
         let csv = std::fs::read_to_string(dir.join("t.csv")).unwrap();
         assert!(csv.contains("mean omega [rad/s]"));
         assert!(csv.lines().count() > 1000);
+    }
+
+    #[test]
+    fn sweep_panels_scale_the_closed_form_inverse() {
+        let inputs = SweepInputs {
+            preset: Preset::ThesisSim,
+            voltage_v: 3.3,
+            body: BodyMass::Unencased,
+            radius_m: tactor::RADIUS_CAD_M,
+            min_hz: 100.0,
+            max_hz: 160.0,
+            points: 6,
+        };
+        let out = compute_sweeps(&inputs).unwrap();
+        assert_relative_eq!(out.other_body.params.body_mass_kg, 4.95e-3);
+        assert_relative_eq!(out.other_radius.params.radius_m, 3.2e-3);
+        let cal = compute_calibration(&CalibrationInputs {
+            params: inputs.params(BodyMass::Unencased, tactor::RADIUS_CAD_M),
+            frequency_hz: 133.2,
+        })
+        .unwrap();
+        assert_relative_eq!(cal.achieved_f_rot_hz, 133.2, max_relative = 1e-5);
+        let panels = sweep_panels(&out, Some(&cal));
+        assert_eq!(panels.len(), 4);
+        let PanelSpec::Chart(fig38) = &panels[3] else { panic!("chart expected") };
+        // b(f) = (Kt u / (2 pi f) - Kt^2) / R, drawn in units of 1e-8 N m s (physics.md §1 steady state).
+        let exact = &fig38.series[1];
+        let (kt, u, r) = (0.0019, 3.3, 62.0);
+        for (&f, &b) in exact.x.iter().zip(&exact.y) {
+            let want = (kt * u / (std::f64::consts::TAU * f) - kt * kt) / r * 1e8;
+            assert_relative_eq!(b, want, max_relative = 1e-9);
+        }
+        // Fig 37: the current line of the closed form, f = u/(2 pi Kt) - R/(2 pi Kt) i, drawn against mA.
+        let PanelSpec::Chart(fig37) = &panels[2] else { panic!("chart expected") };
+        let line = &fig37.series[1];
+        let f_of_ma = |i_ma: f64| (u - r * i_ma * 1e-3) / (std::f64::consts::TAU * kt);
+        assert_relative_eq!(line.y[0], f_of_ma(line.x[0]), max_relative = 1e-3);
+        assert!(sweep_header(&out, Some(&cal)).iter().any(|l| l.contains("damping for 133.2 Hz")));
     }
 
     #[test]

@@ -15,10 +15,7 @@ use crate::model::VestCommand;
 pub fn show(c: &mut Console, ui: &mut egui::Ui) {
     connection_ui(c, ui);
     ui.separator();
-    ui.horizontal(|ui| {
-        ui.label("On-time");
-        ui.add(egui::Slider::new(&mut c.cfg.on_ms, 50..=2000).suffix(" ms"));
-    });
+    ui.add(egui::Slider::new(&mut c.cfg.on_ms, 50..=2000).suffix(" ms").text("On-time"));
     ui.horizontal(|ui| {
         ui.checkbox(&mut c.vest.select_mode, "Multi-select");
         let n = c.vest.selected.count();
@@ -69,7 +66,7 @@ fn connection_ui(c: &mut Console, ui: &mut egui::Ui) {
                 .selected_text(if port.is_empty() { "pick" } else { port.as_str() })
                 .show_ui(ui, |ui| {
                     for p in vestnav_device::serial::list_ports() {
-                        let bt = if p.kind == vestnav_device::serial::PortKind::Bluetooth { "ᛒ " } else { "" };
+                        let bt = if p.kind == vestnav_device::serial::PortKind::Bluetooth { "[BT] " } else { "" };
                         ui.selectable_value(port, p.name.clone(), format!("{bt}{} {}", p.name, p.description));
                     }
                 });
@@ -150,10 +147,10 @@ fn patterns_ui(c: &mut Console, ui: &mut egui::Ui) {
     let mut play = None;
     for (k, p) in c.cfg.user_patterns.iter().enumerate() {
         ui.horizontal(|ui| {
-            if ui.button(format!("▶ {}", p.name)).on_hover_text(describe(p)).clicked() {
+            if ui.button(format!("Play {}", p.name)).on_hover_text(describe(p)).clicked() {
                 play = Some(p.clone());
             }
-            if ui.small_button("✖").on_hover_text("Delete this pattern").clicked() {
+            if ui.small_button("Del").on_hover_text("Delete this pattern").clicked() {
                 remove = Some(k);
             }
         });
@@ -194,5 +191,5 @@ fn describe(p: &Pattern) -> String {
             format!("[{}] {} ms", idx.join(" "), f.duration_ms)
         })
         .collect();
-    format!("{} × {}: {}", p.repeats, p.name, frames.join(" → "))
+    format!("{} × {}: {}", p.repeats, p.name, frames.join(" -> "))
 }

@@ -116,6 +116,8 @@ fn multi_select_fires_several() {
         h.get_by_label(t).click();
         h.run_steps(1);
     }
+    assert!(h.state().vest.select_mode);
+    assert_eq!(h.state().vest.selected, TactorMask::from_indices([0, 3, 12]));
     h.get_by_label("Fire selected (3)").click();
     h.run_steps(1);
     let sent = fake.vest.sent.lock().unwrap().clone();

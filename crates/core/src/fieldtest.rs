@@ -72,7 +72,8 @@ pub struct PinningReport {
 
 /// Finds runs of identical consecutive positions in `fixes`.
 pub fn pinning(fixes: &[TimedFix]) -> PinningReport {
-    let same = |a: LatLon, b: LatLon| (a.lat_deg - b.lat_deg).abs() < 1e-9 && (a.lon_deg - b.lon_deg).abs() < 1e-9;
+    let same =
+        |a: LatLon, b: LatLon| (a.lat_deg - b.lat_deg).abs() < 1e-9 && (a.lon_deg - b.lon_deg).abs() < 1e-9;
     let mut repeated = 0;
     let (mut best_len, mut best_start, mut best_end) = (usize::from(!fixes.is_empty()), 0usize, 0usize);
     let mut run_start = 0;
@@ -274,6 +275,10 @@ pub struct ConeStats {
     pub along_rmse_m: f64,
     /// RMS of the cross-line components [m] (nominally 0).
     pub cross_rms_m: f64,
+    /// The first mark's position: origin of `marks_en_m`.
+    pub origin: LatLon,
+    /// Time of the first mark [s] (origin of `marks_t_s`).
+    pub marks_t0_s: f64,
     /// East/north of each mark about the first mark [m].
     pub marks_en_m: Vec<DVec2>,
     /// Time of each mark relative to the first [s].
@@ -292,11 +297,16 @@ pub struct ConeStats {
 /// `theta` (`u = (sin theta, cos theta)`), `along_k = delta_k·u`, `cross_k = delta_k x u` (right positive).
 /// Pinning warnings: two consecutive marks at the same position, or a run of identical track fixes longer
 /// than `pinned_run_s` between the first and the last mark.
-pub fn cones(marks: &[ConeMark], track: &[TimedFix], config: &ConeConfig) -> Result<ConeStats, FieldTestError> {
+pub fn cones(
+    marks: &[ConeMark],
+    track: &[TimedFix],
+    config: &ConeConfig,
+) -> Result<ConeStats, FieldTestError> {
     if !(config.spacing_m.is_finite() && config.spacing_m > 0.0) {
         return Err(FieldTestError::BadSetting("spacing must be a positive number of metres"));
     }
-    let marks: Vec<&ConeMark> = marks.iter().filter(|m| m.t_s.is_finite() && m.pos.validated().is_ok()).collect();
+    let marks: Vec<&ConeMark> =
+        marks.iter().filter(|m| m.t_s.is_finite() && m.pos.validated().is_ok()).collect();
     if marks.len() < 2 {
         return Err(FieldTestError::TooFew { what: "cone marks", have: marks.len(), need: 2 });
     }
@@ -356,6 +366,8 @@ pub fn cones(marks: &[ConeMark], track: &[TimedFix], config: &ConeConfig) -> Res
         distances_m: distances,
         along_m: along,
         cross_m: cross,
+        origin: marks[0].pos,
+        marks_t0_s: t0,
         marks_en_m: en,
         marks_t_s: marks.iter().map(|m| m.t_s - t0).collect(),
         labels: marks.iter().map(|m| m.label.clone()).collect(),
@@ -449,7 +461,8 @@ mod tests {
     #[test]
     fn exact_cones_have_zero_error() {
         let marks = line_marks(&[10.0; 9], &[0.0; 10], 15.4);
-        let cfg = ConeConfig { count: Some(10), line_bearing_deg: Some(15.4), ..ConeConfig::with_spacing(10.0) };
+        let cfg =
+            ConeConfig { count: Some(10), line_bearing_deg: Some(15.4), ..ConeConfig::with_spacing(10.0) };
         let s = cones(&marks, &[], &cfg).unwrap();
         assert_eq!(s.distances_m.len(), 9);
         assert!(s.rmse_m < 1e-6 && s.cross_rms_m < 1e-6 && s.along_rmse_m < 1e-6, "{s:?}");
@@ -464,7 +477,8 @@ mod tests {
         // The marks are built along a geodesic through C, the frame is centred on the first mark 1 m off it:
         // the planar components are good to ~1e-5 relative (see LocalFrame), hence the tolerance.
         let marks = line_marks(&[8.0, 12.0, 8.0, 12.0], &[-1.0, 1.0, -1.0, 1.0, -1.0], 90.0);
-        let cfg = ConeConfig { line_bearing_deg: Some(90.0), count: Some(10), ..ConeConfig::with_spacing(10.0) };
+        let cfg =
+            ConeConfig { line_bearing_deg: Some(90.0), count: Some(10), ..ConeConfig::with_spacing(10.0) };
         let s = cones(&marks, &[], &cfg).unwrap();
         for (a, want) in s.along_m.iter().zip([8.0, 12.0, 8.0, 12.0]) {
             assert_relative_eq!(*a, want, max_relative = 1e-4);
@@ -487,8 +501,9 @@ mod tests {
     fn pinned_marks_and_tracks_warn() {
         let mut marks = line_marks(&[10.0; 3], &[0.0; 4], 0.0);
         marks[2].pos = marks[1].pos;
-        let track: Vec<TimedFix> =
-            (0..=30).map(|i| TimedFix { t_s: f64::from(i), pos: if i < 20 { C } else { marks[3].pos } }).collect();
+        let track: Vec<TimedFix> = (0..=30)
+            .map(|i| TimedFix { t_s: f64::from(i), pos: if i < 20 { C } else { marks[3].pos } })
+            .collect();
         let s = cones(&marks, &track, &ConeConfig::with_spacing(10.0)).unwrap();
         assert!(s.warnings.iter().any(|w| w.contains("same position")), "{:?}", s.warnings);
         assert!(s.warnings.iter().any(|w| w.contains("19 s")), "{:?}", s.warnings);

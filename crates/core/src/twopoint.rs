@@ -54,7 +54,12 @@ impl TwoPointSetup {
 
     /// The grid positions [mm].
     pub fn grid_mm(&self) -> Vec<f64> {
-        if !(self.grid_step_mm > 0.0) || !(self.grid_end_mm >= self.grid_start_mm) {
+        if !self.grid_step_mm.is_finite()
+            || self.grid_step_mm <= 0.0
+            || !self.grid_start_mm.is_finite()
+            || !self.grid_end_mm.is_finite()
+            || self.grid_end_mm < self.grid_start_mm
+        {
             return Vec::new();
         }
         let n = ((self.grid_end_mm - self.grid_start_mm) / self.grid_step_mm + 1e-9).floor() as usize + 1;
@@ -271,7 +276,7 @@ pub const DEFAULT_RELATIVE_RMSE: f64 = 0.01;
 /// below the Sparrow limit `sqrt(2) b` = 51.2 mm where the profile itself becomes two-peaked.
 /// `Ok(None)` if the level is not reached up to `max_mm`.
 pub fn threshold_mm(setup: &TwoPointSetup, relative_rmse: f64, max_mm: f64) -> Result<Option<f64>, FitError> {
-    if !(relative_rmse > 0.0) || !max_mm.is_finite() {
+    if relative_rmse.is_nan() || relative_rmse <= 0.0 || !max_mm.is_finite() {
         return Err(FitError::Degenerate);
     }
     let level = relative_rmse * setup.amplitude_m_s2.abs();
@@ -321,7 +326,7 @@ mod tests {
         assert_relative_eq!(r.amplitude_m_s2, 19.546, max_relative = 1e-4);
         assert_relative_eq!(r.center_mm, 5.500, max_relative = 1e-4);
         assert_relative_eq!(r.width_mm, 37.045, max_relative = 1e-4);
-        assert_relative_eq!(r.rmse, 0.001727, max_relative = 1e-3);
+        assert_relative_eq!(r.rmse, 0.001_727, max_relative = 1e-3);
         assert_eq!(r.points, 281);
     }
 

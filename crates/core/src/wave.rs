@@ -277,7 +277,7 @@ impl Skin {
     /// found at `after_s`, by sampling at `sample_rate_hz` and refining the sampled maximum with a parabola
     /// through it and its neighbours (vertex offset `(y[-1] - y[1]) / (2 (y[-1] - 2 y[0] + y[1]))` samples).
     fn next_crest_s(
-        &self,
+        self,
         source: &WaveSource,
         distance_m: f64,
         after_s: f64,
@@ -315,7 +315,7 @@ impl Skin {
         distances_m: &[f64],
         sample_rate_hz: f64,
     ) -> Result<Vec<f64>, WaveError> {
-        if !(sample_rate_hz > 4.0 * source.frequency_hz) {
+        if sample_rate_hz.is_nan() || sample_rate_hz <= 4.0 * source.frequency_hz {
             return Err(WaveError::OutOfRange {
                 name: "sample_rate_hz",
                 expected: "more than 4x the source frequency",

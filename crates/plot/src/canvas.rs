@@ -50,7 +50,7 @@ impl Axis {
     /// Pixel coordinate of the data value `v`:
     /// `px = px_lo + (t(v) - t(lo)) / (t(hi) - t(lo)) * (px_hi - px_lo)`, `t` = identity or log10.
     /// `None` for values that cannot be shown (non-finite, non-positive on a log axis).
-    pub(crate) fn to_px(&self, v: f64) -> Option<f64> {
+    pub(crate) fn to_px(self, v: f64) -> Option<f64> {
         let (t, t0, t1) = (self.transformed(v)?, self.transformed(self.lo)?, self.transformed(self.hi)?);
         // Halving first keeps the difference finite for ranges near f64::MAX.
         let fraction = (t / 2.0 - t0 / 2.0) / (t1 / 2.0 - t0 / 2.0);
@@ -141,6 +141,29 @@ fn clip_segment(a: (f64, f64), b: (f64, f64), r: (f64, f64, f64, f64)) -> Option
     Some(((a.0 + t0 * dx, a.1 + t0 * dy), (a.0 + t1 * dx, a.1 + t1 * dy)))
 }
 
+/// Points of one pixel column run: (index, point) of the first, lowest, highest and last sample.
+struct Bucket {
+    column: i64,
+    first: (usize, (f64, f64)),
+    min: (usize, (f64, f64)),
+    max: (usize, (f64, f64)),
+    last: (usize, (f64, f64)),
+}
+/// Emit a bucket's distinct points in their original order.
+fn flush(bucket: Option<Bucket>, out: &mut Vec<Option<(f64, f64)>>) {
+    if let Some(b) = bucket {
+        let mut picks = [b.first, b.min, b.max, b.last];
+        picks.sort_by_key(|p| p.0);
+        let mut previous = usize::MAX;
+        for (index, point) in picks {
+            if index != previous {
+                out.push(Some(point));
+                previous = index;
+            }
+        }
+    }
+}
+
 /// Pixel points of a series, `None` where a value breaks the line (NaN, inf, non-positive on log).
 ///
 /// Runs of consecutive points falling in the same pixel column are reduced to their first, minimum,
@@ -148,37 +171,14 @@ fn clip_segment(a: (f64, f64), b: (f64, f64), r: (f64, f64, f64, f64)) -> Option
 pub(crate) fn pixel_points(x: &[f64], y: &[f64], xa: &Axis, ya: &Axis) -> Vec<Option<(f64, f64)>> {
     let n = x.len().min(y.len());
     let mut out: Vec<Option<(f64, f64)>> = Vec::with_capacity(n.min(8192));
-    // Current column bucket: (column, first, min, max, last) with indices to keep the order.
-    struct Bucket {
-        column: i64,
-        first: (usize, (f64, f64)),
-        min: (usize, (f64, f64)),
-        max: (usize, (f64, f64)),
-        last: (usize, (f64, f64)),
-    }
-    fn flush(bucket: Option<Bucket>, out: &mut Vec<Option<(f64, f64)>>) {
-        if let Some(b) = bucket {
-            let mut picks = [b.first, b.min, b.max, b.last];
-            picks.sort_by_key(|p| p.0);
-            let mut previous = usize::MAX;
-            for (index, point) in picks {
-                if index != previous {
-                    out.push(Some(point));
-                    previous = index;
-                }
-            }
-        }
-    }
     let mut bucket: Option<Bucket> = None;
     for i in 0..n {
-        let point = match (xa.to_px(x[i]), ya.to_px(y[i])) {
-            (Some(px), Some(py)) => (px.clamp(-1e15, 1e15), py.clamp(-1e15, 1e15)),
-            _ => {
-                flush(bucket.take(), &mut out);
-                out.push(None);
-                continue;
-            }
+        let (Some(px), Some(py)) = (xa.to_px(x[i]), ya.to_px(y[i])) else {
+            flush(bucket.take(), &mut out);
+            out.push(None);
+            continue;
         };
+        let point = (px.clamp(-1e15, 1e15), py.clamp(-1e15, 1e15));
         let column = point.0.floor() as i64;
         match bucket.as_mut() {
             Some(b) if b.column == column => {
@@ -479,7 +479,7 @@ pub(crate) fn draw_titles(
 ) {
     if !title.is_empty() {
         let t = fit_text(title, TITLE_PX, panel_width - 16.0);
-        let cx = (area.left + area.right) / 2.0;
+        let cx = f32::midpoint(area.left, area.right);
         let w = text_width(&t, TITLE_PX);
         let cx = cx.clamp(8.0 + w / 2.0, (panel_width - 8.0 - w / 2.0).max(8.0 + w / 2.0));
         draw_text(pixmap, &t, cx, 10.0, HAlign::Center, VAlign::Top, 0.0, TextStyle::new(TITLE_PX).bold());
@@ -491,7 +491,7 @@ pub(crate) fn draw_titles(
         draw_text(
             pixmap,
             &t,
-            (area.left + area.right) / 2.0,
+            f32::midpoint(area.left, area.right),
             y,
             HAlign::Center,
             VAlign::Top,
@@ -501,7 +501,7 @@ pub(crate) fn draw_titles(
     }
     if !y_label.is_empty() {
         let t = fit_text(y_label, LABEL_PX, area.height() + 40.0);
-        let cy = (area.top + area.bottom) / 2.0;
+        let cy = f32::midpoint(area.top, area.bottom);
         draw_text(pixmap, &t, y_label_x, cy, HAlign::Center, VAlign::Top, -90.0, label_style);
     }
 }

@@ -26,7 +26,10 @@ pub(crate) struct Layout {
     pub(crate) y_label_x: f32,
 }
 
-fn data_extents(chart: &Chart) -> (Option<(f64, f64)>, Option<(f64, f64)>) {
+/// An optional (min, max) interval.
+type Extent = Option<(f64, f64)>;
+
+fn data_extents(chart: &Chart) -> (Extent, Extent) {
     let (xs, ys) = (chart.x_scale, chart.y_scale);
     let mut x = None;
     let mut y = None;
@@ -158,8 +161,8 @@ pub(crate) fn draw(chart: &Chart, pixmap: &mut Pixmap) {
             });
         }
     }
-    draw_reference_lines(chart, pixmap, &l, mask);
-    draw_circles(chart, pixmap, &l, mask);
+    draw_reference_lines(chart, pixmap, &l, mask, &mut occupied);
+    draw_circles(chart, pixmap, &l, mask, &mut occupied);
     let note = TextStyle::new(NOTE_PX).color(INK).halo(2.0);
     for a in &chart.annotations {
         if let (Some(x), Some(y)) = (l.x_axis.to_px(a.x), l.y_axis.to_px(a.y)) {
@@ -174,7 +177,14 @@ pub(crate) fn draw(chart: &Chart, pixmap: &mut Pixmap) {
     draw_titles(pixmap, area, &chart.title, &chart.x_label, &chart.y_label, l.y_label_x, width);
 }
 
-fn draw_reference_lines(chart: &Chart, pixmap: &mut Pixmap, l: &Layout, mask: Option<&tiny_skia::Mask>) {
+/// Reference lines with their labels; label boxes are marked in `occupied` so the legend avoids them.
+fn draw_reference_lines(
+    chart: &Chart,
+    pixmap: &mut Pixmap,
+    l: &Layout,
+    mask: Option<&tiny_skia::Mask>,
+    occupied: &mut Occupancy,
+) {
     let area = l.area;
     let dashed = stroke(1.2, true);
     let note = TextStyle::new(NOTE_PX).color(REF_LINE).halo(2.0);
@@ -191,7 +201,10 @@ fn draw_reference_lines(chart: &Chart, pixmap: &mut Pixmap, l: &Layout, mask: Op
         if !h.label.is_empty() {
             let (ty, valign) =
                 if y - area.top > NOTE_PX + 6.0 { (y - 3.0, VAlign::Bottom) } else { (y + 4.0, VAlign::Top) };
-            draw_text(pixmap, &h.label, area.right - 5.0, ty, HAlign::Right, valign, 0.0, note);
+            let w = draw_text(pixmap, &h.label, area.right - 5.0, ty, HAlign::Right, valign, 0.0, note);
+            let (t, b) =
+                if valign == VAlign::Bottom { (ty - NOTE_PX - 2.0, ty) } else { (ty, ty + NOTE_PX + 2.0) };
+            occupied.mark_rect(area.right - 7.0 - w, t, area.right - 3.0, b);
         }
     }
     for v in &chart.vlines {
@@ -212,11 +225,20 @@ fn draw_reference_lines(chart: &Chart, pixmap: &mut Pixmap, l: &Layout, mask: Op
                 (x - 4.0, HAlign::Right)
             };
             draw_text(pixmap, &v.label, tx, area.top + 5.0, halign, VAlign::Top, 0.0, note);
+            let (l0, r0) = if halign == HAlign::Left { (tx, tx + w) } else { (tx - w, tx) };
+            occupied.mark_rect(l0 - 2.0, area.top + 3.0, r0 + 2.0, area.top + 7.0 + NOTE_PX);
         }
     }
 }
 
-fn draw_circles(chart: &Chart, pixmap: &mut Pixmap, l: &Layout, mask: Option<&tiny_skia::Mask>) {
+/// Circles in data units with their labels; label boxes are marked in `occupied`.
+fn draw_circles(
+    chart: &Chart,
+    pixmap: &mut Pixmap,
+    l: &Layout,
+    mask: Option<&tiny_skia::Mask>,
+    occupied: &mut Occupancy,
+) {
     let note = TextStyle::new(NOTE_PX).color(REF_LINE).halo(2.0);
     for c in &chart.circles {
         let r = c.r.abs();
@@ -244,10 +266,11 @@ fn draw_circles(chart: &Chart, pixmap: &mut Pixmap, l: &Layout, mask: Option<&ti
             );
         }
         if !c.label.is_empty() {
-            let cx = (x0 + x1) / 2.0;
+            let cx = f32::midpoint(x0, x1);
             let area = l.area;
             if cx >= area.left && cx <= area.right && y0 - 3.0 > area.top + NOTE_PX && y0 < area.bottom {
-                draw_text(pixmap, &c.label, cx, y0 - 3.0, HAlign::Center, VAlign::Bottom, 0.0, note);
+                let w = draw_text(pixmap, &c.label, cx, y0 - 3.0, HAlign::Center, VAlign::Bottom, 0.0, note);
+                occupied.mark_rect(cx - w / 2.0 - 2.0, y0 - 5.0 - NOTE_PX, cx + w / 2.0 + 2.0, y0 - 1.0);
             }
         }
     }
@@ -285,6 +308,18 @@ impl Occupancy {
         if cx >= 0.0 && cy >= 0.0 && (cx as usize) < self.columns && (cy as usize) < self.rows {
             let i = cy as usize * self.columns + cx as usize;
             self.cells[i] = self.cells[i].saturating_add(1);
+        }
+    }
+
+    fn mark_rect(&mut self, l: f32, t: f32, r: f32, b: f32) {
+        let mut y = t;
+        while y <= b {
+            let mut x = l;
+            while x <= r {
+                self.hit(f64::from(x), f64::from(y));
+                x += CELL_PX / 2.0;
+            }
+            y += CELL_PX / 2.0;
         }
     }
 
@@ -365,7 +400,7 @@ fn draw_legend(pixmap: &mut Pixmap, area: Area, entries: &[LegendEntry], occupie
             draw_line(pixmap, (x0, cy), (x1, cy), entry.color, &stroke(width.min(4.0), dashed));
         }
         if entry.marker != Marker::None {
-            draw_marker(pixmap, entry.marker, (x0 + x1) / 2.0, cy, entry.color, entry.width.min(3.0));
+            draw_marker(pixmap, entry.marker, f32::midpoint(x0, x1), cy, entry.color, entry.width.min(3.0));
         }
         draw_text(pixmap, label, x1 + 6.0, cy, HAlign::Left, VAlign::Middle, 0.0, style);
     }

@@ -160,7 +160,10 @@ impl Figure {
         let bytes = self.render_png()?;
         let io = |source| PlotError::Io { path: path.to_path_buf(), source };
         let mut tmp_name = path.file_name().map(std::ffi::OsStr::to_os_string).unwrap_or_default();
-        tmp_name.push(format!(".{}.tmp", std::process::id()));
+        // Unique per process and call, so concurrent saves of the same path never share a temporary file.
+        static SAVES: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+        let n = SAVES.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        tmp_name.push(format!(".{}-{n}.tmp", std::process::id()));
         let tmp = path.with_file_name(tmp_name);
         std::fs::write(&tmp, &bytes).map_err(io)?;
         std::fs::rename(&tmp, path).map_err(|e| {

@@ -38,6 +38,8 @@ pub use chart::{Chart, Marker, Scale, Series};
 pub use figure::{Figure, Panel};
 pub use heatmap::Heatmap;
 pub use style::Color;
+/// The RGBA image type returned by [`Figure::render_pixmap`].
+pub use tiny_skia::Pixmap;
 
 /// Everything that can go wrong while rendering or saving a figure.
 #[derive(Debug, thiserror::Error)]

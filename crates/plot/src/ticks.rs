@@ -47,7 +47,7 @@ pub(crate) fn resolve_range(
     if let Some((a, b)) = explicit
         && a.is_finite()
         && b.is_finite()
-        && a != b
+        && (b - a).abs() > 0.0
     {
         let (lo, hi) = (a.min(b), a.max(b));
         match scale {
@@ -117,7 +117,7 @@ pub(crate) fn linear_ticks(lo: f64, hi: f64, max_ticks: usize) -> Ticks {
         return Ticks::default();
     }
     let magnitude = lo.abs().max(hi.abs());
-    let scientific = magnitude >= 1e5 || magnitude < 1e-3;
+    let scientific = !(1e-3..1e5).contains(&magnitude);
     let mut major = Vec::new();
     let mut k = k0;
     while k <= k1 {
@@ -194,7 +194,8 @@ pub(crate) fn log_ticks(lo: f64, hi: f64, max_ticks: usize) -> Ticks {
     let inside = |v: f64| v >= lo * (1.0 - 1e-9) && v <= hi * (1.0 + 1e-9);
     let decades = (k1 - k0 + 1).max(0);
     if decades >= 2 {
-        let stride = (decades as usize).div_ceil(max_ticks.max(2)).max(1) as i32;
+        let per_label = i32::try_from(max_ticks.max(2)).unwrap_or(i32::MAX);
+        let stride = ((decades + per_label - 1) / per_label).max(1);
         let mut ticks = Ticks::default();
         let first = k0.div_euclid(stride) * stride;
         let first = if first < k0 { first + stride } else { first };

@@ -1,6 +1,9 @@
 //! Rendering tests: PNG validity, the data->pixel transform checked against closed-form positions, and
 //! robustness against hostile input.
 
+// Test helpers outside #[test] functions panic on purpose when an image is not what it should be.
+#![allow(clippy::unwrap_used)]
+
 use approx::assert_relative_eq;
 use proptest::prelude::*;
 use vestnav_plot::{Chart, Color, Figure, Heatmap, Marker, PlotError, Scale, Series};
@@ -85,7 +88,7 @@ fn horizontal_and_vertical_lines_land_on_closed_form_pixels() {
     let (left, top, right, bottom) = find_frame(&pixmap);
     let probe_x = (left + 0.75 * (right - left)) as u32;
     let y = centre_of(top as u32..bottom as u32, |y| is_red(rgb(&pixmap, probe_x, y)));
-    assert_relative_eq!(y, (top + bottom) / 2.0, epsilon = 0.75);
+    assert_relative_eq!(y, f64::midpoint(top, bottom), epsilon = 0.75);
     let probe_y = (top + 0.2 * (bottom - top)) as u32;
     let x = centre_of(left as u32..right as u32, |x| is_blue(rgb(&pixmap, x, probe_y)));
     assert_relative_eq!(x, left + 0.25 * (right - left), epsilon = 0.75);
@@ -106,7 +109,7 @@ fn log_axis_maps_decades_evenly() {
     let x2 = (left + 0.75 * (right - left)) as u32;
     let y_red = centre_of(top as u32..bottom as u32, |y| is_red(rgb(&pixmap, x1, y)));
     let y_blue = centre_of(top as u32..bottom as u32, |y| is_blue(rgb(&pixmap, x2, y)));
-    assert_relative_eq!(y_red, (top + bottom) / 2.0, epsilon = 0.75);
+    assert_relative_eq!(y_red, f64::midpoint(top, bottom), epsilon = 0.75);
     assert_relative_eq!(y_blue, bottom - 0.75 * (bottom - top), epsilon = 0.75);
 }
 
@@ -119,7 +122,7 @@ fn equal_aspect_draws_a_round_circle() {
         .series(Series::scatter("", vec![0.0, 0.0], vec![-3.0, 3.0]).color(Color::rgb(255, 255, 255)));
     let pixmap = Figure::single(chart).render_pixmap().unwrap();
     let (left, top, right, bottom) = find_frame(&pixmap);
-    let (cx, cy) = (((left + right) / 2.0) as u32, ((top + bottom) / 2.0) as u32);
+    let (cx, cy) = ((f64::midpoint(left, right)) as u32, (f64::midpoint(top, bottom)) as u32);
     let grey = |c: (u8, u8, u8)| c.0 < 140 && c.0 == c.1 && c.1 == c.2;
     let row: Vec<u32> = (left as u32 + 2..right as u32 - 2).filter(|&x| grey(rgb(&pixmap, x, cy))).collect();
     let col: Vec<u32> = (top as u32 + 2..bottom as u32 - 2).filter(|&y| grey(rgb(&pixmap, cx, y))).collect();

@@ -240,6 +240,7 @@ impl NmeaDecoder {
                 return;
             }
             Err(Unused::Malformed) => {
+                eprintln!("MALFORMED {line}");
                 self.framer.stats_mut().malformed += 1;
                 return;
             }
@@ -476,7 +477,8 @@ impl NmeaDecoder {
             fix.hdop = fix.hdop.or(g.hdop);
         }
         let used: BTreeSet<(Constellation, u16)> = gsa.iter().flat_map(|g| g.ids.iter().copied()).collect();
-        if !used.is_empty() {
+        if !gsa.is_empty() {
+            // An empty id list with mode 1 is the receiver saying "none used".
             fix.sats_used = Some(used.len() as u32);
             for (c, _) in &used {
                 *fix.sats_used_by.entry(*c).or_insert(0) += 1;

@@ -24,6 +24,8 @@ pub mod gpsd;
 pub mod nmea_out;
 pub mod record;
 mod sentence;
+#[cfg(test)]
+mod truth_tests;
 pub mod source;
 
 use std::io::Read;

@@ -124,7 +124,10 @@ pub(crate) fn parse(sentence: &str) -> Result<Parsed, Unused> {
     }
     let (talker, kind) = tag.split_at(2);
     match kind {
-        "GGA" | "RMC" | "GSA" | "GLL" | "GST" | "ZDA" | "HDT" => via_crate(sentence, talker),
+        // The crate refuses a GSA with an empty VDOP field (Septentrio PolarRx2: `...,10.5,10.5,*1F`):
+        // fall back to our own parser when it fails.
+        "GSA" => via_crate(sentence, talker).or_else(|_| parse_gsa(talker, &f)),
+        "GGA" | "RMC" | "GLL" | "GST" | "ZDA" | "HDT" => via_crate(sentence, talker),
         "GNS" => parse_gns(&f),
         "GSV" => parse_gsv(talker, &f),
         "VTG" => Ok(parse_vtg(&f)),
@@ -152,7 +155,7 @@ fn via_crate(sentence: &str, talker: &str) -> Result<Parsed, Unused> {
         P::RMC(d) => Parsed::Rmc {
             time: d.fix_time,
             date: d.fix_date,
-            valid: !matches!(d.status_of_fix, nmea::sentences::RmcStatusOfFix::Invalid),
+            valid: !matches!(d.status_of_fix, nmea::sentences::rmc::RmcStatusOfFix::Invalid),
             pos: d.lat.zip(d.lon).filter(|p| valid_pos(*p)),
             speed_m_s: d.speed_over_ground.map(|k| f64_of(k) * MS_PER_KNOT),
             course_deg: d.true_course.map(f64_of),
@@ -169,9 +172,9 @@ fn via_crate(sentence: &str, talker: &str) -> Result<Parsed, Unused> {
                 .or_else(|| Constellation::from_talker(talker));
             Parsed::Gsa {
                 mode: Some(match d.mode2 {
-                    nmea::sentences::GsaMode2::NoFix => FixMode::NoFix,
-                    nmea::sentences::GsaMode2::Fix2D => FixMode::Fix2D,
-                    nmea::sentences::GsaMode2::Fix3D => FixMode::Fix3D,
+                    nmea::sentences::gsa::GsaMode2::NoFix => FixMode::NoFix,
+                    nmea::sentences::gsa::GsaMode2::Fix2D => FixMode::Fix2D,
+                    nmea::sentences::gsa::GsaMode2::Fix3D => FixMode::Fix3D,
                 }),
                 constellation,
                 ids: d.fix_sats_prn.iter().filter_map(|&p| u16::try_from(p).ok()).collect(),
@@ -212,15 +215,13 @@ fn fix_type_digit(t: nmea::sentences::FixType) -> u8 {
     }
 }
 
-fn system_id_digit(s: nmea::sentences::GnssSystemId) -> u8 {
-    use nmea::sentences::GnssSystemId as S;
+fn system_id_digit(s: nmea::sentences::gnss_type::GnssSystemId) -> u8 {
+    use nmea::sentences::gnss_type::GnssSystemId as S;
     match s {
         S::Gps => 1,
         S::Glonass => 2,
         S::Galileo => 3,
         S::Beidou => 4,
-        S::Qzss => 5,
-        S::NavIC => 6,
     }
 }
 
@@ -287,6 +288,35 @@ fn parse_gns(f: &[&str]) -> Result<Parsed, Unused> {
     })
 }
 
+/// GSA: `mode1,mode2,id x 12,pdop,hdop,vdop[,system_id]` (more than 12 ids: no system id).
+fn parse_gsa(talker: &str, f: &[&str]) -> Result<Parsed, Unused> {
+    let mode = match f.get(1).copied() {
+        Some("1") => Some(FixMode::NoFix),
+        Some("2") => Some(FixMode::Fix2D),
+        Some("3") => Some(FixMode::Fix3D),
+        Some("") => None,
+        _ => return Err(Unused::Malformed),
+    };
+    if f.len() < 5 {
+        return Err(Unused::Malformed);
+    }
+    let (dops_end, system) = if f.len() == 18 {
+        (17, f.get(17).and_then(|s| s.parse::<u8>().ok()).and_then(Constellation::from_system_id))
+    } else {
+        (f.len(), None)
+    };
+    let ids_end = dops_end.saturating_sub(3).max(2);
+    let ids = f.get(2..ids_end).unwrap_or(&[]).iter().filter_map(|s| s.trim().parse::<u16>().ok()).collect();
+    Ok(Parsed::Gsa {
+        mode,
+        constellation: system.or_else(|| Constellation::from_talker(talker)),
+        ids,
+        pdop: num(f.get(dops_end - 3)),
+        hdop: num(f.get(dops_end - 2)),
+        vdop: num(f.get(dops_end - 1)),
+    })
+}
+
 /// GSV: `total,number,in_view,(id,elev,azim,snr){0..4}[,signal_id]`.
 fn parse_gsv(talker: &str, f: &[&str]) -> Result<Parsed, Unused> {
     let total = uint(f.first()).ok_or(Unused::Malformed)?;
@@ -333,7 +363,11 @@ fn parse_vtg(f: &[&str]) -> Parsed {
 fn parse_proprietary(rest: &str, f: &[&str]) -> Result<Parsed, Unused> {
     match rest {
         // Garmin: $PGRME,hpe,M,vpe,M,spe,M
-        "GRME" => Ok(Parsed::Pgrme { horizontal_m: num(f.first()), vertical_m: num(f.get(2)) }),
+        // An EPE of 0.00 (TomTom Mk II) means "not computed", not a perfect fix.
+        "GRME" => Ok(Parsed::Pgrme {
+            horizontal_m: num(f.first()).filter(|&v| v > 0.0),
+            vertical_m: num(f.get(2)).filter(|&v| v > 0.0),
+        }),
         "VNAV" => match f.first().copied() {
             Some("MARK") => {
                 let number = uint(f.get(1)).ok_or(Unused::Malformed)?;

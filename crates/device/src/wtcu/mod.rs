@@ -37,6 +37,9 @@ pub mod link;
 pub mod message;
 pub mod worker;
 
+#[cfg(test)]
+mod proptests;
+
 pub use codec::{V1Codec, WireCodec};
 pub use limits::Limits;
 pub use link::{Backoff, Link, LinkConfig, LinkEvent, LinkState};
