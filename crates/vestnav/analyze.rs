@@ -20,7 +20,7 @@ const MAX_FILE_BYTES: u64 = 512 * 1024 * 1024;
 /// Whether the files' first column is time.
 #[derive(Debug, Clone, Copy, ValueEnum)]
 pub enum TimeColumnArg {
-    /// Time if the header names it (t, time, time_s, time_ms, ...) or, without a header, if the first column
+    /// Time if the header names it (`t`, `time`, `time_s`, `time_ms`, ...) or, without a header, if the first column
     /// increases in uniform steps.
     Auto,
     /// The first column is time.

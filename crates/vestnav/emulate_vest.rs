@@ -1,13 +1,264 @@
-//! `vestnav emulate vest`: the WTCU emulator on a pseudo-terminal.
+//! `vestnav emulate vest`: the WTCU emulator on a pseudo-terminal (or stdin/stdout), with a live view of
+//! the 4x4 grid. The unit side is `vestnav_device::wtcu::engine` (limits, patterns, watchdog); the protocol
+//! is `docs/wtcu-protocol.md`.
 
+use std::io::{self, IsTerminal, Read, Write};
+use std::sync::Arc;
+use std::sync::atomic::Ordering;
+use std::sync::mpsc::{Receiver, RecvTimeoutError};
+use std::time::Instant;
+
+use anyhow::Context;
 use clap::Args;
+use vestnav_core::vest::{GRID, TactorMask};
+#[cfg(unix)]
+use vestnav_device::wtcu::emulator::Pty;
+use vestnav_device::wtcu::emulator::{EmulatorControl, SERVE_POLL, ServeEnd, describe, serve};
+use vestnav_device::wtcu::engine::{Engine, EngineConfig, EngineEvent, battery_pct_from_mv};
+use vestnav_device::wtcu::limits::Limits;
+use vestnav_device::wtcu::message::CommandKind;
 
 /// Arguments of `vestnav emulate vest`.
 #[derive(Debug, Args)]
-pub struct VestArgs {}
+pub struct VestArgs {
+    /// Serve the protocol on a new pseudo-terminal and print the path to open (the default).
+    #[arg(long, conflicts_with = "stdio")]
+    pub pty: bool,
+    /// Serve the protocol on stdin/stdout instead (e.g. behind socat); the view goes to stderr.
+    #[arg(long)]
+    pub stdio: bool,
+    /// Battery voltage the unit reports [mV] (below 3500 raises the low-battery fault).
+    #[arg(long, default_value_t = 3900)]
+    pub battery_mv: u16,
+    /// Emulate a unit without intensity control (SET_INTENSITY is refused).
+    #[arg(long)]
+    pub no_intensity: bool,
+    /// Silence from the console after which the unit stops everything [ms].
+    #[arg(long, default_value_t = 1500, value_parser = clap::value_parser!(u16).range(100..))]
+    pub watchdog_ms: u16,
+    /// Most tactors on at once (the current budget divided by 70 mA per tactor).
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u8).range(1..=16))]
+    pub max_simultaneous: u8,
+}
 
-/// Runs `vestnav emulate vest`.
+impl VestArgs {
+    fn engine_config(&self) -> EngineConfig {
+        EngineConfig {
+            limits: Limits { max_simultaneous: self.max_simultaneous, ..Limits::default() },
+            watchdog_ms: self.watchdog_ms,
+            intensity: !self.no_intensity,
+            battery_mv: self.battery_mv,
+            ..EngineConfig::default()
+        }
+    }
+}
+
+/// Runs `vestnav emulate vest` until Ctrl-C, or EOF on an interactive stdin (or on stdin in `--stdio` mode).
 pub fn run(args: &VestArgs) -> anyhow::Result<()> {
-    let _ = args;
-    anyhow::bail!("`vestnav emulate vest` is being written")
+    let mut engine = Engine::new(args.engine_config());
+    let control = Arc::new(EmulatorControl::default());
+    if args.stdio {
+        let mut port = StdioPort::spawn()?;
+        let mut view = View::new(io::stderr(), "stdin/stdout", args.battery_mv);
+        view.header()?;
+        let end = serve(&mut engine, &mut port, &control, |e, ev| view.update(e, ev))
+            .context("serving the protocol on stdin/stdout")?;
+        return view.finish(&end);
+    }
+    run_pty(&mut engine, &control, args)
+}
+
+#[cfg(unix)]
+fn run_pty(engine: &mut Engine, control: &Arc<EmulatorControl>, args: &VestArgs) -> anyhow::Result<()> {
+    let Pty { mut master, path, slave } = Pty::open().context("opening a pseudo-terminal")?;
+    let mut out = io::stdout();
+    writeln!(out, "WTCU emulator on {path}")?;
+    writeln!(out, "open it from the console like a Bluetooth serial port; Ctrl-C (or EOF) ends")?;
+    out.flush()?;
+    // Keep our own handle on the slave: consoles may open and close it without the master seeing a hang-up.
+    let _keep_slave_open = slave;
+    if io::stdin().is_terminal() {
+        let c = control.clone();
+        // Detached: it blocks on stdin until EOF; the process ends with it either way.
+        std::thread::Builder::new().name("stdin-eof".to_owned()).spawn(move || {
+            let mut sink = Vec::new();
+            let _ = io::stdin().lock().read_to_end(&mut sink);
+            c.stop.store(true, Ordering::Relaxed);
+        })?;
+    }
+    let mut view = View::new(io::stdout(), &path, args.battery_mv);
+    view.header()?;
+    let end =
+        serve(engine, &mut master, control, |e, ev| view.update(e, ev)).context("serving the protocol")?;
+    view.finish(&end)
+}
+
+#[cfg(not(unix))]
+fn run_pty(_: &mut Engine, _: &Arc<EmulatorControl>, _: &VestArgs) -> anyhow::Result<()> {
+    anyhow::bail!("pseudo-terminals need a Unix system; use --stdio")
+}
+
+/// stdin/stdout as a serial line: a thread reads stdin into a channel so reads can time out.
+struct StdioPort {
+    rx: Receiver<Vec<u8>>,
+    pending: Vec<u8>,
+    out: io::Stdout,
+}
+
+impl StdioPort {
+    fn spawn() -> io::Result<Self> {
+        let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<u8>>(64);
+        std::thread::Builder::new().name("stdin-reader".to_owned()).spawn(move || {
+            let mut stdin = io::stdin().lock();
+            let mut buf = [0u8; 512];
+            while let Ok(n) = stdin.read(&mut buf) {
+                if n == 0 || tx.send(buf[..n].to_vec()).is_err() {
+                    break;
+                }
+            }
+        })?;
+        Ok(Self { rx, pending: Vec::new(), out: io::stdout() })
+    }
+}
+
+impl Read for StdioPort {
+    fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+        if self.pending.is_empty() {
+            match self.rx.recv_timeout(SERVE_POLL) {
+                Ok(bytes) => self.pending = bytes,
+                Err(RecvTimeoutError::Timeout) => return Err(io::ErrorKind::TimedOut.into()),
+                Err(RecvTimeoutError::Disconnected) => return Ok(0),
+            }
+        }
+        let n = buf.len().min(self.pending.len());
+        buf[..n].copy_from_slice(&self.pending[..n]);
+        self.pending.drain(..n);
+        Ok(n)
+    }
+}
+
+impl Write for StdioPort {
+    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+        self.out.write_all(buf)?;
+        self.out.flush()?;
+        Ok(buf.len())
+    }
+
+    fn flush(&mut self) -> io::Result<()> {
+        self.out.flush()
+    }
+}
+
+/// The live view: on a terminal, a block of lines redrawn in place on every change; otherwise one plain
+/// line per event.
+struct View<W: Write> {
+    out: W,
+    tty: bool,
+    start: Instant,
+    drawn_lines: usize,
+    last: String,
+    battery_mv: u16,
+}
+
+impl<W: Write + IsTerminal> View<W> {
+    fn new(out: W, path: &str, battery_mv: u16) -> Self {
+        let tty = out.is_terminal();
+        Self {
+            out,
+            tty,
+            start: Instant::now(),
+            drawn_lines: 0,
+            last: format!("waiting on {path}"),
+            battery_mv,
+        }
+    }
+
+    fn header(&mut self) -> io::Result<()> {
+        if self.tty {
+            self.draw(TactorMask::NONE, None)
+        } else {
+            writeln!(self.out, "0.000 s  {}", self.last)
+        }
+    }
+
+    fn update(&mut self, engine: &Engine, event: &EngineEvent) {
+        // Heartbeats come four times a second: they feed the watchdog, they are not news.
+        if matches!(event, EngineEvent::Accepted { kind: CommandKind::Heartbeat, .. }) {
+            return;
+        }
+        self.last = describe(event);
+        // A broken view must not stop the unit: its watchdog and limits keep running.
+        let _ = if self.tty {
+            self.draw(engine.tactors_on(), Some(engine))
+        } else {
+            writeln!(self.out, "{:.3} s  {}", self.start.elapsed().as_secs_f64(), self.last)
+        };
+    }
+
+    fn draw(&mut self, on: TactorMask, engine: Option<&Engine>) -> io::Result<()> {
+        let mut block = String::new();
+        if self.drawn_lines > 0 {
+            // Cursor to the start of the block, then overwrite each line.
+            block.push_str(&format!("\x1b[{}F", self.drawn_lines));
+        }
+        let line = |s: &mut String, text: &str| {
+            s.push_str("\x1b[2K");
+            s.push_str(text);
+            s.push('\n');
+        };
+        let console = match engine {
+            Some(e) if e.identified() && e.faults().names().contains(&"watchdog") => {
+                "silent (watchdog tripped)"
+            }
+            Some(e) if e.identified() => "connected",
+            _ => "no console yet",
+        };
+        line(
+            &mut block,
+            &format!(
+                "battery {} mV ({} %)   console: {console}   on: {} of 16 ({:.0} mA)",
+                self.battery_mv,
+                battery_pct_from_mv(self.battery_mv),
+                on.count(),
+                on.current_a() * 1000.0
+            ),
+        );
+        line(&mut block, "   wearer's left      right");
+        for row in 0..GRID {
+            let cells: Vec<String> = (0..GRID)
+                .map(|col| {
+                    let i = row * GRID + col;
+                    if on.contains(i) { format!("[{i:>2}]") } else { format!(" {i:>2} ") }
+                })
+                .collect();
+            line(&mut block, &format!("   {}", cells.join(" ")));
+        }
+        let stats = engine.map(Engine::stats).unwrap_or_default();
+        line(
+            &mut block,
+            &format!(
+                "frames {}  garbage {}  bad CRC {}  NAKs {}  repeats {}  watchdog trips {}",
+                stats.frames_ok,
+                stats.garbage,
+                stats.bad_crc,
+                stats.naks_sent,
+                stats.duplicates,
+                stats.watchdog_trips
+            ),
+        );
+        line(&mut block, &format!("last: {}", self.last));
+        self.drawn_lines = block.matches('\n').count();
+        self.out.write_all(block.as_bytes())?;
+        self.out.flush()
+    }
+
+    fn finish(&mut self, end: &ServeEnd) -> anyhow::Result<()> {
+        let why = match end {
+            ServeEnd::Stopped => "stopped",
+            ServeEnd::Eof => "the other side closed",
+            ServeEnd::Vanished => "port closed",
+        };
+        writeln!(self.out, "emulator ended: {why}")?;
+        Ok(())
+    }
 }

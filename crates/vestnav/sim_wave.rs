@@ -30,7 +30,7 @@ pub struct TwoPointArgs {
     /// Detection level of the two-point threshold: RMSE as a fraction of one tactor's amplitude.
     #[arg(long, default_value_t = twopoint::DEFAULT_RELATIVE_RMSE)]
     pub relative_rmse: f64,
-    /// Print as JSON: keys amplitude, center_mm, width_mm, rmse (plus distance_mm, sse, points).
+    /// Print as JSON: keys `amplitude`, `center_mm`, `width_mm`, `rmse` (plus `distance_mm`, `sse`, `points`).
     #[arg(long)]
     pub json: bool,
     /// Write a figure (Figs 60–63 style; RMSE versus distance with --sweep).
@@ -563,40 +563,59 @@ fn vest_field(args: &WaveArgs) -> anyhow::Result<()> {
         }
     }
     if let Some(path) = &args.png {
-        let ext = (-half * 1000.0, half * 1000.0);
-        let cell = 2.0 * half * 1000.0 / (n - 1) as f64;
-        let extent = (ext.0 - cell / 2.0, ext.1 + cell / 2.0);
-        let points: Vec<(f64, f64, String)> = (0..TACTOR_COUNT)
-            .filter_map(|i| wave::tactor_position_m(i, spacing_m).map(|p| (i, p)))
-            .map(|(i, p)| {
-                (p.x * 1000.0, p.y * 1000.0, if mask.contains(i) { format!("{i}*") } else { i.to_string() })
-            })
-            .collect();
-        let peak_map =
-            Heatmap::new("Peak amplitude of the superposed waves (* = firing)", extent, extent, n, n, peak)
-                .x_label("x, wearer's right [mm]")
-                .y_label("y, up [mm]")
-                .colorbar_label("peak |a| [m/s^2]")
-                .equal_aspect()
-                .points(points.clone());
-        let snap_map = Heatmap::new(format!("Snapshot of a(x, y) at t = {t} s"), extent, extent, n, n, snap)
-            .x_label("x, wearer's right [mm]")
-            .y_label("y, up [mm]")
-            .colorbar_label("a [m/s^2]")
-            .equal_aspect()
-            .points(points);
-        let fig = Figure::new()
-            .title(format!(
-                "Vest field seen from behind: tactors {indices:?}, {:.0} mm spacing, {frequency:.1} Hz",
-                spacing_m * 1000.0
-            ))
-            .columns(2)
-            .panel_size(560, 480)
-            .push(peak_map)
-            .push(snap_map);
-        save(&fig, path)?;
+        let field =
+            VestField { mask, indices: &indices, spacing_m, frequency, t, half_m: half, n, peak, snap };
+        save(&vest_figure(field), path)?;
     }
     Ok(())
+}
+
+/// The computed vest field, for [`vest_figure`].
+struct VestField<'a> {
+    mask: TactorMask,
+    indices: &'a [usize],
+    spacing_m: f64,
+    frequency: f64,
+    t: f64,
+    half_m: f64,
+    n: usize,
+    peak: Vec<f64>,
+    snap: Vec<f64>,
+}
+
+fn vest_figure(f: VestField<'_>) -> Figure {
+    let VestField { mask, indices, spacing_m, frequency, t, half_m: half, n, peak, snap } = f;
+    let ext = (-half * 1000.0, half * 1000.0);
+    let cell = 2.0 * half * 1000.0 / (n - 1) as f64;
+    let extent = (ext.0 - cell / 2.0, ext.1 + cell / 2.0);
+    let points: Vec<(f64, f64, String)> = (0..TACTOR_COUNT)
+        .filter_map(|i| wave::tactor_position_m(i, spacing_m).map(|p| (i, p)))
+        .map(|(i, p)| {
+            (p.x * 1000.0, p.y * 1000.0, if mask.contains(i) { format!("{i}*") } else { i.to_string() })
+        })
+        .collect();
+    let peak_map =
+        Heatmap::new("Peak amplitude of the superposed waves (* = firing)", extent, extent, n, n, peak)
+            .x_label("x, wearer's right [mm]")
+            .y_label("y, up [mm]")
+            .colorbar_label("peak |a| [m/s^2]")
+            .equal_aspect()
+            .points(points.clone());
+    let snap_map = Heatmap::new(format!("Snapshot of a(x, y) at t = {t} s"), extent, extent, n, n, snap)
+        .x_label("x, wearer's right [mm]")
+        .y_label("y, up [mm]")
+        .colorbar_label("a [m/s^2]")
+        .equal_aspect()
+        .points(points);
+    Figure::new()
+        .title(format!(
+            "Vest field seen from behind: tactors {indices:?}, {:.0} mm spacing, {frequency:.1} Hz",
+            spacing_m * 1000.0
+        ))
+        .columns(2)
+        .panel_size(560, 480)
+        .push(peak_map)
+        .push(snap_map)
 }
 
 fn midpoint(args: &WaveArgs) -> anyhow::Result<()> {

@@ -210,6 +210,7 @@ impl Console {
                             log.log(LogEntry::Note { text: format!("vest rejected: {reason}") });
                         }
                         VestEvent::State(s) => log.log(LogEntry::Note { text: format!("vest {}", s.label()) }),
+                        VestEvent::Notice(text) => log.log(LogEntry::Note { text: format!("vest: {text}") }),
                         VestEvent::Status { .. } => {}
                     }
                 }
@@ -430,6 +431,7 @@ impl Console {
             VestEvent::TactorsOn(m) => self.vest.tactors_on = m,
             VestEvent::Ack { what } => self.vest.last_reply = Some(format!("ack: {what}")),
             VestEvent::Rejected { reason } => self.vest.last_reply = Some(format!("refused: {reason}")),
+            VestEvent::Notice(text) => self.vest.last_reply = Some(text),
             VestEvent::Status { battery_pct, firmware } => {
                 self.vest.battery_pct = battery_pct;
                 self.vest.firmware = firmware;

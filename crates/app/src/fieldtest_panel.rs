@@ -9,7 +9,7 @@
 //!   [`FieldTestAction::Mark`] so the app logs the mark, and shows the consecutive distances, their mean, the
 //!   RMSE against the spacing and the along-/cross-line components.
 //!
-//! Both warn when the receiver looks pinned: SiRF Star III "static navigation" holds the position while the
+//! Both warn when the receiver looks pinned: `SiRF` Star III "static navigation" holds the position while the
 //! speed is below about 1.2 m/s (physics.md §5), which flatters a drift test and distorts cone marks.
 //! Statistics come from `vestnav_core::fieldtest`, geodesy from `vestnav_core::geo`; reports export as JSON
 //! and as a PNG sheet (`vestnav_plot`) of exactly the plots shown.
@@ -20,7 +20,7 @@ use vestnav_core::geo::{Earth, LatLon, LocalFrame};
 
 use crate::sim_panel::{ChartSpec, ExportFormat, Exporter, PanelSpec, SeriesSpec, render_png};
 
-/// Speed below which SiRF Star III static navigation may pin the position [m/s] (physics.md §5).
+/// Speed below which `SiRF` Star III static navigation may pin the position [m/s] (physics.md §5).
 pub const STATIC_NAV_SPEED_M_S: f64 = 1.2;
 /// Default drift-test duration [s] (thesis: 3 min).
 pub const DEFAULT_DRIFT_TARGET_S: f64 = 180.0;
@@ -298,7 +298,7 @@ impl FieldTestPanel {
         Some(FieldTestAction::Mark { label })
     }
 
-    /// The live pinning hint: a run of identical fixes during the last seconds, or a speed below the SiRF
+    /// The live pinning hint: a run of identical fixes during the last seconds, or a speed below the `SiRF`
     /// static-navigation threshold while a cone test runs.
     fn live_pinning_warning(&self) -> Option<String> {
         let (track, what) = match self.procedure {
@@ -388,7 +388,11 @@ impl FieldTestPanel {
             let mut minutes = self.drift.target_s / 60.0;
             ui.add_enabled(
                 self.drift.phase != Phase::Running,
-                egui::DragValue::new(&mut minutes).range(0.5..=240.0).speed(0.1).suffix(" min").prefix("target "),
+                egui::DragValue::new(&mut minutes)
+                    .range(0.5..=240.0)
+                    .speed(0.1)
+                    .suffix(" min")
+                    .prefix("target "),
             );
             self.drift.target_s = minutes * 60.0;
             match self.drift.phase {
@@ -398,18 +402,19 @@ impl FieldTestPanel {
                     }
                 }
                 Phase::Idle | Phase::Done => {
-                    let label = if self.drift.phase == Phase::Idle { "Start drift test" } else { "Start again" };
+                    let label =
+                        if self.drift.phase == Phase::Idle { "Start drift test" } else { "Start again" };
                     if ui.add_enabled(self.latest.is_some(), egui::Button::new(label)).clicked() {
                         self.start_drift();
                     }
                 }
             }
             let frac = (self.drift.elapsed_s() / self.drift.target_s).clamp(0.0, 1.0) as f32;
-            ui.add(
-                egui::ProgressBar::new(frac)
-                    .desired_width(200.0)
-                    .text(format!("{:.0} / {:.0} s", self.drift.elapsed_s(), self.drift.target_s)),
-            );
+            ui.add(egui::ProgressBar::new(frac).desired_width(200.0).text(format!(
+                "{:.0} / {:.0} s",
+                self.drift.elapsed_s(),
+                self.drift.target_s
+            )));
             ui.label(match self.drift.phase {
                 Phase::Idle => "idle",
                 Phase::Running => "recording",
@@ -441,12 +446,21 @@ impl FieldTestPanel {
         let running = self.cones.phase == Phase::Running;
         ui.add_enabled_ui(!running, |ui| {
             ui.horizontal(|ui| {
-                ui.add(egui::DragValue::new(&mut self.cones.spacing_m).range(0.5..=1000.0).speed(0.1).prefix("spacing ").suffix(" m"));
+                ui.add(
+                    egui::DragValue::new(&mut self.cones.spacing_m)
+                        .range(0.5..=1000.0)
+                        .speed(0.1)
+                        .prefix("spacing ")
+                        .suffix(" m"),
+                );
                 ui.add(egui::DragValue::new(&mut self.cones.count).range(2..=200).prefix("cones "));
                 ui.checkbox(&mut self.cones.use_bearing, "line bearing (true)");
                 ui.add_enabled(
                     self.cones.use_bearing,
-                    egui::DragValue::new(&mut self.cones.bearing_deg).range(0.0..=360.0).speed(0.5).suffix("°"),
+                    egui::DragValue::new(&mut self.cones.bearing_deg)
+                        .range(0.0..=360.0)
+                        .speed(0.5)
+                        .suffix("°"),
                 );
                 if !self.cones.use_bearing {
                     ui.weak("(else: first to last mark)");
@@ -457,8 +471,9 @@ impl FieldTestPanel {
         ui.horizontal(|ui| {
             if running {
                 let n = self.cones.marks.len() + 1;
-                let big = egui::Button::new(egui::RichText::new(format!("Mark cone {n}  [M]")).size(22.0).strong())
-                    .min_size(egui::vec2(220.0, 48.0));
+                let big =
+                    egui::Button::new(egui::RichText::new(format!("Mark cone {n}  [M]")).size(22.0).strong())
+                        .min_size(egui::vec2(220.0, 48.0));
                 if ui.add_enabled(self.latest.is_some(), big).clicked() {
                     action = self.mark_cone();
                 }
@@ -487,35 +502,7 @@ impl FieldTestPanel {
             ui.colored_label(ui.visuals().error_fg_color, e);
         }
         if let Some(s) = &self.cones.stats {
-            ui.horizontal_wrapped(|ui| {
-                ui.label(format!(
-                    "mean {:.2} m; RMSE vs {} m: {:.2} m; range {:.2}..{:.2} m; along-line RMSE {:.2} m; \
-                     cross-line RMS {:.2} m; line bearing {:.1}°",
-                    s.mean_m, s.spacing_m, s.rmse_m, s.min_m, s.max_m, s.along_rmse_m, s.cross_rms_m,
-                    s.line_bearing_deg
-                ));
-            });
-            egui::CollapsingHeader::new("Consecutive distances").default_open(true).show(ui, |ui| {
-                egui::Grid::new("fieldtest-cone-distances").striped(true).show(ui, |ui| {
-                    ui.strong("from -> to");
-                    ui.strong("distance [m]");
-                    ui.strong("along [m]");
-                    ui.strong("cross [m]");
-                    ui.end_row();
-                    for (k, d) in s.distances_m.iter().enumerate() {
-                        let from = s.labels.get(k).map_or("?", String::as_str);
-                        let to = s.labels.get(k + 1).map_or("?", String::as_str);
-                        ui.label(format!("{from} -> {to}"));
-                        ui.monospace(format!("{d:.2}"));
-                        ui.monospace(format!("{:.2}", s.along_m.get(k).copied().unwrap_or(f64::NAN)));
-                        ui.monospace(format!("{:.2}", s.cross_m.get(k).copied().unwrap_or(f64::NAN)));
-                        ui.end_row();
-                    }
-                });
-            });
-            for w in &s.warnings {
-                ui.colored_label(ui.visuals().warn_fg_color, format!("Warning: {w}"));
-            }
+            cone_stats_ui(ui, s);
         } else if running {
             ui.label(format!("{} mark(s): statistics appear from the second mark.", self.cones.marks.len()));
         }
@@ -616,6 +603,45 @@ impl FieldTestPanel {
     }
 }
 
+/// The cone statistics: summary line, consecutive distances table and warnings.
+fn cone_stats_ui(ui: &mut egui::Ui, s: &ConeStats) {
+    ui.horizontal_wrapped(|ui| {
+        ui.label(format!(
+            "mean {:.2} m; RMSE vs {} m: {:.2} m; range {:.2}..{:.2} m; along-line RMSE {:.2} m; \
+                 cross-line RMS {:.2} m; line bearing {:.1}°",
+            s.mean_m,
+            s.spacing_m,
+            s.rmse_m,
+            s.min_m,
+            s.max_m,
+            s.along_rmse_m,
+            s.cross_rms_m,
+            s.line_bearing_deg
+        ));
+    });
+    egui::CollapsingHeader::new("Consecutive distances").default_open(true).show(ui, |ui| {
+        egui::Grid::new("fieldtest-cone-distances").striped(true).show(ui, |ui| {
+            ui.strong("from -> to");
+            ui.strong("distance [m]");
+            ui.strong("along [m]");
+            ui.strong("cross [m]");
+            ui.end_row();
+            for (k, d) in s.distances_m.iter().enumerate() {
+                let from = s.labels.get(k).map_or("?", String::as_str);
+                let to = s.labels.get(k + 1).map_or("?", String::as_str);
+                ui.label(format!("{from} -> {to}"));
+                ui.monospace(format!("{d:.2}"));
+                ui.monospace(format!("{:.2}", s.along_m.get(k).copied().unwrap_or(f64::NAN)));
+                ui.monospace(format!("{:.2}", s.cross_m.get(k).copied().unwrap_or(f64::NAN)));
+                ui.end_row();
+            }
+        });
+    });
+    for w in &s.warnings {
+        ui.colored_label(ui.visuals().warn_fg_color, format!("Warning: {w}"));
+    }
+}
+
 /// `[t_s, lat_deg, lon_deg]` rows of a track for the JSON report.
 fn track_rows(track: &[TimedFix]) -> Vec<[f64; 3]> {
     track.iter().map(|f| [f.t_s, f.pos.lat_deg, f.pos.lon_deg]).collect()
@@ -688,12 +714,13 @@ fn cone_panels(test: &ConeTest, earth: Earth) -> Vec<PanelSpec> {
     let mut panels = vec![PanelSpec::Chart(map)];
     if let Some(s) = &test.stats {
         let idx: Vec<f64> = (1..=s.distances_m.len()).map(|k| k as f64).collect();
-        let distances = ChartSpec::new("Distance between consecutive cones (Figs 69/70)", "segment", "distance [m]")
-            .with(SeriesSpec::line("measured", idx.clone(), s.distances_m.clone()))
-            .with(SeriesSpec::scatter("", idx.clone(), s.distances_m.clone()))
-            .hline(s.spacing_m, format!("nominal {} m", s.spacing_m))
-            .hline(s.mean_m, format!("mean {:.2} m", s.mean_m))
-            .hline(s.rmse_m, format!("RMSE {:.2} m", s.rmse_m));
+        let distances =
+            ChartSpec::new("Distance between consecutive cones (Figs 69/70)", "segment", "distance [m]")
+                .with(SeriesSpec::line("measured", idx.clone(), s.distances_m.clone()))
+                .with(SeriesSpec::scatter("", idx.clone(), s.distances_m.clone()))
+                .hline(s.spacing_m, format!("nominal {} m", s.spacing_m))
+                .hline(s.mean_m, format!("mean {:.2} m", s.mean_m))
+                .hline(s.rmse_m, format!("RMSE {:.2} m", s.rmse_m));
         let components = ChartSpec::new("Along- and cross-line components", "segment", "component [m]")
             .with(SeriesSpec::line("along-line", idx.clone(), s.along_m.clone()))
             .with(SeriesSpec::line("cross-line (right +)", idx, s.cross_m.clone()))
@@ -853,13 +880,13 @@ mod tests {
         push(&mut harness.state_mut().0, 7.0, at(10.0, 0.0), Some(1.5));
         harness.key_press(egui::Key::M);
         harness.run();
-        let labels: Vec<String> = harness
-            .state()
-            .1
-            .iter()
-            .map(|FieldTestAction::Mark { label }| label.clone())
-            .collect();
+        let labels: Vec<String> =
+            harness.state().1.iter().map(|FieldTestAction::Mark { label }| label.clone()).collect();
         assert_eq!(labels, ["cone 1", "cone 2"]);
-        assert_relative_eq!(harness.state().0.cones.stats.as_ref().unwrap().distances_m[0], 10.0, max_relative = 1e-9);
+        assert_relative_eq!(
+            harness.state().0.cones.stats.as_ref().unwrap().distances_m[0],
+            10.0,
+            max_relative = 1e-9
+        );
     }
 }

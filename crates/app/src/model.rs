@@ -165,6 +165,8 @@ pub enum VestEvent {
         /// Why, in words.
         reason: String,
     },
+    /// Something the operator should read (transport errors, identification).
+    Notice(String),
     /// Battery / firmware status.
     Status {
         /// Battery charge [%], if reported.

@@ -179,7 +179,8 @@ impl ChartSpec {
     /// Converts to the PNG renderer's chart.
     pub fn to_plot(&self) -> vestnav_plot::Chart {
         use vestnav_plot::{Chart, Color, Marker, Scale, Series};
-        let mut chart = Chart::new(self.title.clone()).x_label(self.x_label.clone()).y_label(self.y_label.clone());
+        let mut chart =
+            Chart::new(self.title.clone()).x_label(self.x_label.clone()).y_label(self.y_label.clone());
         if self.log_y {
             chart = chart.y_scale(Scale::Log10);
         }
@@ -259,13 +260,17 @@ impl ChartSpec {
                         let finite: Vec<[f64; 2]> =
                             points.into_iter().filter(|p| p[0].is_finite() && p[1].is_finite()).collect();
                         plot_ui.points(
-                            Points::new(s.label.clone(), finite).shape(MarkerShape::Circle).radius(2.5).color(color),
+                            Points::new(s.label.clone(), finite)
+                                .shape(MarkerShape::Circle)
+                                .radius(2.5)
+                                .color(color),
                         );
                     }
                 }
             }
             for (y, label) in &self.hlines {
-                plot_ui.hline(egui_plot::HLine::new(label.clone(), to_y(*y)).style(LineStyle::dashed_dense()));
+                plot_ui
+                    .hline(egui_plot::HLine::new(label.clone(), to_y(*y)).style(LineStyle::dashed_dense()));
             }
             for (x, label) in &self.vlines {
                 plot_ui.vline(VLine::new(label.clone(), *x).style(LineStyle::dashed_dense()));
@@ -397,7 +402,10 @@ impl HeatSpec {
                 let (xs, ys): (Vec<f64>, Vec<f64>) = self.points.iter().map(|p| (p.0, p.1)).unzip();
                 let pts: Vec<[f64; 2]> = xs.iter().zip(&ys).map(|(&x, &y)| [x, y]).collect();
                 plot_ui.points(
-                    Points::new("tactors", pts).shape(MarkerShape::Circle).radius(3.0).color(egui::Color32::WHITE),
+                    Points::new("tactors", pts)
+                        .shape(MarkerShape::Circle)
+                        .radius(3.0)
+                        .color(egui::Color32::WHITE),
                 );
                 for (x, y, label) in &self.points {
                     plot_ui.text(
@@ -412,8 +420,13 @@ impl HeatSpec {
 
 /// A perceptually ordered dark-blue → teal → yellow colour map for `f` in `[0, 1]` (clamped; NaN is grey).
 fn colormap(f: f64) -> egui::Color32 {
-    const STOPS: [[f32; 3]; 5] =
-        [[68.0, 1.0, 84.0], [59.0, 82.0, 139.0], [33.0, 145.0, 140.0], [94.0, 201.0, 98.0], [253.0, 231.0, 37.0]];
+    const STOPS: [[f32; 3]; 5] = [
+        [68.0, 1.0, 84.0],
+        [59.0, 82.0, 139.0],
+        [33.0, 145.0, 140.0],
+        [94.0, 201.0, 98.0],
+        [253.0, 231.0, 37.0],
+    ];
     if !f.is_finite() {
         return egui::Color32::GRAY;
     }
@@ -556,6 +569,15 @@ pub(crate) fn decimate_minmax(x: &[f64], y: &[f64], max_points: usize) -> (Vec<f
 // ------------------------------------------------------------------------------------------------------------
 
 type ComputeFn<I, O> = fn(&I) -> Result<O, String>;
+/// A run in flight: its inputs, start time and the channel its result arrives on.
+type Pending<I, O> = (I, Instant, Receiver<Result<O, String>>);
+
+/// Panels and header lines derived from cached results, with the key they were derived from.
+struct Derived<K> {
+    key: K,
+    panels: Vec<PanelSpec>,
+    header: Vec<String>,
+}
 
 /// A cached computation that runs on a worker thread when its inputs change.
 ///
@@ -566,7 +588,7 @@ type ComputeFn<I, O> = fn(&I) -> Result<O, String>;
 pub(crate) struct Recompute<I, O> {
     compute: ComputeFn<I, O>,
     shown: Option<(I, Arc<O>)>,
-    running: Option<(I, Instant, Receiver<Result<O, String>>)>,
+    running: Option<Pending<I, O>>,
     requested: Option<I>,
     error: Option<String>,
     last_duration: Option<Duration>,
@@ -580,7 +602,15 @@ where
 {
     /// A computation with nothing computed yet.
     pub fn new(compute: ComputeFn<I, O>) -> Self {
-        Self { compute, shown: None, running: None, requested: None, error: None, last_duration: None, generation: 0 }
+        Self {
+            compute,
+            shown: None,
+            running: None,
+            requested: None,
+            error: None,
+            last_duration: None,
+            generation: 0,
+        }
     }
 
     /// Collects a finished run and starts a new one if `wanted` has not been requested yet.
@@ -596,7 +626,9 @@ where
         let outcome = match rx.try_recv() {
             Ok(result) => result,
             Err(TryRecvError::Empty) => return,
-            Err(TryRecvError::Disconnected) => Err("the computation thread stopped without a result".to_string()),
+            Err(TryRecvError::Disconnected) => {
+                Err("the computation thread stopped without a result".to_string())
+            }
         };
         self.last_duration = Some(started.elapsed());
         match outcome {
@@ -644,11 +676,13 @@ where
     }
 
     /// The error of the last run, if it failed.
+    #[cfg(test)]
     pub fn error(&self) -> Option<&str> {
         self.error.as_deref()
     }
 
     /// Wall time of the last finished run.
+    #[cfg(test)]
     pub fn last_duration(&self) -> Option<Duration> {
         self.last_duration
     }
@@ -781,6 +815,7 @@ impl Exporter {
     }
 
     /// Result of the last export: `Ok(message)` or `Err(reason)`.
+    #[cfg(test)]
     pub fn status(&self) -> Option<&Result<String, String>> {
         self.status.as_ref()
     }
@@ -832,7 +867,13 @@ impl Exporter {
 }
 
 /// Draws the export row for `panels` and starts the export the operator asked for.
-fn export_row(ui: &mut egui::Ui, exporter: &mut Exporter, title: &str, header: Vec<String>, panels: &[PanelSpec]) {
+fn export_row(
+    ui: &mut egui::Ui,
+    exporter: &mut Exporter,
+    title: &str,
+    header: Vec<String>,
+    panels: &[PanelSpec],
+) {
     if let Some(format) = exporter.ui(ui, &[ExportFormat::Png, ExportFormat::Csv]) {
         let panels = panels.to_vec();
         let title = title.to_string();
@@ -842,7 +883,11 @@ fn export_row(ui: &mut egui::Ui, exporter: &mut Exporter, title: &str, header: V
                 render_png(&title, &panels).map_err(|e| format!("cannot render the figure: {e}"))
             }),
             ExportFormat::Csv | ExportFormat::Json => {
-                exporter.start(&ctx, ExportFormat::Csv, move || Ok(panels_csv(&header, &panels).into_bytes()));
+                exporter.start(
+                    &ctx,
+                    ExportFormat::Csv,
+                    move || Ok(panels_csv(&header, &panels).into_bytes()),
+                );
             }
         }
     }
@@ -1009,10 +1054,11 @@ fn tactor_panels(out: &TactorOutput, span_s: f64) -> Vec<PanelSpec> {
     let mut omega = ChartSpec::new("Rotor speed (Fig 28 rate)", "time [s]", "omega [rad/s]");
     let mut current = ChartSpec::new("Motor current (Fig 33)", "time [s]", "current [A]");
     let mut torque = ChartSpec::new("Motor torque (Fig 32)", "time [s]", "torque [N m]");
-    let mut force = ChartSpec::new("Force amplitude, per-revolution peak (Fig 31)", "time [s]", "|force| [N]");
+    let mut force =
+        ChartSpec::new("Force amplitude, per-revolution peak (Fig 31)", "time [s]", "|force| [N]");
     let mut position = ChartSpec::new("Body position (Fig 29)", "time [s]", "x [mm]");
-    let mut spectrum = ChartSpec::new("Acceleration spectrum, last 1 s (Fig 34)", "frequency [Hz]", "|a| [m/s^2]")
-        .log_y();
+    let mut spectrum =
+        ChartSpec::new("Acceleration spectrum, last 1 s (Fig 34)", "frequency [Hz]", "|a| [m/s^2]").log_y();
     for (k, run) in out.runs.iter().enumerate() {
         let tr = &run.traces;
         let sm = &run.summary;
@@ -1047,7 +1093,7 @@ fn tactor_panels(out: &TactorOutput, span_s: f64) -> Vec<PanelSpec> {
             }
             current = current.hline(steady.current_a, "closed-form steady current");
             torque = torque.hline(steady.torque_n_m, "closed-form steady torque");
-            force = force.hline(steady.force_amplitude_n, "m l omega^2");
+            force = force.hline(steady.force_amplitude_n, "closed form m l omega^2");
             spectrum = spectrum.vline(sm.fft_peak_1s_hz, "FFT peak");
         }
     }
@@ -1092,7 +1138,10 @@ fn summary_rows(s: &tactor::Summary) -> Vec<(&'static str, String)> {
         ("peak acceleration [m/s^2]", format!("{:.3}", s.accel_peak_m_s2)),
         ("force amplitude [N]", format!("{:.5}", s.force_amplitude_n)),
         ("x amplitude [mm]", format!("{:.6}", s.x_amplitude_m * 1e3)),
-        ("current peak / mean [mA]", format!("{:.3} / {:.3}", s.current_peak_a * 1e3, s.current_mean_a * 1e3)),
+        (
+            "current peak / mean [mA]",
+            format!("{:.3} / {:.3}", s.current_peak_a * 1e3, s.current_mean_a * 1e3),
+        ),
         (
             "torque peak / mean [uN m]",
             format!("{:.4} / {:.4}", s.torque_peak_n_m * 1e6, s.torque_mean_n_m * 1e6),
@@ -1112,7 +1161,8 @@ struct TactorView {
     span_s: f64,
     job: Recompute<TactorInputs, TactorOutput>,
     /// Panels derived from result `generation` for `span_s`.
-    panels: Option<(u64, f64, Vec<PanelSpec>, Vec<String>)>,
+    /// Keyed by (result generation, bits of `span_s`).
+    panels: Option<Derived<(u64, u64)>>,
     exporter: Exporter,
 }
 
@@ -1135,28 +1185,25 @@ impl TactorView {
         }
     }
 
-    /// Recomputes if needed and refreshes the derived panels; returns them.
-    fn refresh(&mut self, ctx: &egui::Context) -> Option<&(u64, f64, Vec<PanelSpec>, Vec<String>)> {
+    /// Recomputes if needed and refreshes the derived panels.
+    fn refresh(&mut self, ctx: &egui::Context) {
         self.job.update(ctx, &self.inputs);
-        let generation = self.job.generation();
-        let (_, out) = self.job.shown()?;
-        let stale = self.panels.as_ref().is_none_or(|(g, span, ..)| *g != generation || *span != self.span_s);
-        if stale {
+        let key = (self.job.generation(), self.span_s.to_bits());
+        let Some((_, out)) = self.job.shown() else { return };
+        if self.panels.as_ref().is_none_or(|d| d.key != key) {
             let out = Arc::clone(out);
-            self.panels = Some((generation, self.span_s, tactor_panels(&out, self.span_s), tactor_header(&out)));
+            self.panels =
+                Some(Derived { key, panels: tactor_panels(&out, self.span_s), header: tactor_header(&out) });
         }
-        self.panels.as_ref()
     }
 
     fn controls(&mut self, ui: &mut egui::Ui) {
         let i = &mut self.inputs;
         ui.horizontal_wrapped(|ui| {
-            egui::ComboBox::from_label("preset")
-                .selected_text(i.preset.name())
-                .show_ui(ui, |ui| {
-                    ui.selectable_value(&mut i.preset, Preset::ThesisSim, "thesis-sim (R = 62 ohm)");
-                    ui.selectable_value(&mut i.preset, Preset::Measured, "measured (R = 67 ohm)");
-                });
+            egui::ComboBox::from_label("preset").selected_text(i.preset.name()).show_ui(ui, |ui| {
+                ui.selectable_value(&mut i.preset, Preset::ThesisSim, "thesis-sim (R = 62 ohm)");
+                ui.selectable_value(&mut i.preset, Preset::Measured, "measured (R = 67 ohm)");
+            });
             ui.separator();
             ui.label("body:");
             ui.radio_value(&mut i.body, BodyMass::Unencased, "unencased (3.7 g)");
@@ -1178,7 +1225,11 @@ impl TactorView {
         });
         ui.horizontal_wrapped(|ui| {
             let mut radius_mm = i.radius_m * 1e3;
-            ui.add(egui::Slider::new(&mut radius_mm, 1.0..=5.0).text("eccentric radius l [mm]").fixed_decimals(2));
+            ui.add(
+                egui::Slider::new(&mut radius_mm, 1.0..=5.0)
+                    .text("eccentric radius l [mm]")
+                    .fixed_decimals(2),
+            );
             if ui.small_button("CAD 2.57").clicked() {
                 radius_mm = tactor::RADIUS_CAD_M * 1e3;
             }
@@ -1201,7 +1252,7 @@ impl TactorView {
         let ctx = ui.ctx().clone();
         self.refresh(&ctx);
         self.job.status_ui(ui);
-        let Some((_, _, panels, header)) = &self.panels else {
+        let Some(Derived { panels, header, .. }) = &self.panels else {
             return;
         };
         if let Some((_, out)) = self.job.shown() {
@@ -1216,25 +1267,29 @@ impl TactorView {
 
 /// The summary numbers of every run side by side.
 fn summary_table(ui: &mut egui::Ui, out: &TactorOutput) {
-    egui::CollapsingHeader::new("Summary (window = last half of the run)").default_open(true).show(ui, |ui| {
-        egui::Grid::new("sim-tactor-summary").striped(true).show(ui, |ui| {
-            ui.strong("quantity");
-            for run in &out.runs {
-                ui.strong(run.summary.params.body.name());
-            }
-            ui.end_row();
-            let rows: Vec<Vec<(&str, String)>> = out.runs.iter().map(|r| summary_rows(&r.summary)).collect();
-            if let Some(first) = rows.first() {
-                for (k, (name, _)) in first.iter().enumerate() {
-                    ui.label(*name);
-                    for r in &rows {
-                        ui.monospace(r.get(k).map_or("", |v| v.1.as_str()));
-                    }
-                    ui.end_row();
+    egui::CollapsingHeader::new("Summary (window = last half of the run)").default_open(true).show(
+        ui,
+        |ui| {
+            egui::Grid::new("sim-tactor-summary").striped(true).show(ui, |ui| {
+                ui.strong("quantity");
+                for run in &out.runs {
+                    ui.strong(run.summary.params.body.name());
                 }
-            }
-        });
-    });
+                ui.end_row();
+                let rows: Vec<Vec<(&str, String)>> =
+                    out.runs.iter().map(|r| summary_rows(&r.summary)).collect();
+                if let Some(first) = rows.first() {
+                    for (k, (name, _)) in first.iter().enumerate() {
+                        ui.label(*name);
+                        for r in &rows {
+                            ui.monospace(r.get(k).map_or("", |v| v.1.as_str()));
+                        }
+                        ui.end_row();
+                    }
+                }
+            });
+        },
+    );
 }
 
 // ---------------------------------------------------- Skin waves ----------------------------------------------------
@@ -1291,7 +1346,11 @@ fn compute_waves(i: &WaveInputs) -> Result<PanelsOutput, String> {
         for col in 0..FIELD_CELLS {
             let x = -half_m + (col as f64 + 0.5) * cell_m;
             let p = origin.with_x(x).with_y(y);
-            values.push(if i.peak { skin.peak_amplitude_m_s2(&sources, p) } else { skin.field_m_s2(&sources, p, t_s) });
+            values.push(if i.peak {
+                skin.peak_amplitude_m_s2(&sources, p)
+            } else {
+                skin.field_m_s2(&sources, p, t_s)
+            });
         }
     }
     let points = (0..TACTOR_COUNT)
@@ -1317,7 +1376,8 @@ fn compute_waves(i: &WaveInputs) -> Result<PanelsOutput, String> {
 
     // Attenuation with distance: the three tactors of Fig 52 and the source used here.
     let d_mm: Vec<f64> = (0..=120).map(f64::from).collect();
-    let mut atten = ChartSpec::new("Attenuation with distance (Fig 52)", "distance [mm]", "amplitude [m/s^2]");
+    let mut atten =
+        ChartSpec::new("Attenuation with distance (Fig 52)", "distance [mm]", "amplitude [m/s^2]");
     for (k, (&a0, &b)) in wave::FIG52_A0_M_S2.iter().zip(&wave::FIG52_WIDTHS_M).enumerate() {
         let g = GaussianAttenuation { a0_m_s2: a0, width_m: b };
         let y = d_mm.iter().map(|d| g.amplitude_m_s2(d * 1e-3)).collect();
@@ -1330,24 +1390,23 @@ fn compute_waves(i: &WaveInputs) -> Result<PanelsOutput, String> {
     let g = GaussianAttenuation { a0_m_s2: i.amplitude_m_s2, width_m: i.width_mm * 1e-3 };
     let y = d_mm.iter().map(|d| g.amplitude_m_s2(d * 1e-3)).collect();
     atten = atten.with(SeriesSpec::line("this source", d_mm.clone(), y).color([20, 20, 20]));
-    let rule_m = wave::spacing_for_fraction_m(i.width_mm * 1e-3, wave::SPACING_RULE_FRACTION).map_err(|e| e.to_string())?;
+    let rule_m = wave::spacing_for_fraction_m(i.width_mm * 1e-3, wave::SPACING_RULE_FRACTION)
+        .map_err(|e| e.to_string())?;
+    let neighbour_m_s2 = g.amplitude_m_s2(spacing_m);
+    let neighbour_fraction = neighbour_m_s2 / i.amplitude_m_s2;
     atten = atten
+        .with(
+            SeriesSpec::scatter(
+                format!("neighbour at {} mm: {:.1} %", i.spacing_mm, neighbour_fraction * 100.0),
+                vec![i.spacing_mm],
+                vec![neighbour_m_s2],
+            )
+            .color([214, 39, 40]),
+        )
         .hline(i.amplitude_m_s2 * wave::SPACING_RULE_FRACTION, "10 % of a0")
-        .vline(rule_m * 1e3, "spacing rule")
-        .vline(i.spacing_mm, "vest spacing");
-    let neighbour_fraction = g.amplitude_m_s2(spacing_m) / i.amplitude_m_s2;
+        .vline(rule_m * 1e3, format!("rule {:.1} mm", rule_m * 1e3));
 
-    // The travelling wave at increasing distances (Fig 57): phase lag r / c.
-    let period_s = 1.0 / i.frequency_hz;
-    let t_axis: Vec<f64> = (0..=400).map(|k| f64::from(k) / 400.0 * 3.0 * period_s).collect();
-    let single = WaveSource { position_m: origin, ..template };
-    let mut travel = ChartSpec::new("Travelling wave at distances from the tactor (Fig 57)", "time [ms]", "a [m/s^2]");
-    for d in [0.0, 20.0, 37.0, 52.0] {
-        let p = origin.with_x(d * 1e-3);
-        let y = t_axis.iter().map(|&t| skin.wave_m_s2(&single, p, t)).collect();
-        travel = travel.with(SeriesSpec::line(format!("{d} mm"), t_axis.iter().map(|t| t * 1e3).collect(), y));
-    }
-    travel = travel.vline(i.t_ms, "snapshot time");
+    let travel = travelling_wave_chart(skin, &WaveSource { position_m: origin, ..template }, i.t_ms);
 
     let header = vec![
         format!(
@@ -1361,12 +1420,31 @@ fn compute_waves(i: &WaveInputs) -> Result<PanelsOutput, String> {
             skin.wavelength_m(i.frequency_hz) * 1e3
         ),
         format!("spacing rule (neighbour below 10 %): {:.2} mm", rule_m * 1e3),
-        format!("a neighbour at {} mm receives {:.1} % of its source", i.spacing_mm, neighbour_fraction * 100.0),
+        format!(
+            "a neighbour at {} mm receives {:.1} % of its source",
+            i.spacing_mm,
+            neighbour_fraction * 100.0
+        ),
     ];
     Ok(PanelsOutput {
         panels: vec![PanelSpec::Heat(heat), PanelSpec::Chart(atten), PanelSpec::Chart(travel)],
         header,
     })
+}
+
+/// One source's wave against time at 0, 20, 37 and 52 mm from it (thesis Fig 57): the phase lags by `r / c`.
+fn travelling_wave_chart(skin: Skin, source: &WaveSource, snapshot_ms: f64) -> ChartSpec {
+    let period_s = 1.0 / source.frequency_hz;
+    let t_axis: Vec<f64> = (0..=400).map(|k| f64::from(k) / 400.0 * 3.0 * period_s).collect();
+    let mut travel =
+        ChartSpec::new("Travelling wave at distances from the tactor (Fig 57)", "time [ms]", "a [m/s^2]");
+    for d in [0.0, 20.0, 37.0, 52.0] {
+        let p = source.position_m.with_x(source.position_m.x + d * 1e-3);
+        let y = t_axis.iter().map(|&t| skin.wave_m_s2(source, p, t)).collect();
+        travel =
+            travel.with(SeriesSpec::line(format!("{d} mm"), t_axis.iter().map(|t| t * 1e3).collect(), y));
+    }
+    travel.vline(snapshot_ms, "snapshot time")
 }
 
 struct WaveView {
@@ -1457,7 +1535,13 @@ impl WaveView {
         for line in &out.header {
             ui.label(line);
         }
-        export_row(ui, &mut self.exporter, "Skin waves on the vest (thesis §4.1.3)", out.header.clone(), &out.panels);
+        export_row(
+            ui,
+            &mut self.exporter,
+            "Skin waves on the vest (thesis §4.1.3)",
+            out.header.clone(),
+            &out.panels,
+        );
         egui::ScrollArea::vertical().id_salt("sim-wave-scroll").show(ui, |ui| {
             panels_grid(ui, "sim-wave", &out.panels, 320.0);
         });
@@ -1494,13 +1578,17 @@ fn compute_two_point(i: &TwoPointInputs) -> Result<TwoPointResult, String> {
 fn compute_rmse_sweep(i: &RmseSweepInputs) -> Result<RmseSweep, String> {
     let distances_mm: Vec<f64> = (0..=i.max_mm.round() as usize).map(|d| d as f64).collect();
     let results = twopoint::sweep(&i.setup, &distances_mm).map_err(|e| e.to_string())?;
-    let threshold_mm =
-        twopoint::threshold_mm(&i.setup, twopoint::DEFAULT_RELATIVE_RMSE, i.max_mm).map_err(|e| e.to_string())?;
+    let threshold_mm = twopoint::threshold_mm(&i.setup, twopoint::DEFAULT_RELATIVE_RMSE, i.max_mm)
+        .map_err(|e| e.to_string())?;
     Ok(RmseSweep { distances_mm, rmse: results.iter().map(|r| r.fit.rmse).collect(), threshold_mm })
 }
 
 /// The two-point panels (thesis Figs 60–63 and RMSE against distance).
-fn two_point_panels(setup: &TwoPointSetup, result: &TwoPointResult, sweep: Option<&RmseSweep>) -> Vec<PanelSpec> {
+fn two_point_panels(
+    setup: &TwoPointSetup,
+    result: &TwoPointResult,
+    sweep: Option<&RmseSweep>,
+) -> Vec<PanelSpec> {
     let d = result.distance_mm;
     let x = setup.grid_mm();
     let g1: Vec<f64> = x.iter().map(|&x| setup.single_m_s2(x, 0.0)).collect();
@@ -1531,13 +1619,14 @@ fn two_point_panels(setup: &TwoPointSetup, result: &TwoPointResult, sweep: Optio
         .hline(0.0, "");
     let mut panels = vec![PanelSpec::Chart(parts), PanelSpec::Chart(fitted), PanelSpec::Chart(resid)];
     if let Some(sw) = sweep {
-        let mut chart = ChartSpec::new("RMSE of the single-Gaussian fit vs distance", "distance [mm]", "RMSE [m/s^2]")
-            .log_y()
-            .with(SeriesSpec::line("RMSE", sw.distances_mm.clone(), sw.rmse.clone()))
-            .vline(d, "this distance")
-            .vline(setup.sparrow_limit_mm(), "Sparrow limit");
+        let mut chart =
+            ChartSpec::new("RMSE of the single-Gaussian fit vs distance", "distance [mm]", "RMSE [m/s^2]")
+                .log_y()
+                .with(SeriesSpec::line("RMSE", sw.distances_mm.clone(), sw.rmse.clone()))
+                .vline(d, format!("d = {d:.0} mm"))
+                .vline(setup.sparrow_limit_mm(), format!("Sparrow {:.1} mm", setup.sparrow_limit_mm()));
         if let Some(t) = sw.threshold_mm {
-            chart = chart.vline(t, "threshold (RMSE = 1 % of a)");
+            chart = chart.vline(t, format!("threshold {t:.1} mm"));
         }
         panels.push(PanelSpec::Chart(chart));
     }
@@ -1549,7 +1638,7 @@ struct TwoPointView {
     sweep_max_mm: f64,
     fit_job: Recompute<TwoPointInputs, TwoPointResult>,
     sweep_job: Recompute<RmseSweepInputs, RmseSweep>,
-    panels: Option<((u64, u64), Vec<PanelSpec>, Vec<String>)>,
+    panels: Option<Derived<(u64, u64)>>,
     exporter: Exporter,
 }
 
@@ -1569,7 +1658,7 @@ impl TwoPointView {
         self.fit_job.update(ctx, &self.inputs);
         self.sweep_job.update(ctx, &RmseSweepInputs { setup: self.inputs.setup, max_mm: self.sweep_max_mm });
         let key = (self.fit_job.generation(), self.sweep_job.generation());
-        if self.panels.as_ref().is_some_and(|(k, ..)| *k == key) {
+        if self.panels.as_ref().is_some_and(|d| d.key == key) {
             return;
         }
         let Some((inputs, result)) = self.fit_job.shown() else { return };
@@ -1597,13 +1686,15 @@ impl TwoPointView {
                 |t| format!("threshold (RMSE = 1 % of a): {t:.2} mm"),
             ));
         }
-        self.panels = Some((key, panels, header));
+        self.panels = Some(Derived { key, panels, header });
     }
 
     fn ui(&mut self, ui: &mut egui::Ui) {
         let i = &mut self.inputs;
         ui.horizontal_wrapped(|ui| {
-            ui.add(egui::Slider::new(&mut i.distance_mm, 0.0..=150.0).text("distance d [mm]").fixed_decimals(1));
+            ui.add(
+                egui::Slider::new(&mut i.distance_mm, 0.0..=150.0).text("distance d [mm]").fixed_decimals(1),
+            );
             ui.add(egui::Slider::new(&mut i.setup.width_mm, 10.0..=60.0).text("width b [mm]"));
             ui.add(egui::Slider::new(&mut i.setup.amplitude_m_s2, 1.0..=30.0).text("amplitude a [m/s^2]"));
             ui.add(egui::Slider::new(&mut self.sweep_max_mm, 20.0..=200.0).text("RMSE sweep up to [mm]"));
@@ -1615,7 +1706,7 @@ impl TwoPointView {
         self.refresh(&ctx);
         self.fit_job.status_ui(ui);
         self.sweep_job.status_ui(ui);
-        let Some((_, panels, header)) = &self.panels else { return };
+        let Some(Derived { panels, header, .. }) = &self.panels else { return };
         for line in header {
             ui.label(line);
         }
@@ -1659,7 +1750,11 @@ impl SweepInputs {
 
     /// The radius compared with in Fig 36: the other of the CAD and fitted radii.
     fn other_radius_m(&self) -> f64 {
-        if (self.radius_m - tactor::RADIUS_CAD_M).abs() < 1e-9 { tactor::RADIUS_FITTED_M } else { tactor::RADIUS_CAD_M }
+        if (self.radius_m - tactor::RADIUS_CAD_M).abs() < 1e-9 {
+            tactor::RADIUS_FITTED_M
+        } else {
+            tactor::RADIUS_CAD_M
+        }
     }
 }
 
@@ -1671,7 +1766,8 @@ struct SweepOutput {
 }
 
 fn compute_sweeps(i: &SweepInputs) -> Result<SweepOutput, String> {
-    let options = SweepOptions { min_hz: i.min_hz, max_hz: i.max_hz, points: i.points, ..SweepOptions::default() };
+    let options =
+        SweepOptions { min_hz: i.min_hz, max_hz: i.max_hz, points: i.points, ..SweepOptions::default() };
     let run = |body, radius_m| sweep::sweep(&i.params(body, radius_m), &options).map_err(|e| e.to_string());
     Ok(SweepOutput {
         main: run(i.body, i.radius_m)?,
@@ -1714,13 +1810,17 @@ fn sweep_panels(out: &SweepOutput, calibration: Option<&Calibration>) -> Vec<Pan
         (x, y)
     };
 
-    let mut fig35 = ChartSpec::new("Peak frequency vs force as b varies (Fig 35)", "force amplitude [N]", "f [Hz]");
+    let mut fig35 =
+        ChartSpec::new("Peak frequency vs force as b varies (Fig 35)", "force amplitude [N]", "f [Hz]");
     for r in [&out.main, &out.other_body] {
         let (x, y) = fit_curve(r);
         fig35 = fig35.with(SeriesSpec::scatter(sweep_label(r), force(r), freq(r))).with(SeriesSpec::dashed(
             format!(
-                "fit f = {:.1} n^{:.4} (R^2 = {:.4})",
-                r.power_law.coefficient, r.power_law.exponent, r.power_law.r2
+                "{} fit f = {:.1} n^{:.4} (R^2 = {:.4})",
+                r.params.body.name(),
+                r.power_law.coefficient,
+                r.power_law.exponent,
+                r.power_law.r2
             ),
             x,
             y,
@@ -1735,7 +1835,8 @@ fn sweep_panels(out: &SweepOutput, calibration: Option<&Calibration>) -> Vec<Pan
     let (a, b) = MEASURED_POWER_LAW;
     let x = linspace(MEASURED_FORCE_RANGE_N.0, MEASURED_FORCE_RANGE_N.1, 100);
     let y = x.iter().map(|n| a * n.powf(b)).collect();
-    fig36 = fig36.with(SeriesSpec::dashed(format!("207 measured trials: f = {a} n^{b}"), x, y).color([20, 20, 20]));
+    fig36 = fig36
+        .with(SeriesSpec::dashed(format!("207 measured trials: f = {a} n^{b}"), x, y).color([20, 20, 20]));
 
     let r = &out.main;
     let current_ma: Vec<f64> = r.points.iter().map(|p| p.current_mean_a * 1e3).collect();
@@ -1760,18 +1861,19 @@ fn sweep_panels(out: &SweepOutput, calibration: Option<&Calibration>) -> Vec<Pan
     let scale = 1e8;
     let b_sim: Vec<f64> = r.points.iter().map(|p| p.damping_n_m_s * scale).collect();
     let inv = &r.inverse_fit;
-    let mut fig38 = ChartSpec::new("Damping vs peak frequency: calibration (Fig 38)", "f [Hz]", "b [1e-8 N m s]")
-        .with(SeriesSpec::scatter("simulated", freq(r), b_sim))
-        .with(SeriesSpec::line(
-            "exact inverse b = a/f + c",
-            f_axis.clone(),
-            f_axis.iter().map(|&f| r.exact_inverse.eval(f) * scale).collect(),
-        ))
-        .with(SeriesSpec::dashed(
-            format!("fit b = p1 (f + p2)^p3 + p4, p3 = {:.4}", inv.p3),
-            f_axis.clone(),
-            f_axis.iter().map(|&f| inv.eval(f) * scale).collect(),
-        ));
+    let mut fig38 =
+        ChartSpec::new("Damping vs peak frequency: calibration (Fig 38)", "f [Hz]", "b [1e-8 N m s]")
+            .with(SeriesSpec::scatter("simulated", freq(r), b_sim))
+            .with(SeriesSpec::line(
+                "exact inverse b = a/f + c",
+                f_axis.clone(),
+                f_axis.iter().map(|&f| r.exact_inverse.eval(f) * scale).collect(),
+            ))
+            .with(SeriesSpec::dashed(
+                format!("fit b = p1 (f + p2)^p3 + p4, p3 = {:.4}", inv.p3),
+                f_axis.clone(),
+                f_axis.iter().map(|&f| inv.eval(f) * scale).collect(),
+            ));
     if let Some(c) = calibration {
         fig38 = fig38
             .with(
@@ -1827,7 +1929,7 @@ struct SweepView {
     frequency_hz: f64,
     job: Recompute<SweepInputs, SweepOutput>,
     calibration: Recompute<CalibrationInputs, Calibration>,
-    panels: Option<((u64, u64), Vec<PanelSpec>, Vec<String>)>,
+    panels: Option<Derived<(u64, u64)>>,
     exporter: Exporter,
 }
 
@@ -1863,24 +1965,26 @@ impl SweepView {
         let cal_inputs = self.calibration_inputs();
         self.calibration.update(ctx, &cal_inputs);
         let key = (self.job.generation(), self.calibration.generation());
-        if self.panels.as_ref().is_some_and(|(k, ..)| *k == key) {
+        if self.panels.as_ref().is_some_and(|d| d.key == key) {
             return;
         }
         let Some((_, out)) = self.job.shown() else { return };
         let cal = self.calibration.shown().map(|(_, c)| Arc::clone(c));
-        self.panels = Some((key, sweep_panels(out, cal.as_deref()), sweep_header(out, cal.as_deref())));
+        self.panels = Some(Derived {
+            key,
+            panels: sweep_panels(out, cal.as_deref()),
+            header: sweep_header(out, cal.as_deref()),
+        });
     }
 
     /// Draws the view; returns a damping the operator wants simulated in the tactor view.
     fn ui(&mut self, ui: &mut egui::Ui) -> Option<f64> {
         let i = &mut self.inputs;
         ui.horizontal_wrapped(|ui| {
-            egui::ComboBox::from_label("preset ")
-                .selected_text(i.preset.name())
-                .show_ui(ui, |ui| {
-                    ui.selectable_value(&mut i.preset, Preset::ThesisSim, "thesis-sim (R = 62 ohm)");
-                    ui.selectable_value(&mut i.preset, Preset::Measured, "measured (R = 67 ohm)");
-                });
+            egui::ComboBox::from_label("preset ").selected_text(i.preset.name()).show_ui(ui, |ui| {
+                ui.selectable_value(&mut i.preset, Preset::ThesisSim, "thesis-sim (R = 62 ohm)");
+                ui.selectable_value(&mut i.preset, Preset::Measured, "measured (R = 67 ohm)");
+            });
             ui.radio_value(&mut i.body, BodyMass::Unencased, "unencased");
             ui.radio_value(&mut i.body, BodyMass::Encased, "encased");
             ui.separator();
@@ -1915,7 +2019,7 @@ impl SweepView {
         self.refresh(&ctx);
         self.job.status_ui(ui);
         self.calibration.status_ui(ui);
-        if let Some((_, panels, header)) = &self.panels {
+        if let Some(Derived { panels, header, .. }) = &self.panels {
             for line in header {
                 ui.label(line);
             }
@@ -2006,6 +2110,7 @@ mod tests {
 
     #[test]
     fn recompute_runs_once_per_new_input() {
+        #[allow(clippy::trivially_copy_pass_by_ref, reason = "the signature Recompute expects")]
         fn square(x: &i64) -> Result<i64, String> {
             if *x < 0 { Err("negative".to_string()) } else { Ok(x * x) }
         }
@@ -2030,20 +2135,22 @@ mod tests {
         let result = compute_two_point(&TwoPointInputs { setup, distance_mm: 11.0 }).unwrap();
         // physics.md §3 reference at d = 11 mm.
         assert_relative_eq!(result.fit.amplitude_m_s2, 19.546, max_relative = 1e-4);
-        assert_relative_eq!(result.fit.rmse, 0.001727, max_relative = 1e-3);
+        assert_relative_eq!(result.fit.rmse, 0.001_727, max_relative = 1e-3);
         let panels = two_point_panels(&setup, &result, None);
         let PanelSpec::Chart(parts) = &panels[0] else { panic!("chart expected") };
         let sum = &parts.series[2];
         assert_eq!(sum.x.len(), 281);
         for (&x, &y) in sum.x.iter().zip(&sum.y) {
-            let want = 10.0 * (-(x / 36.2_f64).powi(2)).exp() + 10.0 * (-((x - 11.0) / 36.2_f64).powi(2)).exp();
+            let want =
+                10.0 * (-(x / 36.2_f64).powi(2)).exp() + 10.0 * (-((x - 11.0) / 36.2_f64).powi(2)).exp();
             assert_relative_eq!(y, want, max_relative = 1e-12);
         }
     }
 
     #[test]
     fn rmse_sweep_grows_with_distance() {
-        let sweep = compute_rmse_sweep(&RmseSweepInputs { setup: TwoPointSetup::THESIS, max_mm: 60.0 }).unwrap();
+        let sweep =
+            compute_rmse_sweep(&RmseSweepInputs { setup: TwoPointSetup::THESIS, max_mm: 60.0 }).unwrap();
         assert_eq!(sweep.distances_mm.len(), 61);
         assert!(sweep.rmse[10] < sweep.rmse[30] && sweep.rmse[30] < sweep.rmse[60]);
         let t = sweep.threshold_mm.unwrap();
@@ -2072,7 +2179,12 @@ mod tests {
             let x = h.x_extent.0 + ((k % FIELD_CELLS) as f64 + 0.5) * cell;
             let y = h.y_extent.0 + ((k / FIELD_CELLS) as f64 + 0.5) * cell;
             let r2 = (x - tx).powi(2) + (y - ty).powi(2);
-            assert_relative_eq!(*v, 26.02 * (-r2 / 28.18_f64.powi(2)).exp(), max_relative = 1e-9, epsilon = 1e-12);
+            assert_relative_eq!(
+                *v,
+                26.02 * (-r2 / 28.18_f64.powi(2)).exp(),
+                max_relative = 1e-9,
+                epsilon = 1e-12
+            );
         }
         // Spacing rule for b = 28.18 mm: b sqrt(ln 10) = 42.76 mm.
         assert!(out.header.iter().any(|l| l.contains("42.76")), "{:?}", out.header);
@@ -2105,7 +2217,8 @@ mod tests {
         // Spectrum peak near f_rot (133 Hz) when the sim has at least 1 s.
         let PanelSpec::Chart(spec) = &panels[5] else { panic!("chart expected") };
         let s = &spec.series[0];
-        let (k, _) = s.y.iter().enumerate().skip(5).fold((0, 0.0), |b, (k, &v)| if v > b.1 { (k, v) } else { b });
+        let (k, _) =
+            s.y.iter().enumerate().skip(5).fold((0, 0.0), |b, (k, &v)| if v > b.1 { (k, v) } else { b });
         assert!((s.x[k] - 133.0).abs() <= 4.0, "peak at {} Hz", s.x[k]);
 
         let dir = tmp_dir("tactor");
@@ -2114,7 +2227,9 @@ mod tests {
         let mut ex = Exporter::new(dir.join("t.png").to_str().unwrap());
         let header = tactor_header(&out);
         let p2 = panels.clone();
-        ex.start(&egui::Context::default(), ExportFormat::Csv, move || Ok(panels_csv(&header, &p2).into_bytes()));
+        ex.start(&egui::Context::default(), ExportFormat::Csv, move || {
+            Ok(panels_csv(&header, &p2).into_bytes())
+        });
         ex.wait();
         assert!(matches!(ex.status(), Some(Ok(_))), "{:?}", ex.status());
         let csv = std::fs::read_to_string(dir.join("t.csv")).unwrap();

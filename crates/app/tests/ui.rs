@@ -114,7 +114,7 @@ fn multi_select_fires_several() {
     h.run_steps(1);
     for t in ["T0", "T3", "T12"] {
         h.get_by_label(t).click();
-        h.run_steps(1);
+        h.run_steps(2);
     }
     assert!(h.state().vest.select_mode);
     assert_eq!(h.state().vest.selected, TactorMask::from_indices([0, 3, 12]));

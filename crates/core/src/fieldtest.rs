@@ -4,7 +4,7 @@
 //! figure, max 1.17 m over 3 min) and from the mean position; CEP50/CEP95, DRMS and 2DRMS of the scatter
 //! about the mean. **Cone test** (Figs 67–70): cones every `spacing` metres on a line; the operator marks each
 //! cone; the distances between consecutive marks are compared with the spacing (mean, RMSE), split into
-//! along-line and cross-line components. Both warn when the receiver looks *pinned* (SiRF "static
+//! along-line and cross-line components. Both warn when the receiver looks *pinned* (`SiRF` "static
 //! navigation": the same position repeated while standing or walking slowly), which flatters a drift test
 //! and distorts cone marks.
 //!
@@ -178,8 +178,8 @@ pub fn drift(fixes: &[TimedFix], earth: Earth) -> Result<DriftStats, FieldTestEr
     let mut warnings = Vec::new();
     if fixes.len() > 2 && pin.repeated_fraction > 0.5 {
         warnings.push(format!(
-            "receiver looks pinned: {:.0} % of fixes repeat the previous position (longest run {} fixes, {:.0} s) \
-             — SiRF static navigation flatters a drift test",
+            "receiver looks pinned: {:.0} % of fixes repeat the previous position exactly (longest run {} fixes, \
+             {:.0} s): SiRF static navigation (or a coarse output resolution) flatters a drift test",
             100.0 * pin.repeated_fraction,
             pin.longest_run,
             pin.longest_run_s
@@ -491,8 +491,8 @@ mod tests {
         // Full distances: sqrt(8^2 + 2^2), sqrt(12^2 + 2^2), ...
         let d1 = 68f64.sqrt();
         let d2 = 148f64.sqrt();
-        assert_relative_eq!(s.mean_m, (d1 + d2) / 2.0, max_relative = 1e-4);
-        let rmse = (((d1 - 10.0).powi(2) + (d2 - 10.0).powi(2)) / 2.0).sqrt();
+        assert_relative_eq!(s.mean_m, f64::midpoint(d1, d2), max_relative = 1e-4);
+        let rmse = f64::midpoint((d1 - 10.0).powi(2), (d2 - 10.0).powi(2)).sqrt();
         assert_relative_eq!(s.rmse_m, rmse, max_relative = 1e-4);
         assert_eq!(s.warnings.len(), 1, "5 marks for 10 cones");
     }

@@ -277,11 +277,7 @@ pub fn leg_offset(earth: Earth, from: LatLon, to: LatLon, p: LatLon) -> LegOffse
             let t12 = sphere_bearing_deg(from, to).to_radians();
             let xt = (d13.sin() * (t13 - t12).sin()).clamp(-1.0, 1.0).asin();
             let at = (d13.cos() / xt.cos()).clamp(-1.0, 1.0).acos() * (t13 - t12).cos().signum();
-            LegOffset {
-                cross_track_m: xt * r,
-                along_track_m: at * r,
-                leg_length_m: haversine_m(from, to, r),
-            }
+            LegOffset { cross_track_m: xt * r, along_track_m: at * r, leg_length_m: haversine_m(from, to, r) }
         }
     }
 }

@@ -35,7 +35,9 @@
 use glam::DVec2;
 use serde::{Deserialize, Serialize};
 
-use crate::geo::{Earth, LatLon, LocalFrame, bearing_of_enu_deg, leg_offset, true_from_magnetic_deg, wrap_deg_180};
+use crate::geo::{
+    Earth, LatLon, LocalFrame, bearing_of_enu_deg, leg_offset, true_from_magnetic_deg, wrap_deg_180,
+};
 use crate::vest::{Cue, DEFAULT_ON_MS, Pattern};
 
 /// Errors building a route.
@@ -78,7 +80,7 @@ impl Waypoint {
 /// Settings of a route: arrival and its hysteresis, looping.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct RouteConfig {
-    /// A waypoint is reached within this distance [m]. Default 8 m: about 2.5x the SiRF III's open-sky
+    /// A waypoint is reached within this distance [m]. Default 8 m: about 2.5x the `SiRF` III's open-sky
     /// horizontal RMS (~3 m), so a noisy fix rarely misses it.
     pub arrival_radius_m: f64,
     /// Consecutive fixes inside the radius needed to count an arrival (default 2): one noisy fix does not
@@ -96,7 +98,13 @@ pub struct RouteConfig {
 
 impl Default for RouteConfig {
     fn default() -> Self {
-        Self { arrival_radius_m: 8.0, confirm_fixes: 2, rearm_radius_m: 12.0, pass_radius_m: 16.0, looped: false }
+        Self {
+            arrival_radius_m: 8.0,
+            confirm_fixes: 2,
+            rearm_radius_m: 12.0,
+            pass_radius_m: 16.0,
+            looped: false,
+        }
     }
 }
 
@@ -137,7 +145,9 @@ impl Route {
             })?;
         }
         let positive = |x: f64| x.is_finite() && x > 0.0;
-        if !positive(config.arrival_radius_m) || !positive(config.rearm_radius_m) || !positive(config.pass_radius_m)
+        if !positive(config.arrival_radius_m)
+            || !positive(config.rearm_radius_m)
+            || !positive(config.pass_radius_m)
         {
             return Err(RouteError::BadConfig("radii must be positive"));
         }
@@ -258,7 +268,10 @@ impl Route {
         self.inside_count = 0;
         if let Some(prev) = self.previous().map(|w| w.pos) {
             let off = leg_offset(earth, prev, target, pos);
-            if off.leg_length_m > 0.0 && off.along_track_m > off.leg_length_m && d <= self.config.pass_radius_m {
+            if off.leg_length_m > 0.0
+                && off.along_track_m > off.leg_length_m
+                && d <= self.config.pass_radius_m
+            {
                 return Some(self.advance().map_or(RouteEvent::Passed(index), |_| RouteEvent::Finished));
             }
         }
@@ -315,7 +328,12 @@ pub struct NavInput {
 impl NavInput {
     /// A fresh fix of a walker moving at `speed_m_s` on course `cog_deg` (convenience for tests and docs).
     pub fn moving(position: LatLon, cog_deg: f64, speed_m_s: f64) -> Self {
-        Self { position: Some(position), speed_m_s: Some(speed_m_s), cog_deg: Some(cog_deg), ..Self::default() }
+        Self {
+            position: Some(position),
+            speed_m_s: Some(speed_m_s),
+            cog_deg: Some(cog_deg),
+            ..Self::default()
+        }
     }
 }
 
@@ -343,7 +361,7 @@ impl CueThresholds {
     /// The cue for a bearing error `e` (deg, positive = target to the right), given the previous directional
     /// cue for hysteresis.
     ///
-    /// Class by |e|: `<= forward` Forward, `<= slight` Slight, `<= turn` Turn, else TurnAround; the side is the
+    /// Class by |e|: `<= forward` Forward, `<= slight` Slight, `<= turn` Turn, else `TurnAround`; the side is the
     /// sign of `e`. With a previous class, a boundary between it and a neighbour moves by `hysteresis` away
     /// from the previous class (so leaving it takes `hysteresis` more error).
     pub fn classify(&self, error_deg: f64, previous: Option<Cue>) -> Cue {
@@ -399,6 +417,10 @@ pub struct GuidanceConfig {
     pub max_fix_age_s: f64,
     /// Estimated horizontal error above this gives no directional cue [m] (default 25 m).
     pub max_error_m: f64,
+    /// A position repeated unchanged for longer than this while the receiver reports at least
+    /// `cog_min_speed_m_s` is treated as pinned (`SiRF` static navigation) and gives no directional cue [s]
+    /// (default 5 s).
+    pub max_frozen_s: f64,
     /// User equivalent range error to turn HDOP into metres when no accuracy is given [m] (default 5 m).
     pub uere_m: f64,
     /// Declination for the compass [deg, east +]; `None` = compass unusable. Set it from
@@ -430,6 +452,7 @@ impl Default for GuidanceConfig {
             cog_min_speed_m_s: 0.8,
             max_fix_age_s: 3.0,
             max_error_m: 25.0,
+            max_frozen_s: 5.0,
             uere_m: 5.0,
             declination_deg: None,
             thresholds: CueThresholds::default(),
@@ -602,6 +625,7 @@ pub struct Guidance {
     halted: bool,
     pending_event_cue: Option<Cue>,
     last_fix_time_s: Option<f64>,
+    frozen: Option<(LatLon, f64)>,
 }
 
 impl Guidance {
@@ -624,6 +648,7 @@ impl Guidance {
             halted: false,
             pending_event_cue: None,
             last_fix_time_s: None,
+            frozen: None,
         }
     }
 
@@ -774,14 +799,14 @@ impl Guidance {
         // Fix checks.
         let pos = input.position.and_then(|p| p.validated().ok());
         let Some(pos) = pos else {
-            return self.hold(input, now_s, manual, "no GPS fix".to_owned());
+            return self.hold(input, now_s, manual, "no GPS fix");
         };
         if !(input.fix_age_s.is_finite() && input.fix_age_s <= self.config.max_fix_age_s) {
             let why = format!("GPS fix stale ({:.1} s old)", input.fix_age_s);
-            return self.hold(input, now_s, manual, why);
+            return self.hold(input, now_s, manual, &why);
         }
         if let Some(err) = self.estimated_error_m(input).filter(|e| *e > self.config.max_error_m) {
-            return self.hold(input, now_s, manual, format!("GPS fix too poor (~{err:.0} m)"));
+            return self.hold(input, now_s, manual, &format!("GPS fix too poor (~{err:.0} m)"));
         }
 
         // Route progress, once per fix: `update` may run more often than fixes arrive (the fix's time is
@@ -789,6 +814,22 @@ impl Guidance {
         let fix_time_s = now_s - input.fix_age_s;
         let new_fix = self.last_fix_time_s.is_none_or(|t| (t - fix_time_s).abs() > 1e-6);
         self.last_fix_time_s = Some(fix_time_s);
+        // Pinned receiver: the same position for a while although the receiver says it moves.
+        let same =
+            |a: LatLon| (a.lat_deg - pos.lat_deg).abs() < 1e-9 && (a.lon_deg - pos.lon_deg).abs() < 1e-9;
+        let since_s = match self.frozen {
+            Some((p, t)) if same(p) => t,
+            _ => fix_time_s,
+        };
+        self.frozen = Some((pos, since_s));
+        let moving = input.speed_m_s.is_some_and(|v| v.is_finite() && v >= self.config.cog_min_speed_m_s);
+        if moving && fix_time_s - since_s > self.config.max_frozen_s {
+            let why = format!(
+                "position frozen for {:.0} s while moving: receiver pinned (static navigation?), walk faster",
+                fix_time_s - since_s
+            );
+            return self.hold(input, now_s, manual, &why);
+        }
         let event = if new_fix { self.route.observe(self.config.earth, pos) } else { None };
         match event {
             Some(RouteEvent::Arrived(_)) => self.pending_event_cue = Some(Cue::Arrived),
@@ -810,7 +851,7 @@ impl Guidance {
 
         if self.route.is_finished() {
             d.state = NavState::Finished;
-            d.reason = "route finished".to_owned();
+            "route finished".clone_into(&mut d.reason);
             self.play_pending(&mut d, now_s, manual);
             return d;
         }
@@ -833,7 +874,7 @@ impl Guidance {
         d.bearing_deg = Some(bearing);
         let Some(heading) = heading else {
             let why = "no heading (slow, no true heading or compass)".to_owned();
-            return self.hold_with(d, now_s, manual, why);
+            return self.hold_with(d, now_s, manual, &why);
         };
         let error = wrap_deg_180(bearing - heading);
         d.bearing_error_deg = Some(error);
@@ -871,7 +912,7 @@ impl Guidance {
         }
     }
 
-    fn hold(&mut self, input: &NavInput, now_s: f64, manual: bool, why: String) -> Decision {
+    fn hold(&mut self, input: &NavInput, now_s: f64, manual: bool, why: &str) -> Decision {
         let mut d = self.blank(NavState::Hold, String::new());
         let (source, heading) = self.select_heading(input);
         d.heading_source = source;
@@ -879,7 +920,7 @@ impl Guidance {
         self.hold_with(d, now_s, manual, why)
     }
 
-    fn hold_with(&mut self, mut d: Decision, now_s: f64, manual: bool, why: String) -> Decision {
+    fn hold_with(&mut self, mut d: Decision, now_s: f64, manual: bool, why: &str) -> Decision {
         d.state = if manual { NavState::Manual } else { NavState::Hold };
         d.reason = format!("hold: {why}");
         self.last_directional = None;
@@ -901,9 +942,16 @@ mod tests {
 
     fn route_line(n: usize, spacing_m: f64, bearing_deg: f64, config: RouteConfig) -> Route {
         let wps = (0..n)
-            .map(|i| Waypoint::new(format!("w{i}"), Earth::Wgs84.direct(O, bearing_deg, spacing_m * i as f64)))
+            .map(|i| {
+                Waypoint::new(format!("w{i}"), Earth::Wgs84.direct(O, bearing_deg, spacing_m * i as f64))
+            })
             .collect();
         Route::new(wps, config).unwrap()
+    }
+
+    /// A fix of a walker at `p` at time `t_s`, nudged ~1 cm per second so the position is never frozen.
+    fn mv(p: LatLon, cog_deg: f64, t_s: f64) -> NavInput {
+        NavInput::moving(LatLon::new(p.lat_deg + 1e-7 * t_s, p.lon_deg), cog_deg, 1.4)
     }
 
     fn at(bearing_deg: f64, distance_m: f64) -> LatLon {
@@ -933,7 +981,8 @@ mod tests {
         let route = route_line(2, 100.0, 0.0, RouteConfig::default());
         let mut cfg = GuidanceConfig::default();
         let g = Guidance::new(route.clone(), cfg, StrategyKind::BearingOnly);
-        let mut input = NavInput { position: Some(O), cog_deg: Some(10.0), speed_m_s: Some(1.2), ..NavInput::default() };
+        let mut input =
+            NavInput { position: Some(O), cog_deg: Some(10.0), speed_m_s: Some(1.2), ..NavInput::default() };
         assert_eq!(g.select_heading(&input).0, HeadingSource::Cog);
         input.speed_m_s = Some(0.3);
         assert_eq!(g.select_heading(&input), (HeadingSource::None, None));
@@ -979,27 +1028,44 @@ mod tests {
     }
 
     #[test]
+    fn a_pinned_position_while_moving_holds() {
+        let route = route_line(2, 200.0, 0.0, RouteConfig::default());
+        let mut g = Guidance::new(route, GuidanceConfig::default(), StrategyKind::BearingOnly);
+        let p = at(180.0, 50.0);
+        for t in 0..=5 {
+            let d = g.update(&NavInput::moving(p, 0.0, 1.0), f64::from(t));
+            assert_eq!(d.state, NavState::Guiding, "t = {t}");
+        }
+        let d = g.update(&NavInput::moving(p, 0.0, 1.0), 6.0);
+        assert_eq!((d.state, d.cue), (NavState::Hold, Some(Cue::Attention)));
+        assert!(d.reason.contains("frozen"), "{}", d.reason);
+        // A new position ends it.
+        let d = g.update(&NavInput::moving(at(180.0, 48.0), 0.0, 1.0), 7.0);
+        assert_eq!(d.state, NavState::Guiding);
+    }
+
+    #[test]
     fn rate_limit_one_cue_at_a_time_and_repeat_intervals() {
         let route = route_line(2, 200.0, 0.0, RouteConfig::default());
         let mut g = Guidance::new(route, GuidanceConfig::default(), StrategyKind::BearingOnly);
         // Heading east while the waypoint is north: turn left.
         let p = at(180.0, 50.0);
-        let d = g.update(&NavInput::moving(p, 90.0, 1.4), 0.0);
+        let d = g.update(&mv(p, 90.0, 0.0), 0.0);
         assert_eq!(d.cue, Some(Cue::TurnLeft));
         // Turn pattern = 4 x 250 ms = 1 s, + 0.5 s gap; the same cue needs 3 s after the pattern ended.
-        assert_eq!(g.update(&NavInput::moving(p, 90.0, 1.4), 1.0).cue, None);
-        assert_eq!(g.update(&NavInput::moving(p, 90.0, 1.4), 3.9).cue, None);
-        assert_eq!(g.update(&NavInput::moving(p, 90.0, 1.4), 4.0).cue, Some(Cue::TurnLeft));
+        assert_eq!(g.update(&mv(p, 90.0, 1.0), 1.0).cue, None);
+        assert_eq!(g.update(&mv(p, 90.0, 3.9), 3.9).cue, None);
+        assert_eq!(g.update(&mv(p, 90.0, 4.0), 4.0).cue, Some(Cue::TurnLeft));
         // A different cue only waits for the pattern end (5.0) + gap.
-        assert_eq!(g.update(&NavInput::moving(p, 0.0, 1.4), 5.4).cue, None);
-        let d = g.update(&NavInput::moving(p, 0.0, 1.4), 5.5);
+        assert_eq!(g.update(&mv(p, 0.0, 5.4), 5.4).cue, None);
+        let d = g.update(&mv(p, 0.0, 5.5), 5.5);
         assert_eq!(d.cue, Some(Cue::Forward));
         // Forward (1 s pattern, ends 6.5) repeats 10 s after its end only.
         for t in [7.0, 10.0, 16.4] {
-            let d = g.update(&NavInput::moving(p, 0.0, 1.4), t);
+            let d = g.update(&mv(p, 0.0, t), t);
             assert_eq!((d.cue, d.wanted), (None, Some(Cue::Forward)), "t = {t}");
         }
-        assert_eq!(g.update(&NavInput::moving(p, 0.0, 1.4), 16.5).cue, Some(Cue::Forward));
+        assert_eq!(g.update(&mv(p, 0.0, 16.5), 16.5).cue, Some(Cue::Forward));
     }
 
     #[test]
@@ -1007,20 +1073,19 @@ mod tests {
         let route = route_line(2, 200.0, 0.0, RouteConfig::default());
         let mut g = Guidance::new(route, GuidanceConfig::default(), StrategyKind::BearingOnly);
         let p = at(180.0, 50.0);
-        let east = NavInput::moving(p, 90.0, 1.4);
         let d = g.manual(Cue::Stop, 0.0);
         assert_eq!(d.cue, Some(Cue::Stop));
         // Muted for the pattern (0.5 s) + 10 s.
-        let d = g.update(&east, 5.0);
+        let d = g.update(&mv(p, 90.0, 5.0), 5.0);
         assert_eq!((d.cue, d.state, d.wanted), (None, NavState::Manual, Some(Cue::TurnLeft)));
-        assert_eq!(g.update(&east, 11.0).cue, Some(Cue::TurnLeft));
+        assert_eq!(g.update(&mv(p, 90.0, 11.0), 11.0).cue, Some(Cue::TurnLeft));
         // STOP ALL wins over manual cues and automatic ones until resume.
         let d = g.stop_all(12.0);
         assert!(d.stop_all);
         assert_eq!(g.manual(Cue::Forward, 13.0).cue, None);
-        assert_eq!(g.update(&east, 20.0).cue, None);
+        assert_eq!(g.update(&mv(p, 90.0, 20.0), 20.0).cue, None);
         g.resume();
-        assert_eq!(g.update(&east, 21.0).cue, Some(Cue::TurnLeft));
+        assert_eq!(g.update(&mv(p, 90.0, 21.0), 21.0).cue, Some(Cue::TurnLeft));
     }
 
     #[test]
@@ -1083,9 +1148,9 @@ mod tests {
         assert_eq!((d.event, d.state), (Some(RouteEvent::Finished), NavState::Finished));
         // The forward pattern (1 s) is still playing: the stop waits for it.
         assert_eq!(d.cue, None);
-        let d = g.update(&NavInput::moving(at(0.0, 99.0), 0.0, 1.4), 7.0);
+        let d = g.update(&mv(at(0.0, 99.0), 0.0, 7.0), 7.0);
         assert_eq!(d.cue, Some(Cue::Stop));
-        let d = g.update(&NavInput::moving(at(0.0, 99.0), 0.0, 1.4), 20.0);
+        let d = g.update(&mv(at(0.0, 99.0), 0.0, 20.0), 20.0);
         assert_eq!(d.cue, None);
     }
 
@@ -1103,8 +1168,16 @@ mod tests {
         let db = bearing.update(&NavInput::moving(p, 0.0, 1.4), 0.0);
         let dp = pursuit.update(&NavInput::moving(p, 0.0, 1.4), 0.0);
         // Bearing-only: atan(20/150) = 7.6° left -> forward. Pursuit: atan(20/15) = 53.1° left -> turn left.
-        assert_relative_eq!(db.bearing_error_deg.unwrap(), -(20.0f64 / 150.0).atan().to_degrees(), epsilon = 0.05);
-        assert_relative_eq!(dp.bearing_error_deg.unwrap(), -(20.0f64 / 15.0).atan().to_degrees(), epsilon = 0.05);
+        assert_relative_eq!(
+            db.bearing_error_deg.unwrap(),
+            -(20.0f64 / 150.0).atan().to_degrees(),
+            epsilon = 0.05
+        );
+        assert_relative_eq!(
+            dp.bearing_error_deg.unwrap(),
+            -(20.0f64 / 15.0).atan().to_degrees(),
+            epsilon = 0.05
+        );
         assert_eq!(db.cue, Some(Cue::Forward));
         assert_eq!(dp.cue, Some(Cue::TurnLeft));
         assert_relative_eq!(dp.cross_track_m.unwrap(), 20.0, epsilon = 0.01);

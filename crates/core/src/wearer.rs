@@ -4,14 +4,14 @@
 //! Each run is seeded and deterministic. The loop, at a fixed step `dt_s` (default 0.1 s):
 //! 1. the wearer walks at `pace_m_s` on their heading, which wanders as a random walk
 //!    (`veer_deg_per_sqrt_s`: nobody walks perfectly straight without sight of the goal);
-//! 2. every `fix_interval_s` (1 Hz like the SiRF III) the true position goes through
+//! 2. every `fix_interval_s` (1 Hz like the `SiRF` III) the true position goes through
 //!    [`crate::gnss_sim::GnssErrorState`] (noise, wandering bias, static-navigation pinning); the receiver's
 //!    COG is the true heading plus `cog_noise_deg` noise and its speed the true speed;
 //! 3. [`crate::guidance::Guidance::update`] runs every step with the last fix and its age;
 //! 4. a cue is *recognised* with probability `recognition` (thesis §6: ~92 % while walking); a recognised
 //!    cue is acted on `reaction_s` after its pattern **ends**, by turning toward a new heading at
 //!    `turn_rate_deg_s`. Turn amounts per cue: Forward 0, Slight ±`slight_turn_deg` (20°), Turn
-//!    ±`turn_deg` (70°), TurnAround 180°, each plus N(0, `turn_noise_deg`²); Stop halts the walker;
+//!    ±`turn_deg` (70°), `TurnAround` 180°, each plus N(0, `turn_noise_deg`²); Stop halts the walker;
 //!    Attention and Arrived change nothing.
 //!
 //! Metrics: cross-track RMSE of the **true** path to the route polyline (from leaving the first waypoint to
@@ -49,7 +49,7 @@ use crate::vest::Cue;
 /// How the simulated person walks and reacts.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct WearerModel {
-    /// Walking speed [m/s] (default 1.4, a normal walk; above the SiRF static-navigation threshold 1.2).
+    /// Walking speed [m/s] (default 1.4, a normal walk; above the `SiRF` static-navigation threshold 1.2).
     pub pace_m_s: f64,
     /// Delay from the end of a cue's pattern to the start of the turn [s] (default 0.8).
     pub reaction_s: f64,
@@ -124,7 +124,7 @@ pub struct SimConfig {
 }
 
 impl SimConfig {
-    /// Defaults with the given strategy: SiRF III open-sky errors, 1 Hz, thesis vest timing.
+    /// Defaults with the given strategy: `SiRF` III open-sky errors, 1 Hz, thesis vest timing.
     pub fn new(strategy: StrategyKind) -> Self {
         Self {
             strategy,
@@ -201,6 +201,9 @@ fn normal(rng: &mut StdRng) -> f64 {
 }
 
 /// Runs one closed-loop walk along `waypoints` (see the module doc). Deterministic for a given `seed`.
+// One simulation step reads top to bottom (sense, decide, react, walk, score); splitting it would scatter
+// the shared state over many parameters.
+#[allow(clippy::too_many_lines)]
 pub fn simulate(waypoints: &[Waypoint], config: &SimConfig, seed: u64) -> Result<SimResult, RouteError> {
     let route = Route::new(waypoints.to_vec(), config.route)?;
     let mut guidance = Guidance::new(route, config.guidance, config.strategy);
@@ -252,7 +255,7 @@ pub fn simulate(waypoints: &[Waypoint], config: &SimConfig, seed: u64) -> Result
         }
         // Sensor: a fix every `fix_every` steps.
         let speed = if walking { pace } else { 0.0 };
-        if step % fix_every == 0 {
+        if step.is_multiple_of(fix_every) {
             let fix_en = gnss.apply(config.fix_interval_s, pos, speed);
             let cog = normalize_deg(heading + config.cog_noise_deg * normal(&mut rng));
             last_fix = Some((t, fix_en, cog, speed));
@@ -441,7 +444,12 @@ mod tests {
     fn brief(r: &SimResult) -> String {
         format!(
             "finished {} t {:.0}/{:.0} s, xt {:.1} m, cues {:?}, reached {}, missed {}",
-            r.finished, r.time_s, r.nominal_time_s, r.cross_track_rmse_m, r.cue_counts, r.waypoints_reached,
+            r.finished,
+            r.time_s,
+            r.nominal_time_s,
+            r.cross_track_rmse_m,
+            r.cue_counts,
+            r.waypoints_reached,
             r.waypoints_missed
         )
     }

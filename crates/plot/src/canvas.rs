@@ -521,3 +521,77 @@ pub(crate) fn fit_text(text: &str, size_px: f32, max_width_px: f32) -> String {
     }
     String::new()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use approx::assert_relative_eq;
+
+    fn axis(lo: f64, hi: f64, px_lo: f64, px_hi: f64) -> Axis {
+        Axis { scale: Scale::Linear, lo, hi, px_lo, px_hi }
+    }
+
+    #[test]
+    fn decimation_keeps_each_columns_extremes() {
+        // 10 columns of 1000 samples each; brute-force min/max per column must survive.
+        let n = 10_000;
+        let x: Vec<f64> = (0..n).map(|i| f64::from(i) / f64::from(n)).collect();
+        let y: Vec<f64> = (0..n).map(|i| (f64::from(i) * 0.37).sin() * f64::from(i % 97)).collect();
+        let xa = axis(0.0, 1.0, 0.0, 10.0);
+        let ya = axis(-100.0, 100.0, 1000.0, 0.0);
+        let points = pixel_points(&x, &y, &xa, &ya);
+        assert!(points.len() <= 4 * 10 + 1, "{} points", points.len());
+        for column in 0..10 {
+            let (lo, hi) = (column * 1000, (column + 1) * 1000);
+            let pixel_y = |v: f64| 1000.0 - (v + 100.0) * 5.0;
+            let min_y = y[lo as usize..hi as usize].iter().copied().fold(f64::INFINITY, f64::min);
+            let max_y = y[lo as usize..hi as usize].iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            let kept: Vec<f64> = points
+                .iter()
+                .flatten()
+                .filter(|p| p.0.floor() as i64 == i64::from(column))
+                .map(|p| p.1)
+                .collect();
+            let kept_top = kept.iter().copied().fold(f64::INFINITY, f64::min);
+            let kept_bottom = kept.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            assert_relative_eq!(kept_top, pixel_y(max_y), epsilon = 1e-9);
+            assert_relative_eq!(kept_bottom, pixel_y(min_y), epsilon = 1e-9);
+        }
+    }
+
+    #[test]
+    fn nan_breaks_the_line() {
+        let xa = axis(0.0, 4.0, 0.0, 400.0);
+        let ya = axis(0.0, 1.0, 100.0, 0.0);
+        let points = pixel_points(&[0.0, 1.0, 2.0, 3.0, 4.0], &[0.0, 1.0, f64::NAN, 1.0, 0.0], &xa, &ya);
+        assert_eq!(points.iter().filter(|p| p.is_none()).count(), 1);
+        assert_eq!(points.len(), 5);
+    }
+
+    #[test]
+    fn segments_are_clipped_to_the_rectangle() {
+        // The diagonal from (-10, -10) to (20, 20) clipped to [0, 10]^2 is (0, 0)-(10, 10).
+        let (a, b) = clip_segment((-10.0, -10.0), (20.0, 20.0), (0.0, 0.0, 10.0, 10.0)).unwrap();
+        assert_relative_eq!(a.0, 0.0);
+        assert_relative_eq!(a.1, 0.0);
+        assert_relative_eq!(b.0, 10.0);
+        assert_relative_eq!(b.1, 10.0);
+        assert!(clip_segment((-5.0, 20.0), (20.0, 15.0), (0.0, 0.0, 10.0, 10.0)).is_none());
+    }
+
+    #[test]
+    fn x_tick_labels_never_overlap() {
+        for (lo, hi, width) in
+            [(0.0, 123_456.0, 200.0), (-1e-7, 3.3e-7, 150.0), (0.0, 0.35, 120.0), (1e3, 1e3 + 0.7, 300.0)]
+        {
+            let a = axis(lo, hi, 0.0, f64::from(width));
+            let t = fitting_x_ticks(&a, width);
+            let px = tick_pixels(&a, &t.major.iter().map(|(v, _)| *v).collect::<Vec<_>>());
+            for (i, pair) in px.windows(2).enumerate() {
+                let half =
+                    (text_width(&t.major[i].1, TICK_PX) + text_width(&t.major[i + 1].1, TICK_PX)) / 2.0;
+                assert!(pair[1] - pair[0] > half, "{lo}..{hi} at {width}px: {:?}", t.major);
+            }
+        }
+    }
+}

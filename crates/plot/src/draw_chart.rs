@@ -266,11 +266,26 @@ fn draw_circles(
             );
         }
         if !c.label.is_empty() {
-            let cx = f32::midpoint(x0, x1);
             let area = l.area;
-            if cx >= area.left && cx <= area.right && y0 - 3.0 > area.top + NOTE_PX && y0 < area.bottom {
-                let w = draw_text(pixmap, &c.label, cx, y0 - 3.0, HAlign::Center, VAlign::Bottom, 0.0, note);
-                occupied.mark_rect(cx - w / 2.0 - 2.0, y0 - 5.0 - NOTE_PX, cx + w / 2.0 + 2.0, y0 - 1.0);
+            let w = text_width(&c.label, NOTE_PX);
+            let (cx, cy) = (f32::midpoint(x0, x1), f32::midpoint(y0, y1));
+            let (rx, ry) = ((x1 - x0) / 2.0, (y1 - y0) / 2.0);
+            // Label boxes (left, top) tried in order: above the circle, at its upper right (45 degrees),
+            // just inside its top; the first that fits in the plot area wins.
+            let diagonal = (
+                cx + rx * std::f32::consts::FRAC_1_SQRT_2 + 2.0,
+                cy - ry * std::f32::consts::FRAC_1_SQRT_2 - NOTE_PX - 2.0,
+            );
+            let candidates = [(cx - w / 2.0, y0 - NOTE_PX - 4.0), diagonal, (cx - w / 2.0, y0 + 3.0)];
+            let fits = |(bl, bt): &(f32, f32)| {
+                *bl >= area.left + 2.0
+                    && bl + w <= area.right - 2.0
+                    && *bt >= area.top + 2.0
+                    && bt + NOTE_PX <= area.bottom - 2.0
+            };
+            if let Some((bl, bt)) = candidates.iter().copied().find(fits) {
+                draw_text(pixmap, &c.label, bl, bt, HAlign::Left, VAlign::Top, 0.0, note);
+                occupied.mark_rect(bl - 2.0, bt - 2.0, bl + w + 2.0, bt + NOTE_PX + 2.0);
             }
         }
     }

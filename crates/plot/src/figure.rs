@@ -9,6 +9,9 @@ use crate::draw_chart;
 use crate::text::{HAlign, TextStyle, VAlign, draw_text};
 use crate::{Chart, Heatmap, PlotError};
 
+/// Counts saves, so concurrent saves of one path in one process never share a temporary file.
+static SAVES: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+
 /// Largest sheet side in pixels (a 16k x 16k RGBA sheet is already 1 GiB).
 const MAX_SIDE_PX: u32 = 16_384;
 /// Smallest panel side that still leaves room for axes.
@@ -160,13 +163,12 @@ impl Figure {
         let bytes = self.render_png()?;
         let io = |source| PlotError::Io { path: path.to_path_buf(), source };
         let mut tmp_name = path.file_name().map(std::ffi::OsStr::to_os_string).unwrap_or_default();
-        // Unique per process and call, so concurrent saves of the same path never share a temporary file.
-        static SAVES: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
         let n = SAVES.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         tmp_name.push(format!(".{}-{n}.tmp", std::process::id()));
         let tmp = path.with_file_name(tmp_name);
-        std::fs::write(&tmp, &bytes).map_err(io)?;
-        std::fs::rename(&tmp, path).map_err(|e| {
+        let written = std::fs::write(&tmp, &bytes).and_then(|()| std::fs::rename(&tmp, path));
+        written.map_err(|e| {
+            // Best effort: the temporary file may not exist; the write/rename error is what matters.
             let _ = std::fs::remove_file(&tmp);
             io(e)
         })

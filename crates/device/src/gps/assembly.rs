@@ -240,7 +240,6 @@ impl NmeaDecoder {
                 return;
             }
             Err(Unused::Malformed) => {
-                eprintln!("MALFORMED {line}");
                 self.framer.stats_mut().malformed += 1;
                 return;
             }

@@ -171,6 +171,8 @@ pub enum ErrorSource {
     Gst,
     /// Garmin's `$PGRME` estimated position error.
     Pgrme,
+    /// gpsd's `eph`/`epv` (its own DOP model unless the receiver sent GST/PGRME; confidence unspecified).
+    Gpsd,
     /// Our DOP model: `sigma_h = HDOP * UERE`, `sigma_v = VDOP * UERE` (see [`crate::gps::UERE_M`]).
     DopModel {
         /// The user equivalent range error used [m, 1 sigma].

@@ -23,10 +23,11 @@ pub mod framing;
 pub mod gpsd;
 pub mod nmea_out;
 pub mod record;
+pub mod sim;
 mod sentence;
+pub mod source;
 #[cfg(test)]
 mod truth_tests;
-pub mod source;
 
 use std::io::Read;
 use std::path::Path;
@@ -98,7 +99,9 @@ pub enum GpsError {
 }
 
 /// Decodes a whole NMEA stream (a log file, a recording) into one fix per epoch, plus the marks.
-pub fn decode_reader_with_marks(mut reader: impl Read) -> std::io::Result<(Vec<Fix>, Vec<Mark>, DecodeStats)> {
+pub fn decode_reader_with_marks(
+    mut reader: impl Read,
+) -> std::io::Result<(Vec<Fix>, Vec<Mark>, DecodeStats)> {
     let mut decoder = NmeaDecoder::new(DecoderConfig::file());
     let mut fixes = Vec::new();
     let mut marks = Vec::new();

@@ -127,7 +127,9 @@ pub(crate) fn parse(sentence: &str) -> Result<Parsed, Unused> {
         // The crate refuses a GSA with an empty VDOP field (Septentrio PolarRx2: `...,10.5,10.5,*1F`):
         // fall back to our own parser when it fails.
         "GSA" => via_crate(sentence, talker).or_else(|_| parse_gsa(talker, &f)),
-        "GGA" | "RMC" | "GLL" | "GST" | "ZDA" | "HDT" => via_crate(sentence, talker),
+        // The crate refuses a ZDA whose zone hours carry a sign (`+00`, Firefly-II, Furuno): fall back.
+        "ZDA" => via_crate(sentence, talker).or_else(|_| parse_zda(&f)),
+        "GGA" | "RMC" | "GLL" | "GST" | "HDT" => via_crate(sentence, talker),
         "GNS" => parse_gns(&f),
         "GSV" => parse_gsv(talker, &f),
         "VTG" => Ok(parse_vtg(&f)),
@@ -286,6 +288,16 @@ fn parse_gns(f: &[&str]) -> Result<Parsed, Unused> {
         alt_m: num(f.get(8)),
         geoid_sep_m: num(f.get(9)),
     })
+}
+
+/// ZDA: `time,day,month,year,zone_h,zone_m` (the zone is ignored: the time is UTC).
+fn parse_zda(f: &[&str]) -> Result<Parsed, Unused> {
+    let time = f.first().and_then(|s| parse_time(s));
+    let date = match (uint(f.get(1)), uint(f.get(2)), f.get(3).and_then(|s| s.parse::<i32>().ok())) {
+        (Some(d), Some(m), Some(y)) => Some(NaiveDate::from_ymd_opt(y, m, d).ok_or(Unused::Malformed)?),
+        _ => None,
+    };
+    Ok(Parsed::Zda { time, date })
 }
 
 /// GSA: `mode1,mode2,id x 12,pdop,hdop,vdop[,system_id]` (more than 12 ids: no system id).
@@ -449,10 +461,7 @@ mod tests {
 
     #[test]
     fn marks_and_timestamps() {
-        assert_eq!(
-            parse("$PVNAV,MARK,3,cone 3*00"),
-            Ok(Parsed::Mark { number: 3, label: "cone 3".into() })
-        );
+        assert_eq!(parse("$PVNAV,MARK,3,cone 3*00"), Ok(Parsed::Mark { number: 3, label: "cone 3".into() }));
         assert_eq!(parse("$PVNAV,TS,1700000000123*00"), Ok(Parsed::Timestamp { unix_ms: 1_700_000_000_123 }));
     }
 }

@@ -147,6 +147,31 @@ pub fn describe(event: &EngineEvent) -> String {
     }
 }
 
+/// A pseudo-terminal to serve a unit on (Unix only).
+#[cfg(unix)]
+#[derive(Debug)]
+pub struct Pty {
+    /// The side the unit reads and writes; reads time out after [`SERVE_POLL`].
+    pub master: serialport::TTYPort,
+    /// The slave path consoles open (`/dev/pts/N`).
+    pub path: String,
+    /// Our own handle on the slave, kept open so consoles may come and go without the master seeing a
+    /// hang-up. Drop it (with the master) to make the port vanish.
+    pub slave: serialport::TTYPort,
+}
+
+#[cfg(unix)]
+impl Pty {
+    /// Opens a raw PTY pair (`serialport::TTYPort::pair`).
+    pub fn open() -> io::Result<Self> {
+        use serialport::SerialPort;
+        let (mut master, slave) = serialport::TTYPort::pair().map_err(io::Error::other)?;
+        master.set_timeout(SERVE_POLL).map_err(io::Error::other)?;
+        let path = slave.name().ok_or_else(|| io::Error::other("PTY without a name"))?;
+        Ok(Self { master, path, slave })
+    }
+}
+
 /// An emulated unit on its own thread behind a pseudo-terminal (Unix only).
 #[derive(Debug)]
 pub struct PtyEmulator {
@@ -161,15 +186,12 @@ impl PtyEmulator {
     /// [`Self::path`]. The emulator keeps its own handle on the slave so consoles may come and go.
     #[cfg(unix)]
     pub fn spawn(config: EngineConfig) -> io::Result<Self> {
-        use serialport::SerialPort;
-        let (mut master, slave) = serialport::TTYPort::pair().map_err(io::Error::other)?;
-        master.set_timeout(SERVE_POLL).map_err(io::Error::other)?;
-        let path = slave.name().ok_or_else(|| io::Error::other("PTY without a name"))?;
+        let Pty { mut master, path, slave } = Pty::open()?;
         let view = Arc::new(Mutex::new(EmulatorView::default()));
         let control = Arc::new(EmulatorControl::default());
         let (v, c) = (view.clone(), control.clone());
         let thread = std::thread::Builder::new().name("vest-emulator".to_owned()).spawn(move || {
-            let _keep_slave_open = slave;
+            let _slave = slave;
             let mut engine = Engine::new(config);
             serve(&mut engine, &mut master, &c, |engine, event| {
                 v.lock().unwrap_or_else(PoisonError::into_inner).observe(engine, event);

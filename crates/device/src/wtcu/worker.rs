@@ -132,7 +132,7 @@ impl Default for WorkerSettings {
         Self {
             link: LinkConfig::default(),
             backoff: Backoff::default(),
-            io_poll: Duration::from_millis(5),
+            io_poll: Duration::from_millis(2),
             command_capacity: 32,
             event_capacity: 256,
             shutdown_grace: Duration::from_millis(300),
