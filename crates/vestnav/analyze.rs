@@ -1,11 +1,12 @@
 //! `vestnav analyze tactor-data`: measured tactor traces (thesis §3.1).
 //!
-//! Each file is one tactor (or one group of trials): an optional time column and one column per trial.
-//! Per trial: peak frequency, steady amplitude, overshoot, 2 % settling time. Per file: mean, SD and range.
-//! Across all files: the power law `f = A n^B` (frequency against amplitude) with R^2. With exactly two files:
-//! two-sample t-tests (Welch and pooled) of peak frequency and amplitude between them.
+//! Each file is one tactor (or one group of trials): an optional time column and one column per trial. Per
+//! trial: peak frequency, steady amplitude, overshoot, 2 % settling time. Per file: mean, SD and range.
+//! Across all files: the power law `f = A n^B` (frequency against amplitude) with R^2. With exactly two
+//! files: two-sample t-tests (Welch and pooled) of peak frequency and amplitude between them.
 
 #![allow(clippy::print_stdout)] // Printing the results is this module's job.
+#![allow(rustdoc::broken_intra_doc_links)] // Units in brackets in the clap help texts ([mm]) are not links.
 
 use std::path::PathBuf;
 
@@ -20,8 +21,8 @@ const MAX_FILE_BYTES: u64 = 512 * 1024 * 1024;
 /// Whether the files' first column is time.
 #[derive(Debug, Clone, Copy, ValueEnum)]
 pub enum TimeColumnArg {
-    /// Time if the header names it (`t`, `time`, `time_s`, `time_ms`, ...) or, without a header, if the first column
-    /// increases in uniform steps.
+    /// Time if the header names it (`t`, `time`, `time_s`, `time_ms`, ...) or, without a header, if the first
+    /// column increases in uniform steps.
     Auto,
     /// The first column is time.
     Yes,
@@ -200,8 +201,14 @@ fn print_json(
         .collect();
     let t_test = tests.map(|g| {
         json!({
-            "peak_frequency_hz": { "welch": result_json(&g.frequency[0]), "pooled": result_json(&g.frequency[1]) },
-            "steady_amplitude": { "welch": result_json(&g.amplitude[0]), "pooled": result_json(&g.amplitude[1]) },
+            "peak_frequency_hz": {
+                "welch": result_json(&g.frequency[0]),
+                "pooled": result_json(&g.frequency[1]),
+            },
+            "steady_amplitude": {
+                "welch": result_json(&g.amplitude[0]),
+                "pooled": result_json(&g.amplitude[1]),
+            },
         })
     });
     let out = json!({ "files": files_json, "power_law": result_json(power_law), "t_test": t_test });

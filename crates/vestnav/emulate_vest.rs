@@ -2,6 +2,7 @@
 //! the 4x4 grid. The unit side is `vestnav_device::wtcu::engine` (limits, patterns, watchdog); the protocol
 //! is `docs/wtcu-protocol.md`.
 
+use std::fmt::Write as _;
 use std::io::{self, IsTerminal, Read, Write};
 use std::sync::Arc;
 use std::sync::atomic::Ordering;
@@ -30,7 +31,7 @@ pub struct VestArgs {
     /// Battery voltage the unit reports [mV] (below 3500 raises the low-battery fault).
     #[arg(long, default_value_t = 3900)]
     pub battery_mv: u16,
-    /// Emulate a unit without intensity control (SET_INTENSITY is refused).
+    /// Emulate a unit without intensity control (`SET_INTENSITY` is refused).
     #[arg(long)]
     pub no_intensity: bool,
     /// Silence from the console after which the unit stops everything [ms].
@@ -199,7 +200,7 @@ impl<W: Write + IsTerminal> View<W> {
         let mut block = String::new();
         if self.drawn_lines > 0 {
             // Cursor to the start of the block, then overwrite each line.
-            block.push_str(&format!("\x1b[{}F", self.drawn_lines));
+            let _ = write!(block, "\x1b[{}F", self.drawn_lines);
         }
         let line = |s: &mut String, text: &str| {
             s.push_str("\x1b[2K");

@@ -42,7 +42,7 @@ pub struct DriftArgs {
     /// Earth model of the distances.
     #[arg(long, value_enum, default_value = "wgs84")]
     pub earth: EarthArg,
-    /// Print one JSON object (keys max_from_first_m, cep50_m, cep95_m, drms_m, twodrms_m, fixes, ...).
+    /// Print one JSON object (keys `max_from_first_m`, `cep50_m`, `cep95_m`, `drms_m`, `twodrms_m`, `fixes`, ...).
     #[arg(long)]
     pub json: bool,
     /// Write a figure: scatter with CEP/2DRMS circles, and distance vs time (thesis Fig 65).

@@ -24,7 +24,7 @@ pub enum StrategyArg {
 /// GPS error model of the simulated receiver.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum GnssArg {
-    /// SiRF Star III, open sky, with static-navigation pinning below 1.2 m/s.
+    /// `SiRF` Star III, open sky, with static-navigation pinning below 1.2 m/s.
     Sirf3,
     /// The same without static navigation.
     Sirf3NoStatic,

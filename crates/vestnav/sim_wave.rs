@@ -1,6 +1,7 @@
 //! `vestnav sim two-point | wave`: skin waves and the two-point simulation from the command line.
 
 #![allow(clippy::print_stdout)] // Printing the results is this module's job.
+#![allow(rustdoc::broken_intra_doc_links)] // Units in brackets in the clap help texts ([mm]) are not links.
 
 use std::f64::consts::TAU;
 use std::path::{Path, PathBuf};
@@ -30,7 +31,8 @@ pub struct TwoPointArgs {
     /// Detection level of the two-point threshold: RMSE as a fraction of one tactor's amplitude.
     #[arg(long, default_value_t = twopoint::DEFAULT_RELATIVE_RMSE)]
     pub relative_rmse: f64,
-    /// Print as JSON: keys `amplitude`, `center_mm`, `width_mm`, `rmse` (plus `distance_mm`, `sse`, `points`).
+    /// Print as JSON: keys `amplitude`, `center_mm`, `width_mm`, `rmse` (plus `distance_mm`, `sse`,
+    /// `points`).
     #[arg(long)]
     pub json: bool,
     /// Write a figure (Figs 60–63 style; RMSE versus distance with --sweep).
@@ -69,10 +71,11 @@ pub struct WaveArgs {
     /// For `vest`: every tactor's frequency [Hz] [default: 70.4, the measured travelling wave].
     #[arg(long)]
     pub frequency_hz: Option<f64>,
-    /// For `vest`: time of the snapshot panel [s]; for `travelling`: start of the plotted window [s] [default: 0].
+    /// For `vest`: time of the snapshot panel [s]; for `travelling`: start of the plotted window [s]
+    /// [default: 0].
     #[arg(long)]
     pub time_s: Option<f64>,
-    /// For `travelling` and `midpoint`: length of the plotted window [s] [default: 0.05 / 0.1].
+    /// For `travelling` and `midpoint` (figure only): window length [s] [default: 0.05 / 0.1].
     #[arg(long)]
     pub duration_s: Option<f64>,
     /// For `travelling` and `arrival`: distances from the tactor [mm], increasing [default: 0,20,37,52].
@@ -100,7 +103,7 @@ fn range(start: f64, end: f64, n: usize) -> Vec<f64> {
     (0..n).map(|i| start + (end - start) * i as f64 / (n - 1).max(1) as f64).collect()
 }
 
-// ---------------------------------------------------------------------------------------------------------------
+// -----------------------------------------------------------------------------------------------------------
 // two-point
 
 /// Runs `sim two-point`.
@@ -251,7 +254,7 @@ fn run_sweep(args: &TwoPointArgs, setup: &TwoPointSetup) -> anyhow::Result<()> {
     Ok(())
 }
 
-// ---------------------------------------------------------------------------------------------------------------
+// -----------------------------------------------------------------------------------------------------------
 // wave
 
 /// Runs `sim wave`.
@@ -404,7 +407,10 @@ fn travelling(args: &WaveArgs) -> anyhow::Result<()> {
             "speed_m_s": skin.speed_m_s,
             "wavelength_mm": skin.wavelength_m(source.frequency_hz) * 1000.0,
             "distance_mm": distances.iter().map(|d| d * 1000.0).collect::<Vec<_>>(),
-            "envelope_m_s2": distances.iter().map(|d| source.envelope_m_s2(DVec2::new(*d, 0.0))).collect::<Vec<_>>(),
+            "envelope_m_s2": distances
+                .iter()
+                .map(|d| source.envelope_m_s2(DVec2::new(*d, 0.0)))
+                .collect::<Vec<_>>(),
             "phase_lag_rad": distances.iter().map(|d| k * d).collect::<Vec<_>>(),
             "delay_s": distances.iter().map(|d| d / skin.speed_m_s).collect::<Vec<_>>(),
             "time_s": t,
@@ -620,6 +626,9 @@ fn vest_figure(f: VestField<'_>) -> Figure {
 
 fn midpoint(args: &WaveArgs) -> anyhow::Result<()> {
     let skin = Skin::MEASURED;
+    if args.duration_s.is_some() && args.png.is_none() {
+        bail!("--duration-s sets the plotted window of --view midpoint: give --png too");
+    }
     let separation = args.separation_mm.unwrap_or(80.0) / 1000.0;
     let (left, right) = wave::thesis_midpoint_pair(separation);
     let comps = wave::midpoint_components(&skin, &left, &right);
@@ -629,7 +638,10 @@ fn midpoint(args: &WaveArgs) -> anyhow::Result<()> {
             "separation_mm": separation * 1000.0,
             "sources": [left, right],
             "components": comps,
-            "thesis_predicted": [{ "amplitude_m_s2": 3.02, "omega_rad_s": 334.3 }, { "amplitude_m_s2": 3.45, "omega_rad_s": 444.8 }],
+            "thesis_predicted": [
+                { "amplitude_m_s2": 3.02, "omega_rad_s": 334.3 },
+                { "amplitude_m_s2": 3.45, "omega_rad_s": 444.8 },
+            ],
             "thesis_fitted_amplitudes_m_s2": [2.43, 2.76],
         });
         println!("{}", serde_json::to_string_pretty(&out)?);

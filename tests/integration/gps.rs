@@ -1,1 +1,163 @@
-//! Integration tests: gps (being written).
+//! Integration tests: the GPS path end to end — CLI decoding, the emulator on a real PTY read by the serial
+//! source (baud detection, port vanishing, reconnect), and a real gpsd fed by our emulator.
+
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use vestnav_device::gps::{GpsEvent, GpsHandle, GpsSource, SourceConfig, SourceState};
+
+fn bin() -> &'static str {
+    env!("CARGO_BIN_EXE_vestnav")
+}
+
+fn logs() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/gpsd-logs")
+}
+
+/// Kills the child (by its own handle) when dropped.
+struct Kill(Child);
+impl Drop for Kill {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+/// Starts `vestnav emulate gps ... --pty` and returns it with the PTY path it printed.
+fn emulator(args: &[&str]) -> (Kill, String) {
+    let mut child = Command::new(bin())
+        .args(["emulate", "gps", "--pty"])
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut line = String::new();
+    BufReader::new(child.stdout.take().unwrap()).read_line(&mut line).unwrap();
+    let path = line.trim().to_owned();
+    assert!(path.starts_with("/dev/"), "emulator printed {path:?}");
+    (Kill(child), path)
+}
+
+fn wait_for(h: &GpsHandle, timeout: Duration, mut pred: impl FnMut(&GpsEvent) -> bool) -> Vec<GpsEvent> {
+    let end = Instant::now() + timeout;
+    let mut seen = Vec::new();
+    while Instant::now() < end {
+        if let Some(ev) = h.recv_timeout(Duration::from_millis(50)) {
+            let done = pred(&ev);
+            seen.push(ev);
+            if done {
+                return seen;
+            }
+        }
+    }
+    panic!("timed out; events: {seen:?}");
+}
+
+#[test]
+fn decode_json_matches_gpsd_positions() {
+    let out = Command::new(bin())
+        .args(["nmea", "decode", "--json"])
+        .arg(logs().join("nd-1005.log"))
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let lines: Vec<serde_json::Value> =
+        String::from_utf8(out.stdout).unwrap().lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    assert_eq!(lines.len(), 16);
+    // gpsd's TPV for 11:05:18 (nd-1005.log.chk): lat 57.163445000, lon -2.121370000, mode 3, hdop 1.00.
+    assert_eq!(lines[0]["time"], "2011-03-14T11:05:18.000Z");
+    assert!((lines[0]["lat"].as_f64().unwrap() - 57.163_445).abs() <= 1e-7);
+    assert!((lines[0]["lon"].as_f64().unwrap() + 2.121_37).abs() <= 1e-7);
+    assert_eq!(lines[0]["mode"], "3d");
+    assert_eq!(lines[0]["sats_used"], 8);
+    let stderr = String::from_utf8(out.stderr).unwrap();
+    assert!(stderr.contains("rejected 0"), "{stderr}");
+}
+
+#[test]
+fn decode_reports_rejections_on_stderr() {
+    let out =
+        Command::new(bin()).args(["nmea", "decode"]).arg(logs().join("firefly-II.log")).output().unwrap();
+    assert!(out.status.success());
+    // gpsd rejects all 23 GGA of this log for their bad checksums.
+    assert!(String::from_utf8(out.stderr).unwrap().contains("bad checksum 23"));
+}
+
+#[test]
+#[cfg(unix)]
+fn pty_emulator_to_serial_source_with_baud_detection_loss_and_reconnect() {
+    let dir = std::env::temp_dir().join(format!("vestnav-gps-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let link = dir.join("gps0");
+    let log = logs().join("nd-1005.log");
+    let log = log.to_str().unwrap();
+    let (emu, path) = emulator(&["--replay", log, "--speed", "10", "--repeat"]);
+    let _ = std::fs::remove_file(&link);
+    std::os::unix::fs::symlink(&path, &link).unwrap();
+    let port = link.to_str().unwrap().to_owned();
+    let h = GpsSource::spawn(SourceConfig::Serial { port, baud: None }, || {}).unwrap();
+    // Baud detection picks the first rate that yields valid sentences, then fixes flow.
+    wait_for(
+        &h,
+        Duration::from_secs(10),
+        |e| matches!(e, GpsEvent::State(SourceState::Live { detail }) if detail.contains("baud")),
+    );
+    let mut fixes = 0;
+    wait_for(&h, Duration::from_secs(10), |e| {
+        if let GpsEvent::Fix(f) = e {
+            assert!((f.lat_deg.unwrap() - 57.163_445).abs() < 1e-7);
+            fixes += 1;
+        }
+        fixes >= 3
+    });
+    // The port vanishes mid-stream: the source reports it lost and starts reconnecting.
+    drop(emu);
+    wait_for(&h, Duration::from_secs(15), |e| matches!(e, GpsEvent::State(SourceState::Lost { .. })));
+    wait_for(&h, Duration::from_secs(5), |e| matches!(e, GpsEvent::State(SourceState::Reconnecting { .. })));
+    // A new device appears behind the same name: the source reconnects and fixes flow again.
+    let (_emu2, path2) = emulator(&["--replay", log, "--speed", "10", "--repeat"]);
+    let _ = std::fs::remove_file(&link);
+    std::os::unix::fs::symlink(&path2, &link).unwrap();
+    wait_for(&h, Duration::from_secs(30), |e| matches!(e, GpsEvent::Fix(f) if f.has_position()));
+    drop(h);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+fn which(prog: &str) -> Option<PathBuf> {
+    std::env::var_os("PATH").and_then(|p| {
+        std::env::split_paths(&p)
+            .chain([PathBuf::from("/usr/sbin"), PathBuf::from("/sbin")])
+            .map(|d| d.join(prog))
+            .find(|c| c.is_file())
+    })
+}
+
+#[test]
+#[cfg(unix)]
+fn real_gpsd_fed_by_our_emulator() {
+    let Some(gpsd) = which("gpsd") else {
+        eprintln!("SKIPPED real_gpsd_fed_by_our_emulator: gpsd is not installed (apt-get install gpsd)");
+        return;
+    };
+    let (_emu, path) = emulator(&["--replay", logs().join("nd-1005.log").to_str().unwrap(), "--repeat"]);
+    let port = std::net::TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port();
+    let _gpsd = Kill(
+        Command::new(gpsd)
+            .args(["-N", "-n", "-b", "-S", &port.to_string(), &path])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap(),
+    );
+    let h = GpsSource::spawn(SourceConfig::Gpsd { host: "127.0.0.1".into(), port }, || {}).unwrap();
+    let ev = wait_for(&h, Duration::from_secs(30), |e| matches!(e, GpsEvent::Fix(f) if f.has_position()));
+    let Some(GpsEvent::Fix(f)) = ev.last() else { unreachable!() };
+    // The fix gpsd computed from our emulator's bytes is the log's position (gpsd's own .chk value).
+    assert!((f.lat_deg.unwrap() - 57.163_445).abs() < 1e-7, "{f:?}");
+    assert!((f.lon_deg.unwrap() + 2.121_37).abs() < 1e-7);
+    assert!(ev.iter().any(|e| matches!(e, GpsEvent::State(SourceState::Live { .. }))));
+}

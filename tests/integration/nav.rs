@@ -47,9 +47,11 @@ fn timed_fixes(path: &Path) -> Vec<TimedFix> {
 /// own code), positions from the GGA sentences with a valid checksum and quality > 0, mean = arithmetic
 /// mean of latitude and longitude (not our local-frame mean), distances from it by `Geodesic.WGS84.Inverse`,
 /// nearest-rank percentiles (the script is in docs/field-tests.md). Output, pasted:
+/// ```text
 /// telit-he910:  n=187 max_first=4.522333 cep50=1.380542 cep95=2.301232 drms=1.482050 2drms=2.964100
 /// skytraq-dgps: n=96  max_first=1.615649 cep50=0.407772 cep95=0.972919 drms=0.509834 2drms=1.019668
 /// ublox-zed-f9p_hpg1.11: n=655 max_first=2.801796 cep50=1.284013 cep95=2.217637 drms=1.424184
+/// ```
 #[test]
 fn drift_on_gpsd_stationary_logs_matches_geographiclib() {
     let cases = [
@@ -111,7 +113,7 @@ fn ddmm(value: f64, pos: char, neg: char, deg_digits: usize) -> (String, char) {
 /// walks at `pace_m_s`, stands `dwell_s` at each cone (the operator marks the cone on arrival), and the
 /// receiver's output goes through `model`. Returns the NMEA log and the positions the log reports at the
 /// marks, as east/north of the GPS simulator's own flat frame (an independent formula).
-pub(crate) fn cone_log(model: GnssErrorModel, seed: u64, pace_m_s: f64, dwell_s: u32) -> (String, Vec<(f64, f64)>) {
+fn cone_log(model: GnssErrorModel, seed: u64, pace_m_s: f64, dwell_s: u32) -> (String, Vec<(f64, f64)>) {
     let (cones, spacing_m, bearing_deg) = (10, 10.0, 30.0);
     let start = LatLon::new(42.3575, -71.1010);
     let frame = SimFrame::new(start.lat_deg, start.lon_deg);

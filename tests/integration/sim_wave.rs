@@ -1,5 +1,5 @@
-//! Integration tests of `vestnav sim two-point`, `vestnav sim wave` and `vestnav analyze tactor-data`: the binary
-//! against the reference numbers (physics.md §3) and against synthetic traces with known parameters.
+//! Integration tests of `vestnav sim two-point`, `vestnav sim wave` and `vestnav analyze tactor-data`: the
+//! binary against the reference numbers (physics.md §3) and against synthetic traces with known parameters.
 
 use std::f64::consts::PI;
 use std::fmt::Write as _;
@@ -27,7 +27,8 @@ fn scratch(name: &str) -> PathBuf {
 
 #[test]
 fn two_point_reference_at_11_mm() {
-    // physics.md §3: A = 19.546, mu = 5.500, w = 37.045, RMSE = 0.001727 (thesis 19.55, 5.5, 37.05, 0.001727).
+    // physics.md §3: A = 19.546, mu = 5.500, w = 37.045, RMSE = 0.001727 (thesis 19.55, 5.5, 37.05,
+    // 0.001727).
     let v = json_of(&["sim", "two-point", "--distance-mm", "11", "--json"]);
     assert_relative_eq!(v["amplitude"].as_f64().unwrap(), 19.546, max_relative = 1e-4);
     assert_relative_eq!(v["center_mm"].as_f64().unwrap(), 5.5, max_relative = 1e-4);

@@ -2,6 +2,9 @@
 //! `Pair` idea), and end-to-end tests over real pseudo-terminals (worker <-> emulator). The property tests
 //! (proptest) live next to the codec, in `crates/device/src/wtcu/proptests.rs`.
 
+// Helpers here are test code: a failed unwrap is a failed test.
+#![allow(clippy::unwrap_used)]
+
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
@@ -16,7 +19,7 @@ use vestnav_device::wtcu::message::{
     UnitStatus,
 };
 use vestnav_device::wtcu::worker::{
-    Connector, Transport, VestCommand, VestEvent, VestHandle, WorkerSettings,
+    Connector, Transport, VestCommand, VestConfig, VestEvent, VestHandle, WorkerSettings,
 };
 
 // ---------------------------------------------------------------------------------------------------------
@@ -136,14 +139,17 @@ fn the_emulator_identifies_itself_as_the_vector_says() {
 // ---------------------------------------------------------------------------------------------------------
 // Simulated-clock pair: the console link against the device engine, no IO, a lossy wire.
 
+/// Decides, frame by frame, whether the simulated wire loses it.
+type DropRule = Box<dyn FnMut(&[u8]) -> bool>;
+
 struct Pair {
     now: Instant,
     console: Link,
     unit: Engine,
     /// Console-to-unit frames dropped while this returns true (called with the frame's bytes).
-    drop_to_unit: Box<dyn FnMut(&[u8]) -> bool>,
+    drop_to_unit: DropRule,
     /// Unit-to-console frames dropped while this returns true.
-    drop_to_console: Box<dyn FnMut(&[u8]) -> bool>,
+    drop_to_console: DropRule,
     events: Vec<LinkEvent>,
     unit_changes: Vec<(Duration, TactorMask)>,
     t0: Instant,
@@ -495,8 +501,9 @@ fn fast_settings() -> WorkerSettings {
 fn pty_connector(path: Arc<Mutex<String>>) -> Connector {
     Box::new(move || {
         let p = path.lock().unwrap().clone();
-        let port = vestnav_device::serial::open(&p, 115_200, Duration::from_millis(5))
-            .map_err(std::io::Error::other)?;
+        // The worker's poll interval bounds how late it picks up a command.
+        let poll = WorkerSettings::default().io_poll;
+        let port = vestnav_device::serial::open(&p, 115_200, poll).map_err(std::io::Error::other)?;
         Ok(Box::new(port) as Box<dyn Transport>)
     })
 }
@@ -699,6 +706,7 @@ fn percentile(sorted: &[Duration], p: f64) -> Duration {
 
 #[test]
 fn measure_codec_cost_and_pty_round_trip() {
+    use std::io::{Read, Write};
     let mut codec = V1Codec::new();
     let fire = Request::Fire { mask: TactorMask::CORNERS, duration_ms: 500 };
     let play = Request::Play { frames: Cue::TurnAround.pattern(DEFAULT_ON_MS).frames, repeats: 2 };
@@ -753,7 +761,6 @@ fn measure_codec_cost_and_pty_round_trip() {
     drop(vest);
 
     // The bare link on the PTY (no worker polling): write FIRE, read until its ACK.
-    use std::io::{Read, Write};
     let mut port = vestnav_device::serial::open(emu.path(), 115_200, Duration::from_millis(50)).unwrap();
     let mut replies = V1Codec::new();
     let mut buf = [0u8; 256];
@@ -788,4 +795,19 @@ fn measure_codec_cost_and_pty_round_trip() {
         percentile(&bare, 0.5).as_secs_f64() * 1e3,
         percentile(&bare, 0.99).as_secs_f64() * 1e3
     );
+}
+
+#[test]
+fn emulated_vest_in_process_connects_out_of_the_box() {
+    let vest = VestHandle::spawn(VestConfig::Emulated(EngineConfig::default()), || {}).unwrap();
+    let mut seen = Vec::new();
+    let s = Duration::from_secs(3);
+    wait_for(&vest, &mut seen, s, |e| matches!(e, VestEvent::State(LinkState::Ready)));
+    vest.send(VestCommand::Play(Cue::Stop.pattern(200))).unwrap();
+    wait_for(&vest, &mut seen, s, |e| *e == VestEvent::TactorsOn(Some(TactorMask::CORNERS)));
+    // The end of the cue comes from the unit's REPORT.
+    wait_for(&vest, &mut seen, s, |e| *e == VestEvent::TactorsOn(Some(TactorMask::NONE)));
+    vest.send(VestCommand::SetIntensity { mask: TactorMask::ALL, level: 100 }).unwrap();
+    wait_for(&vest, &mut seen, s, |e| matches!(e, VestEvent::Acked { kind: CommandKind::SetIntensity, .. }));
+    vest.stop();
 }

@@ -29,7 +29,12 @@ impl VestLink for NullVest {
 }
 
 impl DeviceFactory for Tap {
-    fn open_gps(&self, _s: &GpsSourceConfig, _r: &[Waypoint], out: Outbox<GpsEvent>) -> Result<Box<dyn Worker>, String> {
+    fn open_gps(
+        &self,
+        _s: &GpsSourceConfig,
+        _r: &[Waypoint],
+        out: Outbox<GpsEvent>,
+    ) -> Result<Box<dyn Worker>, String> {
         *self.0.lock().map_err(|e| e.to_string())? = Some(out);
         Ok(Box::new(Idle))
     }
@@ -129,7 +134,11 @@ fn bench(cr: &mut Criterion) {
     c.map.waypoints = (0..1000)
         .map(|k| {
             let a = f64::from(k) * 0.00628;
-            Waypoint { name: format!("W{k}"), lat_deg: 42.3572 + 0.0015 * a.sin(), lon_deg: -71.1 + 0.002 * a.cos() }
+            Waypoint {
+                name: format!("W{k}"),
+                lat_deg: 42.3572 + 0.0015 * a.sin(),
+                lon_deg: -71.1 + 0.002 * a.cos(),
+            }
         })
         .collect();
     c.gps.fix = Some(fix(99_999));

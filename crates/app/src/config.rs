@@ -52,6 +52,7 @@ pub enum VestSourceConfig {
 }
 
 /// Every remembered setting.
+#[allow(clippy::struct_excessive_bools)] // independent on/off settings of the operator, not a state machine
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct Config {
@@ -69,6 +70,10 @@ pub struct Config {
     pub arrival_radius_m: f64,
     /// Minimum time between two automatic cues [s].
     pub cue_interval_s: f64,
+    /// Start the route over after its last waypoint.
+    pub loop_route: bool,
+    /// Guidance strategy: `bearing` (straight at the waypoint) or `pursuit` (look-ahead on the leg).
+    pub strategy: String,
     /// How long a manual command holds automatic guidance off [s].
     pub manual_hold_s: f64,
     /// Walking speed assumed for time-to-go when the GPS speed is too low [m/s].
@@ -97,6 +102,8 @@ impl Default for Config {
             guidance_auto: true,
             arrival_radius_m: 8.0,
             cue_interval_s: 4.0,
+            loop_route: true,
+            strategy: "pursuit".to_owned(),
             manual_hold_s: 10.0,
             walking_speed_m_s: 1.3,
             map_tiles: true,

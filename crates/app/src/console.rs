@@ -12,6 +12,7 @@ use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
 use std::time::Duration;
 
 use egui::{Color32, RichText};
+use vestnav_core::guidance::StrategyKind;
 use vestnav_core::vest::{Cue, TactorMask};
 
 use crate::config::{Config, GpsSourceConfig, VestSourceConfig};
@@ -19,7 +20,9 @@ use crate::devices::{DeviceFactory, VestLink, Worker};
 use crate::fieldtest_panel::{FieldTestAction, FieldTestPanel};
 use crate::guidance::{GuidanceInput, GuidanceSettings, GuidanceStatus};
 use crate::map_panel::MapView;
-use crate::model::{CommandOrigin, GpsEvent, GpsFix, LinkState, Outbox, VestCommand, VestEvent, drain_within};
+use crate::model::{
+    CommandOrigin, GpsEvent, GpsFix, LinkState, Outbox, VestCommand, VestEvent, drain_within,
+};
 use crate::session_log::{LogEntry, LogSender, SessionLog};
 use crate::sim_panel::SimPanel;
 
@@ -148,6 +151,7 @@ pub struct ConsoleOptions {
 impl Console {
     /// Builds the console, starts the guidance worker and the session log, and connects the configured
     /// devices when `cfg.auto_connect` is set.
+    #[allow(clippy::too_many_lines)] // the wiring of every thread and channel, kept in one readable place
     pub fn new(factory: Box<dyn DeviceFactory>, opts: ConsoleOptions) -> Self {
         let ConsoleOptions { cfg, cfg_path, log_dir, waker } = opts;
         let mut status = String::new();
@@ -163,9 +167,12 @@ impl Console {
         let (guidance_ui_tx, guidance_rx) = sync_channel(256);
         let (guidance_tx, guidance_in_rx) = sync_channel(1024);
         let settings = guidance_settings(&cfg);
-        if let Err(e) =
-            crate::guidance::spawn(guidance_in_rx, settings, Outbox::new(guidance_ui_tx, waker.clone()), log_tx.clone())
-        {
+        if let Err(e) = crate::guidance::spawn(
+            guidance_in_rx,
+            settings,
+            Outbox::new(guidance_ui_tx, waker.clone()),
+            log_tx.clone(),
+        ) {
             status = format!("guidance worker failed to start: {e}");
         }
 
@@ -177,17 +184,17 @@ impl Console {
             let log = log_tx.clone();
             spawn_router("vestnav-gps-router", gps_router_rx, move |ev: GpsEvent| {
                 if let GpsEvent::Fix(fix) = &ev {
-                    if fix.has_position() {
-                        if let Some(log) = &log {
-                            log.log(LogEntry::Fix {
-                                lat_deg: fix.lat_deg,
-                                lon_deg: fix.lon_deg,
-                                error_m: fix.error_m,
-                                speed_m_s: fix.speed_m_s,
-                                course_deg: fix.course_deg,
-                                gps_utc: fix.time_utc.clone(),
-                            });
-                        }
+                    if fix.has_position()
+                        && let Some(log) = &log
+                    {
+                        log.log(LogEntry::Fix {
+                            lat_deg: fix.lat_deg,
+                            lon_deg: fix.lon_deg,
+                            error_m: fix.error_m,
+                            speed_m_s: fix.speed_m_s,
+                            course_deg: fix.course_deg,
+                            gps_utc: fix.time_utc.clone(),
+                        });
                     }
                     guidance.send(GuidanceInput::Fix(fix.clone()));
                 } else if let (GpsEvent::State(s), Some(log)) = (&ev, &log) {
@@ -209,7 +216,9 @@ impl Console {
                         VestEvent::Rejected { reason } => {
                             log.log(LogEntry::Note { text: format!("vest rejected: {reason}") });
                         }
-                        VestEvent::State(s) => log.log(LogEntry::Note { text: format!("vest {}", s.label()) }),
+                        VestEvent::State(s) => {
+                            log.log(LogEntry::Note { text: format!("vest {}", s.label()) });
+                        }
                         VestEvent::Notice(text) => log.log(LogEntry::Note { text: format!("vest: {text}") }),
                         VestEvent::Status { .. } => {}
                     }
@@ -228,7 +237,10 @@ impl Console {
         }
 
         let mut console = Self {
-            gps: GpsView { picker: crate::gps_panel::SourcePicker::from_config(&cfg.gps), ..GpsView::default() },
+            gps: GpsView {
+                picker: crate::gps_panel::SourcePicker::from_config(&cfg.gps),
+                ..GpsView::default()
+            },
             vest: VestView {
                 port: match &cfg.vest {
                     VestSourceConfig::Serial { port } => port.clone(),
@@ -331,9 +343,12 @@ impl Console {
         self.vest.tactors_on = TactorMask::NONE;
     }
 
-    /// Sends a manual command to the vest (holding automatic guidance off) and logs it.
-    pub fn send_manual(&mut self, command: VestCommand) {
-        self.guidance_tx.try_send(GuidanceInput::ManualOverride).ok();
+    /// Sends a manual command to the vest (holding automatic guidance off) and logs it; `cue` names it when
+    /// it is one of the vocabulary's cues.
+    pub fn send_manual(&mut self, command: VestCommand, cue: Option<Cue>) {
+        if command != VestCommand::StopAll {
+            self.guidance_tx.try_send(GuidanceInput::ManualOverride(cue)).ok();
+        }
         let Some(link) = &self.vest_link else {
             self.status = "vest not connected".into();
             return;
@@ -341,7 +356,11 @@ impl Console {
         match link.send(command.clone()) {
             Ok(()) => {
                 if let Some(log) = &self.log_tx {
-                    log.log(LogEntry::Command { origin: CommandOrigin::Manual, command, reason: "operator".into() });
+                    log.log(LogEntry::Command {
+                        origin: CommandOrigin::Manual,
+                        command,
+                        reason: "operator".into(),
+                    });
                 }
             }
             Err(e) => self.status = format!("vest: {e}"),
@@ -350,11 +369,13 @@ impl Console {
 
     /// STOP ALL: every tactor off now, automatic guidance off.
     pub fn stop_all(&mut self) {
+        // The vest first: nothing else may delay it.
+        self.send_manual(VestCommand::StopAll, Some(Cue::Stop));
+        self.guidance_tx.try_send(GuidanceInput::StopAll).ok();
         if self.cfg.guidance_auto {
             self.cfg.guidance_auto = false;
             self.push_settings();
         }
-        self.send_manual(VestCommand::StopAll);
         self.status = "STOP ALL sent; automatic guidance off".into();
     }
 
@@ -371,26 +392,28 @@ impl Console {
     }
 
     /// Logs an operator mark at the wearer's position.
-    pub fn mark(&mut self, label: String) {
+    pub fn mark(&mut self, label: &str) {
         let pos = self.gps.fix.as_ref().filter(|f| f.has_position()).map(|f| (f.lat_deg, f.lon_deg));
         if let Some(log) = &self.log_tx {
-            log.log(LogEntry::Mark { label: label.clone(), lat_deg: pos.map(|p| p.0), lon_deg: pos.map(|p| p.1) });
+            let label = label.to_owned();
+            log.log(LogEntry::Mark { label, lat_deg: pos.map(|p| p.0), lon_deg: pos.map(|p| p.1) });
         }
         self.status = format!("marked '{label}'");
     }
 
     /// The GPS alarm at UI time `now_s`, if any.
     pub fn gps_alarm(&self, now_s: f64) -> Option<GpsAlarm> {
-        if self.gps_worker.is_none() {
+        if self.gps_worker.is_none() || self.gps.link == LinkState::Disconnected {
             return None;
         }
         if let LinkState::Lost { reason } = &self.gps.link {
             return Some(GpsAlarm::Lost { reason: reason.clone() });
         }
-        if let Some(f) = &self.gps.fix {
-            if !f.has_position() && self.gps.epoch_at_s.is_some_and(|t| now_s - t < self.cfg.stale_after_s) {
-                return Some(GpsAlarm::Lost { reason: "receiver reports no fix".into() });
-            }
+        if let Some(f) = &self.gps.fix
+            && !f.has_position()
+            && self.gps.epoch_at_s.is_some_and(|t| now_s - t < self.cfg.stale_after_s)
+        {
+            return Some(GpsAlarm::Lost { reason: "receiver reports no fix".into() });
         }
         let age = now_s - self.gps.fix_at_s?;
         if age > self.cfg.lost_after_s {
@@ -448,6 +471,7 @@ impl Console {
     }
 
     /// Draws one frame (also the entry point of the kittest tests).
+    #[allow(clippy::too_many_lines)] // the frame's layout in one place: panels in the order they are drawn
     pub fn ui(&mut self, ui: &mut egui::Ui) {
         let now_s = ui.input(|i| i.time);
         self.pump(now_s);
@@ -490,7 +514,7 @@ impl Console {
             Tab::Simulation => self.sim_panel.ui(ui),
             Tab::FieldTests => {
                 if let Some(FieldTestAction::Mark { label }) = self.field_panel.ui(ui) {
-                    self.mark(label);
+                    self.mark(&label);
                 }
             }
             Tab::SessionLog => {
@@ -501,6 +525,7 @@ impl Console {
         });
 
         if self.cfg != self.cfg_saved {
+            self.push_settings();
             self.save_config();
         }
         // Fix ages and alarms change with time even when no event arrives.
@@ -513,10 +538,10 @@ impl Console {
 
     fn save_config(&mut self) {
         self.cfg_saved = self.cfg.clone();
-        if let Some(p) = &self.cfg_path {
-            if let Err(e) = self.cfg.save(p) {
-                self.status = format!("cannot save settings to {}: {e}", p.display());
-            }
+        if let Some(p) = &self.cfg_path
+            && let Err(e) = self.cfg.save(p)
+        {
+            self.status = format!("cannot save settings to {}: {e}", p.display());
         }
     }
 
@@ -530,7 +555,7 @@ impl Console {
         if m && !typing && self.tab != Tab::FieldTests {
             let n = self.map.marks + 1;
             self.map.marks = n;
-            self.mark(format!("mark {n}"));
+            self.mark(&format!("mark {n}"));
         }
     }
 
@@ -539,7 +564,10 @@ impl Console {
             let stop = egui::Button::new(RichText::new("STOP ALL").strong().size(18.0).color(Color32::WHITE))
                 .fill(Color32::from_rgb(200, 30, 30))
                 .min_size(egui::vec2(120.0, 30.0));
-            if ui.add(stop).on_hover_text("Every tactor off, automatic guidance off (keys: Esc or Space)").clicked()
+            if ui
+                .add(stop)
+                .on_hover_text("Every tactor off, automatic guidance off (keys: Esc or Space)")
+                .clicked()
             {
                 self.stop_all();
             }
@@ -553,7 +581,9 @@ impl Console {
             ui.label(RichText::new(gps_text).color(gps_color).strong());
             ui.separator();
             ui.label(
-                RichText::new(format!("Vest: {}", self.vest.link.label())).color(link_color(&self.vest.link)).strong(),
+                RichText::new(format!("Vest: {}", self.vest.link.label()))
+                    .color(link_color(&self.vest.link))
+                    .strong(),
             );
             ui.separator();
             let g = if self.cfg.guidance_auto { "Guidance: AUTO" } else { "Guidance: manual" };
@@ -568,12 +598,26 @@ impl Console {
 
     fn guidance_ui(&mut self, ui: &mut egui::Ui) {
         let mut changed = false;
-        changed |= ui.checkbox(&mut self.cfg.guidance_auto, "Automatic cues").changed();
+        ui.horizontal(|ui| {
+            changed |= ui.checkbox(&mut self.cfg.guidance_auto, "Automatic cues").changed();
+            changed |= ui.checkbox(&mut self.cfg.loop_route, "Loop route").changed();
+        });
+        egui::ComboBox::from_label("Strategy").selected_text(self.cfg.strategy.clone()).show_ui(ui, |ui| {
+            for k in StrategyKind::ALL {
+                changed |= ui.selectable_value(&mut self.cfg.strategy, k.name().to_owned(), k.name()).changed();
+            }
+        });
         changed |= ui
-            .add(egui::Slider::new(&mut self.cfg.arrival_radius_m, 2.0..=50.0).suffix(" m").text("Arrival radius"))
+            .add(
+                egui::Slider::new(&mut self.cfg.arrival_radius_m, 2.0..=50.0)
+                    .suffix(" m")
+                    .text("Arrival radius"),
+            )
             .changed();
         changed |= ui
-            .add(egui::Slider::new(&mut self.cfg.cue_interval_s, 1.0..=30.0).suffix(" s").text("Cue interval"))
+            .add(
+                egui::Slider::new(&mut self.cfg.cue_interval_s, 1.0..=30.0).suffix(" s").text("Cue interval"),
+            )
             .changed();
         changed |= ui
             .add(egui::Slider::new(&mut self.cfg.manual_hold_s, 0.0..=60.0).suffix(" s").text("Manual hold"))
@@ -587,9 +631,17 @@ impl Console {
             }
             Some(st) => {
                 let cue = st.cue.map_or("none", Cue::name);
-                let sent = if st.sent { "sent" } else { "not sent" };
-                ui.label(RichText::new(format!("Cue: {cue} ({sent})")).strong());
+                let sent = if st.sent { "sent" } else { "not sent now" };
+                ui.label(RichText::new(format!("Cue: {cue} ({sent}) · {}", st.state)).strong());
                 ui.label(&st.reason);
+                let n = |v: Option<f64>, u: &str| v.map_or_else(|| "—".to_owned(), |v| format!("{v:.0}{u}"));
+                ui.label(format!(
+                    "distance {} · bearing error {} · cross-track {} · heading from {}",
+                    n(st.distance_m, " m"),
+                    n(st.bearing_error_deg, "°"),
+                    st.cross_track_m.map_or_else(|| "—".to_owned(), |x| format!("{x:+.1} m")),
+                    st.heading_source
+                ));
                 if st.finished {
                     ui.label(RichText::new("Route finished").color(Color32::from_rgb(40, 160, 60)));
                 }
@@ -632,11 +684,17 @@ fn guidance_settings(cfg: &Config) -> GuidanceSettings {
         manual_hold_s: cfg.manual_hold_s,
         stale_after_s: cfg.stale_after_s,
         on_ms: cfg.on_ms,
+        loop_route: cfg.loop_route,
+        strategy: StrategyKind::from_name(&cfg.strategy).unwrap_or(StrategyKind::Pursuit),
     }
 }
 
 /// Forwards every message of `rx` through `forward` until the input closes or `forward` says the UI is gone.
-fn spawn_router<T: Send + 'static>(name: &str, rx: Receiver<T>, forward: impl Fn(T) -> bool + Send + 'static) {
+fn spawn_router<T: Send + 'static>(
+    name: &str,
+    rx: Receiver<T>,
+    forward: impl Fn(T) -> bool + Send + 'static,
+) {
     let _ = std::thread::Builder::new().name(name.into()).spawn(move || {
         while let Ok(ev) = rx.recv() {
             if !forward(ev) {

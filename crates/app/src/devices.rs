@@ -35,6 +35,9 @@ pub trait DeviceFactory {
     ) -> Result<Box<dyn Worker>, String>;
 
     /// Starts a vest link for `source`.
-    fn open_vest(&self, source: &VestSourceConfig, events: Outbox<VestEvent>)
-    -> Result<Arc<dyn VestLink>, String>;
+    fn open_vest(
+        &self,
+        source: &VestSourceConfig,
+        events: Outbox<VestEvent>,
+    ) -> Result<Arc<dyn VestLink>, String>;
 }

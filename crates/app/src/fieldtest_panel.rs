@@ -18,7 +18,7 @@ use serde::Serialize;
 use vestnav_core::fieldtest::{self, ConeConfig, ConeMark, ConeStats, DriftStats, TimedFix};
 use vestnav_core::geo::{Earth, LatLon, LocalFrame};
 
-use crate::sim_panel::{ChartSpec, ExportFormat, Exporter, PanelSpec, SeriesSpec, render_png};
+use crate::sim_panel::{ChartSpec, ExportFormat, Exporter, PanelSpec, SeriesSpec, panels_grid, render_png};
 
 /// Speed below which `SiRF` Star III static navigation may pin the position [m/s] (physics.md §5).
 pub const STATIC_NAV_SPEED_M_S: f64 = 1.2;
@@ -389,7 +389,7 @@ impl FieldTestPanel {
             ui.add_enabled(
                 self.drift.phase != Phase::Running,
                 egui::DragValue::new(&mut minutes)
-                    .range(0.5..=240.0)
+                    .range(0.5..=60.0)
                     .speed(0.1)
                     .suffix(" min")
                     .prefix("target "),
@@ -589,17 +589,9 @@ impl FieldTestPanel {
             Procedure::Drift => "fieldtest-drift",
             Procedure::Cones => "fieldtest-cones",
         };
-        let panels = self.panels().to_vec();
-        egui::ScrollArea::vertical().id_salt(id).show(ui, |ui| {
-            let columns = if ui.available_width() > 900.0 { 2 } else { 1 };
-            for (row, chunk) in panels.chunks(columns).enumerate() {
-                ui.columns(columns, |cols| {
-                    for (k, (col, panel)) in cols.iter_mut().zip(chunk).enumerate() {
-                        panel.show(col, &format!("{id}-{row}-{k}"), 260.0);
-                    }
-                });
-            }
-        });
+        self.panels();
+        let panels = self.plots.as_ref().map_or(&[][..], |(_, p)| p.as_slice());
+        egui::ScrollArea::vertical().id_salt(id).show(ui, |ui| panels_grid(ui, id, panels, 260.0));
     }
 }
 

@@ -10,7 +10,8 @@ use crate::console::{Console, GpsAlarm};
 use crate::model::{FixMode, GpsFix, Satellite};
 
 /// Baud rates offered (the BT-359 talks 4800 by default); `None` = automatic detection.
-pub const BAUDS: [Option<u32>; 7] = [None, Some(4800), Some(9600), Some(19200), Some(38400), Some(57600), Some(115_200)];
+pub const BAUDS: [Option<u32>; 7] =
+    [None, Some(4800), Some(9600), Some(19200), Some(38400), Some(57600), Some(115_200)];
 
 /// Which source kind the picker shows.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -52,12 +53,8 @@ pub struct SourcePicker {
 impl SourcePicker {
     /// The picker showing `cfg`.
     pub fn from_config(cfg: &GpsSourceConfig) -> Self {
-        let mut p = Self {
-            replay_speed: 1.0,
-            gpsd_host: "127.0.0.1".into(),
-            gpsd_port: 2947,
-            ..Self::default()
-        };
+        let mut p =
+            Self { replay_speed: 1.0, gpsd_host: "127.0.0.1".into(), gpsd_port: 2947, ..Self::default() };
         match cfg {
             GpsSourceConfig::Simulator => p.kind = SourceKind::Simulator,
             GpsSourceConfig::Serial { port, baud } => {
@@ -84,7 +81,9 @@ impl SourcePicker {
         match self.kind {
             SourceKind::Simulator => Ok(GpsSourceConfig::Simulator),
             SourceKind::Serial if self.port.trim().is_empty() => Err("pick a serial port".into()),
-            SourceKind::Serial => Ok(GpsSourceConfig::Serial { port: self.port.trim().to_owned(), baud: self.baud }),
+            SourceKind::Serial => {
+                Ok(GpsSourceConfig::Serial { port: self.port.trim().to_owned(), baud: self.baud })
+            }
             SourceKind::Replay if self.replay_path.trim().is_empty() => Err("enter an NMEA file".into()),
             SourceKind::Replay => Ok(GpsSourceConfig::Replay {
                 path: PathBuf::from(self.replay_path.trim()),
@@ -132,26 +131,26 @@ pub fn show(c: &mut Console, ui: &mut egui::Ui, now_s: f64) {
     }
 
     let alarm = c.gps_alarm(now_s);
-    if let Some(a) = &alarm {
-        if !c.gps.alarm_silenced {
-            let blink = (now_s * 2.0).fract() < 0.5;
-            let (text, color) = match a {
-                GpsAlarm::Lost { reason } => (format!("GPS FIX LOST: {reason}"), Color32::from_rgb(220, 30, 30)),
-                GpsAlarm::Stale { age_s } => {
-                    (format!("GPS STALE: last fix {age_s:.0} s ago"), Color32::from_rgb(220, 140, 0))
+    if let Some(a) = &alarm
+        && !c.gps.alarm_silenced
+    {
+        let blink = (now_s * 2.0).fract() < 0.5;
+        let (text, color) = match a {
+            GpsAlarm::Lost { reason } => (format!("GPS FIX LOST: {reason}"), Color32::from_rgb(220, 30, 30)),
+            GpsAlarm::Stale { age_s } => {
+                (format!("GPS STALE: last fix {age_s:.0} s ago"), Color32::from_rgb(220, 140, 0))
+            }
+        };
+        egui::Frame::new()
+            .fill(if blink { color } else { color.gamma_multiply(0.7) })
+            .inner_margin(6.0)
+            .show(ui, |ui| {
+                ui.label(RichText::new(text).color(Color32::WHITE).strong());
+                if ui.button("Silence alarm").clicked() {
+                    c.gps.alarm_silenced = true;
                 }
-            };
-            egui::Frame::new().fill(if blink { color } else { color.gamma_multiply(0.7) }).inner_margin(6.0).show(
-                ui,
-                |ui| {
-                    ui.label(RichText::new(text).color(Color32::WHITE).strong());
-                    if ui.button("Silence alarm").clicked() {
-                        c.gps.alarm_silenced = true;
-                    }
-                },
-            );
-            ui.ctx().request_repaint_after(std::time::Duration::from_millis(250));
-        }
+            });
+        ui.ctx().request_repaint_after(std::time::Duration::from_millis(250));
     }
 
     let Some(fix) = c.gps.fix.clone() else {
@@ -215,7 +214,11 @@ fn picker_ui(c: &mut Console, ui: &mut egui::Ui) {
                 .selected_text(p.baud.map_or_else(|| "auto".to_owned(), |b| b.to_string()))
                 .show_ui(ui, |ui| {
                     for b in BAUDS {
-                        ui.selectable_value(&mut p.baud, b, b.map_or_else(|| "auto".to_owned(), |b| b.to_string()));
+                        ui.selectable_value(
+                            &mut p.baud,
+                            b,
+                            b.map_or_else(|| "auto".to_owned(), |b| b.to_string()),
+                        );
                     }
                 });
         }
@@ -324,7 +327,13 @@ fn sky_plot(ui: &mut egui::Ui, sats: &[Satellite], size: f32) {
         let a = (az as f32).to_radians();
         let pos = c + vec2(rr * a.sin(), -rr * a.cos());
         p.circle_filled(pos, 5.0, snr_color(s.snr_db, s.used));
-        p.text(pos + vec2(0.0, -9.0), egui::Align2::CENTER_CENTER, s.prn.to_string(), font.clone(), ui.visuals().text_color());
+        p.text(
+            pos + vec2(0.0, -9.0),
+            egui::Align2::CENTER_CENTER,
+            s.prn.to_string(),
+            font.clone(),
+            ui.visuals().text_color(),
+        );
     }
 }
 
@@ -344,7 +353,13 @@ fn signal_bars(ui: &mut egui::Ui, sats: &[Satellite], size: egui::Vec2) {
             1.0,
             snr_color(s.snr_db, s.used),
         );
-        p.text(egui::pos2(x0 + w / 2.0, bottom + 6.0), egui::Align2::CENTER_CENTER, s.prn.to_string(), font.clone(), ui.visuals().text_color());
+        p.text(
+            egui::pos2(x0 + w / 2.0, bottom + 6.0),
+            egui::Align2::CENTER_CENTER,
+            s.prn.to_string(),
+            font.clone(),
+            ui.visuals().text_color(),
+        );
     }
 }
 

@@ -33,10 +33,16 @@ impl DeviceFactory for Hardware {
         crate::gps_source::open(source, route, events)
     }
 
-    fn open_vest(&self, source: &VestSourceConfig, events: Outbox<VestEvent>) -> Result<Arc<dyn VestLink>, String> {
+    fn open_vest(
+        &self,
+        source: &VestSourceConfig,
+        events: Outbox<VestEvent>,
+    ) -> Result<Arc<dyn VestLink>, String> {
         let config = match source {
             VestSourceConfig::Emulated => wtcu::VestConfig::Emulated(wtcu::engine::EngineConfig::default()),
-            VestSourceConfig::Serial { port } if port.trim().is_empty() => return Err("pick the vest's port".into()),
+            VestSourceConfig::Serial { port } if port.trim().is_empty() => {
+                return Err("pick the vest's port".into());
+            }
             VestSourceConfig::Serial { port } => {
                 wtcu::VestConfig::Serial { port: port.trim().to_owned(), baud: WTCU_BAUD }
             }
@@ -51,11 +57,9 @@ impl DeviceFactory for Hardware {
         std::thread::Builder::new()
             .name("vestnav-vest-pump".into())
             .spawn(move || {
-                loop {
-                    match wake_rx.recv_timeout(Duration::from_millis(200)) {
-                        Ok(()) | Err(RecvTimeoutError::Timeout) => {}
-                        Err(RecvTimeoutError::Disconnected) => break,
-                    }
+                while let Ok(()) | Err(RecvTimeoutError::Timeout) =
+                    wake_rx.recv_timeout(Duration::from_millis(200))
+                {
                     let mut batch = Vec::new();
                     {
                         let Ok(guard) = pump.handle.lock() else { break };
@@ -133,7 +137,9 @@ fn convert_vest_event(ev: wtcu::VestEvent) -> Vec<VestEvent> {
             )),
         ],
         wtcu::VestEvent::TactorsOn(m) => vec![VestEvent::TactorsOn(m.unwrap_or(TactorMask::NONE))],
-        wtcu::VestEvent::Acked { seq, kind } => vec![VestEvent::Ack { what: format!("{} #{seq}", kind.name()) }],
+        wtcu::VestEvent::Acked { seq, kind } => {
+            vec![VestEvent::Ack { what: format!("{} #{seq}", kind.name()) }]
+        }
         wtcu::VestEvent::Rejected { kind, reason } => {
             vec![VestEvent::Rejected { reason: format!("{}: {reason}", kind.name()) }]
         }
@@ -153,11 +159,17 @@ pub fn convert_fix(f: &dgps::Fix) -> GpsFix {
     let mode = match f.mode {
         Some(dgps::FixMode::Fix3D) => FixMode::Fix3d,
         Some(dgps::FixMode::Fix2D) => FixMode::Fix2d,
-        Some(dgps::FixMode::NoFix) => FixMode::NoFix,
-        None if f.quality.is_some_and(dgps::FixQuality::has_position) && f.lat_deg.is_some() && f.lon_deg.is_some() => {
-            if f.alt_m.is_some() { FixMode::Fix3d } else { FixMode::Fix2d }
+        None if f.quality.is_some_and(dgps::FixQuality::has_position)
+            && f.lat_deg.is_some()
+            && f.lon_deg.is_some() =>
+        {
+            if f.alt_m.is_some() {
+                FixMode::Fix3d
+            } else {
+                FixMode::Fix2d
+            }
         }
-        None => FixMode::NoFix,
+        Some(dgps::FixMode::NoFix) | None => FixMode::NoFix,
     };
     let time_utc = f
         .time

@@ -10,7 +10,7 @@
 //! ```no_run
 //! # use vestnav_app::{console::{Console, ConsoleOptions}, config::Config, hardware::Hardware};
 //! let console = Console::new(
-//!     Box::new(Hardware::default()),
+//!     Box::new(Hardware),
 //!     ConsoleOptions { cfg: Config::default(), cfg_path: None, log_dir: None, waker: None },
 //! );
 //! assert!(console.gps_connected());
@@ -20,7 +20,6 @@ pub mod config;
 pub mod console;
 pub mod devices;
 mod fieldtest_panel;
-pub mod gps_device;
 pub mod gps_panel;
 pub mod gps_source;
 pub mod guidance;
@@ -41,7 +40,8 @@ use console::{Console, ConsoleOptions};
 /// built-in GPS simulator walking the demo route and the emulated vest.
 pub fn run() -> anyhow::Result<()> {
     let cfg_path = config::default_path();
-    let (cfg, cfg_error) = cfg_path.as_deref().map_or_else(|| (config::Config::default(), None), config::Config::load);
+    let (cfg, cfg_error) =
+        cfg_path.as_deref().map_or_else(|| (config::Config::default(), None), config::Config::load);
     let log_dir = cfg.log_dir.clone().unwrap_or_else(|| config::data_dir().join("sessions"));
     let options = eframe::NativeOptions {
         viewport: egui::ViewportBuilder::default()
@@ -55,7 +55,7 @@ pub fn run() -> anyhow::Result<()> {
         options,
         Box::new(move |cc| {
             let mut console = Console::new(
-                Box::new(hardware::Hardware::default()),
+                Box::new(hardware::Hardware),
                 ConsoleOptions { cfg, cfg_path, log_dir: Some(log_dir), waker: Some(cc.egui_ctx.clone()) },
             );
             if let Some(e) = cfg_error {

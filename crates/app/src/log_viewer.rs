@@ -54,7 +54,10 @@ impl LogViewer {
             for p in list_logs(dir).into_iter().take(50) {
                 let cur = current.is_some_and(|c| c == p);
                 let name = p.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-                if ui.selectable_label(false, if cur { format!("{name} (this session)") } else { name }).clicked() {
+                if ui
+                    .selectable_label(false, if cur { format!("{name} (this session)") } else { name })
+                    .clicked()
+                {
                     self.path = p.display().to_string();
                     self.load(&p);
                 }
@@ -123,9 +126,14 @@ impl LogViewer {
 fn summary(e: &LogEntry) -> String {
     match e {
         LogEntry::Fix { lat_deg, lon_deg, error_m, .. } => {
-            format!("fix {lat_deg:.6}, {lon_deg:.6}{}", error_m.map_or(String::new(), |e| format!(" ±{e:.1} m")))
+            format!(
+                "fix {lat_deg:.6}, {lon_deg:.6}{}",
+                error_m.map_or(String::new(), |e| format!(" ±{e:.1} m"))
+            )
         }
-        LogEntry::Command { origin, command, reason } => format!("{origin:?} command {command:?} ({reason})"),
+        LogEntry::Command { origin, command, reason } => {
+            format!("{origin:?}: {} ({reason})", command.describe())
+        }
         LogEntry::Ack { what } => format!("ack {what}"),
         LogEntry::TactorsOn { mask } => {
             format!("on: [{}]", mask.indices().map(|i| i.to_string()).collect::<Vec<_>>().join(" "))

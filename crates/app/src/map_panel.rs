@@ -19,6 +19,8 @@ use crate::route::{Waypoint, decimation_stride, distance_bearing, enu_from_wgs84
 pub const TRACK_DRAW_MAX: usize = 4000;
 /// Newest track points always drawn at full resolution.
 pub const TRACK_TAIL: usize = 600;
+/// With tiles on, the map falls back to the local grid when no tile has arrived for this long [s].
+pub const TILES_OFFLINE_AFTER_S: f64 = 2.0;
 
 /// Map state kept between frames.
 pub struct MapView {
@@ -27,8 +29,8 @@ pub struct MapView {
     tiles: Option<HttpTiles>,
     tile_hits: Rc<Cell<u32>>,
     tile_misses: Rc<Cell<u32>>,
-    /// Frames in a row in which no tile was available although tiles are on.
-    pub frames_without_tiles: u32,
+    /// UI time since which no tile has been available although tiles are on [s].
+    pub no_tiles_since_s: Option<f64>,
     /// Name of the route.
     pub route_name: String,
     /// The waypoints, in order.
@@ -100,7 +102,7 @@ impl MapView {
             tiles: None,
             tile_hits: Rc::default(),
             tile_misses: Rc::default(),
-            frames_without_tiles: 0,
+            no_tiles_since_s: None,
             route_name: "route".into(),
             waypoints: Vec::new(),
             next: 0,
@@ -191,7 +193,11 @@ impl MapView {
                 *status = match crate::route::write_gpx(&self.route_name, &self.waypoints, &self.track)
                     .and_then(|t| std::fs::write(&path, t).map_err(|e| e.to_string()))
                 {
-                    Ok(()) => format!("wrote {} waypoints and {} track points to {path}", self.waypoints.len(), self.track.len()),
+                    Ok(()) => format!(
+                        "wrote {} waypoints and {} track points to {path}",
+                        self.waypoints.len(),
+                        self.track.len()
+                    ),
                     Err(e) => format!("GPX export failed: {e}"),
                 };
             }
@@ -205,9 +211,13 @@ impl MapView {
 
     fn next_info(&self, ui: &mut egui::Ui, fix: Option<&GpsFix>, speed_m_s: Option<f64>, walking_m_s: f64) {
         let text = match (fix, self.waypoints.get(self.next)) {
-            (_, None) if self.waypoints.is_empty() => "no waypoints: right-click the map to add one".to_owned(),
+            (_, None) if self.waypoints.is_empty() => {
+                "no waypoints: right-click the map to add one".to_owned()
+            }
             (_, None) => "route finished".to_owned(),
-            (None, Some(w)) => format!("next: {} ({}/{}) · waiting for a fix", w.name, self.next + 1, self.waypoints.len()),
+            (None, Some(w)) => {
+                format!("next: {} ({}/{}) · waiting for a fix", w.name, self.next + 1, self.waypoints.len())
+            }
             (Some(f), Some(w)) => {
                 let (d, b) = distance_bearing(f.lat_deg, f.lon_deg, w.lat_deg, w.lon_deg);
                 let v = speed_m_s.filter(|v| *v >= 0.3).unwrap_or(walking_m_s).max(0.1);
@@ -234,7 +244,8 @@ impl MapView {
                 let w = &self.waypoints[i];
                 ui.horizontal(|ui| {
                     let marker = if i == self.next { "> " } else { "" };
-                    if ui.selectable_label(i == self.next, format!("{marker}{} {}", i + 1, w.name)).clicked() {
+                    if ui.selectable_label(i == self.next, format!("{marker}{} {}", i + 1, w.name)).clicked()
+                    {
                         action = Some((i, 0));
                     }
                     if ui.small_button("Up").on_hover_text("Move earlier").clicked() {
@@ -299,7 +310,8 @@ impl MapView {
                 user_agent: Some(walkers::HeaderValue::from_static("vestnav-console/0.1")),
                 ..HttpOptions::default()
             };
-            self.tiles = Some(HttpTiles::with_options(walkers::sources::OpenStreetMap, options, ui.ctx().clone()));
+            self.tiles =
+                Some(HttpTiles::with_options(walkers::sources::OpenStreetMap, options, ui.ctx().clone()));
         }
         let wearer = fix.map(|f| lat_lon(f.lat_deg, f.lon_deg));
         let anchor = self.anchor();
@@ -307,11 +319,16 @@ impl MapView {
         self.tile_hits.set(0);
         self.tile_misses.set(0);
         let mut counting = match (&mut self.tiles, cfg.map_tiles) {
-            (Some(t), true) => Some(CountingTiles { inner: t, hits: self.tile_hits.clone(), misses: self.tile_misses.clone() }),
+            (Some(t), true) => Some(CountingTiles {
+                inner: t,
+                hits: self.tile_hits.clone(),
+                misses: self.tile_misses.clone(),
+            }),
             _ => None,
         };
         let tiles_dyn = counting.as_mut().map(|t| t as &mut dyn Tiles);
-        let frames_without_tiles = self.frames_without_tiles;
+        let now_s = ui.input(|i| i.time);
+        let tiles_missing_s = self.no_tiles_since_s.map_or(0.0, |t| now_s - t);
         let tiles_on = cfg.map_tiles;
         // Borrow the fields the closure needs separately from walkers' memory.
         let waypoints = &mut self.waypoints;
@@ -326,11 +343,12 @@ impl MapView {
         let resp = map.show(ui, |ui, response, projector, _memory| {
             let rect = response.rect;
             let painter = ui.painter_at(rect);
-            let offline = !tiles_on || frames_without_tiles > 120;
+            let offline = !tiles_on || tiles_missing_s > TILES_OFFLINE_AFTER_S;
             if offline {
                 painter.rect_filled(rect, 0.0, ui.visuals().extreme_bg_color);
             }
-            let px_per_m = f64::from(projector.scale_pixel_per_meter(projector.unproject(rect.center().to_vec2())));
+            let px_per_m =
+                f64::from(projector.scale_pixel_per_meter(projector.unproject(rect.center().to_vec2())));
             draw_grid(&painter, projector, rect, anchor, px_per_m, offline, ui.visuals().dark_mode);
 
             // Route line, the leg to the next waypoint highlighted.
@@ -340,14 +358,26 @@ impl MapView {
                 painter.line(pts.clone(), Stroke::new(2.0, Color32::from_rgb(60, 120, 220)));
             }
             if let (Some(w), Some(p)) = (wearer, pts.get(*next)) {
-                painter.line_segment([to_pos2(projector.project(w)), *p], Stroke::new(2.5, Color32::from_rgb(240, 140, 0)));
+                painter.line_segment(
+                    [to_pos2(projector.project(w)), *p],
+                    Stroke::new(2.5, Color32::from_rgb(240, 140, 0)),
+                );
             }
 
             // Replay track from a session log / GPX import.
             if let Some((rt, cursor)) = replay {
-                draw_track(&painter, projector, &rt[..(*cursor).min(rt.len())], Color32::from_rgb(150, 60, 200));
+                draw_track(
+                    &painter,
+                    projector,
+                    &rt[..(*cursor).min(rt.len())],
+                    Color32::from_rgb(150, 60, 200),
+                );
                 if let Some(&(la, lo)) = rt.get((*cursor).min(rt.len()).saturating_sub(1)) {
-                    painter.circle_filled(to_pos2(projector.project(lat_lon(la, lo))), 6.0, Color32::from_rgb(150, 60, 200));
+                    painter.circle_filled(
+                        to_pos2(projector.project(lat_lon(la, lo))),
+                        6.0,
+                        Color32::from_rgb(150, 60, 200),
+                    );
                 }
             }
             // The wearer's own track.
@@ -361,26 +391,45 @@ impl MapView {
                     continue;
                 }
                 let id = egui::Id::unique(("vestnav-waypoint", i));
-                let r = ui.interact(egui::Rect::from_center_size(*p, vec2(18.0, 18.0)), id, egui::Sense::click_and_drag());
-                if r.dragged() {
-                    if let Some(pos) = r.interact_pointer_pos() {
-                        let ll = projector.unproject(pos.to_vec2());
-                        waypoints[i].lat_deg = ll.y();
-                        waypoints[i].lon_deg = ll.x();
-                        changed = true;
-                    }
+                let r = ui.interact(
+                    egui::Rect::from_center_size(*p, vec2(18.0, 18.0)),
+                    id,
+                    egui::Sense::click_and_drag(),
+                );
+                if r.dragged()
+                    && let Some(pos) = r.interact_pointer_pos()
+                {
+                    let ll = projector.unproject(pos.to_vec2());
+                    waypoints[i].lat_deg = ll.y();
+                    waypoints[i].lon_deg = ll.x();
+                    changed = true;
                 }
-                let fill = if i == *next {
-                    Color32::from_rgb(240, 140, 0)
-                } else if i < *next {
-                    Color32::from_rgb(120, 160, 120)
-                } else {
-                    Color32::from_rgb(60, 120, 220)
+                let fill = match i.cmp(&*next) {
+                    std::cmp::Ordering::Equal => Color32::from_rgb(240, 140, 0),
+                    std::cmp::Ordering::Less => Color32::from_rgb(120, 160, 120),
+                    std::cmp::Ordering::Greater => Color32::from_rgb(60, 120, 220),
                 };
-                painter.circle(*p, if r.hovered() || r.dragged() { 10.0 } else { 8.0 }, fill, Stroke::new(1.5, Color32::WHITE));
-                painter.text(*p, egui::Align2::CENTER_CENTER, (i + 1).to_string(), font.clone(), Color32::WHITE);
+                painter.circle(
+                    *p,
+                    if r.hovered() || r.dragged() { 10.0 } else { 8.0 },
+                    fill,
+                    Stroke::new(1.5, Color32::WHITE),
+                );
+                painter.text(
+                    *p,
+                    egui::Align2::CENTER_CENTER,
+                    (i + 1).to_string(),
+                    font.clone(),
+                    Color32::WHITE,
+                );
                 if pts.len() <= 200 || r.hovered() {
-                    painter.text(*p + vec2(12.0, -12.0), egui::Align2::LEFT_BOTTOM, &waypoints[i].name, font.clone(), ui.visuals().strong_text_color());
+                    painter.text(
+                        *p + vec2(12.0, -12.0),
+                        egui::Align2::LEFT_BOTTOM,
+                        &waypoints[i].name,
+                        font.clone(),
+                        ui.visuals().strong_text_color(),
+                    );
                 }
                 r.context_menu(|ui| {
                     ui.label(RichText::new(&waypoints[i].name).strong());
@@ -404,25 +453,36 @@ impl MapView {
                 let c = to_pos2(projector.project(w));
                 if let Some(e) = f.error_m.filter(|e| e.is_finite() && *e > 0.0) {
                     let r = (e * px_per_m) as f32;
-                    painter.circle(c, r.min(4000.0), Color32::from_rgba_unmultiplied(40, 140, 255, 40), Stroke::new(1.0, Color32::from_rgb(40, 140, 255)));
+                    painter.circle(
+                        c,
+                        r.min(4000.0),
+                        Color32::from_rgba_unmultiplied(40, 140, 255, 40),
+                        Stroke::new(1.0, Color32::from_rgb(40, 140, 255)),
+                    );
                 }
-                if let (Some(course), Some(v)) = (f.course_deg, f.speed_m_s) {
-                    if v >= 0.3 && course.is_finite() {
-                        let a = (course as f32).to_radians();
-                        let tip = c + vec2(a.sin(), -a.cos()) * 22.0;
-                        painter.arrow(c, tip - c, Stroke::new(3.0, Color32::from_rgb(20, 90, 200)));
-                    }
+                if let (Some(course), Some(v)) = (f.course_deg, f.speed_m_s)
+                    && v >= 0.3
+                    && course.is_finite()
+                {
+                    let a = (course as f32).to_radians();
+                    let tip = c + vec2(a.sin(), -a.cos()) * 22.0;
+                    painter.arrow(c, tip - c, Stroke::new(3.0, Color32::from_rgb(20, 90, 200)));
                 }
                 painter.circle(c, 7.0, Color32::from_rgb(20, 90, 200), Stroke::new(2.0, Color32::WHITE));
             }
 
             // Adding waypoints.
-            if add_mode && response.clicked() {
-                if let Some(pos) = response.interact_pointer_pos() {
-                    let ll = projector.unproject(pos.to_vec2());
-                    waypoints.push(Waypoint { name: format!("WP{}", waypoints.len() + 1), lat_deg: ll.y(), lon_deg: ll.x() });
-                    changed = true;
-                }
+            if add_mode
+                && response.clicked()
+                && let Some(pos) = response.interact_pointer_pos()
+            {
+                let ll = projector.unproject(pos.to_vec2());
+                waypoints.push(Waypoint {
+                    name: format!("WP{}", waypoints.len() + 1),
+                    lat_deg: ll.y(),
+                    lon_deg: ll.x(),
+                });
+                changed = true;
             }
             if response.secondary_clicked() {
                 *right_click_at = response.interact_pointer_pos().map(|p| projector.unproject(p.to_vec2()));
@@ -443,18 +503,44 @@ impl MapView {
             let y = rect.bottom() - 16.0;
             let x0 = rect.left() + 14.0;
             let ink = ui.visuals().strong_text_color();
-            painter.rect_filled(egui::Rect::from_min_max(egui::pos2(x0 - 6.0, y - 18.0), egui::pos2(x0 + bar_px + 40.0, y + 6.0)), 3.0, ui.visuals().panel_fill.gamma_multiply(0.85));
+            painter.rect_filled(
+                egui::Rect::from_min_max(
+                    egui::pos2(x0 - 6.0, y - 18.0),
+                    egui::pos2(x0 + bar_px + 40.0, y + 6.0),
+                ),
+                3.0,
+                ui.visuals().panel_fill.gamma_multiply(0.85),
+            );
             painter.line_segment([egui::pos2(x0, y), egui::pos2(x0 + bar_px, y)], Stroke::new(3.0, ink));
             painter.line_segment([egui::pos2(x0, y - 5.0), egui::pos2(x0, y + 3.0)], Stroke::new(2.0, ink));
-            painter.line_segment([egui::pos2(x0 + bar_px, y - 5.0), egui::pos2(x0 + bar_px, y + 3.0)], Stroke::new(2.0, ink));
+            painter.line_segment(
+                [egui::pos2(x0 + bar_px, y - 5.0), egui::pos2(x0 + bar_px, y + 3.0)],
+                Stroke::new(2.0, ink),
+            );
             let label = if bar_m >= 1000.0 { format!("{} km", bar_m / 1000.0) } else { format!("{bar_m} m") };
-            painter.text(egui::pos2(x0 + bar_px / 2.0, y - 4.0), egui::Align2::CENTER_BOTTOM, label, font.clone(), ink);
+            painter.text(
+                egui::pos2(x0 + bar_px / 2.0, y - 4.0),
+                egui::Align2::CENTER_BOTTOM,
+                label,
+                font.clone(),
+                ink,
+            );
             let note = if offline {
-                if tiles_on { "tiles unavailable (offline?): local grid" } else { "local metric grid (tiles off)" }
+                if tiles_on {
+                    "tiles unavailable (offline?): local grid"
+                } else {
+                    "local metric grid (tiles off)"
+                }
             } else {
                 "© OpenStreetMap contributors"
             };
-            painter.text(rect.right_bottom() - vec2(6.0, 4.0), egui::Align2::RIGHT_BOTTOM, note, egui::FontId::proportional(11.0), ink);
+            painter.text(
+                rect.right_bottom() - vec2(6.0, 4.0),
+                egui::Align2::RIGHT_BOTTOM,
+                note,
+                egui::FontId::proportional(11.0),
+                ink,
+            );
 
             (action, add_here)
         });
@@ -472,12 +558,10 @@ impl MapView {
             self.add_waypoint(pos, as_next);
             changed = true;
         }
-        if cfg.map_tiles {
-            if self.tile_hits.get() == 0 && self.tile_misses.get() > 0 {
-                self.frames_without_tiles = self.frames_without_tiles.saturating_add(1);
-            } else if self.tile_hits.get() > 0 {
-                self.frames_without_tiles = 0;
-            }
+        if cfg.map_tiles && self.tile_hits.get() == 0 && self.tile_misses.get() > 0 {
+            self.no_tiles_since_s.get_or_insert(now_s);
+        } else {
+            self.no_tiles_since_s = None;
         }
         if self.memory.detached().is_some() {
             cfg.follow = false;
@@ -494,7 +578,12 @@ fn draw_track(painter: &egui::Painter, projector: &Projector, track: &[(f64, f64
     let tail_start = track.len().saturating_sub(TRACK_TAIL);
     let stride = decimation_stride(tail_start, TRACK_DRAW_MAX - TRACK_TAIL);
     let mut pts: Vec<Pos2> = Vec::with_capacity(TRACK_DRAW_MAX + 2);
-    pts.extend(track[..tail_start].iter().step_by(stride).map(|&(la, lo)| to_pos2(projector.project(lat_lon(la, lo)))));
+    pts.extend(
+        track[..tail_start]
+            .iter()
+            .step_by(stride)
+            .map(|&(la, lo)| to_pos2(projector.project(lat_lon(la, lo)))),
+    );
     pts.extend(track[tail_start..].iter().map(|&(la, lo)| to_pos2(projector.project(lat_lon(la, lo)))));
     painter.line(pts, Stroke::new(2.0, color));
 }
@@ -580,6 +669,6 @@ mod tests {
         m.move_waypoint(0, -1);
         assert_eq!(m.waypoints[0].name, "WP3");
         m.add_waypoint(lat_lon(1.0, 2.0), true);
-        assert_eq!(m.waypoints[1].lat_deg, 1.0);
+        assert_relative_eq!(m.waypoints[1].lat_deg, 1.0);
     }
 }

@@ -139,6 +139,20 @@ pub enum VestCommand {
     StopAll,
 }
 
+impl VestCommand {
+    /// A short human description ("fire [0 3] 500 ms", "play 'turn left' (4 frames, x1)", "STOP ALL").
+    pub fn describe(&self) -> String {
+        match self {
+            Self::Fire { mask, on_ms } => {
+                let idx: Vec<String> = mask.indices().map(|i| i.to_string()).collect();
+                format!("fire [{}] {on_ms} ms", idx.join(" "))
+            }
+            Self::Play(p) => format!("play '{}' ({} frames, x{})", p.name, p.frames.len(), p.repeats),
+            Self::StopAll => "STOP ALL".to_owned(),
+        }
+    }
+}
+
 /// Who asked for a vest command (for the log and the override rule).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub enum CommandOrigin {

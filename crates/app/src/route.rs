@@ -25,7 +25,8 @@ pub struct Waypoint {
 /// Solves the inverse geodesic problem on the WGS-84 ellipsoid (Karney, "Algorithms for geodesics", 2013).
 pub fn distance_bearing(lat1_deg: f64, lon1_deg: f64, lat2_deg: f64, lon2_deg: f64) -> (f64, f64) {
     let g = Geodesic::wgs84();
-    let (s12_m, azi1_deg, _azi2, _a12): (f64, f64, f64, f64) = g.inverse(lat1_deg, lon1_deg, lat2_deg, lon2_deg);
+    let (s12_m, azi1_deg, _azi2, _a12): (f64, f64, f64, f64) =
+        g.inverse(lat1_deg, lon1_deg, lat2_deg, lon2_deg);
     (s12_m, azi1_deg.rem_euclid(360.0))
 }
 
@@ -81,7 +82,11 @@ pub fn parse_gpx(text: &str) -> Result<GpxContent, String> {
         if !(lat.is_finite() && lon.is_finite() && lat.abs() <= 90.0 && lon.abs() <= 180.0) {
             return Err(format!("point {} has invalid coordinates ({lat}, {lon})", i + 1));
         }
-        Ok(Waypoint { name: w.name.clone().unwrap_or_else(|| format!("WP{}", i + 1)), lat_deg: lat, lon_deg: lon })
+        Ok(Waypoint {
+            name: w.name.clone().unwrap_or_else(|| format!("WP{}", i + 1)),
+            lat_deg: lat,
+            lon_deg: lon,
+        })
     };
     let (name, pts) = match g.routes.first() {
         Some(r) => (r.name.clone(), &r.points),

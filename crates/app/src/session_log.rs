@@ -164,10 +164,10 @@ impl Drop for SessionLog {
     fn drop(&mut self) {
         // Workers may still hold senders; the thread ends when the last one goes. Do not wait for them here.
         self.outbox = None;
-        if let Some(t) = self.thread.take() {
-            if t.is_finished() {
-                let _ = t.join();
-            }
+        if let Some(t) = self.thread.take()
+            && t.is_finished()
+        {
+            let _ = t.join();
         }
     }
 }
@@ -237,10 +237,7 @@ pub fn read_log(path: &Path) -> std::io::Result<LoadedLog> {
 pub fn list_logs(dir: &Path) -> Vec<PathBuf> {
     let mut v: Vec<PathBuf> = std::fs::read_dir(dir)
         .map(|d| {
-            d.flatten()
-                .map(|e| e.path())
-                .filter(|p| p.extension().is_some_and(|e| e == "jsonl"))
-                .collect()
+            d.flatten().map(|e| e.path()).filter(|p| p.extension().is_some_and(|e| e == "jsonl")).collect()
         })
         .unwrap_or_default();
     v.sort();

@@ -364,6 +364,10 @@ impl HeatSpec {
     pub fn show(&self, ui: &mut egui::Ui, id_salt: &str, height: f32) {
         ui.label(egui::RichText::new(&self.title).strong());
         let range = self.value_range();
+        if range.is_none() {
+            let value = self.values.iter().find(|v| v.is_finite()).copied().unwrap_or(0.0);
+            ui.label(format!("uniform field: {} = {value:.3} everywhere", self.colorbar_label));
+        }
         if let Some((lo, hi)) = range {
             ui.horizontal(|ui| {
                 ui.label(format!("{}:", self.colorbar_label));
@@ -894,7 +898,7 @@ fn export_row(
 }
 
 /// Draws panels in a two-column grid that fills the available width.
-fn panels_grid(ui: &mut egui::Ui, id: &str, panels: &[PanelSpec], height: f32) {
+pub(crate) fn panels_grid(ui: &mut egui::Ui, id: &str, panels: &[PanelSpec], height: f32) {
     let columns = if ui.available_width() > 900.0 { 2 } else { 1 };
     for (row, chunk) in panels.chunks(columns).enumerate() {
         ui.columns(columns, |cols| {
@@ -1330,7 +1334,7 @@ fn compute_waves(i: &WaveInputs) -> Result<PanelsOutput, String> {
         amplitude_m_s2: i.amplitude_m_s2,
         width_m: i.width_mm * 1e-3,
         frequency_hz: i.frequency_hz,
-        ..WaveSource::measured(wave::tactor_position_m(0, 0.0).unwrap_or_default())
+        ..WaveSource::measured(wave::tactor_position_m(0, 0.0).unwrap_or_default()) // moved per tactor below
     };
     let skin = Skin { speed_m_s: i.speed_m_s };
     let sources = wave::vest_sources(i.mask, spacing_m, &template);
@@ -1339,6 +1343,8 @@ fn compute_waves(i: &WaveInputs) -> Result<PanelsOutput, String> {
     // Field over the grid plus one spacing of margin on every side.
     let half_m = 2.5 * spacing_m;
     let cell_m = 2.0 * half_m / FIELD_CELLS as f64;
+    // The plane's origin as the core's vector type (this crate does not depend on glam itself): every point
+    // below is `origin.with_x(x).with_y(y)`.
     let origin = wave::tactor_position_m(0, 0.0).unwrap_or_default();
     let mut values = Vec::with_capacity(FIELD_CELLS * FIELD_CELLS);
     for row in 0..FIELD_CELLS {
@@ -2290,5 +2296,35 @@ mod tests {
         harness.run_steps(2);
         assert!(harness.state().tactor.job.shown().is_some());
         harness.get_by_label("Save PNG");
+    }
+
+    #[test]
+    fn calibrated_damping_goes_to_the_tactor_view_and_views_export() {
+        use egui_kittest::Harness;
+        use egui_kittest::kittest::Queryable as _;
+        let mut harness = Harness::new_ui_state(|ui, panel: &mut SimPanel| panel.ui(ui), SimPanel::new());
+        harness.set_size(egui::vec2(1400.0, 1000.0));
+        harness.get_by_label("Damping sweep").click();
+        harness.run_steps(2);
+        harness.state_mut().sweep.job.wait();
+        harness.state_mut().sweep.calibration.wait();
+        harness.run_steps(2);
+        let calibrated = harness.state().sweep.calibration.shown().map(|(_, c)| c.damping_n_m_s).unwrap();
+        harness.get_by_label("Simulate this tactor").click();
+        harness.run_steps(2);
+        assert_eq!(harness.state().tab, Tab::Tactor);
+        assert_relative_eq!(harness.state().tactor.inputs.damping_n_m_s, calibrated);
+
+        let dir = tmp_dir("ui-export");
+        let path = dir.join("tactor-view");
+        harness.state_mut().tactor.job.wait();
+        harness.state_mut().tactor.exporter.path = path.to_string_lossy().into_owned();
+        harness.run_steps(2);
+        harness.get_by_label("Save CSV").click();
+        harness.run_steps(2);
+        harness.state_mut().tactor.exporter.wait();
+        assert!(matches!(harness.state().tactor.exporter.status(), Some(Ok(_))));
+        let csv = std::fs::read_to_string(path.with_extension("csv")).unwrap();
+        assert!(csv.contains(&format!("{calibrated:.4e}")), "the CSV header names the damping used");
     }
 }

@@ -20,7 +20,7 @@ pub fn show(c: &mut Console, ui: &mut egui::Ui) {
         ui.checkbox(&mut c.vest.select_mode, "Multi-select");
         let n = c.vest.selected.count();
         if ui.add_enabled(n > 0, egui::Button::new(format!("Fire selected ({n})"))).clicked() {
-            c.send_manual(VestCommand::Fire { mask: c.vest.selected, on_ms: c.cfg.on_ms });
+            c.send_manual(VestCommand::Fire { mask: c.vest.selected, on_ms: c.cfg.on_ms }, None);
         }
         if ui.add_enabled(n > 0, egui::Button::new("Clear")).clicked() {
             c.vest.selected = TactorMask::NONE;
@@ -66,8 +66,13 @@ fn connection_ui(c: &mut Console, ui: &mut egui::Ui) {
                 .selected_text(if port.is_empty() { "pick" } else { port.as_str() })
                 .show_ui(ui, |ui| {
                     for p in vestnav_device::serial::list_ports() {
-                        let bt = if p.kind == vestnav_device::serial::PortKind::Bluetooth { "[BT] " } else { "" };
-                        ui.selectable_value(port, p.name.clone(), format!("{bt}{} {}", p.name, p.description));
+                        let bt =
+                            if p.kind == vestnav_device::serial::PortKind::Bluetooth { "[BT] " } else { "" };
+                        ui.selectable_value(
+                            port,
+                            p.name.clone(),
+                            format!("{bt}{} {}", p.name, p.description),
+                        );
                     }
                 });
             ui.text_edit_singleline(port);
@@ -121,7 +126,7 @@ fn grid_ui(c: &mut Console, ui: &mut egui::Ui) {
                     if c.vest.select_mode || ctrl {
                         c.vest.selected = TactorMask(c.vest.selected.0 ^ (1 << i));
                     } else if let Some(mask) = TactorMask::single(i) {
-                        c.send_manual(VestCommand::Fire { mask, on_ms: c.cfg.on_ms });
+                        c.send_manual(VestCommand::Fire { mask, on_ms: c.cfg.on_ms }, None);
                     }
                 }
             }
@@ -139,7 +144,7 @@ fn patterns_ui(c: &mut Console, ui: &mut egui::Ui) {
     ui.horizontal_wrapped(|ui| {
         for cue in Cue::ALL {
             if ui.button(cue.name()).on_hover_text(describe(&cue.pattern(c.cfg.on_ms))).clicked() {
-                c.send_manual(VestCommand::Play(cue.pattern(c.cfg.on_ms)));
+                c.send_manual(VestCommand::Play(cue.pattern(c.cfg.on_ms)), Some(cue));
             }
         }
     });
@@ -156,13 +161,15 @@ fn patterns_ui(c: &mut Console, ui: &mut egui::Ui) {
         });
     }
     if let Some(p) = play {
-        c.send_manual(VestCommand::Play(p));
+        c.send_manual(VestCommand::Play(p), None);
     }
     if let Some(k) = remove {
         c.cfg.user_patterns.remove(k);
     }
     ui.horizontal(|ui| {
-        ui.add(egui::TextEdit::singleline(&mut c.vest.new_pattern_name).hint_text("name").desired_width(90.0));
+        ui.add(
+            egui::TextEdit::singleline(&mut c.vest.new_pattern_name).hint_text("name").desired_width(90.0),
+        );
         let ok = !c.vest.selected.is_empty() && !c.vest.new_pattern_name.trim().is_empty();
         if ui
             .add_enabled(ok, egui::Button::new("Save selection as pattern"))

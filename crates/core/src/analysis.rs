@@ -1,19 +1,18 @@
-//! Measured tactor traces (thesis §3.1): peak frequency, amplitude envelope, overshoot, settling time, statistics
-//! across trials and tactors, and the 5th-order zero-phase Butterworth low-pass the thesis filtered with.
+//! Measured tactor traces (thesis §3.1): peak frequency, amplitude envelope, overshoot, settling time,
+//! statistics across trials and tactors, and the 5th-order zero-phase Butterworth low-pass the thesis
+//! filtered with.
 //!
-//! A trace is a force [N] or acceleration [m/s^2] series sampled uniformly (the thesis: 10 kHz on an impedance
-//! head); amplitudes come out in the trace's own unit. Input comes as CSV text ([`parse_csv`]): parsing is pure,
-//! reading the file is the caller's job, and every malformed byte is an error with its line number.
+//! A trace is a force \[N\] or acceleration [m/s^2] series sampled uniformly (the thesis: 10 kHz on an
+//! impedance head); amplitudes come out in the trace's own unit. Input comes as CSV text ([`parse_csv`]):
+//! parsing is pure, reading the file is the caller's job, and every malformed byte is an error with its line
+//! number.
 //!
 //! ```
-//! use vestnav_core::analysis::{analyze_trace, Butterworth};
-//! let fs = 10_000.0;
-//! let x: Vec<f64> = (0..20_000).map(|i| (2.0 * std::f64::consts::PI * 133.0 * i as f64 / fs).sin()).collect();
-//! let summary = analyze_trace(&x, fs).unwrap();
-//! assert!((summary.peak_frequency_hz - 133.0).abs() < 0.05);
-//! assert!((summary.steady_amplitude - 1.0).abs() < 1e-3);
-//! let lp = Butterworth::lowpass(5, 400.0, fs).unwrap();
-//! assert!((lp.magnitude(0.0) - 1.0).abs() < 1e-12);
+//! use vestnav_core::analysis::{analyze_trace, Butterworth}; let fs = 10_000.0; let x: Vec<f64> =
+//! (0..20_000).map(|i| (2.0 * std::f64::consts::PI * 133.0 * i as f64 / fs).sin()).collect(); let summary =
+//! analyze_trace(&x, fs).unwrap(); assert!((summary.peak_frequency_hz - 133.0).abs() < 0.05);
+//! assert!((summary.steady_amplitude - 1.0).abs() < 1e-3); let lp = Butterworth::lowpass(5, 400.0,
+//! fs).unwrap(); assert!((lp.magnitude(0.0) - 1.0).abs() < 1e-12);
 //! ```
 
 use std::f64::consts::PI;
@@ -78,27 +77,27 @@ fn check_rate(sample_rate_hz: f64) -> Result<(), AnalysisError> {
     }
 }
 
-// ---------------------------------------------------------------------------------------------------------------
+// -----------------------------------------------------------------------------------------------------------
 // Spectrum
 
 /// The strongest spectral line of a trace.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct SpectralPeak {
-    /// Refined peak frequency [Hz].
+    /// Refined peak frequency \[Hz\].
     pub frequency_hz: f64,
-    /// Frequency of the strongest FFT bin [Hz].
+    /// Frequency of the strongest FFT bin \[Hz\].
     pub bin_frequency_hz: f64,
-    /// Bin width `fs / N` [Hz].
+    /// Bin width `fs / N` \[Hz\].
     pub bin_width_hz: f64,
 }
 
 /// Peak frequency of `x` (thesis §3.1) by FFT with sub-bin refinement.
 ///
 /// The mean is removed and a Hann window `w[n] = 0.5 - 0.5 cos(2 pi n / N)` applied (it keeps leakage of the
-/// start transient and of noise away from the peak). The strongest bin `k` (DC excluded) is refined by fitting a
-/// parabola to the log magnitudes of bins `k-1, k, k+1` (Gaussian interpolation):
-/// `delta = (ln m[k-1] - ln m[k+1]) / (2 (ln m[k-1] - 2 ln m[k] + ln m[k+1]))`, `f = (k + delta) fs / N`.
-/// For a Hann-windowed sinusoid the bias of this estimator is below 2 % of a bin.
+/// start transient and of noise away from the peak). The strongest bin `k` (DC excluded) is refined by
+/// fitting a parabola to the log magnitudes of bins `k-1, k, k+1` (Gaussian interpolation): `delta = (ln
+/// m[k-1] - ln m[k+1]) / (2 (ln m[k-1] - 2 ln m[k] + ln m[k+1]))`, `f = (k + delta) fs / N`. For a
+/// Hann-windowed sinusoid the bias of this estimator is below 2 % of a bin.
 pub fn peak_frequency(x: &[f64], sample_rate_hz: f64) -> Result<SpectralPeak, AnalysisError> {
     check_rate(sample_rate_hz)?;
     check_finite(x)?;
@@ -141,25 +140,25 @@ pub fn peak_frequency(x: &[f64], sample_rate_hz: f64) -> Result<SpectralPeak, An
     })
 }
 
-// ---------------------------------------------------------------------------------------------------------------
+// -----------------------------------------------------------------------------------------------------------
 // Envelope, overshoot, settling
 
 /// Oscillation amplitude envelope sampled once per oscillation period.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Envelope {
-    /// Centre time of each window [s], from the first sample.
+    /// Centre time of each window \[s\], from the first sample.
     pub time_s: Vec<f64>,
     /// Half the peak-to-peak value in each window (trace unit).
     pub amplitude: Vec<f64>,
-    /// Window length [s] (one period of the peak frequency, rounded to whole samples).
+    /// Window length \[s\] (one period of the peak frequency, rounded to whole samples).
     pub window_s: f64,
 }
 
-/// Amplitude envelope of `x` at oscillation frequency `frequency_hz`: the trace is cut into consecutive windows of
-/// one period `P = round(fs / f)` samples and each window's amplitude is `(max - min) / 2`. A window of one whole
-/// period holds one crest and one trough whatever the phase, and half the peak-to-peak ignores any sensor offset.
-/// The resolution is one period (7.5 ms at 133 Hz); sampling at 10 kHz misses a crest by at most
-/// `1 - cos(pi f / fs)` (0.09 % at 133 Hz). Unlike a Hilbert envelope it has no end effects.
+/// Amplitude envelope of `x` at oscillation frequency `frequency_hz`: the trace is cut into consecutive
+/// windows of one period `P = round(fs / f)` samples and each window's amplitude is `(max - min) / 2`. A
+/// window of one whole period holds one crest and one trough whatever the phase, and half the peak-to-peak
+/// ignores any sensor offset. The resolution is one period (7.5 ms at 133 Hz); sampling at 10 kHz misses a
+/// crest by at most `1 - cos(pi f / fs)` (0.09 % at 133 Hz). Unlike a Hilbert envelope it has no end effects.
 pub fn cycle_envelope(x: &[f64], sample_rate_hz: f64, frequency_hz: f64) -> Result<Envelope, AnalysisError> {
     check_rate(sample_rate_hz)?;
     check_finite(x)?;
@@ -190,28 +189,29 @@ pub const SETTLING_BAND: f64 = 0.02;
 /// What one trial shows (thesis §3.1).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct TraceSummary {
-    /// Peak frequency of the trace's second half [Hz] ([`peak_frequency`]).
+    /// Peak frequency of the trace's second half \[Hz\] ([`peak_frequency`]).
     pub peak_frequency_hz: f64,
     /// Steady oscillation amplitude: median envelope over the last quarter of the trace (trace unit).
     pub steady_amplitude: f64,
     /// Largest envelope value (trace unit).
     pub peak_amplitude: f64,
-    /// Time of the largest envelope value [s].
+    /// Time of the largest envelope value \[s\].
     pub peak_time_s: f64,
     /// Overshoot `100 (peak - steady) / steady` [%].
     pub overshoot_pct: f64,
-    /// 2 % settling time [s]: end of the last envelope window outside `steady (1 +- 0.02)`; 0 if none is.
+    /// 2 % settling time \[s\]: end of the last envelope window outside `steady (1 +- 0.02)`; 0 if none is.
     pub settling_time_s: f64,
     /// Number of samples.
     pub samples: usize,
-    /// Trace length [s].
+    /// Trace length \[s\].
     pub duration_s: f64,
 }
 
-/// Analyses one trial: peak frequency ([`peak_frequency`] of the second half, where the tactor runs steadily),
-/// envelope ([`cycle_envelope`] at that frequency), steady amplitude (median of the envelope windows in the last
-/// quarter), overshoot `100 (max env - steady) / steady` %, and the 2 % settling time of the envelope (the end time
-/// of the last window whose amplitude is outside `steady (1 +- 0.02)`; resolution one period).
+/// Analyses one trial: peak frequency ([`peak_frequency`] of the second half, where the tactor runs
+/// steadily), envelope ([`cycle_envelope`] at that frequency), steady amplitude (median of the envelope
+/// windows in the last quarter), overshoot `100 (max env - steady) / steady` %, and the 2 % settling time of
+/// the envelope (the end time of the last window whose amplitude is outside `steady (1 +- 0.02)`; resolution
+/// one period).
 pub fn analyze_trace(x: &[f64], sample_rate_hz: f64) -> Result<TraceSummary, AnalysisError> {
     check_rate(sample_rate_hz)?;
     check_finite(x)?;
@@ -254,7 +254,7 @@ pub fn analyze_trace(x: &[f64], sample_rate_hz: f64) -> Result<TraceSummary, Ana
     })
 }
 
-// ---------------------------------------------------------------------------------------------------------------
+// -----------------------------------------------------------------------------------------------------------
 // Statistics
 
 /// Descriptive statistics of a sample.
@@ -354,18 +354,19 @@ pub fn t_test(a: &[f64], b: &[f64], kind: TTestKind) -> Result<TTest, AnalysisEr
     Ok(TTest { kind, t, df, p_value, mean_difference: diff })
 }
 
-/// The thesis's power law across trials (§3.1, physics.md §1): `f = A n^B` with `n` the steady amplitude (force)
-/// and `f` the peak frequency of each trial, fitted in linear space with R^2 ([`fit_power_law`]).
+/// The thesis's power law across trials (§3.1, physics.md §1): `f = A n^B` with `n` the steady amplitude
+/// (force) and `f` the peak frequency of each trial, fitted in linear space with R^2 ([`fit_power_law`]).
 pub fn frequency_power_law(trials: &[TraceSummary]) -> Result<PowerLawFit, AnalysisError> {
     let n: Vec<f64> = trials.iter().map(|t| t.steady_amplitude).collect();
     let f: Vec<f64> = trials.iter().map(|t| t.peak_frequency_hz).collect();
     Ok(fit_power_law(&n, &f)?)
 }
 
-// ---------------------------------------------------------------------------------------------------------------
+// -----------------------------------------------------------------------------------------------------------
 // Butterworth low-pass
 
-/// One second-order section `(b0 + b1 z^-1 + b2 z^-2) / (1 + a1 z^-1 + a2 z^-2)`, run in transposed direct form II.
+/// One second-order section `(b0 + b1 z^-1 + b2 z^-2) / (1 + a1 z^-1 + a2 z^-2)`, run in transposed direct
+/// form II.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Biquad {
     /// Numerator `[b0, b1, b2]`.
@@ -407,21 +408,23 @@ pub struct Butterworth {
     pub sections: Vec<Biquad>,
     /// Filter order.
     pub order: usize,
-    /// -3 dB cutoff of one pass [Hz].
+    /// -3 dB cutoff of one pass \[Hz\].
     pub cutoff_hz: f64,
-    /// Sample rate [Hz].
+    /// Sample rate \[Hz\].
     pub sample_rate_hz: f64,
 }
 
 impl Butterworth {
-    /// Designs an order-`order` low-pass with cutoff `cutoff_hz` by the bilinear transform of the analog prototype.
+    /// Designs an order-`order` low-pass with cutoff `cutoff_hz` by the bilinear transform of the analog
+    /// prototype.
     ///
     /// Analog poles on a circle of radius `Wc = 2 fs tan(pi fc / fs)` (pre-warped so the digital filter has
-    /// `|H|^2 = 1/2` exactly at `fc`): `s_k = Wc exp(i pi (2k + N + 1) / (2N))`, `k = 0..N-1`; all zeros at infinity.
-    /// Bilinear transform `z = (1 + s/(2 fs)) / (1 - s/(2 fs))` maps each pole and sends the zeros to `z = -1`.
-    /// A conjugate pole pair `p, p*` becomes `g (1 + z^-1)^2 / (1 - 2 Re(p) z^-1 + |p|^2 z^-2)` with
-    /// `g = (1 - 2 Re(p) + |p|^2) / 4`; the real pole of an odd order `g (1 + z^-1) / (1 - p z^-1)`, `g = (1 - p)/2`;
-    /// so every section has unit gain at DC. The thesis used a 5th-order filter run forward and backward.
+    /// `|H|^2 = 1/2` exactly at `fc`): `s_k = Wc exp(i pi (2k + N + 1) / (2N))`, `k = 0..N-1`; all zeros at
+    /// infinity. Bilinear transform `z = (1 + s/(2 fs)) / (1 - s/(2 fs))` maps each pole and sends the zeros
+    /// to `z = -1`. A conjugate pole pair `p, p*` becomes `g (1 + z^-1)^2 / (1 - 2 Re(p) z^-1 + |p|^2 z^-2)`
+    /// with `g = (1 - 2 Re(p) + |p|^2) / 4`; the real pole of an odd order `g (1 + z^-1) / (1 - p z^-1)`, `g
+    /// = (1 - p)/2`; so every section has unit gain at DC. The thesis used a 5th-order filter run forward and
+    /// backward.
     pub fn lowpass(order: usize, cutoff_hz: f64, sample_rate_hz: f64) -> Result<Self, AnalysisError> {
         check_rate(sample_rate_hz)?;
         if !(1..=20).contains(&order) {
@@ -466,8 +469,8 @@ impl Butterworth {
         self.response(frequency_hz).norm()
     }
 
-    /// The transfer function as polynomials in `z^-1`, `(b, a)` with `a[0] = 1`, by multiplying out the sections
-    /// (MATLAB/scipy `butter`'s `[b, a]` form).
+    /// The transfer function as polynomials in `z^-1`, `(b, a)` with `a[0] = 1`, by multiplying out the
+    /// sections (MATLAB/scipy `butter`'s `[b, a]` form).
     pub fn transfer_function(&self) -> (Vec<f64>, Vec<f64>) {
         let mul = |p: &[f64], q: &[f64]| {
             let mut r = vec![0.0; p.len() + q.len() - 1];
@@ -497,11 +500,11 @@ impl Butterworth {
         y
     }
 
-    /// Zero-phase filtering, forward then backward (MATLAB `filtfilt`, scipy `sosfiltfilt`): response `|H|^2`, no
-    /// delay. As scipy does, the trace is first extended at both ends by its odd reflection
-    /// (`2 x[0] - x[k]`, `2 x[n-1] - x[n-1-k]`) of `3 (2 sections + 1 - zero-order terms)` samples (fewer for short
-    /// traces), and each pass starts every section in the steady state of its first input, so a trace that starts
-    /// or ends away from zero does not ring. Non-finite input is an error.
+    /// Zero-phase filtering, forward then backward (MATLAB `filtfilt`, scipy `sosfiltfilt`): response
+    /// `|H|^2`, no delay. As scipy does, the trace is first extended at both ends by its odd reflection (`2
+    /// x[0] - x[k]`, `2 x[n-1] - x[n-1-k]`) of `3 (2 sections + 1 - zero-order terms)` samples (fewer for
+    /// short traces), and each pass starts every section in the steady state of its first input, so a trace
+    /// that starts or ends away from zero does not ring. Non-finite input is an error.
     pub fn filtfilt(&self, x: &[f64]) -> Result<Vec<f64>, AnalysisError> {
         check_finite(x)?;
         let n = x.len();
@@ -531,15 +534,15 @@ impl Butterworth {
     }
 }
 
-// ---------------------------------------------------------------------------------------------------------------
+// -----------------------------------------------------------------------------------------------------------
 // CSV input
 
 /// Whether the first column of a CSV is time.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum TimeColumn {
-    /// Time if the header names it (`t`, `time`, `time_s`, `t_s`, `time_ms`, `t_ms`, `seconds`, `ms`), or, with no
-    /// header, if it has at least two columns and the first one increases in uniform steps.
+    /// Time if the header names it (`t`, `time`, `time_s`, `t_s`, `time_ms`, `t_ms`, `seconds`, `ms`), or,
+    /// with no header, if it has at least two columns and the first one increases in uniform steps.
     #[default]
     Auto,
     /// The first column is time.
@@ -587,9 +590,9 @@ pub enum CsvError {
     NonUniformTime {
         /// Line number.
         line: usize,
-        /// The step found [s].
+        /// The step found \[s\].
         step_s: f64,
-        /// The first step [s].
+        /// The first step \[s\].
         expected_s: f64,
     },
     /// Only a time column, no trial.
@@ -607,7 +610,7 @@ pub struct TraceSet {
     pub names: Vec<String>,
     /// One series per trial, all of equal length.
     pub traces: Vec<Vec<f64>>,
-    /// Sample rate [Hz], from the time column or as given.
+    /// Sample rate \[Hz\], from the time column or as given.
     pub sample_rate_hz: f64,
     /// Whether the sample rate came from a time column in the file.
     pub time_from_file: bool,
@@ -634,12 +637,12 @@ fn parse_number(text: &str, line: usize, column: usize) -> Result<f64, CsvError>
 
 /// Parses trial traces from CSV text.
 ///
-/// Format: fields separated by `,` (or `;`, tab or spaces, chosen from the first line); an optional header (a first
-/// line with any non-numeric field); lines starting with `#` are comments; an optional time column first (see
-/// [`TimeColumn`]; a header name containing `ms` means milliseconds, otherwise seconds), then one column per
-/// trial. Trailing blank lines are allowed; a blank line between data rows, a non-numeric or non-finite field, a
-/// row with a different number of fields, or a time column that does not increase in uniform steps (within 1 % of
-/// the first step) is an error naming the line.
+/// Format: fields separated by `,` (or `;`, tab or spaces, chosen from the first line); an optional header (a
+/// first line with any non-numeric field); lines starting with `#` are comments; an optional time column
+/// first (see [`TimeColumn`]; a header name containing `ms` means milliseconds, otherwise seconds), then one
+/// column per trial. Trailing blank lines are allowed; a blank line between data rows, a non-numeric or
+/// non-finite field, a row with a different number of fields, or a time column that does not increase in
+/// uniform steps (within 1 % of the first step) is an error naming the line.
 pub fn parse_csv(text: &str, time: TimeColumn, sample_rate_hz: f64) -> Result<TraceSet, CsvError> {
     let mut pending_blank = None;
     let mut header: Option<Vec<String>> = None;
@@ -747,7 +750,8 @@ mod tests {
 
     use super::*;
 
-    /// Deterministic uniform noise in [-1, 1) (a 64-bit LCG), so the tests do not depend on a generator's stream.
+    /// Deterministic uniform noise in [-1, 1) (a 64-bit LCG), so the tests do not depend on a generator's
+    /// stream.
     fn noise(n: usize, seed: u64) -> Vec<f64> {
         let mut s = seed;
         (0..n)
@@ -866,7 +870,8 @@ mod tests {
 
     #[test]
     fn filtfilt_matches_scipy_sosfiltfilt() {
-        // scipy.signal.sosfiltfilt(butter(5, 0.1, output='sos'), x), x[n] = sin(0.1 n) + 0.5 sin(1.3 n) + 0.01 n.
+        // scipy.signal.sosfiltfilt(butter(5, 0.1, output='sos'), x), x[n] = sin(0.1 n) + 0.5 sin(1.3 n) +
+        // 0.01 n.
         let x: Vec<f64> =
             (0..100).map(f64::from).map(|n| (0.1 * n).sin() + 0.5 * (1.3 * n).sin() + 0.01 * n).collect();
         let y = Butterworth::lowpass(5, 500.0, 10_000.0).unwrap().filtfilt(&x).unwrap();
@@ -932,6 +937,22 @@ mod tests {
         let junk =
             String::from_utf8_lossy(&[0xff, b',', b'\n', 0x00, b'1', b'e', b'9', b'9', b'9']).to_string();
         assert!(parse_csv(&junk, TimeColumn::Auto, 1.0).is_err());
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(64))]
+        #[test]
+        fn csv_parser_never_panics(text in "[0-9a-z,;. \\t\\r\\n#eE+-]{0,200}") {
+            let _ = parse_csv(&text, TimeColumn::Auto, 10_000.0);
+        }
+
+        #[test]
+        fn analysis_never_panics(x in proptest::collection::vec(-1e6..1e6f64, 0..400), fs in 1.0..20_000.0f64) {
+            let _ = analyze_trace(&x, fs);
+            if let Ok(f) = Butterworth::lowpass(5, fs / 10.0, fs) {
+                let _ = f.filtfilt(&x);
+            }
+        }
     }
 
     #[test]

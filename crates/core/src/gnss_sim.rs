@@ -6,7 +6,7 @@
 //! - a slowly wandering bias per axis, a first-order Gauss–Markov process (`bias_sigma_m`, `bias_tau_s`),
 //!   the usual model of multipath/ionosphere/ephemeris errors that make a stationary receiver drift;
 //! - SiRF-style static navigation (thesis §5, physics.md §5): while the true speed is below a threshold
-//!   (~1.2 m/s on a SiRF Star III) the receiver keeps reporting the position it last reported.
+//!   (~1.2 m/s on a `SiRF` Star III) the receiver keeps reporting the position it last reported.
 //!
 //! ```
 //! use glam::DVec2;
@@ -40,7 +40,7 @@ pub struct GnssErrorModel {
 }
 
 impl GnssErrorModel {
-    /// A SiRF Star III receiver under open sky, as in the thesis's field tests (§5).
+    /// A `SiRF` Star III receiver under open sky, as in the thesis's field tests (§5).
     ///
     /// Rated 10 m RMSE (1–5 m with WAAS); the thesis's stationary drift stayed within 1.17 m over 3 min,
     /// which is static navigation pinning more than accuracy. We use a 2 m per-axis bias wandering with a
@@ -85,7 +85,7 @@ pub struct GnssErrorState {
 }
 
 impl GnssErrorState {
-    /// A new receiver; the initial bias is drawn from the bias's stationary distribution N(0, sigma_b^2).
+    /// A new receiver; the initial bias is drawn from the bias's stationary distribution `N(0, sigma_b^2)`.
     pub fn new(model: GnssErrorModel, seed: u64) -> Self {
         let mut rng = StdRng::seed_from_u64(seed);
         let bias_m = DVec2::new(normal(&mut rng), normal(&mut rng)) * model.bias_sigma_m;
@@ -343,7 +343,7 @@ mod tests {
         }
     }
 
-    /// Over many independent receivers the per-axis variance matches sigma_n^2 + sigma_b^2 (closed form).
+    /// Over many independent receivers the per-axis variance matches `sigma_n^2 + sigma_b^2` (closed form).
     #[test]
     fn error_variance_matches_model() {
         let model = GnssErrorModel::sirf3_no_static_nav();

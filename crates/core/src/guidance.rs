@@ -1182,4 +1182,33 @@ mod tests {
         assert_eq!(dp.cue, Some(Cue::TurnLeft));
         assert_relative_eq!(dp.cross_track_m.unwrap(), 20.0, epsilon = 0.01);
     }
+
+    proptest::proptest! {
+        #[test]
+        fn no_input_panics_and_stale_fixes_never_direct(
+            lat in proptest::num::f64::ANY, lon in proptest::num::f64::ANY,
+            age in proptest::num::f64::ANY, speed in proptest::num::f64::ANY,
+            cog in proptest::num::f64::ANY, hdg in proptest::num::f64::ANY,
+            hdop in proptest::num::f64::ANY, now in -1e6..1e6f64, has_pos: bool,
+        ) {
+            let route = route_line(3, 100.0, 45.0, RouteConfig::default());
+            let mut g = Guidance::new(route, GuidanceConfig::default(), StrategyKind::Pursuit);
+            let input = NavInput {
+                position: has_pos.then_some(LatLon::new(lat, lon)),
+                fix_age_s: age,
+                speed_m_s: Some(speed),
+                cog_deg: Some(cog),
+                true_heading_deg: Some(hdg),
+                compass_deg: None,
+                hdop: Some(hdop),
+                accuracy_m: None,
+            };
+            let d = g.update(&input, now);
+            let trustworthy = has_pos && age.is_finite() && age <= 3.0;
+            if !trustworthy {
+                proptest::prop_assert!(matches!(d.cue, None | Some(Cue::Attention)), "{:?}", d.cue);
+            }
+            proptest::prop_assert!(d.bearing_error_deg.is_none_or(f64::is_finite));
+        }
+    }
 }

@@ -7,8 +7,10 @@
 //! closed form and as the thesis's 4-parameter `b = p1 (f + p2)^p3 + p4`. [`calibrate_damping`] returns the
 //! damping that makes the simulated tactor turn at a measured peak frequency (the thesis's 133.2 Hz tactor).
 //!
-//! "Frequency" of a simulated point is its rotation frequency `f_rot` (mean speed over the window / 2 pi), the
-//! exact location of the acceleration's spectral peak; the 1 Hz FFT bin is reported alongside.
+//! "Frequency" of a simulated point is its rotation frequency `f_rot`, the exact location of the acceleration's
+//! spectral peak, measured over the whole revolutions inside the window
+//! ([`Summary::omega_mean_revs_rad_s`] / 2 pi, independent of the ripple's phase at the window ends); the 1 Hz
+//! FFT bin is reported alongside.
 
 use std::f64::consts::TAU;
 
@@ -116,7 +118,7 @@ pub struct SweepPoint {
     pub damping_n_m_s: f64,
     /// Closed-form steady frequency of that damping [Hz].
     pub closed_form_hz: f64,
-    /// Simulated rotation (peak) frequency [Hz].
+    /// Simulated rotation (peak) frequency over whole revolutions of the window [Hz].
     pub f_rot_hz: f64,
     /// FFT peak of the acceleration over the last 1 s [Hz] (1 Hz bins).
     pub fft_peak_1s_hz: f64,
@@ -137,7 +139,7 @@ impl SweepPoint {
         Self {
             damping_n_m_s: s.params.damping_n_m_s,
             closed_form_hz: s.steady_state.f_rot_hz,
-            f_rot_hz: s.f_rot_hz,
+            f_rot_hz: f_rot_revs_hz(s),
             fft_peak_1s_hz: s.fft_peak_1s_hz,
             force_amplitude_n: s.force_amplitude_n,
             accel_peak_m_s2: s.accel_peak_m_s2,
@@ -146,6 +148,11 @@ impl SweepPoint {
             omega_ripple: s.omega_ripple,
         }
     }
+}
+
+/// Rotation frequency over whole revolutions, or `delta theta / delta t` if the window holds less than one.
+fn f_rot_revs_hz(s: &Summary) -> f64 {
+    if s.omega_mean_revs_rad_s.is_finite() { s.omega_mean_revs_rad_s / TAU } else { s.f_rot_hz }
 }
 
 /// Simulates one tactor with damping `damping_n_m_s` and keeps the sweep figures (no traces).
@@ -218,9 +225,9 @@ pub struct SweepResult {
     pub options: SweepOptions,
     /// The simulated points, by increasing frequency (decreasing damping).
     pub points: Vec<SweepPoint>,
-    /// `f_rot = A n^B` over (force amplitude, f_rot) (thesis Fig 35).
+    /// `f_rot = A n^B` over (force amplitude, `f_rot`) (thesis Fig 35).
     pub power_law: PowerLawFit,
-    /// `f_rot = c0 + c1 i` over (mean current, f_rot) (thesis Fig 37); closed form: `c0 = u / (2 pi Kt)`,
+    /// `f_rot = c0 + c1 i` over (mean current, `f_rot`) (thesis Fig 37); closed form: `c0 = u / (2 pi Kt)`,
     /// `c1 = -R / (2 pi Kt)`.
     pub current_line: LineFit,
     /// Exact closed-form inverse `b(f)`.
@@ -358,7 +365,7 @@ pub struct Calibration {
     pub damping_closed_form_n_m_s: f64,
     /// Damping whose simulated rotation frequency equals the target [N m s].
     pub damping_n_m_s: f64,
-    /// Simulated rotation frequency at that damping [Hz].
+    /// Simulated rotation frequency at that damping, over whole revolutions [Hz].
     pub achieved_f_rot_hz: f64,
     /// Number of refinement simulations.
     pub iterations: usize,
@@ -391,11 +398,11 @@ pub fn calibrate_damping(
     let mut best_hz = f64::NAN;
     for iteration in 1..=CALIBRATION_MAX_ITER {
         let summary = simulate_summary(&params.with_damping(b), sim)?;
-        let f_sim = summary.f_rot_hz;
+        let f_sim = f_rot_revs_hz(&summary);
         if !(f_sim.is_finite() && f_sim > 0.0) {
             break;
         }
-        if !((best_hz - frequency_hz).abs() <= (f_sim - frequency_hz).abs()) {
+        if best_hz.is_nan() || (f_sim - frequency_hz).abs() < (best_hz - frequency_hz).abs() {
             best_hz = f_sim;
         }
         if (f_sim - frequency_hz).abs() <= CALIBRATION_REL_TOL * frequency_hz {

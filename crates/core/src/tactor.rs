@@ -26,10 +26,10 @@ pub const GRAVITY_M_S2: f64 = 9.81;
 
 /// Largest integrator step away from the start transient [s].
 const MAX_STEP_S: f64 = 400e-6;
-/// Away from the start, the step is also limited to this eccentric rotation at the closed-form steady speed
+/// Default accuracy of [`simulate`]: away from the start, the step is also limited to this eccentric rotation at the closed-form steady speed
 /// [rad] (0.26 rad = 300 us at 834 rad/s: RK4 errors ~5e-5 relative there, a tenth of the reference
 /// tolerances; halving it costs 30 % more time for 16x smaller errors).
-const ANGLE_PER_STEP_RAD: f64 = 0.26;
+pub const DEFAULT_STEP_ANGLE_RAD: f64 = 0.26;
 /// The start transient (current rise) is resolved with steps of `L/R / FINE_STEPS_PER_TAU`...
 const FINE_STEPS_PER_TAU: f64 = 16.0;
 /// ...for the first `FINE_TAUS` electrical time constants.
@@ -425,6 +425,11 @@ pub struct Summary {
     pub omega_mean_rad_s: f64,
     /// Rotation frequency `omega_mean / 2 pi` [Hz].
     pub f_rot_hz: f64,
+    /// Mean speed over the whole revolutions inside the window, `2 pi N / (t_N - t_0)` between the first and
+    /// last crossings of a multiple of 2 pi [rad/s]. Unlike `delta theta / delta t` it does not depend on the
+    /// ripple's phase at the window ends (which moves the latter by ~0.04 rad / window length), so sweeps
+    /// and calibration use it; `NaN` if fewer than one revolution fits in the window.
+    pub omega_mean_revs_rad_s: f64,
     /// Smallest sampled speed in the window [rad/s].
     pub omega_min_rad_s: f64,
     /// Largest sampled speed in the window [rad/s].
@@ -713,9 +718,10 @@ const RESYNC_STEPS: usize = 16;
 fn integrate(
     params: &TactorParams,
     options: &SimOptions,
+    step_angle_rad: f64,
     sink: impl FnMut(&Sample),
 ) -> Result<(), TactorError> {
-    let h_max = (ANGLE_PER_STEP_RAD / params.steady_state().omega_rad_s).min(MAX_STEP_S);
+    let h_max = (step_angle_rad / params.steady_state().omega_rad_s).min(MAX_STEP_S);
     integrate_with_step(params, options, h_max, sink)
 }
 
@@ -782,7 +788,7 @@ fn integrate_with_step(
             let coeffs = coeffs_for(dt_out / sub as f64);
             for _ in 0..sub {
                 steps += 1;
-                if steps % RESYNC_STEPS == 0 {
+                if steps.is_multiple_of(RESYNC_STEPS) {
                     y.theta = Angle::new(y.theta.rad);
                 }
                 etd_step(&k, &coeffs, &mut y, omega_dot);
@@ -796,7 +802,7 @@ fn integrate_with_step(
             let h = q as f64 * dt_out;
             let coeffs = coeffs_for(h);
             steps += 1;
-            if steps % RESYNC_STEPS == 0 {
+            if steps.is_multiple_of(RESYNC_STEPS) {
                 y.theta = Angle::new(y.theta.rad);
             }
             let y0 = y;
@@ -833,6 +839,12 @@ struct SummaryBuilder {
     fft_accel: Vec<f64>,
     theta_window_start: Option<(f64, f64)>,
     theta_last: (f64, f64),
+    /// Previous sample `(t, theta)`, the next multiple of 2 pi to cross, the first and latest crossing
+    /// `(t, revolution index)` inside the window.
+    prev: (f64, f64),
+    next_crossing: Option<f64>,
+    first_crossing: Option<(f64, f64)>,
+    last_crossing: Option<(f64, f64)>,
     omega_min: f64,
     omega_max: f64,
     accel_peak: f64,
@@ -857,6 +869,10 @@ impl SummaryBuilder {
             fft_accel: Vec::with_capacity((fft_window * options.output_rate_hz) as usize + 2),
             theta_window_start: None,
             theta_last: (0.0, 0.0),
+            prev: (0.0, 0.0),
+            next_crossing: None,
+            first_crossing: None,
+            last_crossing: None,
             omega_min: f64::INFINITY,
             omega_max: f64::NEG_INFINITY,
             accel_peak: 0.0,
@@ -872,6 +888,13 @@ impl SummaryBuilder {
     fn push(&mut self, s: &Sample) {
         let [x, _, theta, omega, current] = s.state;
         self.theta.push(theta);
+        let prev = (s.t_s, theta);
+        self.push_window(s, x, theta, omega, current);
+        self.prev = prev;
+    }
+
+    #[inline]
+    fn push_window(&mut self, s: &Sample, x: f64, theta: f64, omega: f64, current: f64) {
         self.current_peak = self.current_peak.max(current);
         // Sample times are k * dt; compare with half a step of slack so that t = T/2 is in the window.
         if s.t_s + 0.5 * self.dt_out >= self.window_start_s {
@@ -879,6 +902,19 @@ impl SummaryBuilder {
                 self.theta_window_start = Some((s.t_s, theta));
             }
             self.theta_last = (s.t_s, theta);
+            let next = *self.next_crossing.get_or_insert((theta / std::f64::consts::TAU).ceil());
+            let mut next = next;
+            let (t_prev, th_prev) = self.prev;
+            while theta >= next * std::f64::consts::TAU && theta > th_prev {
+                let target = next * std::f64::consts::TAU;
+                let t_c = t_prev + (s.t_s - t_prev) * (target - th_prev) / (theta - th_prev);
+                if self.first_crossing.is_none() {
+                    self.first_crossing = Some((t_c, next));
+                }
+                self.last_crossing = Some((t_c, next));
+                next += 1.0;
+            }
+            self.next_crossing = Some(next);
             self.omega_min = self.omega_min.min(omega);
             self.omega_max = self.omega_max.max(omega);
             self.accel_peak = self.accel_peak.max(s.accel_m_s2.abs());
@@ -912,6 +948,10 @@ impl SummaryBuilder {
             window_end_s: options.duration_s,
             omega_mean_rad_s: omega_mean,
             f_rot_hz: omega_mean / std::f64::consts::TAU,
+            omega_mean_revs_rad_s: match (self.first_crossing, self.last_crossing) {
+                (Some((ta, ka)), Some((tb, kb))) if kb > ka => std::f64::consts::TAU * (kb - ka) / (tb - ta),
+                _ => f64::NAN,
+            },
             omega_min_rad_s: self.omega_min,
             omega_max_rad_s: self.omega_max,
             omega_ripple: (self.omega_max - self.omega_min) / (2.0 * omega_mean),
@@ -931,10 +971,29 @@ impl SummaryBuilder {
 }
 
 /// Simulates the tactor from rest (all states zero, theta0 = 0) and returns the traces at the output rate
-/// and the summary. See the module doc for the solver.
+/// and the summary. See the module doc for the solver; the step is [`DEFAULT_STEP_ANGLE_RAD`].
 pub fn simulate(params: &TactorParams, options: &SimOptions) -> Result<TactorRun, TactorError> {
+    simulate_with_step_angle(params, options, DEFAULT_STEP_ANGLE_RAD)
+}
+
+fn check_step_angle(step_angle_rad: f64) -> Result<(), TactorError> {
+    check_positive("step angle [rad]", step_angle_rad)?;
+    if step_angle_rad > 1.0 {
+        return Err(TactorError::TooLarge { name: "step angle [rad]", value: step_angle_rad, limit: 1.0 });
+    }
+    Ok(())
+}
+
+/// [`simulate`] with another accuracy: the largest eccentric rotation per integrator step at the closed-form
+/// speed, `0 < step_angle_rad <= 1` (RK4 errors scale with its 4th power; steps stay <= 400 us).
+pub fn simulate_with_step_angle(
+    params: &TactorParams,
+    options: &SimOptions,
+    step_angle_rad: f64,
+) -> Result<TactorRun, TactorError> {
     params.validate()?;
     options.validate()?;
+    check_step_angle(step_angle_rad)?;
     let n = options.sample_count();
     if n as f64 > MAX_TRACE_SAMPLES {
         return Err(TactorError::TooLarge {
@@ -957,7 +1016,7 @@ pub fn simulate(params: &TactorParams, options: &SimOptions) -> Result<TactorRun
     let mut builder = SummaryBuilder::new(options);
     let mt = params.body_mass_kg;
     let kt = params.torque_constant_n_m_per_a;
-    integrate(params, options, |s| {
+    integrate(params, options, step_angle_rad, |s| {
         builder.push(s);
         let [x, v, theta, omega, i] = s.state;
         tr.t_s.push(s.t_s);
@@ -978,7 +1037,7 @@ pub fn simulate_summary(params: &TactorParams, options: &SimOptions) -> Result<S
     params.validate()?;
     options.validate()?;
     let mut builder = SummaryBuilder::new(options);
-    integrate(params, options, |s| builder.push(s))?;
+    integrate(params, options, DEFAULT_STEP_ANGLE_RAD, |s| builder.push(s))?;
     Ok(builder.finish(params, options))
 }
 
@@ -1097,6 +1156,28 @@ mod tests {
         // Thesis's own (rounded) numbers.
         assert!((s.steady_state.omega_rad_s - 834.2).abs() < 0.05);
         assert!((s.force_amplitude_n - 0.91).abs() < 0.005);
+    }
+
+    #[test]
+    fn whole_revolution_speed_does_not_depend_on_the_window() {
+        let long = simulate_summary(&thesis(), &SimOptions::default()).unwrap();
+        let short =
+            simulate_summary(&thesis(), &SimOptions { duration_s: 2.0, output_rate_hz: 10_000.0 }).unwrap();
+        assert_relative_eq!(long.omega_mean_revs_rad_s, short.omega_mean_revs_rad_s, max_relative = 5e-6);
+        assert_relative_eq!(long.omega_mean_revs_rad_s, 833.5334, max_relative = 5e-5);
+    }
+
+    #[test]
+    fn smaller_step_angle_converges() {
+        // RK4: halving the step divides the error by ~16; the converged value is the reference's.
+        let o = SimOptions::default();
+        let coarse = simulate_with_step_angle(&thesis(), &o, 0.26).unwrap().summary;
+        let fine = simulate_with_step_angle(&thesis(), &o, 0.13).unwrap().summary;
+        let err = |s: &Summary| (s.accel_peak_m_s2 / 245.798 - 1.0).abs();
+        assert!(err(&fine) < err(&coarse));
+        assert_relative_eq!(fine.omega_mean_rad_s, 833.5334, max_relative = 2e-6);
+        assert!(simulate_with_step_angle(&thesis(), &o, 0.0).is_err());
+        assert!(simulate_with_step_angle(&thesis(), &o, 1.5).is_err());
     }
 
     #[test]

@@ -1,4 +1,5 @@
-//! The two-point simulation (thesis §4.2, Figs 60–63): two tactors' Gaussians summed and fitted by one Gaussian.
+//! The two-point simulation (thesis §4.2, Figs 60–63): two tactors' Gaussians summed and fitted by one
+//! Gaussian.
 //!
 //! Two tactors of amplitude `a` (10 m/s^2) and Gaussian width `b` (36.2 mm, the mean of the three measured
 //! widths) sit `d` apart on a line:
@@ -7,12 +8,13 @@
 //! s(x) = a exp(-(x/b)^2) + a exp(-((x-d)/b)^2)
 //! ```
 //!
-//! sampled on `x = -80 ..= 200 mm` in 1 mm steps (281 points) and least-squares fitted by one Gaussian
-//! `A exp(-((x-mu)/w)^2)`. `RMSE = sqrt(SSE / (n - 3))` (MATLAB's definition: n points, 3 parameters). While the
+//! sampled on `x = -80 ..= 200 mm` in 1 mm steps (281 points) and least-squares fitted by one Gaussian `A
+//! exp(-((x-mu)/w)^2)`. `RMSE = sqrt(SSE / (n - 3))` (MATLAB's definition: n points, 3 parameters). While the
 //! RMSE stays tiny the two tactors are indistinguishable from one wider tactor; the thesis proposes that the
 //! two-point threshold is where the RMSE starts to grow. [`threshold_mm`] makes that a concrete rule.
 //!
-//! The problem is defined by the thesis on a millimetre grid, so lengths here are in millimetres (named `_mm`).
+//! The problem is defined by the thesis on a millimetre grid, so lengths here are in millimetres (named
+//! `_mm`).
 //!
 //! ```
 //! use vestnav_core::twopoint::{TwoPointSetup, simulate};
@@ -32,13 +34,13 @@ use crate::fit::FitError;
 pub struct TwoPointSetup {
     /// Amplitude of each tactor [m/s^2].
     pub amplitude_m_s2: f64,
-    /// Gaussian width `b` of each tactor [mm].
+    /// Gaussian width `b` of each tactor \[mm\].
     pub width_mm: f64,
-    /// First grid point [mm].
+    /// First grid point \[mm\].
     pub grid_start_mm: f64,
-    /// Last grid point [mm] (inclusive).
+    /// Last grid point \[mm\] (inclusive).
     pub grid_end_mm: f64,
-    /// Grid step [mm].
+    /// Grid step \[mm\].
     pub grid_step_mm: f64,
 }
 
@@ -52,7 +54,7 @@ impl TwoPointSetup {
         grid_step_mm: 1.0,
     };
 
-    /// The grid positions [mm].
+    /// The grid positions \[mm\].
     pub fn grid_mm(&self) -> Vec<f64> {
         if !self.grid_step_mm.is_finite()
             || self.grid_step_mm <= 0.0
@@ -76,9 +78,9 @@ impl TwoPointSetup {
         self.single_m_s2(x_mm, 0.0) + self.single_m_s2(x_mm, distance_mm)
     }
 
-    /// The distance at which the summed profile stops having a single peak (Sparrow's criterion): the centre's
-    /// curvature `2 G''(d/2)` vanishes at the Gaussian's inflection `d/2 = b / sqrt(2)`, so `d = sqrt(2) b`
-    /// (51.2 mm for b = 36.2 mm). Beyond it a dip appears between the tactors.
+    /// The distance at which the summed profile stops having a single peak (Sparrow's criterion): the
+    /// centre's curvature `2 G''(d/2)` vanishes at the Gaussian's inflection `d/2 = b / sqrt(2)`, so `d =
+    /// sqrt(2) b` (51.2 mm for b = 36.2 mm). Beyond it a dip appears between the tactors.
     pub fn sparrow_limit_mm(&self) -> f64 {
         std::f64::consts::SQRT_2 * self.width_mm
     }
@@ -95,9 +97,9 @@ pub struct GaussianFit {
     /// Fitted peak `A` [m/s^2].
     #[serde(rename = "amplitude")]
     pub amplitude_m_s2: f64,
-    /// Fitted centre `mu` [mm].
+    /// Fitted centre `mu` \[mm\].
     pub center_mm: f64,
-    /// Fitted width `w` [mm] (positive).
+    /// Fitted width `w` \[mm\] (positive).
     pub width_mm: f64,
     /// `sqrt(SSE / (n - 3))` [m/s^2].
     pub rmse: f64,
@@ -117,10 +119,10 @@ impl GaussianFit {
 /// Least-squares fit of `A exp(-((x-mu)/w)^2)` to `(x, y)` by Levenberg–Marquardt (analytic Jacobian).
 ///
 /// The sum of squares can have more than one minimum (one broad Gaussian over both peaks, or one narrow
-/// Gaussian on one peak), so the solver starts from three points and keeps the smallest SSE: the moments of the
-/// positive part of `y` (`mu = sum x y / sum y`, `w = sqrt(2 var)`, since `exp(-(x/w)^2)` has variance `w^2/2`),
-/// and the largest sample with `w` from the moments and from the half-maximum width (`w = FWHM / (2 sqrt(ln 2))`).
-/// `RMSE = sqrt(SSE / (n - 3))` (MATLAB's definition, thesis §4.2).
+/// Gaussian on one peak), so the solver starts from three points and keeps the smallest SSE: the moments of
+/// the positive part of `y` (`mu = sum x y / sum y`, `w = sqrt(2 var)`, since `exp(-(x/w)^2)` has variance
+/// `w^2/2`), and the largest sample with `w` from the moments and from the half-maximum width (`w = FWHM / (2
+/// sqrt(ln 2))`). `RMSE = sqrt(SSE / (n - 3))` (MATLAB's definition, thesis §4.2).
 pub fn fit_gaussian(x: &[f64], y: &[f64]) -> Result<GaussianFit, FitError> {
     if x.len() != y.len() || x.len() < 4 {
         return Err(FitError::TooFewPoints { needed: 4, got: x.len().min(y.len()) });
@@ -234,7 +236,7 @@ impl LeastSquaresProblem<f64, Dyn, U3> for GaussianProblem<'_> {
 /// Result of one two-point simulation: the distance and the single-Gaussian fit of the summed profile.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct TwoPointResult {
-    /// Distance between the tactors [mm].
+    /// Distance between the tactors \[mm\].
     pub distance_mm: f64,
     /// The single-Gaussian fit (JSON keys `amplitude, center_mm, width_mm, rmse, sse, points`).
     #[serde(flatten)]
@@ -266,15 +268,15 @@ pub fn sweep(setup: &TwoPointSetup, distances_mm: &[f64]) -> Result<Vec<TwoPoint
 /// The default detection level of [`threshold_mm`]: RMSE equal to 1 % of one tactor's amplitude.
 pub const DEFAULT_RELATIVE_RMSE: f64 = 0.01;
 
-/// vestnav's concrete version of the thesis's proposal "the two-point threshold is where the RMSE starts to grow"
-/// (§4.2). The RMSE grows smoothly from zero (as `d^4` for small `d`: the second-order broadening of the sum is
-/// absorbed by a wider fitted Gaussian, only the fourth-order shape difference is left), so "starts to grow" needs
-/// a level: the threshold is the smallest distance at which the RMSE of the single-Gaussian fit reaches
-/// `relative_rmse` times one tactor's amplitude, i.e. where a single Gaussian misses the measured profile by more
-/// than an accelerometer resolving 1 % of the source amplitude could ignore. Found by stepping in 1 mm up to
-/// `max_mm` and bisecting the bracketing step to 0.01 mm. With the thesis's setup and 1 % it is about 31 mm,
-/// below the Sparrow limit `sqrt(2) b` = 51.2 mm where the profile itself becomes two-peaked.
-/// `Ok(None)` if the level is not reached up to `max_mm`.
+/// vestnav's concrete version of the thesis's proposal "the two-point threshold is where the RMSE starts to
+/// grow" (§4.2). The RMSE grows smoothly from zero (as `d^4` for small `d`: the second-order broadening of
+/// the sum is absorbed by a wider fitted Gaussian, only the fourth-order shape difference is left), so
+/// "starts to grow" needs a level: the threshold is the smallest distance at which the RMSE of the
+/// single-Gaussian fit reaches `relative_rmse` times one tactor's amplitude, i.e. where a single Gaussian
+/// misses the measured profile by more than an accelerometer resolving 1 % of the source amplitude could
+/// ignore. Found by stepping in 1 mm up to `max_mm` and bisecting the bracketing step to 0.01 mm. With the
+/// thesis's setup and 1 % it is about 31 mm, below the Sparrow limit `sqrt(2) b` = 51.2 mm where the profile
+/// itself becomes two-peaked. `Ok(None)` if the level is not reached up to `max_mm`.
 pub fn threshold_mm(setup: &TwoPointSetup, relative_rmse: f64, max_mm: f64) -> Result<Option<f64>, FitError> {
     if relative_rmse.is_nan() || relative_rmse <= 0.0 || !max_mm.is_finite() {
         return Err(FitError::Degenerate);

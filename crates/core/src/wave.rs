@@ -7,9 +7,9 @@
 //! a(r, t) = a0 exp(-(r/b)^2) sin(2 pi / lambda (r - c t) + phi),   lambda = c / f
 //! ```
 //!
-//! Measured on Skinsim (thesis §4.1.3): `a0 = 26.02 m/s^2`, `b = 28.18 mm`, `lambda = 42.94 mm`,
-//! `c = 3023 mm/s` at 70.4 Hz. Several tactors superpose linearly; the thesis notes the measured superposition is
-//! not fully linear (R^2 0.42 predicted against 0.91 fitted), so the field here is the linear model.
+//! Measured on Skinsim (thesis §4.1.3): `a0 = 26.02 m/s^2`, `b = 28.18 mm`, `lambda = 42.94 mm`, `c = 3023
+//! mm/s` at 70.4 Hz. Several tactors superpose linearly; the thesis notes the measured superposition is not
+//! fully linear (R^2 0.42 predicted against 0.91 fitted), so the field here is the linear model.
 //!
 //! Everything is in SI units: positions and widths in metres, accelerations in m/s^2, times in seconds.
 //! Positions live on a plane ([`DVec2`]); a 1-D problem is the x axis of that plane.
@@ -37,19 +37,21 @@ use crate::vest::{GRID, TACTOR_COUNT, TactorMask};
 
 /// Measured source amplitude on Skinsim, `a0` [m/s^2] (thesis §4.1.3).
 pub const MEASURED_A0_M_S2: f64 = 26.02;
-/// Measured Gaussian width `b` of the travelling-wave tactor [m] (thesis §4.1.3).
+/// Measured Gaussian width `b` of the travelling-wave tactor \[m\] (thesis §4.1.3).
 pub const MEASURED_WIDTH_M: f64 = 0.028_18;
-/// Measured wavelength on Skinsim [m] (thesis §4.1.3).
+/// Measured wavelength on Skinsim \[m\] (thesis §4.1.3).
 pub const MEASURED_WAVELENGTH_M: f64 = 0.042_94;
 /// Measured wave speed on Skinsim [m/s] (thesis §4.1.3).
 pub const MEASURED_SPEED_M_S: f64 = 3.023;
-/// Frequency of the measured travelling wave [Hz]: `c / lambda` = 3023 / 42.94 = 70.4 Hz.
+/// Frequency of the measured travelling wave \[Hz\]: `c / lambda` = 3023 / 42.94 = 70.4 Hz.
 pub const MEASURED_FREQUENCY_HZ: f64 = MEASURED_SPEED_M_S / MEASURED_WAVELENGTH_M;
-/// Gaussian widths of the three tactors of Fig 52 [m]; their mean 36.2 mm is the two-point simulation's width.
+/// Gaussian widths of the three tactors of Fig 52 \[m\]; their mean 36.2 mm is the two-point simulation's
+/// width.
 pub const FIG52_WIDTHS_M: [f64; 3] = [0.028_18, 0.038_4, 0.042_13];
 /// Source amplitudes of the three tactors of Fig 52 [m/s^2] (read off the figure: about 25.7, 9 and 9).
 pub const FIG52_A0_M_S2: [f64; 3] = [25.7, 9.0, 9.0];
-/// The design rule's fraction: a neighbour's wave should have fallen below 10 % of its source (thesis §4.1.3).
+/// The design rule's fraction: a neighbour's wave should have fallen below 10 % of its source (thesis
+/// §4.1.3).
 pub const SPACING_RULE_FRACTION: f64 = 0.1;
 
 /// Why a wave computation could not be made.
@@ -71,17 +73,18 @@ pub enum WaveError {
     /// No crest of the wave was found at a distance within the simulated time.
     #[error("no wave crest found at {distance_m} m within the simulated time")]
     NoCrest {
-        /// The distance where no crest was found [m].
+        /// The distance where no crest was found \[m\].
         distance_m: f64,
     },
 }
 
-/// The Gaussian fall-off of a tactor's vibration with distance: `a(d) = a0 exp(-(d/b)^2)` (thesis §4.1.3, Fig 52).
+/// The Gaussian fall-off of a tactor's vibration with distance: `a(d) = a0 exp(-(d/b)^2)` (thesis §4.1.3, Fig
+/// 52).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct GaussianAttenuation {
     /// Amplitude at the tactor, `a0` [m/s^2].
     pub a0_m_s2: f64,
-    /// Width `b` [m]: at `d = b` the amplitude has fallen to `1/e`.
+    /// Width `b` \[m\]: at `d = b` the amplitude has fallen to `1/e`.
     pub width_m: f64,
 }
 
@@ -97,9 +100,9 @@ impl GaussianAttenuation {
     }
 }
 
-/// The spacing rule (thesis §4.1.3): the distance at which a Gaussian of width `b` has fallen to `fraction` of its
-/// source. From `exp(-(d/b)^2) = fraction`: `d = b sqrt(ln(1/fraction))`. With the design fraction 10 % this is
-/// `1.517 b` (42.8 mm for b = 28.18 mm, 54.9 mm for the mean b = 36.2 mm).
+/// The spacing rule (thesis §4.1.3): the distance at which a Gaussian of width `b` has fallen to `fraction`
+/// of its source. From `exp(-(d/b)^2) = fraction`: `d = b sqrt(ln(1/fraction))`. With the design fraction 10
+/// % this is `1.517 b` (42.8 mm for b = 28.18 mm, 54.9 mm for the mean b = 36.2 mm).
 pub fn spacing_for_fraction_m(width_m: f64, fraction: f64) -> Result<f64, WaveError> {
     if !(fraction > 0.0 && fraction < 1.0) {
         return Err(WaveError::OutOfRange { name: "fraction", expected: "in (0, 1)", value: fraction });
@@ -114,9 +117,9 @@ pub fn spacing_for_fraction_m(width_m: f64, fraction: f64) -> Result<f64, WaveEr
     Ok(width_m * (1.0 / fraction).ln().sqrt())
 }
 
-/// Fits `a0 exp(-(d/b)^2)` to measured (distance, amplitude) points, as the thesis did for Fig 52 (MATLAB's `gauss1`
-/// with the centre held at the tactor). Start: the line `ln a = ln a0 - d^2/b^2` through the positive points, then
-/// Levenberg–Marquardt on the linear-space residuals. `r2` is computed in linear space.
+/// Fits `a0 exp(-(d/b)^2)` to measured (distance, amplitude) points, as the thesis did for Fig 52 (MATLAB's
+/// `gauss1` with the centre held at the tactor). Start: the line `ln a = ln a0 - d^2/b^2` through the
+/// positive points, then Levenberg–Marquardt on the linear-space residuals. `r2` is computed in linear space.
 pub fn fit_attenuation(distance_m: &[f64], amplitude_m_s2: &[f64]) -> Result<AttenuationFit, WaveError> {
     if distance_m.len() != amplitude_m_s2.len() || distance_m.len() < 2 {
         return Err(
@@ -214,7 +217,7 @@ impl Skin {
     /// Skinsim as measured in the thesis: `c = 3.023 m/s` (§4.1.3).
     pub const MEASURED: Self = Self { speed_m_s: MEASURED_SPEED_M_S };
 
-    /// Wavelength `lambda = c / f` [m].
+    /// Wavelength `lambda = c / f` \[m\].
     pub fn wavelength_m(&self, frequency_hz: f64) -> f64 {
         self.speed_m_s / frequency_hz
     }
@@ -267,8 +270,8 @@ impl Skin {
     }
 
     /// Peak vibration amplitude at `point_m` over all time [m/s^2]: the sum of the component amplitudes of
-    /// [`Skin::components`]. Exact when all sources share one frequency (then it is one phasor's length); with
-    /// several incommensurate frequencies it is the supremum the signal approaches over a long time.
+    /// [`Skin::components`]. Exact when all sources share one frequency (then it is one phasor's length);
+    /// with several incommensurate frequencies it is the supremum the signal approaches over a long time.
     pub fn peak_amplitude_m_s2(&self, sources: &[WaveSource], point_m: DVec2) -> f64 {
         self.components(sources, point_m).iter().map(|c| c.amplitude_m_s2).sum()
     }
@@ -304,11 +307,12 @@ impl Skin {
         None
     }
 
-    /// Arrival times of one crest of `source`'s wave at increasing `distances_m` (thesis Fig 59): the first crest
-    /// after `t = 0` at the first distance, then at each next distance the first crest after the previous one.
-    /// The crest is tracked correctly while consecutive distances are less than one wavelength apart, which is
-    /// checked. The times come from traces sampled at `sample_rate_hz` (the thesis's 10 kHz), with parabolic
-    /// refinement, so fitting distance against time ([`fit_wave_speed`]) is an independent check of `c`.
+    /// Arrival times of one crest of `source`'s wave at increasing `distances_m` (thesis Fig 59): the first
+    /// crest after `t = 0` at the first distance, then at each next distance the first crest after the
+    /// previous one. The crest is tracked correctly while consecutive distances are less than one wavelength
+    /// apart, which is checked. The times come from traces sampled at `sample_rate_hz` (the thesis's 10 kHz),
+    /// with parabolic refinement, so fitting distance against time ([`fit_wave_speed`]) is an independent
+    /// check of `c`.
     pub fn arrival_times_s(
         &self,
         source: &WaveSource,
@@ -359,7 +363,7 @@ pub struct Sinusoid {
     pub amplitude_m_s2: f64,
     /// Angular frequency `w` [rad/s].
     pub omega_rad_s: f64,
-    /// Phase `c` [rad], in (-pi, pi].
+    /// Phase `c` \[rad\], in (-pi, pi].
     pub phase_rad: f64,
 }
 
@@ -373,15 +377,15 @@ impl Sinusoid {
 /// A vibrating tactor on the skin.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct WaveSource {
-    /// Position on the skin plane [m].
+    /// Position on the skin plane \[m\].
     pub position_m: DVec2,
     /// Amplitude at the tactor, `a0` [m/s^2].
     pub amplitude_m_s2: f64,
-    /// Gaussian width `b` of the fall-off [m].
+    /// Gaussian width `b` of the fall-off \[m\].
     pub width_m: f64,
-    /// Vibration frequency [Hz].
+    /// Vibration frequency \[Hz\].
     pub frequency_hz: f64,
-    /// Phase `phi` [rad] added to the wave's argument.
+    /// Phase `phi` \[rad\] added to the wave's argument.
     pub phase_rad: f64,
 }
 
@@ -416,11 +420,11 @@ impl WaveSource {
     }
 }
 
-/// Position of tactor `index` on the vest plane [m], grid spacing `spacing_m` centre to centre.
+/// Position of tactor `index` on the vest plane \[m\], grid spacing `spacing_m` centre to centre.
 ///
 /// Numbering as in [`crate::vest`] (seen from behind, row-major from the top-left). The plane's origin is the
-/// grid centre, x points to the wearer's right (column 0 at `x = -1.5 s`), y points up (row 0 at `y = +1.5 s`).
-/// `None` for an index outside the grid.
+/// grid centre, x points to the wearer's right (column 0 at `x = -1.5 s`), y points up (row 0 at `y = +1.5
+/// s`). `None` for an index outside the grid.
 pub fn tactor_position_m(index: usize, spacing_m: f64) -> Option<DVec2> {
     if index >= TACTOR_COUNT {
         return None;
@@ -440,11 +444,12 @@ pub fn vest_sources(mask: TactorMask, spacing_m: f64, template: &WaveSource) -> 
 
 /// The two-tactor midpoint experiment (thesis §4.1.3): two tactors `separation_m` apart, the signal halfway.
 ///
-/// The thesis predicted `3.02 sin(334.3 t + c1) + 3.45 sin(444.8 t + c2)` (fitted: 2.43 and 2.76). The two tactors
-/// ran at different frequencies, 334.3 rad/s = 53.2 Hz and 444.8 rad/s = 70.8 Hz, so the midpoint signal has
-/// one component per tactor, each of amplitude `a0 exp(-(s/2 / b)^2)`. At 40 mm: `a0 = 26.02`, `b = 28.18 mm`
-/// gives 3.47 (the 70.8 Hz term, 3.45), `a0 = 9`, `b = 38.4 mm` gives 3.04 (the 53.2 Hz term, 3.02); exactly 3.45
-/// and 3.02 need a0 = 25.87 and 8.94 with those widths, i.e. the Fig 52 tactors' own amplitudes.
+/// The thesis predicted `3.02 sin(334.3 t + c1) + 3.45 sin(444.8 t + c2)` (fitted: 2.43 and 2.76). The two
+/// tactors ran at different frequencies, 334.3 rad/s = 53.2 Hz and 444.8 rad/s = 70.8 Hz, so the midpoint
+/// signal has one component per tactor, each of amplitude `a0 exp(-(s/2 / b)^2)`. At 40 mm: `a0 = 26.02`, `b
+/// = 28.18 mm` gives 3.47 (the 70.8 Hz term, 3.45), `a0 = 9`, `b = 38.4 mm` gives 3.04 (the 53.2 Hz term,
+/// 3.02); exactly 3.45 and 3.02 need a0 = 25.87 and 8.94 with those widths, i.e. the Fig 52 tactors' own
+/// amplitudes.
 pub fn midpoint_components(skin: &Skin, left: &WaveSource, right: &WaveSource) -> Vec<Sinusoid> {
     let mid = (left.position_m + right.position_m) / 2.0;
     skin.components(&[*left, *right], mid)
@@ -519,7 +524,8 @@ mod tests {
 
     #[test]
     fn equal_frequency_phasors_add() {
-        // Two in-phase equal sources at the same distance double; half a wavelength apart in path they cancel.
+        // Two in-phase equal sources at the same distance double; half a wavelength apart in path they
+        // cancel.
         let skin = Skin::MEASURED;
         let f = MEASURED_FREQUENCY_HZ;
         let lambda = skin.wavelength_m(f);

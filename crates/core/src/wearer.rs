@@ -213,9 +213,14 @@ pub fn simulate(waypoints: &[Waypoint], config: &SimConfig, seed: u64) -> Result
     let w = config.wearer;
     let pace = w.pace_m_s.max(0.1);
     let nominal_time_s = length_m / pace;
-    let timeout_s = config.timeout_factor.max(1.0) * nominal_time_s + 120.0;
-    let dt = config.dt_s.clamp(0.01, 1.0);
-    let fix_every = (config.fix_interval_s / dt).round().max(1.0) as u64;
+    // Hostile settings (NaN, huge) must not make the loop endless.
+    let factor =
+        if config.timeout_factor.is_finite() { config.timeout_factor.clamp(1.0, 100.0) } else { 3.0 };
+    let timeout_s = factor * nominal_time_s + 120.0;
+    let dt = if config.dt_s.is_finite() { config.dt_s.clamp(0.01, 1.0) } else { 0.1 };
+    let fix_interval_s =
+        if config.fix_interval_s.is_finite() { config.fix_interval_s.clamp(dt, 60.0) } else { 1.0 };
+    let fix_every = (fix_interval_s / dt).round().max(1.0) as u64;
 
     let mut rng = StdRng::seed_from_u64(seed);
     let mut gnss = GnssErrorState::new(config.gnss, seed.wrapping_mul(0x9E37_79B9_7F4A_7C15).wrapping_add(1));
@@ -256,7 +261,7 @@ pub fn simulate(waypoints: &[Waypoint], config: &SimConfig, seed: u64) -> Result
         // Sensor: a fix every `fix_every` steps.
         let speed = if walking { pace } else { 0.0 };
         if step.is_multiple_of(fix_every) {
-            let fix_en = gnss.apply(config.fix_interval_s, pos, speed);
+            let fix_en = gnss.apply(fix_interval_s, pos, speed);
             let cog = normalize_deg(heading + config.cog_noise_deg * normal(&mut rng));
             last_fix = Some((t, fix_en, cog, speed));
             result.path_true_en_m.push(pos);
@@ -481,6 +486,17 @@ mod tests {
         // 300 m at 1.4 m/s = 214 s; the corners and their cues add some.
         assert!(r.time_s > r.nominal_time_s && r.time_s < 1.5 * r.nominal_time_s, "{}", brief(&r));
         assert!(r.cross_track_rmse_m < 5.0, "{}", r.cross_track_rmse_m);
+    }
+
+    #[test]
+    fn non_finite_settings_terminate() {
+        let mut cfg = SimConfig::new(StrategyKind::Pursuit);
+        cfg.dt_s = f64::NAN;
+        cfg.fix_interval_s = f64::INFINITY;
+        cfg.timeout_factor = f64::NAN;
+        cfg.wearer.pace_m_s = f64::NAN;
+        let r = simulate(&square(), &cfg, 1).unwrap();
+        assert!(r.time_s.is_finite());
     }
 
     #[test]

@@ -95,7 +95,8 @@ fn rank(kind: PortKind) -> u8 {
 pub fn kind_from_name(name: &str) -> PortKind {
     if name.starts_with("/dev/rfcomm") || name.contains("Bluetooth") {
         PortKind::Bluetooth
-    } else if name.starts_with("/dev/ttyUSB") || name.starts_with("/dev/ttyACM") || name.contains("usbserial") {
+    } else if name.starts_with("/dev/ttyUSB") || name.starts_with("/dev/ttyACM") || name.contains("usbserial")
+    {
         PortKind::Usb
     } else if name.starts_with("/dev/pts/") {
         PortKind::Pty
@@ -110,6 +111,51 @@ pub fn open(port: &str, baud: u32, read_timeout: Duration) -> Result<Box<dyn Ser
         .timeout(read_timeout)
         .open()
         .map_err(|source| SerialError::Port { port: port.to_owned(), source })
+}
+
+/// A pseudo-terminal pair for the emulators: we write to (and read from) the master; other processes
+/// open [`Pty::path`] exactly like a hardware serial port.
+#[cfg(unix)]
+#[derive(Debug)]
+pub struct Pty {
+    master: serialport::TTYPort,
+    // Held open so the slave side stays valid (and writes do not fail) until someone opens the path.
+    _slave: serialport::TTYPort,
+    path: String,
+}
+
+#[cfg(unix)]
+impl Pty {
+    /// Opens a new PTY pair (`serialport::TTYPort::pair`).
+    pub fn open() -> Result<Self, SerialError> {
+        let (mut master, slave) = serialport::TTYPort::pair()
+            .map_err(|source| SerialError::Port { port: "(new pty)".to_owned(), source })?;
+        let path = slave.name().unwrap_or_default();
+        let _ = master.set_timeout(Duration::from_millis(100));
+        Ok(Self { master, _slave: slave, path })
+    }
+
+    /// The slave's path (`/dev/pts/N`): what another process opens.
+    pub fn path(&self) -> &str {
+        &self.path
+    }
+}
+
+#[cfg(unix)]
+impl std::io::Write for Pty {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.master.write(buf)
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.master.flush()
+    }
+}
+
+#[cfg(unix)]
+impl std::io::Read for Pty {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        self.master.read(buf)
+    }
 }
 
 #[cfg(test)]

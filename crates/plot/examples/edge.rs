@@ -1,6 +1,6 @@
 //! Renders degenerate and awkward inputs on one sheet, to look at: `cargo run -p vestnav-plot --example edge`.
 
-use vestnav_plot::{Chart, Figure, Marker, Scale, Series};
+use vestnav_plot::{Chart, Figure, Heatmap, Marker, Scale, Series};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let out = std::env::args().nth(1).unwrap_or_else(|| "plotedge.png".into());
@@ -40,5 +40,35 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             ),
         );
     fig.save_png(std::path::Path::new(&out))?;
+
+    // A square field on a wide panel with equal aspect, as the vest maps use it.
+    let n = 61;
+    let values: Vec<f64> = (0..n * n)
+        .map(|k| {
+            let (i, j) = ((k % n) as f64 - 30.0, (k / n) as f64 - 30.0);
+            (-(i * i + j * j) / 200.0).exp() * (i * 0.4).cos()
+        })
+        .collect();
+    let points = vec![(-40.0, -40.0, "0".to_string()), (40.0, 40.0, "15*".to_string())];
+    let heat = Heatmap::new(
+        "Peak amplitude of the superposed waves (* = firing)",
+        (-61.0, 61.0),
+        (-61.0, 61.0),
+        n,
+        n,
+        values,
+    )
+    .x_label("x, wearer's right [mm]")
+    .y_label("y, up [mm]")
+    .colorbar_label("a [m/s^2]")
+    .equal_aspect()
+    .points(points);
+    Figure::new()
+        .title("Vest field")
+        .columns(2)
+        .panel_size(560, 480)
+        .push(heat.clone())
+        .push(heat)
+        .save_png(&std::path::Path::new(&out).with_extension("heat.png"))?;
     Ok(())
 }

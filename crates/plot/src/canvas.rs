@@ -589,7 +589,7 @@ mod tests {
             let px = tick_pixels(&a, &t.major.iter().map(|(v, _)| *v).collect::<Vec<_>>());
             for (i, pair) in px.windows(2).enumerate() {
                 let half =
-                    (text_width(&t.major[i].1, TICK_PX) + text_width(&t.major[i + 1].1, TICK_PX)) / 2.0;
+                    f32::midpoint(text_width(&t.major[i].1, TICK_PX), text_width(&t.major[i + 1].1, TICK_PX));
                 assert!(pair[1] - pair[0] > half, "{lo}..{hi} at {width}px: {:?}", t.major);
             }
         }

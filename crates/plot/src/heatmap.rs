@@ -256,7 +256,9 @@ impl Heatmap {
                 style,
             );
         }
-        canvas::draw_titles(pixmap, area, &self.title, &self.x_label, &self.y_label, 8.0, width);
+        // The y label hugs the tick labels, also when equal aspect moved the plot area inwards.
+        let y_label_x = (area.left - TICK_LEN - 4.0 - widest_label(&y_ticks) - 10.0 - LABEL_PX).max(4.0);
+        canvas::draw_titles(pixmap, area, &self.title, &self.x_label, &self.y_label, y_label_x, width);
     }
 
     fn draw_points(&self, pixmap: &mut Pixmap, area: Area, x_axis: &Axis, y_axis: &Axis) {

@@ -13,11 +13,11 @@
 //!   amended fix for the same time follows.
 //!
 //! GSA (DOPs, satellites used) and GSV (satellites in view) are receiver state: they persist across
-//! epochs until replaced, because receivers send them less often than GGA/RMC (the GPSlim 236 sends GSA
+//! epochs until replaced, because receivers send them less often than GGA/RMC (the `GPSlim` 236 sends GSA
 //! every 5 s). The date comes from RMC or ZDA and rolls over at midnight on its own when the time of day
 //! wraps before the next date arrives.
 
-use std::collections::{BTreeMap, BTreeSet, VecDeque};
+use std::collections::{BTreeMap, VecDeque};
 use std::time::{Duration, Instant};
 
 use chrono::{DateTime, NaiveDate, NaiveTime, Utc};
@@ -98,17 +98,28 @@ struct GsaPart {
     vdop: Option<f64>,
 }
 
+type LatLon = (f64, f64);
+/// GGA: position, quality, satellites, HDOP, altitude, geoid separation.
+type GgaFacts = (Option<LatLon>, Option<FixQuality>, Option<u32>, Option<f64>, Option<f64>, Option<f64>);
+/// RMC: valid, position, speed, course.
+type RmcFacts = (bool, Option<LatLon>, Option<f64>, Option<f64>);
+/// GNS: valid, position, satellites, HDOP, altitude, geoid separation.
+type GnsFacts = (bool, Option<LatLon>, Option<u32>, Option<f64>, Option<f64>, Option<f64>);
+/// GSV quadruple: id, elevation, azimuth, SNR.
+type SatQuad = super::sentence::SatQuad;
+
 /// What the current epoch has said so far.
 #[derive(Debug, Clone, Default)]
 struct Epoch {
     tod: Option<NaiveTime>,
     date: Option<NaiveDate>,
-    seen: BTreeSet<Kind>,
+    /// Bit set of the [`Kind`]s seen (bit = discriminant).
+    seen: u16,
     last_kind: Option<Kind>,
-    gga: Option<(Option<(f64, f64)>, Option<FixQuality>, Option<u32>, Option<f64>, Option<f64>, Option<f64>)>,
-    rmc: Option<(bool, Option<(f64, f64)>, Option<f64>, Option<f64>)>,
+    gga: Option<GgaFacts>,
+    rmc: Option<RmcFacts>,
     gll: Option<(bool, Option<(f64, f64)>)>,
-    gns: Option<(bool, Option<(f64, f64)>, Option<u32>, Option<f64>, Option<f64>, Option<f64>)>,
+    gns: Option<GnsFacts>,
     vtg: Option<(Option<f64>, Option<f64>)>,
     gsa: Vec<GsaPart>,
     gst: Option<(Option<f64>, Option<f64>, Option<f64>)>,
@@ -123,9 +134,9 @@ struct Epoch {
 struct SkyGroup {
     constellation: Option<Constellation>,
     in_view: u16,
-    pending: Vec<(u16, Option<f64>, Option<f64>, Option<f64>)>,
+    pending: Vec<SatQuad>,
     next: u16,
-    complete: Vec<(u16, Option<f64>, Option<f64>, Option<f64>)>,
+    complete: Vec<SatQuad>,
     complete_in_view: u16,
     has_complete: bool,
 }
@@ -148,6 +159,7 @@ pub struct NmeaDecoder {
     now: Option<Instant>,
     events: VecDeque<GpsEvent>,
     last_timestamp_ms: Option<i64>,
+    epochs: u64,
 }
 
 impl Default for NmeaDecoder {
@@ -175,12 +187,13 @@ impl NmeaDecoder {
             now: None,
             events: VecDeque::new(),
             last_timestamp_ms: None,
+            epochs: 0,
         }
     }
 
     /// Counts of accepted and rejected input so far.
-    pub fn stats(&self) -> &DecodeStats {
-        self.framer.stats()
+    pub fn stats(&self) -> DecodeStats {
+        DecodeStats { epochs: self.epochs, ..*self.framer.stats() }
     }
 
     /// The last `$PVNAV,TS` recording timestamp seen (Unix milliseconds), if any.
@@ -194,11 +207,9 @@ impl NmeaDecoder {
         if !data.is_empty() {
             self.last_input = Some(now);
         }
-        let mut lines: Vec<String> = Vec::new();
-        self.framer.feed(data, |s, _| lines.push(s.to_owned()));
-        for line in &lines {
-            self.handle_sentence(line);
-        }
+        let mut framer = std::mem::take(&mut self.framer);
+        framer.feed(data, |s, stats| self.handle_sentence(s, stats));
+        self.framer = framer;
     }
 
     /// When [`Self::handle_timeout`] wants to be called next (the quiet-gap deadline), if an epoch is open.
@@ -217,13 +228,11 @@ impl NmeaDecoder {
     /// Ends the stream: emits the last epoch (and a final sentence without line end).
     pub fn finish(&mut self, now: Instant) {
         self.now = Some(now);
-        let mut lines: Vec<String> = Vec::new();
-        self.framer.finish(|s, _| lines.push(s.to_owned()));
-        for line in &lines {
-            self.handle_sentence(line);
-        }
+        let mut framer = std::mem::take(&mut self.framer);
+        framer.finish(|s, stats| self.handle_sentence(s, stats));
+        self.framer = framer;
         self.close_epoch();
-        self.events.push_back(GpsEvent::Stats(*self.framer.stats()));
+        self.events.push_back(GpsEvent::Stats(self.stats()));
     }
 
     /// The next event, if any.
@@ -232,21 +241,21 @@ impl NmeaDecoder {
     }
 
     /// Handles one checksum-verified sentence (`$...*hh`), as if it had come through the framer.
-    fn handle_sentence(&mut self, line: &str) {
+    fn handle_sentence(&mut self, line: &str, stats: &mut DecodeStats) {
         let parsed = match sentence::parse(line) {
             Ok(p) => p,
             Err(Unused::Unsupported) => {
-                self.framer.stats_mut().unsupported += 1;
+                stats.unsupported += 1;
                 return;
             }
             Err(Unused::Malformed) => {
-                self.framer.stats_mut().malformed += 1;
+                stats.malformed += 1;
                 return;
             }
         };
         match parsed {
             Parsed::Mark { number, label } => {
-                self.framer.stats_mut().marks += 1;
+                stats.marks += 1;
                 let tod = self.epoch.tod.or(self.last_tod);
                 let time = tod.and_then(|t| self.date.map(|d| d.and_time(t).and_utc()));
                 self.events.push_back(GpsEvent::Mark(Mark {
@@ -269,7 +278,7 @@ impl NmeaDecoder {
         let time = sentence::time_of(&parsed);
         // Epoch boundaries.
         if let Some(t) = time {
-            if self.closed_by_ender && self.epoch.seen.is_empty() {
+            if self.closed_by_ender && self.epoch.seen == 0 {
                 if self.last_closed_tod_ms == Some(sentence::tod_ms(t)) {
                     // The learned cycle end was wrong: this sentence still belongs to the closed epoch.
                     self.ender = None;
@@ -277,20 +286,20 @@ impl NmeaDecoder {
                 }
                 self.closed_by_ender = false;
             }
-            if let Some(cur) = self.epoch.tod {
-                if sentence::tod_ms(cur) != sentence::tod_ms(t) {
-                    self.boundary();
-                }
+            if let Some(cur) = self.epoch.tod
+                && sentence::tod_ms(cur) != sentence::tod_ms(t)
+            {
+                self.boundary();
             }
         }
-        if kind != Kind::Gsa && kind != Kind::Gsv && self.epoch.seen.contains(&kind) {
+        if kind != Kind::Gsa && kind != Kind::Gsv && self.epoch.seen & (1 << kind as u16) != 0 {
             self.boundary();
         }
         if let Some(t) = time {
             self.epoch.tod = Some(t);
         }
         self.apply(parsed);
-        self.epoch.seen.insert(kind);
+        self.epoch.seen |= 1 << kind as u16;
         self.epoch.last_kind = Some(kind);
         if self.config.early_emit && self.ender == Some(kind) && self.epoch.substantive {
             self.close_epoch();
@@ -298,14 +307,8 @@ impl NmeaDecoder {
         }
     }
 
-    /// A boundary found by the next epoch's first sentence: learn the cycle ender, then close.
+    /// A boundary found by the next epoch's first sentence.
     fn boundary(&mut self) {
-        if let Some(last) = self.epoch.last_kind {
-            if self.ender_candidate == Some(last) {
-                self.ender = Some(last);
-            }
-            self.ender_candidate = Some(last);
-        }
         self.close_epoch();
     }
 
@@ -376,30 +379,45 @@ impl NmeaDecoder {
     }
 
     fn close_epoch(&mut self) {
-        let epoch = std::mem::take(&mut self.epoch);
+        let mut epoch = std::mem::take(&mut self.epoch);
+        // Learn the cycle's last sentence: the type that ended two consecutive epochs (however they closed).
+        if epoch.substantive
+            && let Some(last) = epoch.last_kind
+        {
+            if self.ender_candidate == Some(last) {
+                self.ender = Some(last);
+            }
+            self.ender_candidate = Some(last);
+        }
+        if epoch.substantive {
+            self.emit_epoch(&epoch);
+        }
         if !epoch.gsa.is_empty() {
-            self.gsa_state.clone_from(&epoch.gsa);
+            self.gsa_state = std::mem::take(&mut epoch.gsa);
         }
-        if !epoch.substantive {
-            return;
-        }
+    }
+
+    fn emit_epoch(&mut self, epoch: &Epoch) {
         // Date: this epoch's, else the last one rolled over if the time of day wrapped past midnight.
         if let Some(d) = epoch.date {
             self.date = Some(d);
-        } else if let (Some(d), Some(prev), Some(t)) = (self.date, self.last_tod, epoch.tod) {
-            if t < prev && prev - t > chrono::TimeDelta::hours(12) {
-                self.date = d.succ_opt();
-            }
+        } else if let (Some(d), Some(prev), Some(t)) = (self.date, self.last_tod, epoch.tod)
+            && t < prev
+            && prev - t > chrono::TimeDelta::hours(12)
+        {
+            self.date = d.succ_opt();
         }
         if epoch.tod.is_some() {
             self.last_tod = epoch.tod;
             self.last_closed_tod_ms = epoch.tod.map(sentence::tod_ms);
         }
-        let fix = self.build_fix(&epoch);
-        self.framer.stats_mut().epochs += 1;
+        let fix = self.build_fix(epoch);
+        self.epochs += 1;
         self.events.push_back(GpsEvent::Fix(Box::new(fix)));
     }
 
+    // One straight pass over the sentence types, in priority order; splitting it would scatter the rules.
+    #[allow(clippy::too_many_lines)]
     fn build_fix(&self, e: &Epoch) -> Fix {
         let mut fix = Fix {
             time_of_day: e.tod,
@@ -446,11 +464,11 @@ impl NmeaDecoder {
                 pos = pos.or(p);
             }
         }
-        if let Some((course, speed)) = e.vtg {
-            if valid != Some(false) {
-                fix.course_deg = fix.course_deg.or(course);
-                fix.speed_m_s = fix.speed_m_s.or(speed);
-            }
+        if let Some((course, speed)) = e.vtg
+            && valid != Some(false)
+        {
+            fix.course_deg = fix.course_deg.or(course);
+            fix.speed_m_s = fix.speed_m_s.or(speed);
         }
         let valid = valid.unwrap_or(false) && pos.is_some();
         if valid {
@@ -475,7 +493,9 @@ impl NmeaDecoder {
             fix.vdop = g.vdop;
             fix.hdop = fix.hdop.or(g.hdop);
         }
-        let used: BTreeSet<(Constellation, u16)> = gsa.iter().flat_map(|g| g.ids.iter().copied()).collect();
+        let mut used: Vec<(Constellation, u16)> = gsa.iter().flat_map(|g| g.ids.iter().copied()).collect();
+        used.sort_unstable();
+        used.dedup();
         if !gsa.is_empty() {
             // An empty id list with mode 1 is the receiver saying "none used".
             fix.sats_used = Some(used.len() as u32);
@@ -492,7 +512,7 @@ impl NmeaDecoder {
             for &(id, el, az, snr) in &g.complete {
                 let constellation = g.constellation.unwrap_or_else(|| Constellation::from_nmea_id(id));
                 *fix.sats_visible_by.entry(constellation).or_insert(0) += 1;
-                let is_used = used.contains(&(constellation, id));
+                let is_used = used.binary_search(&(constellation, id)).is_ok();
                 fix.satellites.push(Satellite {
                     prn: id,
                     constellation,
@@ -538,4 +558,105 @@ fn error_estimate(e: &Epoch, fix: &Fix) -> Option<ErrorEstimate> {
         vertical_m: fix.vdop.map(|v| v * uere_m),
         source: ErrorSource::DopModel { uere_m },
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn all_events(d: &mut NmeaDecoder) -> Vec<GpsEvent> {
+        std::iter::from_fn(|| d.poll_event()).collect()
+    }
+
+    proptest! {
+        /// No byte sequence makes the decoder panic, in any chunking.
+        #[test]
+        fn arbitrary_bytes_never_panic(data in proptest::collection::vec(any::<u8>(), 0..4000), cut in 1usize..600) {
+            let now = Instant::now();
+            for config in [DecoderConfig::file(), DecoderConfig::live()] {
+                let mut d = NmeaDecoder::new(config);
+                for chunk in data.chunks(cut) {
+                    d.handle_bytes(chunk, now);
+                    d.handle_timeout(now + Duration::from_secs(1));
+                }
+                d.finish(now);
+                let _ = all_events(&mut d);
+            }
+        }
+
+        /// Valid-looking sentences with random field contents (correct checksums) never panic either.
+        #[test]
+        fn checksummed_garbage_never_panics(
+            tag in prop::sample::select(vec!["GPGGA", "GNRMC", "GPGSA", "GLGSV", "GNGNS", "GPVTG", "GPZDA",
+                                             "GPGST", "GNTHS", "GPHDT", "GPGLL", "PVNAV", "PGRME"]),
+            fields in proptest::collection::vec("[0-9A-Z.,+-]{0,12}", 0..22),
+        ) {
+            let body = format!("{tag},{}", fields.join(","));
+            let text = crate::gps::framing::with_checksum(&body).repeat(3);
+            let (_fixes, stats) = crate::gps::decode_reader(text.as_bytes()).unwrap();
+            prop_assert_eq!(stats.sentences + stats.overlong, 3);
+        }
+    }
+
+    #[test]
+    fn live_mode_learns_the_cycle_end_and_emits_without_waiting() {
+        let log = std::fs::read(
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/gpsd-logs/nd-1005.log"),
+        )
+        .unwrap();
+        let mut d = NmeaDecoder::new(DecoderConfig::live());
+        let now = Instant::now();
+        // Feed line by line; after learning (3 epochs) a fix must come out at the cycle's last sentence,
+        // i.e. before the next epoch's first GGA is fed.
+        let mut fixes_before_next_gga = 0;
+        for line in log.split_inclusive(|&b| b == b'\n') {
+            if line.starts_with(b"$GPGGA") {
+                fixes_before_next_gga = 0;
+            }
+            d.handle_bytes(line, now);
+            fixes_before_next_gga +=
+                all_events(&mut d).iter().filter(|e| matches!(e, GpsEvent::Fix(_))).count();
+        }
+        assert_eq!(d.ender, Some(Kind::Vtg));
+        assert_eq!(fixes_before_next_gga, 1, "the last epoch was emitted at its VTG");
+    }
+
+    #[test]
+    fn midnight_rolls_the_date_over() {
+        use crate::gps::framing::with_checksum;
+        let text = [
+            "GPRMC,235959.00,A,4221.0,N,07106.0,W,0.0,0.0,311226,,,A",
+            "GPGGA,000000.00,4221.0,N,07106.0,W,1,05,1.0,10.0,M,0.0,M,,",
+            "GPGGA,000001.00,4221.0,N,07106.0,W,1,05,1.0,10.0,M,0.0,M,,",
+        ]
+        .map(with_checksum)
+        .concat();
+        let (fixes, _) = crate::gps::decode_reader(text.as_bytes()).unwrap();
+        let times: Vec<String> = fixes.iter().map(|f| f.time.unwrap().to_rfc3339()).collect();
+        assert_eq!(
+            times,
+            ["2026-12-31T23:59:59+00:00", "2027-01-01T00:00:00+00:00", "2027-01-01T00:00:01+00:00"]
+        );
+    }
+
+    #[test]
+    fn fix_loss_and_recovery() {
+        let (fixes, _) = crate::gps::decode_file(
+            &std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("../../tests/data/gpsd-logs/tomtom-mkII.log"),
+        )
+        .unwrap();
+        let modes: Vec<_> = fixes.iter().map(|f| f.mode).collect();
+        assert!(modes.contains(&Some(FixMode::Fix3D)));
+        assert!(modes.contains(&Some(FixMode::Fix2D)));
+        let lost = fixes.iter().filter(|f| f.mode == Some(FixMode::NoFix)).count();
+        assert!(lost >= 20, "{lost}");
+        assert!(
+            fixes
+                .iter()
+                .filter(|f| f.mode == Some(FixMode::NoFix))
+                .all(|f| f.lat_deg.is_none() && f.error.is_none())
+        );
+    }
 }

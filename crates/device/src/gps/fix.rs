@@ -94,7 +94,7 @@ pub enum Constellation {
     Glonass,
     /// European Galileo (talker GA).
     Galileo,
-    /// Chinese BeiDou (talkers GB, BD).
+    /// Chinese `BeiDou` (talkers GB, BD).
     Beidou,
     /// Japanese QZSS (talker GQ; PRN 193–202).
     Qzss,
@@ -120,7 +120,7 @@ impl Constellation {
 
     /// The constellation of an NMEA satellite id in the mixed (GN) numbering (NMEA 0183 4.x; gpsd's
     /// `NMEA.html` table): 1–32 GPS, 33–64 SBAS, 65–96 GLONASS, 120–158 SBAS, 193–202 QZSS,
-    /// 201–237 and 401–437 BeiDou, 301–336 Galileo.
+    /// 201–237 and 401–437 `BeiDou`, 301–336 Galileo.
     pub fn from_nmea_id(id: u16) -> Self {
         match id {
             1..=32 => Self::Gps,
@@ -133,7 +133,7 @@ impl Constellation {
         }
     }
 
-    /// From the NMEA 4.11 GSA/GSV system id digit (1 GPS, 2 GLONASS, 3 Galileo, 4 BeiDou, 5 QZSS, 6 NavIC).
+    /// From the NMEA 4.11 GSA/GSV system id digit (1 GPS, 2 GLONASS, 3 Galileo, 4 `BeiDou`, 5 QZSS, 6 `NavIC`).
     pub fn from_system_id(id: u8) -> Option<Self> {
         Some(match id {
             1 => Self::Gps,

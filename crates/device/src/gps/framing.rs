@@ -5,11 +5,11 @@
 //! - a `$` (or `!`) in the middle of a line starts a new sentence; the interrupted one is counted as
 //!   truncated (gpsd does the same; the Triton 400 log has `$GPGGA,030130$GPGLL,...`);
 //! - a control or non-ASCII byte (NUL, ANSI escape, binary) inside a line truncates it;
-//! - u-blox UBX (`B5 62 class id len16le payload ck_a ck_b`) and SiRF binary
+//! - u-blox UBX (`B5 62 class id len16le payload ck_a ck_b`) and `SiRF` binary
 //!   (`A0 A2 len16be payload ck16 B0 B3`) frames outside a line are skipped whole, by their length field,
 //!   so a `$` inside their payload cannot start a false sentence;
 //! - lines longer than [`MAX_SENTENCE_LEN`] are dropped (NMEA 0183 allows 82 characters; real receivers
-//!   send up to ~100, SkyTraq's PSTI is the record holder, so we accept twice the standard);
+//!   send up to ~100, `SkyTraq`'s PSTI is the record holder, so we accept twice the standard);
 //! - sentences without a checksum, or with a wrong one, are rejected (gpsd rejects them too);
 //! - lines starting with `#` are comments (gpsd's test logs) and are skipped, not counted as errors.
 
@@ -37,7 +37,7 @@ pub struct DecodeStats {
     pub malformed: u64,
     /// Sentences with a correct checksum of a type we do not use (ignored, not an error).
     pub unsupported: u64,
-    /// UBX or SiRF binary frames skipped.
+    /// UBX or `SiRF` binary frames skipped.
     pub binary_frames: u64,
     /// Bytes outside any sentence or frame (line noise, ANSI escapes, banners).
     pub junk_bytes: u64,
@@ -110,9 +110,9 @@ enum State {
     Discard,
     /// Saw 0xB5 (UBX sync 1).
     UbxSync,
-    /// Saw 0xA0 (SiRF sync 1).
+    /// Saw 0xA0 (`SiRF` sync 1).
     SirfSync,
-    /// Reading a binary header (UBX: class, id, len16le; SiRF: len16be).
+    /// Reading a binary header (UBX: class, id, len16le; `SiRF`: len16be).
     BinHeader { sirf: bool, got: u8 },
     /// Skipping this many more bytes of a binary frame.
     Skip(usize),
@@ -129,8 +129,15 @@ pub struct Framer {
 }
 
 impl Default for Framer {
+    /// A framer without a preallocated buffer (cheap to create as a placeholder).
     fn default() -> Self {
-        Self::new()
+        Self {
+            state: State::Idle,
+            buf: Vec::new(),
+            header: [0; 4],
+            at_line_start: true,
+            stats: DecodeStats::default(),
+        }
     }
 }
 
@@ -151,17 +158,48 @@ impl Framer {
         &self.stats
     }
 
-    /// Mutable counts (the sentence layer adds malformed/unsupported).
-    pub(crate) fn stats_mut(&mut self) -> &mut DecodeStats {
-        &mut self.stats
-    }
-
     /// Feeds bytes; calls `on_sentence` with each sentence whose checksum is correct, e.g.
     /// `$GPGGA,...*47` (ASCII, `$` or `!` first, checksum digits last).
     pub fn feed(&mut self, data: &[u8], mut on_sentence: impl FnMut(&str, &mut DecodeStats)) {
         self.stats.bytes += data.len() as u64;
-        for &b in data {
-            self.step(b, &mut on_sentence);
+        let mut i = 0;
+        while i < data.len() {
+            // Fast paths: skip binary payloads and copy runs of plain sentence characters in bulk.
+            match self.state {
+                State::Skip(n) => {
+                    let k = n.min(data.len() - i);
+                    i += k;
+                    if n == k {
+                        self.state = State::Idle;
+                        self.at_line_start = true;
+                    } else {
+                        self.state = State::Skip(n - k);
+                    }
+                    continue;
+                }
+                State::Line => {
+                    let rest = &data[i..];
+                    let run = rest
+                        .iter()
+                        .position(|&b| !(0x20..=0x7e).contains(&b) || b == b'$' || b == b'!')
+                        .unwrap_or(rest.len());
+                    if run > 0 {
+                        if self.buf.len() + run > MAX_SENTENCE_LEN {
+                            self.stats.overlong += 1;
+                            self.stats.junk_bytes += run as u64;
+                            self.buf.clear();
+                            self.state = State::Discard;
+                        } else {
+                            self.buf.extend_from_slice(&rest[..run]);
+                        }
+                        i += run;
+                        continue;
+                    }
+                }
+                _ => {}
+            }
+            self.step(data[i], &mut on_sentence);
+            i += 1;
         }
     }
 

@@ -130,13 +130,14 @@ mod tests {
     #[test]
     fn chk_reports_become_fixes() {
         let text = std::fs::read_to_string(
-            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/gpsd-logs/nd-1005.log.chk"),
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("../../tests/data/gpsd-logs/nd-1005.log.chk"),
         )
         .unwrap();
         let mut c = GpsdClient::new();
         let fixes: Vec<Fix> = text.lines().filter_map(|l| c.handle_line(l)).collect();
         assert_eq!(fixes.len(), 16);
-        assert!((fixes[0].lat_deg.unwrap() - 57.163445).abs() < 1e-9);
+        assert!((fixes[0].lat_deg.unwrap() - 57.163_445).abs() < 1e-9);
         assert_eq!(fixes[0].mode, Some(FixMode::Fix3D));
         assert_eq!(fixes[0].sats_used, Some(8));
         assert!(c.ignored_lines > 0, "NMEA echo lines are ignored");

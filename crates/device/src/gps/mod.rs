@@ -23,8 +23,8 @@ pub mod framing;
 pub mod gpsd;
 pub mod nmea_out;
 pub mod record;
-pub mod sim;
 mod sentence;
+pub mod sim;
 pub mod source;
 #[cfg(test)]
 mod truth_tests;
@@ -119,7 +119,7 @@ pub fn decode_reader_with_marks(
     }
     decoder.finish(now);
     drain(&mut decoder, &mut fixes, &mut marks);
-    Ok((fixes, marks, *decoder.stats()))
+    Ok((fixes, marks, decoder.stats()))
 }
 
 fn drain(decoder: &mut NmeaDecoder, fixes: &mut Vec<Fix>, marks: &mut Vec<Mark>) {

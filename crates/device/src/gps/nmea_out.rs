@@ -72,7 +72,11 @@ fn coord(deg: f64, lon: bool) -> String {
         d += 1.0;
         m -= 60.0;
     }
-    if lon { format!("{:03}{:09.6},{hemi}", d as u32, m) } else { format!("{:02}{:09.6},{hemi}", d as u32, m) }
+    if lon {
+        format!("{:03}{:09.6},{hemi}", d as u32, m)
+    } else {
+        format!("{:02}{:09.6},{hemi}", d as u32, m)
+    }
 }
 
 /// The sentences of one epoch, in a SiRF-like order: GGA, GSA, GSV (every epoch), RMC, GST.

@@ -70,12 +70,17 @@ mod tests {
         .unwrap();
         let mut rec = Recorder::new(Vec::new());
         for (i, chunk) in original.chunks(37).enumerate() {
-            rec.write(chunk, 1_700_000_000_000 + i as i64 * 100).unwrap();
+            rec.write(chunk, 1_700_000_000_000 + i64::try_from(i).unwrap() * 100).unwrap();
         }
         let recorded = rec.into_inner();
         let (a, sa) = decode_reader(original.as_slice()).unwrap();
         let (b, sb) = decode_reader(recorded.as_slice()).unwrap();
-        assert_eq!(a, b.iter().map(|f| crate::gps::Fix { received_at: a[0].received_at, ..f.clone() }).collect::<Vec<_>>());
+        assert_eq!(
+            a,
+            b.iter()
+                .map(|f| crate::gps::Fix { received_at: a[0].received_at, ..f.clone() })
+                .collect::<Vec<_>>()
+        );
         assert_eq!(sa.rejected(), sb.rejected());
         assert!(sb.sentences > sa.sentences);
     }

@@ -17,6 +17,9 @@ pub const MS_PER_KNOT: f64 = 1852.0 / 3600.0;
 /// Kilometres per hour to metres per second.
 const MS_PER_KMH: f64 = 1000.0 / 3600.0;
 
+/// GSV quadruple: satellite id, elevation [deg], azimuth [deg], SNR [dB-Hz].
+pub(crate) type SatQuad = (u16, Option<f64>, Option<f64>, Option<f64>);
+
 /// What one sentence says, in SI units.
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) enum Parsed {
@@ -67,7 +70,7 @@ pub(crate) enum Parsed {
         total: u16,
         number: u16,
         in_view: u16,
-        sats: Vec<(u16, Option<f64>, Option<f64>, Option<f64>)>,
+        sats: Vec<SatQuad>,
     },
     Vtg {
         course_deg: Option<f64>,
@@ -115,9 +118,16 @@ pub(crate) fn parse(sentence: &str) -> Result<Parsed, Unused> {
     let body = sentence.get(1..sentence.len().saturating_sub(3)).ok_or(Unused::Malformed)?;
     let mut fields = body.split(',');
     let tag = fields.next().ok_or(Unused::Malformed)?;
-    let f: Vec<&str> = fields.collect();
+    // A sentence has at most ~80 fields (164 characters); no allocation per sentence.
+    let mut store = [""; 96];
+    let mut n = 0;
+    for (slot, field) in store.iter_mut().zip(fields) {
+        *slot = field;
+        n += 1;
+    }
+    let f = &store[..n];
     if let Some(rest) = tag.strip_prefix('P') {
-        return parse_proprietary(rest, &f);
+        return parse_proprietary(rest, f);
     }
     if tag.len() != 5 || !sentence.starts_with('$') {
         return Err(Unused::Unsupported);
@@ -126,13 +136,13 @@ pub(crate) fn parse(sentence: &str) -> Result<Parsed, Unused> {
     match kind {
         // The crate refuses a GSA with an empty VDOP field (Septentrio PolarRx2: `...,10.5,10.5,*1F`):
         // fall back to our own parser when it fails.
-        "GSA" => via_crate(sentence, talker).or_else(|_| parse_gsa(talker, &f)),
+        "GSA" => via_crate(sentence, talker).or_else(|_| parse_gsa(talker, f)),
         // The crate refuses a ZDA whose zone hours carry a sign (`+00`, Firefly-II, Furuno): fall back.
-        "ZDA" => via_crate(sentence, talker).or_else(|_| parse_zda(&f)),
+        "ZDA" => via_crate(sentence, talker).or_else(|_| parse_zda(f)),
         "GGA" | "RMC" | "GLL" | "GST" | "HDT" => via_crate(sentence, talker),
-        "GNS" => parse_gns(&f),
-        "GSV" => parse_gsv(talker, &f),
-        "VTG" => Ok(parse_vtg(&f)),
+        "GNS" => parse_gns(f),
+        "GSV" => parse_gsv(talker, f),
+        "VTG" => Ok(parse_vtg(f)),
         "THS" => Ok(Parsed::Heading {
             heading_deg: if f.get(1).is_some_and(|s| *s == "V") { None } else { num(f.first()) },
         }),
@@ -197,9 +207,15 @@ fn via_crate(sentence: &str, talker: &str) -> Result<Parsed, Unused> {
     })
 }
 
-/// f32 fields of the nmea crate back to f64 through their shortest decimal form, so "1.9" stays 1.9.
+/// f32 fields of the nmea crate back to f64, rounded to 7 significant digits (f32's precision), so the
+/// sent "1.9" becomes the f64 1.9 rather than 1.899999976.
 fn f64_of(x: f32) -> f64 {
-    format!("{x}").parse().unwrap_or_else(|_| f64::from(x))
+    let x = f64::from(x);
+    if x == 0.0 || !x.is_finite() {
+        return x;
+    }
+    let scale = 10f64.powi(6 - x.abs().log10().floor() as i32);
+    (x * scale).round() / scale
 }
 
 fn fix_type_digit(t: nmea::sentences::FixType) -> u8 {
@@ -268,7 +284,7 @@ fn parse_coord(v: Option<&&str>, hemi: Option<&&str>) -> Option<f64> {
 }
 
 /// GNS (fix data): `time,lat,N,lon,E,mode,sats,hdop,alt,sep,age,station[,navstatus]`.
-/// The mode field has one letter per constellation (GPS, GLONASS, Galileo, BeiDou, ...); the fix is valid
+/// The mode field has one letter per constellation (GPS, GLONASS, Galileo, `BeiDou`, ...); the fix is valid
 /// when any letter is neither `N` (no fix) nor `V` (invalid).
 fn parse_gns(f: &[&str]) -> Result<Parsed, Unused> {
     let time = f.first().and_then(|s| parse_time(s));

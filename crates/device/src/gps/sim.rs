@@ -30,6 +30,11 @@ pub fn load_route_gpx(path: &Path) -> Result<Vec<(f64, f64)>, GpsError> {
     Ok(pts)
 }
 
+/// The current UTC time truncated to a whole second (receivers report epochs on the second).
+pub fn whole_second_now() -> DateTime<Utc> {
+    DateTime::from_timestamp(Utc::now().timestamp(), 0).unwrap_or(DateTime::UNIX_EPOCH)
+}
+
 /// A simulated receiver walking a route: call [`Self::next_epoch`] once per second.
 #[derive(Debug)]
 pub struct SimulatedReceiver {

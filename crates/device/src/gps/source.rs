@@ -23,7 +23,7 @@ use super::sentence;
 use super::sim::SimulatedReceiver;
 use super::{DecoderConfig, GpsEvent, NmeaDecoder};
 
-/// Bauds tried by automatic detection, most likely first (SiRF III default 4800, u-blox 9600/38400).
+/// Bauds tried by automatic detection, most likely first (`SiRF` III default 4800, u-blox 9600/38400).
 pub const DETECT_BAUDS: [u32; 6] = [4800, 9600, 38400, 115_200, 19200, 57600];
 /// No data for this long on a live link: the source is stale.
 pub const STALE_AFTER: Duration = Duration::from_secs(3);
@@ -128,7 +128,8 @@ impl GpsHandle {
 
     /// True while the worker runs.
     pub fn is_running(&self) -> bool {
-        !matches!(self.rx.try_recv(), Err(TryRecvError::Disconnected)) || self.thread.as_ref().is_some_and(|t| !t.is_finished())
+        !matches!(self.rx.try_recv(), Err(TryRecvError::Disconnected))
+            || self.thread.as_ref().is_some_and(|t| !t.is_finished())
     }
 
     /// Stops the worker and waits for it (at most one read timeout, ~100 ms).
@@ -290,7 +291,8 @@ fn run_serial(w: &Worker, port: &str, baud: Option<u32>) {
             }
         }
         attempt += 1;
-        let detail = baud.map_or_else(|| format!("{port}, detecting baud"), |b| format!("{port} at {b} baud"));
+        let detail =
+            baud.map_or_else(|| format!("{port}, detecting baud"), |b| format!("{port} at {b} baud"));
         if !w.state(SourceState::Connecting { detail }) {
             return;
         }
@@ -380,7 +382,7 @@ fn read_loop(
         }
         if last_stats.elapsed() >= Duration::from_secs(1) {
             last_stats = Instant::now();
-            if !w.send(GpsEvent::Stats(*d.stats())) {
+            if !w.send(GpsEvent::Stats(d.stats())) {
                 return None;
             }
         }
@@ -404,6 +406,57 @@ fn line_stamp(line: &[u8]) -> Option<(bool, i64)> {
     sentence::parse_time(field).map(|t| (false, i64::from(sentence::tod_ms(t))))
 }
 
+/// Hands out the lines of a log in time: by its `$PVNAV,TS` stamps when it has them, else by the
+/// sentences' UTC times of day (midnight wrap handled; a splice — a jump back, or forward by more than a
+/// minute — continues one second later). `speed`: 1 = recorded speed, `None` = no waiting. Returns false
+/// when stopped or when `emit` returns false.
+pub fn replay_lines(
+    data: &[u8],
+    speed: Option<f64>,
+    stop: &AtomicBool,
+    mut emit: impl FnMut(&[u8]) -> bool,
+) -> bool {
+    let has_ts = data.windows(10).any(|x| x == b"$PVNAV,TS,");
+    let speed = speed.filter(|s| s.is_finite() && *s > 0.0);
+    let start = Instant::now();
+    let mut base: Option<i64> = None;
+    let mut offset_ms: i64 = 0;
+    let mut last: Option<i64> = None;
+    for line in data.split_inclusive(|&b| b == b'\n') {
+        if let (Some(speed), Some((is_ts, mut ms))) = (speed, line_stamp(line))
+            && is_ts == has_ts
+        {
+            {
+                if let Some(prev) = last {
+                    if !has_ts && ms + offset_ms < prev - 43_200_000 {
+                        offset_ms += 86_400_000; // time of day wrapped past midnight
+                    }
+                    ms += offset_ms;
+                    if ms < prev || ms - prev > 60_000 {
+                        let b = base.unwrap_or(ms);
+                        base = Some(b + (ms - prev) - 1000);
+                    }
+                } else {
+                    ms += offset_ms;
+                }
+                last = Some(ms);
+                let b = *base.get_or_insert(ms);
+                let due = start + Duration::from_secs_f64(((ms - b).max(0) as f64 / 1000.0) / speed);
+                while Instant::now() < due {
+                    if stop.load(Ordering::Relaxed) {
+                        return false;
+                    }
+                    std::thread::sleep((due - Instant::now()).min(Duration::from_millis(20)));
+                }
+            }
+        }
+        if stop.load(Ordering::Relaxed) || !emit(line) {
+            return false;
+        }
+    }
+    true
+}
+
 fn run_replay(w: &Worker, path: &std::path::Path, speed: Option<f64>) {
     if !w.state(SourceState::Connecting { detail: path.display().to_string() }) {
         return;
@@ -418,45 +471,13 @@ fn run_replay(w: &Worker, path: &std::path::Path, speed: Option<f64>) {
     if !w.state(SourceState::Live { detail: format!("replaying {}", path.display()) }) {
         return;
     }
-    let has_ts = data.windows(10).any(|x| x == b"$PVNAV,TS,");
-    let speed = speed.filter(|s| s.is_finite() && *s > 0.0);
     let mut d = NmeaDecoder::new(DecoderConfig::live());
-    let start = Instant::now();
-    let mut base: Option<i64> = None;
-    let mut offset_ms: i64 = 0;
-    let mut last: Option<i64> = None;
-    for line in data.split_inclusive(|&b| b == b'\n') {
-        if let (Some(speed), Some((is_ts, mut ms))) = (speed, line_stamp(line)) {
-            if is_ts == has_ts {
-                if let Some(prev) = last {
-                    if !has_ts && ms + offset_ms < prev - 43_200_000 {
-                        offset_ms += 86_400_000; // time of day wrapped past midnight
-                    }
-                    ms += offset_ms;
-                    // A splice (jump back, or forward by more than a minute): continue one second later.
-                    if ms < prev || ms - prev > 60_000 {
-                        let b = base.unwrap_or(ms);
-                        base = Some(b + (ms - prev) - 1000);
-                    }
-                } else {
-                    ms += offset_ms;
-                }
-                last = Some(ms);
-                let b = *base.get_or_insert(ms);
-                let due = start + Duration::from_secs_f64(((ms - b).max(0) as f64 / 1000.0) / speed);
-                let now = Instant::now();
-                if due > now && !w.sleep(due - now) {
-                    return;
-                }
-            }
-        }
-        if w.stopped() {
-            return;
-        }
+    let completed = replay_lines(&data, speed, &w.stop, |line| {
         d.handle_bytes(line, Instant::now());
-        if !w.drain(&mut d) {
-            return;
-        }
+        w.drain(&mut d)
+    });
+    if !completed {
+        return;
     }
     d.finish(Instant::now());
     if w.drain(&mut d) {
@@ -479,10 +500,7 @@ fn run_gpsd(w: &Worker, host: &str, port: u16) {
         if !w.state(SourceState::Connecting { detail: format!("gpsd at {host}:{port}") }) {
             return;
         }
-        let reason = match gpsd_session(w, host, port, &mut attempt) {
-            None => return,
-            Some(r) => r,
-        };
+        let Some(reason) = gpsd_session(w, host, port, &mut attempt) else { return };
         if !w.state(SourceState::Lost { reason }) {
             return;
         }
@@ -499,7 +517,10 @@ fn gpsd_session(w: &Worker, host: &str, port: u16, attempt: &mut u32) -> Option<
         Ok(s) => s,
         Err(e) => return Some(format!("{addr}: {e}")),
     };
-    if let Err(e) = stream.set_read_timeout(Some(Duration::from_millis(100))).and_then(|()| stream.write_all(WATCH.as_bytes())) {
+    if let Err(e) = stream
+        .set_read_timeout(Some(Duration::from_millis(100)))
+        .and_then(|()| stream.write_all(WATCH.as_bytes()))
+    {
         return Some(e.to_string());
     }
     if !w.state(SourceState::Live { detail: format!("gpsd at {addr}") }) {
@@ -530,10 +551,10 @@ fn gpsd_session(w: &Worker, host: &str, port: u16, attempt: &mut u32) -> Option<
                             return None;
                         }
                     }
-                    if let Some(fix) = client.handle_line(&line) {
-                        if !w.send(GpsEvent::Fix(Box::new(fix))) {
-                            return None;
-                        }
+                    if let Some(fix) = client.handle_line(&line)
+                        && !w.send(GpsEvent::Fix(Box::new(fix)))
+                    {
+                        return None;
                     }
                     line.clear();
                 }
@@ -554,8 +575,15 @@ fn gpsd_session(w: &Worker, host: &str, port: u16, attempt: &mut u32) -> Option<
     }
 }
 
-fn run_sim(w: &Worker, route: &[(f64, f64)], pace_m_s: f64, model: GnssErrorModel, seed: u64, period: Duration) {
-    let mut rx = match SimulatedReceiver::new(route, pace_m_s, model, seed, chrono::Utc::now()) {
+fn run_sim(
+    w: &Worker,
+    route: &[(f64, f64)],
+    pace_m_s: f64,
+    model: GnssErrorModel,
+    seed: u64,
+    period: Duration,
+) {
+    let mut rx = match SimulatedReceiver::new(route, pace_m_s, model, seed, super::sim::whole_second_now()) {
         Ok(r) => r,
         Err(e) => {
             w.state(SourceState::Lost { reason: e.to_string() });
@@ -571,7 +599,7 @@ fn run_sim(w: &Worker, route: &[(f64, f64)], pace_m_s: f64, model: GnssErrorMode
     loop {
         let text = rx.next_epoch(period.as_secs_f64());
         d.handle_bytes(text.as_bytes(), Instant::now());
-        d.handle_timeout(Instant::now() + Duration::from_secs(3600));
+        d.handle_timeout(Instant::now() + Duration::from_hours(1));
         if !w.drain(&mut d) {
             return;
         }
@@ -609,9 +637,11 @@ mod tests {
 
     #[test]
     fn replay_as_fast_as_possible_gives_every_epoch() {
-        let mut h = GpsSource::spawn(SourceConfig::Replay { path: logs().join("nd-1005.log"), speed: None }, || {})
-            .unwrap();
-        let ev = collect(&h, |e| e.contains(&GpsEvent::State(SourceState::Finished)), Duration::from_secs(10));
+        let mut h =
+            GpsSource::spawn(SourceConfig::Replay { path: logs().join("nd-1005.log"), speed: None }, || {})
+                .unwrap();
+        let ev =
+            collect(&h, |e| e.contains(&GpsEvent::State(SourceState::Finished)), Duration::from_secs(10));
         let fixes = ev.iter().filter(|e| matches!(e, GpsEvent::Fix(_))).count();
         assert_eq!(fixes, 16);
         h.stop();
@@ -621,10 +651,13 @@ mod tests {
     fn replay_paces_by_utc_time() {
         // mr-350p: 14 epochs over 13 s; at 26x that is 0.5 s.
         let t0 = Instant::now();
-        let mut h =
-            GpsSource::spawn(SourceConfig::Replay { path: logs().join("mr-350p.log"), speed: Some(26.0) }, || {})
-                .unwrap();
-        let ev = collect(&h, |e| e.contains(&GpsEvent::State(SourceState::Finished)), Duration::from_secs(10));
+        let mut h = GpsSource::spawn(
+            SourceConfig::Replay { path: logs().join("mr-350p.log"), speed: Some(26.0) },
+            || {},
+        )
+        .unwrap();
+        let ev =
+            collect(&h, |e| e.contains(&GpsEvent::State(SourceState::Finished)), Duration::from_secs(10));
         let dt = t0.elapsed().as_secs_f64();
         assert!(ev.contains(&GpsEvent::State(SourceState::Finished)));
         assert!((0.45..2.0).contains(&dt), "{dt}");
@@ -644,18 +677,84 @@ mod tests {
             || {},
         )
         .unwrap();
-        let ev = collect(&h, |e| e.iter().filter(|x| matches!(x, GpsEvent::Fix(_))).count() >= 5, Duration::from_secs(10));
+        let ev = collect(
+            &h,
+            |e| e.iter().filter(|x| matches!(x, GpsEvent::Fix(_))).count() >= 5,
+            Duration::from_secs(10),
+        );
         assert!(ev.iter().filter(|x| matches!(x, GpsEvent::Fix(f) if f.has_position())).count() >= 5);
         h.stop();
     }
 
     #[test]
     fn gpsd_refused_reports_lost_then_reconnecting() {
-        let mut h = GpsSource::spawn(SourceConfig::Gpsd { host: "127.0.0.1".into(), port: 1 }, || {}).unwrap();
-        let ev = collect(&h, |e| e.iter().any(|x| matches!(x, GpsEvent::State(SourceState::Reconnecting { .. }))), Duration::from_secs(5));
+        let mut h =
+            GpsSource::spawn(SourceConfig::Gpsd { host: "127.0.0.1".into(), port: 1 }, || {}).unwrap();
+        let ev = collect(
+            &h,
+            |e| e.iter().any(|x| matches!(x, GpsEvent::State(SourceState::Reconnecting { .. }))),
+            Duration::from_secs(5),
+        );
         assert!(ev.iter().any(|x| matches!(x, GpsEvent::State(SourceState::Lost { .. }))));
-        assert!(ev.iter().any(|x| matches!(x, GpsEvent::State(SourceState::Reconnecting { attempt: 1, .. }))));
+        assert!(
+            ev.iter().any(|x| matches!(x, GpsEvent::State(SourceState::Reconnecting { attempt: 1, .. })))
+        );
         h.stop();
+    }
+
+    /// Fix-in to event-out latency over a real PTY: an epoch's sentences written to the master, the serial
+    /// source (fixed baud) reading the slave, until its Fix event is received. Prints p50/p99 (no timing
+    /// assertion: speed goals live in benches).
+    #[cfg(unix)]
+    #[test]
+    fn pty_fix_latency_p50_p99() {
+        use std::io::Write as _;
+        let mut pty = crate::serial::Pty::open().unwrap();
+        let h =
+            GpsSource::spawn(SourceConfig::Serial { port: pty.path().to_owned(), baud: Some(4800) }, || {})
+                .unwrap();
+        let mut rx = super::super::sim::SimulatedReceiver::new(
+            super::super::sim::DEFAULT_ROUTE,
+            1.4,
+            GnssErrorModel::perfect(),
+            1,
+            chrono::DateTime::UNIX_EPOCH,
+        )
+        .unwrap();
+        let mut live = false;
+        let end = Instant::now() + Duration::from_secs(5);
+        while !live && Instant::now() < end {
+            live = matches!(
+                h.recv_timeout(Duration::from_millis(50)),
+                Some(GpsEvent::State(SourceState::Live { .. }))
+            );
+        }
+        assert!(live);
+        let mut lat_us = Vec::new();
+        for k in 0..60 {
+            let text = rx.next_epoch(1.0);
+            let t0 = Instant::now();
+            pty.write_all(text.as_bytes()).unwrap();
+            let deadline = t0 + Duration::from_secs(2);
+            while Instant::now() < deadline {
+                if let Some(GpsEvent::Fix(_)) = h.recv_timeout(Duration::from_millis(5)) {
+                    // The first epochs are closed by the next one (cycle end not yet learned).
+                    if k >= 3 {
+                        lat_us.push(t0.elapsed().as_micros());
+                    }
+                    break;
+                }
+            }
+        }
+        lat_us.sort_unstable();
+        assert!(lat_us.len() >= 50, "{}", lat_us.len());
+        let p = |q: f64| lat_us[((lat_us.len() - 1) as f64 * q).round() as usize];
+        eprintln!(
+            "PTY fix-in to event-out latency: p50 {} us, p99 {} us (n = {})",
+            p(0.5),
+            p(0.99),
+            lat_us.len()
+        );
     }
 
     #[test]

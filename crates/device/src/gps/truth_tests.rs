@@ -33,10 +33,10 @@ fn parse_chk(text: &str) -> BTreeMap<u32, GpsdSecond> {
     let mut cur: Option<u32> = None;
     for line in text.lines() {
         if line.starts_with('$') {
-            if let Ok(p) = sentence::parse(line) {
-                if let Some(t) = sentence::time_of(&p) {
-                    cur = Some(sentence::tod_ms(t));
-                }
+            if let Ok(p) = sentence::parse(line)
+                && let Some(t) = sentence::time_of(&p)
+            {
+                cur = Some(sentence::tod_ms(t));
             }
             continue;
         }
@@ -123,7 +123,7 @@ struct Tally {
     failures: Vec<String>,
 }
 
-fn check(t: &mut Tally, log: &str, field: &str, key: u32, ok: bool, detail: String) {
+fn check(t: &mut Tally, log: &str, field: &str, key: u32, ok: bool, detail: &str) {
     t.compared += 1;
     if ok {
         t.matched += 1;
@@ -142,6 +142,7 @@ fn close(a: Option<f64>, b: Option<f64>, tol: f64) -> bool {
 }
 
 #[test]
+#[allow(clippy::too_many_lines)] // one table-driven walk over every log and field
 fn every_gpsd_log_matches_gpsd() {
     let mut logs: Vec<PathBuf> = std::fs::read_dir(logs_dir())
         .unwrap()
@@ -171,7 +172,7 @@ fn every_gpsd_log_matches_gpsd() {
             "accepted",
             0,
             stats.sentences == echoed,
-            format!("gpsd accepted {echoed}, we {}", stats.sentences),
+            &format!("gpsd accepted {echoed}, we {}", stats.sentences),
         );
         let ours: BTreeMap<u32, &Fix> =
             fixes.iter().filter_map(|f| f.time_of_day.map(|tod| (sentence::tod_ms(tod), f))).collect();
@@ -179,18 +180,18 @@ fn every_gpsd_log_matches_gpsd() {
         let mut n = 0;
         for (key, g) in &gpsd {
             let Some(f) = ours.get(key) else {
-                check(&mut t, &name, "epoch", *key, false, "gpsd has this second, we do not".into());
+                check(&mut t, &name, "epoch", *key, false, "gpsd has this second, we do not");
                 continue;
             };
             n += 1;
             let before_epoch = t.failures.len() + t.excused;
             if let (Some(gt), Some(ft)) = (&g.time, f.time) {
                 let ours = ft.format("%Y-%m-%dT%H:%M:%S%.3fZ").to_string();
-                check(&mut t, &name, "time", *key, *gt == ours, format!("gpsd {gt} ours {ours}"));
+                check(&mut t, &name, "time", *key, *gt == ours, &format!("gpsd {gt} ours {ours}"));
             }
             if let Some(m) = g.mode {
                 let ours = f.mode.map_or(0, |m| u64::from(m.gpsd_number()));
-                check(&mut t, &name, "mode", *key, m == ours, format!("gpsd {m} ours {ours}"));
+                check(&mut t, &name, "mode", *key, m == ours, &format!("gpsd {m} ours {ours}"));
             }
             if g.mode.unwrap_or(0) >= 2 && f.mode.is_some_and(|m| m != FixMode::NoFix) {
                 let ok =
@@ -201,16 +202,16 @@ fn every_gpsd_log_matches_gpsd() {
                     "latlon",
                     *key,
                     ok,
-                    format!("gpsd {:?},{:?} ours {:?},{:?}", g.lat, g.lon, f.lat_deg, f.lon_deg),
+                    &format!("gpsd {:?},{:?} ours {:?},{:?}", g.lat, g.lon, f.lat_deg, f.lon_deg),
                 );
             }
             if let Some(u) = g.u_sat {
                 let ours = f.sats_used.map(u64::from);
-                check(&mut t, &name, "used", *key, ours == Some(u), format!("gpsd {u} ours {ours:?}"));
+                check(&mut t, &name, "used", *key, ours == Some(u), &format!("gpsd {u} ours {ours:?}"));
             }
             if let Some(v) = g.n_sat {
                 let ours = f.sats_visible.map(u64::from);
-                check(&mut t, &name, "visible", *key, ours == Some(v), format!("gpsd {v} ours {ours:?}"));
+                check(&mut t, &name, "visible", *key, ours == Some(v), &format!("gpsd {v} ours {ours:?}"));
             }
             for (field, gv, fv) in
                 [("hdop", g.hdop, f.hdop), ("pdop", g.pdop, f.pdop), ("vdop", g.vdop, f.vdop)]
@@ -222,7 +223,7 @@ fn every_gpsd_log_matches_gpsd() {
                         field,
                         *key,
                         close(Some(gv), fv, 0.0051) && fv.is_some(),
-                        format!("gpsd {gv} ours {fv:?}"),
+                        &format!("gpsd {gv} ours {fv:?}"),
                     );
                 }
             }

@@ -22,7 +22,7 @@ use super::message::{
 
 /// Protocol version written in every packet header.
 pub const PROTOCOL_VERSION: u8 = 1;
-/// Largest payload of one packet [bytes].
+/// Largest payload of one packet (bytes).
 pub const MAX_PAYLOAD: usize = 200;
 /// Largest packet: header (4) + payload + CRC (2).
 pub const MAX_PACKET: usize = 4 + MAX_PAYLOAD + 2;
@@ -69,7 +69,7 @@ pub enum DecodeError {
     /// The frame is shorter than a header and a CRC.
     #[error("frame too short ({len} bytes)")]
     TooShort {
-        /// Decoded length [bytes].
+        /// Decoded length (bytes).
         len: usize,
     },
     /// More bytes than the largest frame arrived without a delimiter; they were discarded.
@@ -145,7 +145,7 @@ impl DecodeError {
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 #[error("message payload of {len} bytes exceeds the frame limit of {MAX_PAYLOAD}")]
 pub struct EncodeError {
-    /// Payload length [bytes].
+    /// Payload length (bytes).
     pub len: usize,
 }
 

@@ -18,7 +18,7 @@ use super::message::{
     UnitStatus,
 };
 
-/// Battery voltage below which [`Faults::LOW_BATTERY`] is raised [mV].
+/// Battery voltage below which [`Faults::LOW_BATTERY`] is raised (mV).
 pub const LOW_BATTERY_MV: u16 = 3500;
 
 /// How the emulated unit is built.
@@ -28,11 +28,11 @@ pub struct EngineConfig {
     pub firmware: FirmwareVersion,
     /// Limits enforced and reported.
     pub limits: Limits,
-    /// Silence after which everything stops [ms].
+    /// Silence after which everything stops (ms).
     pub watchdog_ms: u16,
     /// Whether the unit has per-tactor drive levels.
     pub intensity: bool,
-    /// Battery voltage reported [mV].
+    /// Battery voltage reported (mV).
     pub battery_mv: u16,
 }
 
@@ -48,7 +48,7 @@ impl Default for EngineConfig {
     }
 }
 
-/// Battery charge from voltage [%]: a linear single-cell Li-ion model, 3300 mV = 0 %, 4200 mV = 100 %,
+/// Battery charge from voltage (%): a linear single-cell Li-ion model, 3300 mV = 0 %, 4200 mV = 100 %,
 /// `pct = clamp((mv - 3300) / (4200 - 3300) * 100, 0, 100)` (a coarse stand-in for a discharge curve; the
 /// WTCU's real gauge is unpublished).
 pub fn battery_pct_from_mv(battery_mv: u16) -> u8 {
@@ -208,7 +208,7 @@ impl<C: WireCodec> Engine<C> {
         self.last_rx
     }
 
-    /// Sets the battery voltage reported from now on [mV].
+    /// Sets the battery voltage reported from now on (mV).
     pub fn set_battery_mv(&mut self, battery_mv: u16) {
         self.config.battery_mv = battery_mv;
     }
@@ -325,6 +325,9 @@ impl<C: WireCodec> Engine<C> {
             self.out.push_back(self.codec.encode_reply(seq, &reply));
             return;
         }
+        if message == Request::Hello {
+            self.last = None;
+        }
         let kind = message.kind();
         let reply = match self.execute(&message, now) {
             Ok(reply) => {
@@ -351,6 +354,9 @@ impl<C: WireCodec> Engine<C> {
     fn execute(&mut self, request: &Request, now: Instant) -> Result<Reply, (NakReason, String)> {
         let limit = |e: LimitError| (e.nak_reason(), e.to_string());
         if *request == Request::Hello {
+            // A new session: whoever was driving the vest before is gone, so nothing keeps running.
+            self.activity = Activity::Idle;
+            self.update(now, false);
             self.identified = true;
             self.events.push_back(EngineEvent::SessionStarted);
             return Ok(Reply::Identify(self.device_info()));

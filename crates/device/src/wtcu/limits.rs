@@ -22,17 +22,17 @@ use super::message::NakReason;
 /// The limits a unit enforces (and reports in its IDENTIFY), also applied by the console.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Limits {
-    /// Longest on-time of one command, and of one continuous run of a tactor in a pattern [ms].
+    /// Longest on-time of one command, and of one continuous run of a tactor in a pattern (ms).
     pub max_on_ms: u16,
     /// Most tactors on at once (the current budget divided by 70 mA).
     pub max_simultaneous: u8,
-    /// Length of the sliding duty-cycle window [ms].
+    /// Length of the sliding duty-cycle window (ms).
     pub duty_window_ms: u16,
-    /// Most on-time of one tactor within any duty-cycle window [ms].
+    /// Most on-time of one tactor within any duty-cycle window (ms).
     pub max_duty_on_ms: u16,
     /// Most frames in one pattern.
     pub max_pattern_frames: u8,
-    /// Longest pattern, all repeats included [ms].
+    /// Longest pattern, all repeats included (ms).
     pub max_pattern_ms: u16,
 }
 
@@ -58,9 +58,9 @@ pub enum LimitError {
     /// A tactor would stay on longer than allowed in one go.
     #[error("on-time {requested_ms} ms exceeds the limit of {max_ms} ms")]
     OnTooLong {
-        /// Requested continuous on-time [ms].
+        /// Requested continuous on-time (ms).
         requested_ms: u32,
-        /// Limit [ms].
+        /// Limit (ms).
         max_ms: u16,
     },
     /// More tactors at once than the current budget allows.
@@ -79,13 +79,13 @@ pub enum LimitError {
     DutyCycle {
         /// The tactor.
         tactor: usize,
-        /// On-time already spent in the window [ms].
+        /// On-time already spent in the window (ms).
         spent_ms: u32,
-        /// On-time the command asks for [ms].
+        /// On-time the command asks for (ms).
         requested_ms: u32,
-        /// Budget [ms].
+        /// Budget (ms).
         max_ms: u16,
-        /// Window [ms].
+        /// Window (ms).
         window_ms: u16,
     },
     /// A pattern has no frames, zero repeats, too many frames or lasts too long.
@@ -179,7 +179,7 @@ impl Limits {
     }
 }
 
-/// On-time each tactor would get from a FIRE [ms].
+/// On-time each tactor would get from a FIRE (ms).
 pub fn planned_fire_ms(mask: TactorMask, duration_ms: u16) -> [u32; TACTOR_COUNT] {
     let mut planned = [0u32; TACTOR_COUNT];
     for t in mask.indices() {
@@ -188,7 +188,7 @@ pub fn planned_fire_ms(mask: TactorMask, duration_ms: u16) -> [u32; TACTOR_COUNT
     planned
 }
 
-/// On-time each tactor would get from a pattern [ms]: the sum of its frames' durations times `repeats`.
+/// On-time each tactor would get from a pattern (ms): the sum of its frames' durations times `repeats`.
 pub fn planned_pattern_ms(frames: &[Frame], repeats: u8) -> [u32; TACTOR_COUNT] {
     let mut planned = [0u32; TACTOR_COUNT];
     for f in frames {
@@ -250,7 +250,7 @@ impl DutyLedger {
         }
     }
 
-    /// On-time of `tactor` between `now - window` and `now` [ms].
+    /// On-time of `tactor` between `now - window` and `now` (ms).
     pub fn spent_ms(&self, tactor: usize, now: Instant, window: Duration) -> u32 {
         let start = now.checked_sub(window);
         let Some(q) = self.intervals.get(tactor) else { return 0 };

@@ -20,7 +20,7 @@ pub enum Request {
     Fire {
         /// Tactors to turn on (an empty mask turns everything off).
         mask: TactorMask,
-        /// How long they stay on [ms]; bounded by [`Limits::max_on_ms`].
+        /// How long they stay on (ms); bounded by [`Limits::max_on_ms`].
         duration_ms: u16,
     },
     /// Plays `frames` `repeats` times, replacing whatever was running.
@@ -139,7 +139,7 @@ pub struct DeviceInfo {
     pub capabilities: Capabilities,
     /// The limits the unit enforces.
     pub limits: Limits,
-    /// The unit stops everything when it has heard nothing for this long [ms].
+    /// The unit stops everything when it has heard nothing for this long (ms).
     pub watchdog_ms: u16,
 }
 
@@ -224,9 +224,9 @@ impl std::ops::BitOr for Faults {
 /// The unit's answer to [`Request::GetStatus`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub struct UnitStatus {
-    /// Battery voltage [mV].
+    /// Battery voltage (mV).
     pub battery_mv: u16,
-    /// Battery charge [%], 0..=100.
+    /// Battery charge (%), 0..=100.
     pub battery_pct: u8,
     /// Tactors on now.
     pub tactors_on: TactorMask,

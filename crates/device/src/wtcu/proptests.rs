@@ -160,7 +160,7 @@ proptest! {
             bytes.push(0);
             let mut out = Vec::new();
             V1Codec::new().decode_requests(&bytes, &mut out);
-            prop_assert!(out.iter().all(|r| r.as_ref().map(|p| p.message != request || p.seq != 9).unwrap_or(true)));
+            prop_assert!(out.iter().all(|r| r.as_ref().map_or(true, |p| p.message != request || p.seq != 9)));
         }
     }
 }

@@ -50,7 +50,7 @@ pub enum VestCommand {
     Fire {
         /// Tactors.
         mask: TactorMask,
-        /// On-time [ms].
+        /// On-time (ms).
         duration_ms: u16,
     },
     /// Play a pattern.
