@@ -12,12 +12,14 @@ use vestnav_device::gps::sim::{DEFAULT_ROUTE, SimulatedReceiver, load_route_gpx,
 use vestnav_device::gps::source::replay_lines;
 
 /// Arguments of `vestnav emulate gps`.
+// Independent command-line switches, not a state machine.
+#[allow(clippy::struct_excessive_bools)]
 #[derive(Debug, Args)]
 pub struct GpsArgs {
     /// Replay this NMEA log (or recording) in real time.
     #[arg(long, conflicts_with = "simulate", required_unless_present = "simulate")]
     pub replay: Option<PathBuf>,
-    /// Simulate a walker along a route with SiRF III-like error.
+    /// Simulate a walker along a route with `SiRF` III-like error.
     #[arg(long)]
     pub simulate: bool,
     /// Route for --simulate (GPX: route, track or waypoints); default assets/routes/demo.gpx.
@@ -35,7 +37,7 @@ pub struct GpsArgs {
     /// Random seed of the simulated receiver error.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Simulate without SiRF static navigation (no position pinning below 1.2 m/s).
+    /// Simulate without `SiRF` static navigation (no position pinning below 1.2 m/s).
     #[arg(long)]
     pub no_static_nav: bool,
     /// Keep serving: loop the replay, or walk the route again when it ends.
@@ -110,12 +112,13 @@ pub fn run(args: &GpsArgs) -> anyhow::Result<()> {
             }
         }
     }
-    let route = match &args.route {
-        Some(p) => load_route_gpx(p)?,
-        None => {
-            let demo = PathBuf::from("assets/routes/demo.gpx");
-            if demo.exists() { load_route_gpx(&demo)? } else { DEFAULT_ROUTE.to_vec() }
-        }
+    let demo = PathBuf::from("assets/routes/demo.gpx");
+    let route = if let Some(p) = &args.route {
+        load_route_gpx(p)?
+    } else if demo.exists() {
+        load_route_gpx(&demo)?
+    } else {
+        DEFAULT_ROUTE.to_vec()
     };
     let model = if args.no_static_nav {
         GnssErrorModel::sirf3_no_static_nav()

@@ -194,14 +194,13 @@ pub fn run_decode(args: &DecodeArgs) -> anyhow::Result<()> {
 /// Runs `vestnav nmea record`.
 pub fn run_record(args: &RecordArgs) -> anyhow::Result<()> {
     let stop = std::sync::atomic::AtomicBool::new(false);
-    let (baud, first) = match args.baud {
-        Some(b) => (b, Vec::new()),
-        None => {
-            let (b, bytes) = detect_baud(&args.port, Duration::from_millis(1500), &stop)
-                .map_err(|e| anyhow::anyhow!("baud detection on {}: {e}", args.port))?;
-            eprintln!("{}: NMEA found at {b} baud", args.port);
-            (b, bytes)
-        }
+    let (baud, first) = if let Some(b) = args.baud {
+        (b, Vec::new())
+    } else {
+        let (b, bytes) = detect_baud(&args.port, Duration::from_millis(1500), &stop)
+            .map_err(|e| anyhow::anyhow!("baud detection on {}: {e}", args.port))?;
+        eprintln!("{}: NMEA found at {b} baud", args.port);
+        (b, bytes)
     };
     let mut port = vestnav_device::serial::open(&args.port, baud, Duration::from_millis(200))?;
     let file =

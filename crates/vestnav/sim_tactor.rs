@@ -442,6 +442,45 @@ fn sweep_json(r: &SweepResult) -> Value {
     })
 }
 
+/// Fig 38: simulated (f, b) points, the exact inverse and the fitted 4-parameter inverse.
+fn calibration_chart(base: &SweepResult) -> Chart {
+    let blue = Color::rgb(31, 119, 180);
+    let red = Color::rgb(214, 39, 40);
+    let green = Color::rgb(44, 160, 44);
+    let (fb_x, bb): (Vec<f64>, Vec<f64>) =
+        base.points.iter().map(|p| (p.f_rot_hz, p.damping_n_m_s * 1e8)).unzip();
+    let lo = base.options.min_hz;
+    let hi = base.options.max_hz;
+    let grid: Vec<f64> = (0..=100).map(|k| lo + (hi - lo) * f64::from(k) / 100.0).collect();
+    let inv = base.inverse_fit;
+    Chart::new("Fig 38: damping vs peak frequency (calibration curve)")
+        .x_label("f_rot [Hz]")
+        .y_label("b [1e-8 N m s]")
+        .series(Series::scatter("simulated", fb_x, bb).color(blue))
+        .series(
+            Series::line(
+                "exact b = (Kt u/(2 pi f) - Kt^2)/R",
+                grid.clone(),
+                grid.iter().map(|f| base.exact_inverse.eval(*f) * 1e8).collect(),
+            )
+            .color(green),
+        )
+        .series(
+            Series::line(
+                format!(
+                    "fit p1 (f{:+.3})^{:.4} + p4, max err {:.3}%",
+                    inv.p2,
+                    inv.p3,
+                    inv.max_rel_residual * 100.0
+                ),
+                grid.clone(),
+                grid.iter().map(|f| inv.eval(*f) * 1e8).collect(),
+            )
+            .color(red)
+            .dashed(),
+        )
+}
+
 fn sweep_sheet(
     base: &SweepResult,
     encased: &SweepResult,
@@ -508,39 +547,8 @@ fn sweep_sheet(
         .color(red)
         .dashed(),
     );
-    let (fb_x, bb): (Vec<f64>, Vec<f64>) =
-        base.points.iter().map(|p| (p.f_rot_hz, p.damping_n_m_s * 1e8)).unzip();
-    let lo = base.options.min_hz;
-    let hi = base.options.max_hz;
-    let grid: Vec<f64> = (0..=100).map(|k| lo + (hi - lo) * f64::from(k) / 100.0).collect();
-    let inv = base.inverse_fit;
-    let fig38 = Chart::new("Fig 38: damping vs peak frequency (calibration curve)")
-        .x_label("f_rot [Hz]")
-        .y_label("b [1e-8 N m s]")
-        .series(Series::scatter("simulated", fb_x, bb).color(blue))
-        .series(
-            Series::line(
-                "exact b = (Kt u/(2 pi f) - Kt^2)/R",
-                grid.clone(),
-                grid.iter().map(|f| base.exact_inverse.eval(*f) * 1e8).collect(),
-            )
-            .color(green),
-        )
-        .series(
-            Series::line(
-                format!(
-                    "fit b = p1 (f{:+.3})^{:.4} {:+.3e} (max err {:.2}%)",
-                    inv.p2,
-                    inv.p3,
-                    inv.p4,
-                    inv.max_rel_residual * 100.0
-                ),
-                grid.clone(),
-                grid.iter().map(|f| inv.eval(*f) * 1e8).collect(),
-            )
-            .color(red)
-            .dashed(),
-        );
+    let fig38 = calibration_chart(base);
+    let (lo, hi) = (base.options.min_hz, base.options.max_hz);
     Figure::new()
         .title(format!(
             "Damping sweep (thesis Figs 35-38): b over {}-{} Hz, {} points, {} s each; preset {}",
@@ -658,10 +666,11 @@ fn calibrated_sheet(cal: &Calibration, run: &TactorRun) -> Figure {
     }
     let t0 = s.window_start_s;
     let (t2, f2) = slice_xy(&tr.t_s, &tr.force_n, t0, t0 + 0.03, 2000);
-    let fig41 = Chart::new(format!("Fig 41: steady force waveform ({:.2} Hz)", s.f_rot_hz))
-        .x_label("time [s]")
-        .y_label("F [N]")
-        .series(Series::line("model force", t2, f2).color(red));
+    let fig41 =
+        Chart::new(format!("Fig 41: steady force waveform ({:.2} Hz)", s.omega_mean_revs_rad_s / TAU))
+            .x_label("time [s]")
+            .y_label("F [N]")
+            .series(Series::line("model force", t2, f2).color(red));
     Figure::new()
         .title(format!(
             "Calibrated tactor (thesis Figs 39-41, model side; measured traces not available): \

@@ -34,9 +34,11 @@ fn emulator(args: &[&str]) -> (Kill, String) {
         .stdout(Stdio::piped())
         .stderr(Stdio::null())
         .spawn()
-        .unwrap();
+        .expect("start vestnav emulate gps");
     let mut line = String::new();
-    BufReader::new(child.stdout.take().unwrap()).read_line(&mut line).unwrap();
+    BufReader::new(child.stdout.take().expect("piped stdout"))
+        .read_line(&mut line)
+        .expect("read the PTY path");
     let path = line.trim().to_owned();
     assert!(path.starts_with("/dev/"), "emulator printed {path:?}");
     (Kill(child), path)

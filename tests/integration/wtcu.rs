@@ -644,8 +644,10 @@ fn pty_link_loss_leaves_every_tactor_off_within_the_watchdog_bound() {
     let bound = Duration::from_millis(1500);
     let after = off_at.duration_since(last_rx);
     println!("watchdog: everything off {} ms after the last frame (bound 1500 ms)", after.as_millis());
-    assert!(after >= bound && after < bound + Duration::from_millis(100), "{after:?}");
-    assert!(off_at.duration_since(cut) < bound + Duration::from_millis(100));
+    // The unit polls every 5 ms; the slack only absorbs thread scheduling on a loaded 2-core CI machine.
+    let slack = Duration::from_millis(300);
+    assert!(after >= bound && after < bound + slack, "{after:?}");
+    assert!(off_at.duration_since(cut) < bound + slack);
     assert!(off_at.duration_since(cut) < Duration::from_secs(8), "the 8 s pattern was cut short");
     drop(vest);
 }
@@ -810,4 +812,48 @@ fn emulated_vest_in_process_connects_out_of_the_box() {
     vest.send(VestCommand::SetIntensity { mask: TactorMask::ALL, level: 100 }).unwrap();
     wait_for(&vest, &mut seen, s, |e| matches!(e, VestEvent::Acked { kind: CommandKind::SetIntensity, .. }));
     vest.stop();
+}
+
+#[test]
+fn the_emulator_program_serves_a_console_on_its_pty() {
+    use std::io::BufRead;
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_vestnav"))
+        .args(["emulate", "vest", "--pty", "--battery-mv", "3400"])
+        .stdin(std::process::Stdio::null())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut lines = std::io::BufReader::new(child.stdout.take().unwrap()).lines();
+    let first = lines.next().unwrap().unwrap();
+    let path = first.strip_prefix("WTCU emulator on ").unwrap().to_owned();
+    // Keep draining the plain-text view so the program never blocks on a full pipe.
+    let log = Arc::new(Mutex::new(Vec::new()));
+    let l = log.clone();
+    let drain = std::thread::spawn(move || {
+        for line in lines.map_while(Result::ok) {
+            l.lock().unwrap().push(line);
+        }
+    });
+    let vest =
+        VestHandle::spawn_with(pty_connector(Arc::new(Mutex::new(path))), fast_settings(), || {}).unwrap();
+    let mut seen = Vec::new();
+    let s = Duration::from_secs(5);
+    wait_for(&vest, &mut seen, s, |e| matches!(e, VestEvent::State(LinkState::Ready)));
+    // The first status after the handshake carries the battery and its low-battery flag.
+    wait_for(
+        &vest,
+        &mut seen,
+        s,
+        |e| matches!(e, VestEvent::Status(st) if st.battery_mv == 3400 && st.faults.contains(Faults::LOW_BATTERY)),
+    );
+    vest.send(VestCommand::Fire { mask: TactorMask::CORNERS, duration_ms: 200 }).unwrap();
+    wait_for(&vest, &mut seen, s, |e| *e == VestEvent::TactorsOn(Some(TactorMask::CORNERS)));
+    wait_for(&vest, &mut seen, s, |e| *e == VestEvent::TactorsOn(Some(TactorMask::NONE)));
+    vest.stop();
+    child.kill().unwrap();
+    child.wait().unwrap();
+    drain.join().unwrap();
+    let log = log.lock().unwrap();
+    assert!(log.iter().any(|l| l.ends_with("on: [0, 3, 12, 15]")), "{log:?}");
 }

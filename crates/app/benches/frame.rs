@@ -99,7 +99,7 @@ fn memory_24h() {
             if k >= n {
                 break;
             }
-            out.send(GpsEvent::Fix(fix(k)));
+            out.send_wait(GpsEvent::Fix(fix(k)));
             k += 1;
         }
         // Let the router drain into the UI channel, then take it in as a frame would.

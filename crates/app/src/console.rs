@@ -196,7 +196,7 @@ impl Console {
                             gps_utc: fix.time_utc.clone(),
                         });
                     }
-                    guidance.send(GuidanceInput::Fix(fix.clone()));
+                    guidance.send_wait(GuidanceInput::Fix(fix.clone()));
                 } else if let (GpsEvent::State(s), Some(log)) = (&ev, &log) {
                     log.log(LogEntry::Note { text: format!("gps {}", s.label()) });
                 }
@@ -604,7 +604,8 @@ impl Console {
         });
         egui::ComboBox::from_label("Strategy").selected_text(self.cfg.strategy.clone()).show_ui(ui, |ui| {
             for k in StrategyKind::ALL {
-                changed |= ui.selectable_value(&mut self.cfg.strategy, k.name().to_owned(), k.name()).changed();
+                changed |=
+                    ui.selectable_value(&mut self.cfg.strategy, k.name().to_owned(), k.name()).changed();
             }
         });
         changed |= ui

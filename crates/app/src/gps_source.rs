@@ -126,7 +126,9 @@ pub fn open_with(config: SourceConfig, events: Outbox<GpsEvent>) -> Result<Box<d
                         }
                     }
                     for out in convert_event(ev) {
-                        if !events.send(out) {
+                        // The router is a worker thread: wait for it rather than lose a fix (the device
+                        // worker then waits for us in turn).
+                        if !events.send_wait(out) {
                             break 'outer;
                         }
                     }

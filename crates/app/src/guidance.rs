@@ -191,22 +191,18 @@ impl GuidanceWorker {
             }
             GuidanceInput::Settings(s) => {
                 let was_auto = self.settings.auto;
-                let structural = s.arrival_radius_m != self.settings.arrival_radius_m
-                    || s.loop_route != self.settings.loop_route
-                    || s.strategy != self.settings.strategy
-                    || s.cue_interval_s != self.settings.cue_interval_s
-                    || s.manual_hold_s != self.settings.manual_hold_s
-                    || s.stale_after_s != self.settings.stale_after_s
-                    || s.on_ms != self.settings.on_ms;
+                // Anything but the auto switch changes the engine's configuration.
+                let structural = GuidanceSettings { auto: s.auto, ..self.settings } != s;
                 self.settings = s;
                 if structural {
                     let next = self.engine.as_ref().map_or(0, |g| g.route().active_index());
                     self.rebuild(next);
                 }
-                if s.auto && !was_auto {
-                    if let Some(g) = &mut self.engine {
-                        g.resume();
-                    }
+                if s.auto
+                    && !was_auto
+                    && let Some(g) = &mut self.engine
+                {
+                    g.resume();
                 }
             }
             GuidanceInput::ManualOverride(cue) => {
@@ -374,10 +370,7 @@ mod tests {
         assert_eq!(st.cue, Some(Cue::TurnLeft), "{st:?}");
         assert!(st.sent);
         assert!((st.bearing_error_deg.unwrap() + 90.0).abs() < 1.0);
-        assert_eq!(
-            vest.0.lock().unwrap().as_slice(),
-            &[VestCommand::Play(Cue::TurnLeft.pattern(500))]
-        );
+        assert_eq!(vest.0.lock().unwrap().as_slice(), &[VestCommand::Play(Cue::TurnLeft.pattern(500))]);
         in_tx.send(GuidanceInput::StopAll).unwrap();
         in_tx.send(GuidanceInput::Fix(moving(42.0, -71.0, 180.0))).unwrap();
         let st = ui_rx.recv_timeout(Duration::from_secs(2)).unwrap();

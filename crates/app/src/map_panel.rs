@@ -16,9 +16,9 @@ use crate::model::GpsFix;
 use crate::route::{Waypoint, decimation_stride, distance_bearing, enu_from_wgs84};
 
 /// Track points drawn at most per frame (older points are strided, the newest [`TRACK_TAIL`] drawn in full).
-pub const TRACK_DRAW_MAX: usize = 4000;
+pub const TRACK_DRAW_MAX: usize = 2500;
 /// Newest track points always drawn at full resolution.
-pub const TRACK_TAIL: usize = 600;
+pub const TRACK_TAIL: usize = 500;
 /// With tiles on, the map falls back to the local grid when no tile has arrived for this long [s].
 pub const TILES_OFFLINE_AFTER_S: f64 = 2.0;
 
@@ -48,6 +48,7 @@ pub struct MapView {
     /// GPX file path for import/export.
     pub gpx_path: String,
     right_click_at: Option<Position>,
+    menu_wp: Option<usize>,
 }
 
 /// A [`Tiles`] wrapper that counts tiles found and missing, to tell "offline" from "loading".
@@ -112,6 +113,7 @@ impl MapView {
             marks: 0,
             gpx_path: String::new(),
             right_click_at: None,
+            menu_wp: None,
         }
     }
 
@@ -337,6 +339,7 @@ impl MapView {
         let replay = &self.replay;
         let add_mode = self.add_mode;
         let right_click_at = &mut self.right_click_at;
+        let menu_wp = &mut self.menu_wp;
         let map = walkers::Map::new(tiles_dyn, &mut self.memory, my_position)
             .double_click_to_zoom(true)
             .zoom_with_ctrl(false);
@@ -386,11 +389,43 @@ impl MapView {
             // Waypoints, draggable, with a context menu.
             let mut action: Option<(usize, i32)> = None;
             let font = egui::FontId::proportional(12.0);
-            for (i, p) in pts.iter().enumerate() {
-                if !rect.expand(20.0).contains(*p) {
+            let visible: Vec<usize> =
+                (0..pts.len()).filter(|&i| rect.expand(20.0).contains(pts[i])).collect();
+            let crowded = visible.len() > 200;
+            let pointer = ui.ctx().pointer_hover_pos();
+            for i in visible {
+                let p = &pts[i];
+                let fill = match i.cmp(&*next) {
+                    std::cmp::Ordering::Equal => Color32::from_rgb(240, 140, 0),
+                    std::cmp::Ordering::Less => Color32::from_rgb(120, 160, 120),
+                    std::cmp::Ordering::Greater => Color32::from_rgb(60, 120, 220),
+                };
+                let id = egui::Id::unique(("vestnav-waypoint", i));
+                // Only waypoints under the pointer, being dragged or with their menu open need a widget:
+                // a thousand idle interaction rects would cost milliseconds per frame.
+                let near = pointer.is_some_and(|q| q.distance(*p) < 24.0);
+                if !(near || ui.ctx().is_being_dragged(id) || *menu_wp == Some(i)) {
+                    if crowded {
+                        painter.circle_filled(*p, 5.0, fill);
+                    } else {
+                        painter.circle(*p, 8.0, fill, Stroke::new(1.5, Color32::WHITE));
+                        painter.text(
+                            *p,
+                            egui::Align2::CENTER_CENTER,
+                            (i + 1).to_string(),
+                            font.clone(),
+                            Color32::WHITE,
+                        );
+                        painter.text(
+                            *p + vec2(12.0, -12.0),
+                            egui::Align2::LEFT_BOTTOM,
+                            &waypoints[i].name,
+                            font.clone(),
+                            ui.visuals().strong_text_color(),
+                        );
+                    }
                     continue;
                 }
-                let id = egui::Id::unique(("vestnav-waypoint", i));
                 let r = ui.interact(
                     egui::Rect::from_center_size(*p, vec2(18.0, 18.0)),
                     id,
@@ -404,11 +439,6 @@ impl MapView {
                     waypoints[i].lon_deg = ll.x();
                     changed = true;
                 }
-                let fill = match i.cmp(&*next) {
-                    std::cmp::Ordering::Equal => Color32::from_rgb(240, 140, 0),
-                    std::cmp::Ordering::Less => Color32::from_rgb(120, 160, 120),
-                    std::cmp::Ordering::Greater => Color32::from_rgb(60, 120, 220),
-                };
                 painter.circle(
                     *p,
                     if r.hovered() || r.dragged() { 10.0 } else { 8.0 },
@@ -422,7 +452,10 @@ impl MapView {
                     font.clone(),
                     Color32::WHITE,
                 );
-                if pts.len() <= 200 || r.hovered() {
+                if r.secondary_clicked() {
+                    *menu_wp = Some(i);
+                }
+                {
                     painter.text(
                         *p + vec2(12.0, -12.0),
                         egui::Align2::LEFT_BOTTOM,
@@ -431,7 +464,7 @@ impl MapView {
                         ui.visuals().strong_text_color(),
                     );
                 }
-                r.context_menu(|ui| {
+                let open = r.context_menu(|ui| {
                     ui.label(RichText::new(&waypoints[i].name).strong());
                     if ui.button("Make next").clicked() {
                         action = Some((i, 0));
@@ -446,6 +479,9 @@ impl MapView {
                         action = Some((i, 99));
                     }
                 });
+                if open.is_none() && *menu_wp == Some(i) && !r.secondary_clicked() {
+                    *menu_wp = None;
+                }
             }
 
             // The wearer: accuracy circle, dot, course arrow.

@@ -226,6 +226,16 @@ impl<T> Outbox<T> {
         alive
     }
 
+    /// Sends, waiting while the channel is full (back-pressure for producers that must not lose data and
+    /// whose consumer is a worker thread, never the UI); returns `false` if the receiver is gone.
+    pub fn send_wait(&self, msg: T) -> bool {
+        let alive = self.tx.send(msg).is_ok();
+        if let Some(ctx) = &self.waker {
+            ctx.request_repaint();
+        }
+        alive
+    }
+
     /// Messages dropped because the receiver lagged.
     pub fn dropped(&self) -> u64 {
         self.dropped.load(std::sync::atomic::Ordering::Relaxed)

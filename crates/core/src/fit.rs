@@ -106,7 +106,7 @@ pub fn fit_power_law(x: &[f64], y: &[f64]) -> Result<PowerLawFit, FitError> {
     if x.len() != y.len() || x.len() < 2 {
         return Err(FitError::TooFewPoints { needed: 2, got: x.len().min(y.len()) });
     }
-    if x.iter().chain(y).any(|v| !(*v > 0.0) || !v.is_finite()) {
+    if x.iter().chain(y).any(|v| v.is_nan() || *v <= 0.0 || !v.is_finite()) {
         return Err(FitError::NonPositive);
     }
     let lx: Vec<f64> = x.iter().map(|v| v.ln()).collect();

@@ -6,8 +6,15 @@
 //! - [`fit`]: least-squares line and power-law fits with R^2;
 //! - [`analysis`]: measured force/acceleration series (§3.1): peak frequency, envelope, statistics;
 //! - [`wave`]: skin travelling waves and their linear superposition (§4.1.3);
-//! - [`twopoint`]: the two-point simulation, a two-Gaussian sum fitted by one Gaussian (§4.2).
+//! - [`twopoint`]: the two-point simulation, a two-Gaussian sum fitted by one Gaussian (§4.2);
 //! - [`vest`]: the 4x4 tactor grid, tactor masks, timed patterns and the named cues.
+//!
+//! And the navigation logic of the console, pure in the same way:
+//! - [`geo`]: WGS-84 and thesis-sphere distances, local frames, cross-track, WMM declination;
+//! - [`guidance`]: route, heading source, cue selection, rate limiting, manual overrides, strategies;
+//! - [`gnss_sim`]: a GNSS error model (noise, wandering bias, static-navigation pinning) and a route walker;
+//! - [`wearer`]: the closed-loop simulated wearer used to compare strategies;
+//! - [`fieldtest`]: GPS drift and cone-test statistics (§5).
 //!
 //! ```
 //! use vestnav_core::tactor::{TactorParams, Preset};

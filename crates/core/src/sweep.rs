@@ -69,7 +69,7 @@ pub enum SweepError {
     },
 }
 
-/// No-load rotation frequency `u / (2 pi Kt)` [Hz]: the limit of the closed-form steady state as `b -> 0`.
+/// No-load rotation frequency `u / (2 pi Kt)` \[Hz\]: the limit of the closed-form steady state as `b -> 0`.
 pub fn max_frequency_hz(params: &TactorParams) -> f64 {
     params.voltage_v / (TAU * params.torque_constant_n_m_per_a)
 }
@@ -89,9 +89,9 @@ pub fn damping_for_frequency(params: &TactorParams, frequency_hz: f64) -> Result
 /// Range and resolution of a damping sweep.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct SweepOptions {
-    /// Lowest closed-form steady frequency [Hz] (sets the largest damping).
+    /// Lowest closed-form steady frequency \[Hz\] (sets the largest damping).
     pub min_hz: f64,
-    /// Highest closed-form steady frequency [Hz] (sets the smallest damping).
+    /// Highest closed-form steady frequency \[Hz\] (sets the smallest damping).
     pub max_hz: f64,
     /// Number of dampings, evenly spaced in frequency.
     pub points: usize,
@@ -120,7 +120,7 @@ pub struct SweepPoint {
     pub closed_form_hz: f64,
     /// Simulated rotation (peak) frequency over whole revolutions of the window [Hz].
     pub f_rot_hz: f64,
-    /// FFT peak of the acceleration over the last 1 s [Hz] (1 Hz bins).
+    /// FFT peak of the acceleration over the last 1 s \[Hz\] (1 Hz bins).
     pub fft_peak_1s_hz: f64,
     /// Force amplitude `Mt * peak |v'|` [N].
     pub force_amplitude_n: f64,

@@ -27,7 +27,7 @@ pub const GRAVITY_M_S2: f64 = 9.81;
 /// Largest integrator step away from the start transient [s].
 const MAX_STEP_S: f64 = 400e-6;
 /// Default accuracy of [`simulate`]: away from the start, the step is also limited to this eccentric rotation at the closed-form steady speed
-/// [rad] (0.26 rad = 300 us at 834 rad/s: RK4 errors ~5e-5 relative there, a tenth of the reference
+/// \[rad\] (0.26 rad = 300 us at 834 rad/s: RK4 errors ~5e-5 relative there, a tenth of the reference
 /// tolerances; halving it costs 30 % more time for 16x smaller errors).
 pub const DEFAULT_STEP_ANGLE_RAD: f64 = 0.26;
 /// The start transient (current rise) is resolved with steps of `L/R / FINE_STEPS_PER_TAU`...
@@ -36,7 +36,7 @@ const FINE_STEPS_PER_TAU: f64 = 16.0;
 const FINE_TAUS: f64 = 20.0;
 /// Most output samples a traced simulation may store (9 traces of f64: 5 M samples = 360 MB).
 const MAX_TRACE_SAMPLES: f64 = 5.0e6;
-/// Longest simulated time accepted [s] (the summary path stores theta at every output sample).
+/// Longest simulated time accepted \[s\] (the summary path stores theta at every output sample).
 const MAX_DURATION_S: f64 = 3600.0;
 /// Highest output rate accepted [Hz].
 const MAX_OUTPUT_RATE_HZ: f64 = 10.0e6;
@@ -97,9 +97,9 @@ impl BodyMass {
     }
 }
 
-/// Radius of the eccentric's centre of mass from the CAD model [m] (thesis §3.2).
+/// Radius of the eccentric's centre of mass from the CAD model \[m\] (thesis §3.2).
 pub const RADIUS_CAD_M: f64 = 2.57e-3;
-/// Radius that fits the measured force–frequency cloud better [m] (thesis §3.2.3).
+/// Radius that fits the measured force–frequency cloud better \[m\] (thesis §3.2.3).
 pub const RADIUS_FITTED_M: f64 = 3.2e-3;
 /// Damping of the thesis's figures [N m s].
 pub const DAMPING_THESIS_N_M_S: f64 = 6.3e-8;
@@ -165,21 +165,21 @@ pub struct TactorParams {
     pub preset: Preset,
     /// Body mass configuration the preset was built with (informative; `body_mass_kg` is what is simulated).
     pub body: BodyMass,
-    /// Eccentric mass `m` [kg] (0.55 g).
+    /// Eccentric mass `m` \[kg\] (0.55 g).
     pub eccentric_mass_kg: f64,
-    /// Radius of the eccentric's centre of mass `l` [m] (2.57 mm CAD, 3.2 mm fitted).
+    /// Radius of the eccentric's centre of mass `l` \[m\] (2.57 mm CAD, 3.2 mm fitted).
     pub radius_m: f64,
     /// Total moving mass `Mt` [kg], eccentric included (3.7 g unencased, 4.95 g encased).
     pub body_mass_kg: f64,
-    /// Torque constant `Kt` [N m/A], equal to the back-emf constant [V s/rad] (0.0019).
+    /// Torque constant `Kt` [N m/A], equal to the back-emf constant \[V s/rad\] (0.0019).
     pub torque_constant_n_m_per_a: f64,
-    /// Winding inductance `L` [H] (1.1 mH).
+    /// Winding inductance `L` \[H\] (1.1 mH).
     pub inductance_h: f64,
-    /// Winding resistance `R` [ohm] (62 thesis-sim, 67 measured).
+    /// Winding resistance `R` \[ohm\] (62 thesis-sim, 67 measured).
     pub resistance_ohm: f64,
-    /// Drive voltage `u` [V] (3.3).
+    /// Drive voltage `u` \[V\] (3.3).
     pub voltage_v: f64,
-    /// Viscous damping `b` [N m s] (6.3e-8 in the thesis's figures).
+    /// Viscous damping `b` \[N m s\] (6.3e-8 in the thesis's figures).
     pub damping_n_m_s: f64,
     /// Gravity `g` [m/s^2] acting on the eccentric in the angular equation (9.81).
     pub gravity_m_s2: f64,
@@ -253,7 +253,7 @@ impl TactorParams {
         Ok(())
     }
 
-    /// Electrical time constant `L/R` [s] (17.7 us for the thesis-sim preset).
+    /// Electrical time constant `L/R` \[s\] (17.7 us for the thesis-sim preset).
     pub fn electrical_time_constant_s(&self) -> f64 {
         self.inductance_h / self.resistance_ohm
     }
@@ -320,7 +320,7 @@ pub struct SteadyState {
     pub force_amplitude_n: f64,
     /// Acceleration amplitude at constant speed `m l omega^2 / Mt` [m/s^2].
     pub accel_amplitude_m_s2: f64,
-    /// Body displacement amplitude `m l / Mt` [m] (exact, from momentum conservation).
+    /// Body displacement amplitude `m l / Mt` \[m\] (exact, from momentum conservation).
     pub x_amplitude_m: f64,
     /// Electrical time constant `L/R` [s].
     pub electrical_time_constant_s: f64,
@@ -331,7 +331,7 @@ pub struct SteadyState {
 pub struct SimOptions {
     /// Simulated time from rest [s]; the analysis window is the last half.
     pub duration_s: f64,
-    /// Output sampling rate [Hz] (10 kHz as in the thesis).
+    /// Output sampling rate \[Hz\] (10 kHz as in the thesis).
     pub output_rate_hz: f64,
 }
 
@@ -380,7 +380,7 @@ impl SimOptions {
 pub struct Traces {
     /// Time [s].
     pub t_s: Vec<f64>,
-    /// Eccentric angle [rad] (unwrapped).
+    /// Eccentric angle \[rad\] (unwrapped).
     pub theta_rad: Vec<f64>,
     /// Eccentric rate [rad/s].
     pub omega_rad_s: Vec<f64>,
@@ -390,7 +390,7 @@ pub struct Traces {
     pub v_m_s: Vec<f64>,
     /// Body acceleration `v'` [m/s^2].
     pub accel_m_s2: Vec<f64>,
-    /// Force `Mt v'` [N] (the thesis's "acceleration multiplied by its mass").
+    /// Force `Mt v'` \[N\] (the thesis's "acceleration multiplied by its mass").
     pub force_n: Vec<f64>,
     /// Motor torque `Kt i` [N m].
     pub torque_n_m: Vec<f64>,

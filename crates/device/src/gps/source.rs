@@ -11,7 +11,7 @@ use std::net::{TcpStream, ToSocketAddrs};
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::mpsc::{Receiver, SyncSender, TryRecvError, sync_channel};
+use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
@@ -128,8 +128,7 @@ impl GpsHandle {
 
     /// True while the worker runs.
     pub fn is_running(&self) -> bool {
-        !matches!(self.rx.try_recv(), Err(TryRecvError::Disconnected))
-            || self.thread.as_ref().is_some_and(|t| !t.is_finished())
+        self.thread.as_ref().is_some_and(|t| !t.is_finished())
     }
 
     /// Stops the worker and waits for it (at most one read timeout, ~100 ms).

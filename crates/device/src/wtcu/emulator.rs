@@ -73,13 +73,14 @@ pub fn serve<C: WireCodec>(
             Err(e) => return Err(e),
         }
         engine.handle_timeout(Instant::now());
+        // Observers first, so a view never lags behind what the console has already been told.
+        while let Some(event) = engine.poll_event() {
+            observe(engine, &event);
+        }
         while let Some(frame) = engine.poll_transmit() {
             if !muted {
                 port.write_all(&frame)?;
             }
-        }
-        while let Some(event) = engine.poll_event() {
-            observe(engine, &event);
         }
     }
 }
