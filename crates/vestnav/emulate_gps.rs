@@ -87,6 +87,15 @@ fn println_path(path: &str) {
     let _ = std::io::stdout().flush();
 }
 
+/// Writes one log line to the device side; `#` comment lines of gpsd's test logs are not device output.
+fn write_line(out: &mut Box<dyn Write>, line: &[u8]) -> std::io::Result<()> {
+    if line.first() == Some(&b'#') {
+        return Ok(());
+    }
+    out.write_all(line)?;
+    out.flush()
+}
+
 /// Runs `vestnav emulate gps`.
 pub fn run(args: &GpsArgs) -> anyhow::Result<()> {
     let mut out = output(args.pty)?;
@@ -95,13 +104,11 @@ pub fn run(args: &GpsArgs) -> anyhow::Result<()> {
         let data = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
         loop {
             let mut err = None;
-            replay_lines(&data, Some(args.speed), &stop, |line| {
-                match out.write_all(line).and_then(|()| out.flush()) {
-                    Ok(()) => true,
-                    Err(e) => {
-                        err = Some(e);
-                        false
-                    }
+            replay_lines(&data, Some(args.speed), &stop, |line| match write_line(&mut out, line) {
+                Ok(()) => true,
+                Err(e) => {
+                    err = Some(e);
+                    false
                 }
             });
             if let Some(e) = err {

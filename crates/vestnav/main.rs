@@ -14,7 +14,9 @@ mod sim_wave;
 
 use clap::Parser;
 
-use cli::{AnalyzeCommand, Cli, Command, EmulateCommand, FieldtestCommand, NavCommand, NmeaCommand, SimCommand};
+use cli::{
+    AnalyzeCommand, Cli, Command, EmulateCommand, FieldtestCommand, NavCommand, NmeaCommand, SimCommand,
+};
 
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();

@@ -1,5 +1,8 @@
 //! Integration tests of the vestnav binary and of the crates working together, one module per topic.
 
+// Test helpers outside `#[test]` functions may unwrap too: a failure there is a failed test.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
 mod gps;
 mod nav;
 mod sim_tactor;

@@ -60,7 +60,7 @@ impl Preset {
         }
     }
 
-    /// Winding resistance of the preset [ohm].
+    /// Winding resistance of the preset \[ohm\].
     pub fn resistance_ohm(self) -> f64 {
         match self {
             Preset::ThesisSim => 62.0,
@@ -80,7 +80,7 @@ pub enum BodyMass {
 }
 
 impl BodyMass {
-    /// Total moving mass `Mt` [kg].
+    /// Total moving mass `Mt` \[kg\].
     pub fn kg(self) -> f64 {
         match self {
             BodyMass::Unencased => 3.7e-3,

@@ -216,10 +216,7 @@ impl Cue {
         let pause = Frame { mask: TactorMask::NONE, duration_ms: on_ms / 2 };
         let middle_cols = TactorMask::column(1) | TactorMask::column(2);
         let (frames, repeats) = match self {
-            Self::Forward => (
-                (0..GRID).rev().map(|r| short(TactorMask::row(r) & middle_cols)).collect(),
-                1,
-            ),
+            Self::Forward => ((0..GRID).rev().map(|r| short(TactorMask::row(r) & middle_cols)).collect(), 1),
             Self::SlightLeft => (vec![step(TactorMask::column(0))], 1),
             Self::SlightRight => (vec![step(TactorMask::column(3))], 1),
             Self::TurnLeft => ((0..GRID).rev().map(|c| short(TactorMask::column(c))).collect(), 1),
