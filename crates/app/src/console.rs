@@ -425,7 +425,7 @@ impl Console {
         }
     }
 
-    /// Drains worker events into the state (within [`DRAIN_BUDGET`] per channel).
+    /// Drains worker events into the state (within `DRAIN_BUDGET` per channel).
     pub fn pump(&mut self, now_s: f64) {
         let mut fixes = Vec::new();
         drain_within(&self.gps_rx, DRAIN_BUDGET, |ev| match ev {

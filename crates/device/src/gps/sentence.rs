@@ -139,7 +139,11 @@ pub(crate) fn parse(sentence: &str) -> Result<Parsed, Unused> {
         "GSA" => via_crate(sentence, talker).or_else(|_| parse_gsa(talker, f)),
         // The crate refuses a ZDA whose zone hours carry a sign (`+00`, Firefly-II, Furuno): fall back.
         "ZDA" => via_crate(sentence, talker).or_else(|_| parse_zda(f)),
-        "GGA" | "RMC" | "GLL" | "GST" | "HDT" => via_crate(sentence, talker),
+        // Hot path: canonical GGA/GLL are decoded here with the crate's own arithmetic; anything unusual
+        // goes through the crate so its acceptance rules stay the reference.
+        "GGA" => fast_gga(sentence, f).map_or_else(|| via_crate(sentence, talker), Ok),
+        "GLL" => fast_gll(sentence, f).map_or_else(|| via_crate(sentence, talker), Ok),
+        "RMC" | "GST" | "HDT" => via_crate(sentence, talker),
         "GNS" => parse_gns(f),
         "GSV" => parse_gsv(talker, f),
         "VTG" => Ok(parse_vtg(f)),
@@ -205,6 +209,132 @@ fn via_crate(sentence: &str, talker: &str) -> Result<Parsed, Unused> {
         P::HDT(d) => Parsed::Heading { heading_deg: d.heading.map(f64_of) },
         _ => Parsed::Ignored,
     })
+}
+
+/// Longest sentence the `nmea` crate accepts (its `SENTENCE_MAX_LEN`).
+const CRATE_MAX_LEN: usize = 102;
+
+fn all_digits(s: &str) -> bool {
+    !s.is_empty() && s.bytes().all(|b| b.is_ascii_digit())
+}
+
+/// `\d+(\.\d+)?`: a shape every float parser reads the same way.
+fn plain_decimal(s: &str) -> bool {
+    match s.split_once('.') {
+        Some((int, frac)) => all_digits(int) && all_digits(frac),
+        None => all_digits(s),
+    }
+}
+
+/// An optional f32 field as the crate reads it (`str::parse::<f32>` of the field), back to f64 via
+/// [`f64_of`]. `None` = not canonical (let the crate decide).
+fn fast_f32(s: &str, signed: bool) -> Option<Option<f64>> {
+    if s.is_empty() {
+        return Some(None);
+    }
+    let digits = if signed { s.strip_prefix('-').unwrap_or(s) } else { s };
+    if !plain_decimal(digits) {
+        return None;
+    }
+    s.parse::<f32>().ok().map(|v| Some(f64_of(v)))
+}
+
+/// `hhmmss[.s+]` as the crate reads it: `NaiveTime(h, m, trunc(sec), round(fract(sec) * 1e9))`.
+/// Outer `None` = not canonical or out of range (let the crate decide).
+fn fast_hms(s: &str) -> Option<Option<NaiveTime>> {
+    if s.is_empty() {
+        return Some(None);
+    }
+    let (hm, sec) = (s.get(0..4)?, s.get(4..)?);
+    if !all_digits(hm) || sec.len() < 2 || !plain_decimal(sec) {
+        return None;
+    }
+    let h: u32 = hm.get(0..2)?.parse().ok()?;
+    let m: u32 = hm.get(2..4)?.parse().ok()?;
+    let sec: f64 = sec.parse().ok()?;
+    if h >= 24 || m >= 60 || sec >= 60.0 {
+        return None;
+    }
+    NaiveTime::from_hms_nano_opt(h, m, sec.trunc() as u32, (sec.fract() * 1e9).round() as u32).map(Some)
+}
+
+/// `ddmm.m+,N,dddmm.m+,E` as the crate reads it: `deg + min / 60`, all four empty = no position.
+fn fast_lat_lon(f: &[&str]) -> Option<Option<(f64, f64)>> {
+    let [lat, ns, lon, ew] = f else { return None };
+    if lat.is_empty() && ns.is_empty() && lon.is_empty() && ew.is_empty() {
+        return Some(None);
+    }
+    let (lat_deg, lat_min) = (lat.get(0..2)?, lat.get(2..)?);
+    let (lon_deg, lon_min) = (lon.get(0..3)?, lon.get(3..)?);
+    if !all_digits(lat_deg) || !all_digits(lon_deg) || !plain_decimal(lat_min) || !plain_decimal(lon_min) {
+        return None;
+    }
+    let mut la = f64::from(lat_deg.parse::<u8>().ok()?) + lat_min.parse::<f64>().ok()? / 60.;
+    let mut lo = f64::from(lon_deg.parse::<u8>().ok()?) + lon_min.parse::<f64>().ok()? / 60.;
+    match *ns {
+        "N" => {}
+        "S" => la = -la,
+        _ => return None,
+    }
+    match *ew {
+        "E" => {}
+        "W" => lo = -lo,
+        _ => return None,
+    }
+    Some(Some((la, lo)))
+}
+
+/// GGA in its canonical form (`time,lat,N,lon,E,q,sats,hdop,alt,M,sep,M,...`), decoded exactly as
+/// [`via_crate`] would; `None` when any field is unusual, so the crate's rules decide those.
+fn fast_gga(sentence: &str, f: &[&str]) -> Option<Parsed> {
+    if sentence.len() > CRATE_MAX_LEN || f.len() < 12 {
+        return None;
+    }
+    let time = fast_hms(f[0])?;
+    let pos = fast_lat_lon(&f[1..5])?;
+    let q = match f[5].as_bytes() {
+        [d @ b'0'..=b'8'] => d - b'0',
+        _ => return None,
+    };
+    let sats = match f[6] {
+        "" => None,
+        s if all_digits(s) && s.len() <= 9 => Some(s.parse::<u32>().ok()?),
+        _ => return None,
+    };
+    let hdop = fast_f32(f[7], false)?;
+    let alt_m = fast_f32(f[8], true)?;
+    let geoid_sep_m = fast_f32(f[10], true)?;
+    if !matches!(f[9], "" | "M") {
+        return None;
+    }
+    Some(Parsed::Gga {
+        time,
+        pos: pos.filter(|p| valid_pos(*p)),
+        quality: FixQuality::from_digit(q),
+        sats,
+        hdop,
+        alt_m,
+        geoid_sep_m,
+    })
+}
+
+/// GLL in its canonical form (`lat,N,lon,E,time,A,mode`), decoded exactly as [`via_crate`] would;
+/// `None` when any field is unusual.
+fn fast_gll(sentence: &str, f: &[&str]) -> Option<Parsed> {
+    if sentence.len() > CRATE_MAX_LEN || f.len() != 7 {
+        return None;
+    }
+    let pos = fast_lat_lon(&f[0..4])?;
+    let time = fast_hms(f[4])?;
+    let valid = match f[5] {
+        "A" => true,
+        "V" => false,
+        _ => return None,
+    };
+    if f[6].len() > 1 || !f[6].bytes().all(|b| b"ACDEFNPRMSU".contains(&b)) {
+        return None;
+    }
+    Some(Parsed::Gll { time, pos: pos.filter(|p| valid_pos(*p)), valid })
 }
 
 /// f32 fields of the nmea crate back to f64, rounded to 7 significant digits (f32's precision), so the
@@ -479,5 +609,77 @@ mod tests {
     fn marks_and_timestamps() {
         assert_eq!(parse("$PVNAV,MARK,3,cone 3*00"), Ok(Parsed::Mark { number: 3, label: "cone 3".into() }));
         assert_eq!(parse("$PVNAV,TS,1700000000123*00"), Ok(Parsed::Timestamp { unix_ms: 1_700_000_000_123 }));
+    }
+}
+
+#[cfg(test)]
+mod fast_path_tests {
+    use super::*;
+    use crate::gps::framing::with_checksum;
+    use proptest::prelude::*;
+
+    /// Splits a sentence the way [`parse`] does: the fields after the tag.
+    fn fields(sentence: &str) -> Vec<&str> {
+        sentence[1..sentence.len() - 3].split(',').skip(1).collect()
+    }
+
+    fn agrees(sentence: &str) {
+        let f = fields(sentence);
+        let fast =
+            if sentence.get(3..6) == Some("GGA") { fast_gga(sentence, &f) } else { fast_gll(sentence, &f) };
+        if let Some(fast) = fast {
+            assert_eq!(Ok(fast), via_crate(sentence, &sentence[1..3]), "{sentence}");
+        }
+    }
+
+    /// The own GGA/GLL decoding equals the `nmea` crate's on every such sentence of gpsd's logs.
+    #[test]
+    fn fast_path_matches_the_crate_on_gpsd_logs() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/gpsd-logs");
+        let mut checked = 0;
+        for entry in std::fs::read_dir(dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.extension().is_none_or(|e| e != "log") {
+                continue;
+            }
+            let text = String::from_utf8_lossy(&std::fs::read(path).unwrap()).into_owned();
+            for line in text.lines().map(str::trim_end) {
+                let Some(start) = line.find('$') else { continue };
+                let s = &line[start..];
+                if s.len() > 10 && s.is_ascii() && s.as_bytes()[s.len() - 3] == b'*' && !s[1..].contains('$')
+                {
+                    let kind = &s[3..6];
+                    if kind == "GGA" || kind == "GLL" {
+                        agrees(s);
+                        checked += 1;
+                    }
+                }
+            }
+        }
+        assert!(checked > 1000, "{checked}");
+    }
+
+    proptest! {
+        /// Random near-canonical GGA and GLL: the fast path either declines or agrees with the crate.
+        #[test]
+        fn fast_path_matches_the_crate(
+            time in "[0-9]{6}(\\.[0-9]{1,4})?|[0-9]{5}|",
+            lat in "[0-9]{4}(\\.[0-9]{1,6})?|[0-9]{2}\\.|",
+            ns in "[NSX]?",
+            lon in "[0-9]{5}(\\.[0-9]{1,6})?|",
+            ew in "[EWX]?",
+            q in "[0-9]?",
+            sats in "[0-9]{0,3}",
+            hdop in "[0-9]{1,2}(\\.[0-9]{1,3})?|-1|",
+            alt in "-?[0-9]{1,5}(\\.[0-9]{1,3})?|",
+            sep in "-?[0-9]{1,3}(\\.[0-9]{1,2})?|",
+            status in "[AVX]",
+            mode in "[ADNX]?",
+        ) {
+            let gga = format!("GPGGA,{time},{lat},{ns},{lon},{ew},{q},{sats},{hdop},{alt},M,{sep},M,,");
+            agrees(with_checksum(&gga).trim_end());
+            let gll = format!("GPGLL,{lat},{ns},{lon},{ew},{time},{status},{mode}");
+            agrees(with_checksum(&gll).trim_end());
+        }
     }
 }
