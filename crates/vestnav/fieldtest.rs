@@ -1,19 +1,27 @@
-//! `vestnav fieldtest drift | cones`: GPS accuracy field tests (thesis §5) on NMEA logs.
+//! `vestnav fieldtest drift | cones`: GPS accuracy field tests (thesis §5) on NMEA logs and console
+//! session logs.
 //!
-//! Logs are decoded by `vestnav_device::gps` (one fix per epoch; operator marks are `$PVNAV,MARK,<n>,<label>`
-//! sentences). Fix times come from the receiver's UTC time of day, unwrapped across midnight; a fix without
-//! time is placed 1 s after the previous one (the receivers are 1 Hz).
+//! NMEA logs are decoded by `vestnav_device::gps` (one fix per epoch; operator marks are
+//! `$PVNAV,MARK,<n>,<label>` sentences). Fix times come from the receiver's UTC time of day, unwrapped across
+//! midnight; a fix without time is placed 1 s after the previous one (the receivers are 1 Hz).
+//!
+//! Console session logs (JSON Lines written by `vestnav_app::session_log`) give their `fix` and `mark`
+//! records; times are the records' `t_s` (seconds since the session started), a mark's position is the one
+//! the console recorded at the key press, or the latest fix at or before it when the record has none. The
+//! format is chosen by `--format`, by default from the content (first non-blank byte `{` = session log).
 
+use std::io::{BufRead as _, Read as _};
 use std::path::{Path, PathBuf};
 
 use anyhow::Context as _;
 use chrono::{Datelike as _, NaiveTime, Timelike as _};
 use clap::{Args, ValueEnum};
+use vestnav_app::session_log::{LogEntry, LogRecord};
 use vestnav_core::fieldtest::{
     ConeConfig, ConeMark, ConeStats, DriftStats, TimedFix, cones, drift, position_at,
 };
 use vestnav_core::geo::{Earth, LatLon, LocalFrame, declination_deg, true_from_magnetic_deg};
-use vestnav_device::gps::{Fix, Mark, decode_reader_with_marks};
+use vestnav_device::gps::{Fix, decode_reader_with_marks};
 use vestnav_plot::{Chart, Color, Figure, Marker, Series};
 
 /// Earth model on the command line.
@@ -34,11 +42,35 @@ impl From<EarthArg> for Earth {
     }
 }
 
+/// Format of a field-test log on the command line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum LogFormat {
+    /// From the content: a console session log when the first non-blank byte is `{`, else NMEA.
+    Auto,
+    /// NMEA 0183, with `$PVNAV,MARK` sentences for the operator's marks.
+    Nmea,
+    /// The console's session log (JSON Lines with `fix` and `mark` records).
+    Session,
+}
+
+impl LogFormat {
+    fn name(self) -> &'static str {
+        match self {
+            LogFormat::Auto => "auto",
+            LogFormat::Nmea => "nmea",
+            LogFormat::Session => "session",
+        }
+    }
+}
+
 /// Arguments of `vestnav fieldtest drift`.
 #[derive(Debug, Args)]
 pub struct DriftArgs {
-    /// NMEA log of a stationary receiver.
+    /// Log of a stationary receiver: NMEA, or a console session log.
     pub file: PathBuf,
+    /// Log format.
+    #[arg(long, value_enum, default_value = "auto")]
+    pub format: LogFormat,
     /// Earth model of the distances.
     #[arg(long, value_enum, default_value = "wgs84")]
     pub earth: EarthArg,
@@ -53,8 +85,12 @@ pub struct DriftArgs {
 /// Arguments of `vestnav fieldtest cones`.
 #[derive(Debug, Args)]
 pub struct ConesArgs {
-    /// NMEA log of the cone walk with `$PVNAV,MARK` records at each cone.
+    /// Log of the cone walk with a mark at each cone: NMEA with `$PVNAV,MARK` sentences, or a console session
+    /// log with `mark` records (the M key / "Mark cone").
     pub file: PathBuf,
+    /// Log format.
+    #[arg(long, value_enum, default_value = "auto")]
+    pub format: LogFormat,
     /// Nominal distance between consecutive cones [m].
     #[arg(long, default_value_t = 10.0)]
     pub spacing_m: f64,
@@ -82,12 +118,27 @@ pub struct ConesArgs {
     pub png: Option<PathBuf>,
 }
 
+/// An operator mark as read from a log.
+struct LogMark {
+    /// Time on the log's time line [s], if known.
+    t_s: Option<f64>,
+    /// Label (never empty).
+    label: String,
+    /// Position recorded with the mark, if any (session logs).
+    pos: Option<LatLon>,
+}
+
 /// A decoded log: positioned fixes with times, the marks with times, and the first fix's date.
 struct Log {
+    /// The format it was read as (never `Auto`).
+    format: LogFormat,
     fixes: Vec<TimedFix>,
-    marks: Vec<(Option<f64>, Mark)>,
+    marks: Vec<LogMark>,
     date: Option<(i32, u8, u8)>,
+    /// Rejected NMEA sentences, or skipped (cut-off) session-log lines.
     rejected: u64,
+    /// Notes about the reading, passed on as warnings.
+    warnings: Vec<String>,
 }
 
 fn seconds_of_day(t: NaiveTime) -> f64 {
@@ -104,7 +155,39 @@ fn unwrap_tod(tod_s: f64, prev: Option<f64>) -> f64 {
     t
 }
 
-fn load(path: &Path) -> anyhow::Result<Log> {
+/// Bytes looked at to recognise the format.
+const SNIFF_BYTES: u64 = 64 * 1024;
+/// Longest session-log line accepted (the console writes lines of a few hundred bytes).
+const MAX_LINE_BYTES: u64 = 1024 * 1024;
+/// A session time going back by more than this [s] means several sessions in one file (records stamped on
+/// different threads may be a few milliseconds out of order).
+const MAX_TIME_BACKSTEP_S: f64 = 1.0;
+
+/// Reads the log at `path` in `format` (`Auto`: decided from the first non-blank byte).
+fn load(path: &Path, format: LogFormat) -> anyhow::Result<Log> {
+    let format = match format {
+        LogFormat::Auto => sniff(path)?,
+        f => f,
+    };
+    match format {
+        LogFormat::Session => load_session(path),
+        _ => load_nmea(path),
+    }
+}
+
+/// `Session` when the first non-blank byte (after a UTF-8 byte order mark) is `{`, else `Nmea`.
+fn sniff(path: &Path) -> anyhow::Result<LogFormat> {
+    let file = std::fs::File::open(path).with_context(|| format!("opening {}", path.display()))?;
+    let mut head = Vec::new();
+    file.take(SNIFF_BYTES).read_to_end(&mut head).with_context(|| format!("reading {}", path.display()))?;
+    let head = head.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(&head);
+    Ok(match head.iter().find(|b| !b.is_ascii_whitespace()) {
+        Some(b'{') => LogFormat::Session,
+        _ => LogFormat::Nmea,
+    })
+}
+
+fn load_nmea(path: &Path) -> anyhow::Result<Log> {
     let file = std::fs::File::open(path).with_context(|| format!("opening {}", path.display()))?;
     let (raw, marks, stats) = decode_reader_with_marks(std::io::BufReader::new(file))
         .with_context(|| format!("reading {}", path.display()))?;
@@ -127,9 +210,132 @@ fn load(path: &Path) -> anyhow::Result<Log> {
     let first_t = fixes.first().map(|f| f.t_s);
     let marks = marks
         .into_iter()
-        .map(|m| (m.time_of_day.map(|tod| unwrap_tod(seconds_of_day(tod), first_t)), m))
+        .map(|m| LogMark {
+            t_s: m.time_of_day.map(|tod| unwrap_tod(seconds_of_day(tod), first_t)),
+            label: if m.label.is_empty() { format!("{}", m.number) } else { m.label },
+            pos: None,
+        })
         .collect();
-    Ok(Log { fixes, marks, date, rejected: stats.rejected() })
+    Ok(Log { format: LogFormat::Nmea, fixes, marks, date, rejected: stats.rejected(), warnings: Vec::new() })
+}
+
+/// One session-log line: a `fix` or `mark` record, `None` for the other kinds (commands, acks, notes), which
+/// the field tests do not use. The error says what is wrong with the line.
+fn parse_session_line(text: &[u8]) -> Result<Option<LogRecord>, String> {
+    let v: serde_json::Value = serde_json::from_slice(text).map_err(|e| format!("not JSON ({e})"))?;
+    let Some(kind) = v.get("kind").and_then(serde_json::Value::as_str) else {
+        return Err("no \"kind\" field: not a session-log record".into());
+    };
+    if !matches!(kind, "fix" | "mark") {
+        return Ok(None);
+    }
+    let kind = kind.to_owned();
+    let rec: LogRecord = serde_json::from_value(v).map_err(|e| format!("bad {kind} record ({e})"))?;
+    if !rec.t_s.is_finite() {
+        return Err(format!("bad {kind} record (t_s is not a finite number)"));
+    }
+    Ok(Some(rec))
+}
+
+/// `YYYY-MM-DD` at the start of an ISO-8601 time.
+fn iso_date(utc: &str) -> Option<(i32, u8, u8)> {
+    let d = chrono::NaiveDate::parse_from_str(utc.get(..10)?, "%Y-%m-%d").ok()?;
+    Some((d.year(), u8::try_from(d.month()).ok()?, u8::try_from(d.day()).ok()?))
+}
+
+fn valid_pos(lat_deg: f64, lon_deg: f64) -> Result<LatLon, String> {
+    LatLon::new(lat_deg, lon_deg)
+        .validated()
+        .map_err(|e| format!("position {lat_deg}, {lon_deg} out of range ({e})"))
+}
+
+/// Reads a console session log: its `fix` records become the track, its `mark` records the marks (times =
+/// `t_s`, seconds since the session started). A malformed line is an error naming its line number, except a
+/// last line cut off without its newline after valid records (the console stopped mid-write), which is
+/// skipped with a warning; unknown record kinds are ignored.
+fn load_session(path: &Path) -> anyhow::Result<Log> {
+    let file = std::fs::File::open(path).with_context(|| format!("opening {}", path.display()))?;
+    let mut reader = std::io::BufReader::new(file);
+    let mut log = Log {
+        format: LogFormat::Session,
+        fixes: Vec::new(),
+        marks: Vec::new(),
+        date: None,
+        rejected: 0,
+        warnings: Vec::new(),
+    };
+    let mut line = Vec::new();
+    let mut line_no = 0usize;
+    let mut records = 0usize;
+    let mut last_t: Option<f64> = None;
+    loop {
+        line.clear();
+        let n = (&mut reader)
+            .take(MAX_LINE_BYTES + 1)
+            .read_until(b'\n', &mut line)
+            .with_context(|| format!("reading {}", path.display()))?;
+        if n == 0 {
+            break;
+        }
+        line_no += 1;
+        let terminated = line.last() == Some(&b'\n');
+        if !terminated && line.len() as u64 > MAX_LINE_BYTES {
+            anyhow::bail!("{}:{line_no}: line longer than 1 MiB: not a session log", path.display());
+        }
+        let mut text = line.trim_ascii();
+        if line_no == 1 {
+            text = text.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(text);
+        }
+        if text.is_empty() {
+            continue;
+        }
+        let rec = match parse_session_line(text) {
+            Ok(Some(rec)) => rec,
+            Ok(None) => continue,
+            Err(e) if !terminated && records > 0 => {
+                log.rejected += 1;
+                log.warnings.push(format!("line {line_no} is cut off (the console stopped mid-write?): {e}"));
+                continue;
+            }
+            Err(e) => anyhow::bail!("{}:{line_no}: {e}", path.display()),
+        };
+        records += 1;
+        if let Some(p) = last_t
+            && rec.t_s < p - MAX_TIME_BACKSTEP_S
+        {
+            anyhow::bail!(
+                "{}:{line_no}: session time goes back from {p:.3} s to {:.3} s: several sessions appended \
+                 in one file? Split it at this line",
+                path.display(),
+                rec.t_s
+            );
+        }
+        last_t = Some(last_t.map_or(rec.t_s, |p| p.max(rec.t_s)));
+        let at = |e: String| anyhow::anyhow!("{}:{line_no}: {e}", path.display());
+        match rec.entry {
+            LogEntry::Fix { lat_deg, lon_deg, .. } => {
+                let pos = valid_pos(lat_deg, lon_deg).map_err(at)?;
+                if log.date.is_none() {
+                    log.date = iso_date(&rec.utc);
+                }
+                log.fixes.push(TimedFix { t_s: rec.t_s, pos });
+            }
+            LogEntry::Mark { label, lat_deg, lon_deg } => {
+                let pos = match (lat_deg, lon_deg) {
+                    (Some(la), Some(lo)) => Some(valid_pos(la, lo).map_err(at)?),
+                    _ => None,
+                };
+                let label =
+                    if label.trim().is_empty() { format!("mark {}", log.marks.len() + 1) } else { label };
+                log.marks.push(LogMark { t_s: Some(rec.t_s), label, pos });
+            }
+            _ => {}
+        }
+    }
+    // Records from different threads can be milliseconds out of order: the analysis wants time order.
+    log.fixes.sort_by(|a, b| a.t_s.total_cmp(&b.t_s));
+    log.marks.sort_by(|a, b| a.t_s.unwrap_or(0.0).total_cmp(&b.t_s.unwrap_or(0.0)));
+    Ok(log)
 }
 
 fn position(f: &Fix) -> Option<LatLon> {
@@ -139,13 +345,15 @@ fn position(f: &Fix) -> Option<LatLon> {
 /// Runs `vestnav fieldtest drift`.
 #[allow(clippy::print_stdout)]
 pub fn run_drift(args: &DriftArgs) -> anyhow::Result<()> {
-    let log = load(&args.file)?;
+    let log = load(&args.file, args.format)?;
     let earth = Earth::from(args.earth);
-    let s =
+    let mut s =
         drift(&log.fixes, earth).with_context(|| format!("{}: no positioned fixes", args.file.display()))?;
+    s.warnings.extend(log.warnings.iter().cloned());
     if args.json {
         let v = serde_json::json!({
             "file": args.file.display().to_string(),
+            "format": log.format.name(),
             "earth": format!("{:?}", args.earth),
             "fixes": s.fixes,
             "duration_s": s.duration_s,
@@ -215,28 +423,34 @@ pub fn drift_figure(s: &DriftStats, file: &Path) -> Figure {
     Figure::new().title("Stationary drift").columns(2).panel_size(640, 480).push(scatter).push(time)
 }
 
+/// The log's marks as cone marks: the position recorded with the mark, else the latest fix at or before
+/// its time ([`position_at`]). Also returns how many marks had no time (and were left out).
+fn cone_marks(log: &Log) -> (Vec<ConeMark>, usize) {
+    let mut marks = Vec::new();
+    let mut untimed = 0;
+    for m in &log.marks {
+        let Some(t) = m.t_s else {
+            untimed += 1;
+            continue;
+        };
+        if let Some(pos) = m.pos.or_else(|| position_at(&log.fixes, t)) {
+            marks.push(ConeMark { t_s: t, label: m.label.clone(), pos });
+        }
+    }
+    (marks, untimed)
+}
+
 /// Runs `vestnav fieldtest cones`.
 #[allow(clippy::print_stdout)]
 pub fn run_cones(args: &ConesArgs) -> anyhow::Result<()> {
     if !(args.spacing_m.is_finite() && args.spacing_m > 0.0) {
         anyhow::bail!("--spacing-m must be a positive number of metres");
     }
-    let log = load(&args.file)?;
+    let log = load(&args.file, args.format)?;
     if log.fixes.is_empty() {
         anyhow::bail!("{}: no positioned fixes", args.file.display());
     }
-    let mut marks = Vec::new();
-    let mut untimed = 0;
-    for (t, m) in &log.marks {
-        let Some(t) = *t else {
-            untimed += 1;
-            continue;
-        };
-        if let Some(pos) = position_at(&log.fixes, t) {
-            let label = if m.label.is_empty() { format!("{}", m.number) } else { m.label.clone() };
-            marks.push(ConeMark { t_s: t, label, pos });
-        }
-    }
+    let (marks, untimed) = cone_marks(&log);
     let mut line_bearing = args.line_bearing_deg;
     let mut declination_used = None;
     if args.magnetic {
@@ -263,9 +477,11 @@ pub fn run_cones(args: &ConesArgs) -> anyhow::Result<()> {
     if untimed > 0 {
         s.warnings.push(format!("{untimed} marks without a receiver time were ignored"));
     }
+    s.warnings.extend(log.warnings.iter().cloned());
     if args.json {
         let v = serde_json::json!({
             "file": args.file.display().to_string(),
+            "format": log.format.name(),
             "earth": format!("{:?}", args.earth),
             "marks": s.marks,
             "spacing_m": s.spacing_m,

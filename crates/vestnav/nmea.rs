@@ -43,7 +43,7 @@ pub struct RecordArgs {
 /// The per-epoch JSON object of `nmea decode --json`.
 #[derive(serde::Serialize)]
 struct EpochJson {
-    time: Option<String>,
+    time: Option<IsoTime>,
     lat: Option<f64>,
     lon: Option<f64>,
     alt_m: Option<f64>,
@@ -68,19 +68,37 @@ fn mode_name(m: FixMode) -> &'static str {
     }
 }
 
+/// A UTC time printed as ISO-8601 with milliseconds, e.g. `2011-03-14T11:05:18.000Z`; serialised as a
+/// JSON string without an intermediate `String`.
+struct IsoTime(chrono::DateTime<chrono::Utc>);
+
+impl std::fmt::Display for IsoTime {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        use chrono::{Datelike as _, Timelike as _};
+        let t = self.0;
+        write!(
+            f,
+            "{:04}-{:02}-{:02}T{:02}:{:02}:{:02}.{:03}Z",
+            t.year(),
+            t.month(),
+            t.day(),
+            t.hour(),
+            t.minute(),
+            t.second(),
+            (t.nanosecond() / 1_000_000).min(999)
+        )
+    }
+}
+
+impl serde::Serialize for IsoTime {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.collect_str(self)
+    }
+}
+
 /// ISO-8601 UTC with milliseconds, e.g. `2011-03-14T11:05:18.000Z`.
 fn iso(t: chrono::DateTime<chrono::Utc>) -> String {
-    use chrono::{Datelike as _, Timelike as _};
-    format!(
-        "{:04}-{:02}-{:02}T{:02}:{:02}:{:02}.{:03}Z",
-        t.year(),
-        t.month(),
-        t.day(),
-        t.hour(),
-        t.minute(),
-        t.second(),
-        (t.nanosecond() / 1_000_000).min(999)
-    )
+    IsoTime(t).to_string()
 }
 
 fn opt(x: Option<f64>, prec: usize) -> String {
@@ -92,7 +110,7 @@ fn write_fix(out: &mut impl Write, f: &Fix, json: bool) -> anyhow::Result<()> {
         serde_json::to_writer(
             &mut *out,
             &EpochJson {
-                time: f.time.map(iso),
+                time: f.time.map(IsoTime),
                 lat: f.lat_deg,
                 lon: f.lon_deg,
                 alt_m: f.alt_m,

@@ -4,6 +4,7 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 mod gps;
+mod latency;
 mod nav;
 mod sim_tactor;
 mod sim_wave;

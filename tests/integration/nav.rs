@@ -274,3 +274,160 @@ fn demo_route_is_a_few_hundred_metres_on_briggs_field() {
     let briggs = LatLon::new(42.3575, -71.1010);
     assert!(pts.iter().all(|p| Earth::Wgs84.distance_m(*p, briggs) < 300.0));
 }
+
+/// One console session-log line (the app's own record type and serialisation).
+fn session_line(t_s: f64, entry: vestnav_app::session_log::LogEntry) -> String {
+    let whole_s = t_s.floor() as u32;
+    let utc =
+        format!("2026-06-15T15:{:02}:{:02}.{:03}Z", whole_s / 60, whole_s % 60, ((t_s.fract()) * 1e3) as u32);
+    let rec = vestnav_app::session_log::LogRecord { t_s, utc, entry };
+    let mut line = serde_json::to_string(&rec).unwrap();
+    line.push('\n');
+    line
+}
+
+fn session_fix(t_s: f64, p: LatLon) -> String {
+    session_line(
+        t_s,
+        vestnav_app::session_log::LogEntry::Fix {
+            lat_deg: p.lat_deg,
+            lon_deg: p.lon_deg,
+            error_m: Some(2.5),
+            speed_m_s: None,
+            course_deg: None,
+            gps_utc: None,
+        },
+    )
+}
+
+#[test]
+fn cone_test_reads_a_console_session_log() {
+    use vestnav_app::session_log::LogEntry;
+    // Cones every 10 m on a 75 deg line (geodesic direct from the first cone); 1 Hz fixes that do not fall on
+    // whole session seconds; the walker stands 3 s at each cone and the operator marks 0.4 s after the first
+    // fix there. Odd marks carry the position the console recorded, and their arrival fix record is missing
+    // (dropped by a full log queue), so only the recorded position is right; even marks carry none (the CLI
+    // then takes the latest fix at or before the mark). Acks and notes are interleaved, as the console
+    // writes them.
+    let (start, bearing_deg, spacing_m, pace_m_s) = (LatLon::new(42.3581, -71.0936), 75.0, 10.0, 1.25);
+    let cone = |k: u32| Earth::Wgs84.direct(start, bearing_deg, f64::from(k) * spacing_m);
+    let mut text = session_line(0.0, LogEntry::Note { text: "GPS connected".into() });
+    let mut t_s = 3.2;
+    for k in 0..10u32 {
+        if k > 0 {
+            for i in 1..8u32 {
+                let along_m = (f64::from(k - 1) + f64::from(i) * pace_m_s / spacing_m) * spacing_m;
+                text.push_str(&session_fix(t_s, Earth::Wgs84.direct(start, bearing_deg, along_m)));
+                t_s += 1.0;
+            }
+        }
+        let recorded = (k % 2 == 1).then(|| cone(k));
+        if recorded.is_none() {
+            text.push_str(&session_fix(t_s, cone(k)));
+        }
+        text.push_str(&session_line(
+            t_s + 0.4,
+            LogEntry::Mark {
+                label: format!("cone {}", k + 1),
+                lat_deg: recorded.map(|p| p.lat_deg),
+                lon_deg: recorded.map(|p| p.lon_deg),
+            },
+        ));
+        text.push_str(&session_line(t_s + 0.45, LogEntry::Ack { what: "fire".into() }));
+        for _ in 0..3 {
+            t_s += 1.0;
+            text.push_str(&session_fix(t_s, cone(k)));
+        }
+    }
+    assert!(text.starts_with('{'));
+    let path = write_tmp("cones-session.jsonl", &text);
+    let v = json(&["fieldtest", "cones", path.to_str().unwrap(), "--spacing-m", "10", "--json"]);
+    assert_eq!(v["format"], "session");
+    assert_eq!(v["marks"], 10);
+    let labels: Vec<String> = (1..=10).map(|k| format!("cone {k}")).collect();
+    assert_eq!(v["labels"], serde_json::json!(labels));
+    // Truth: the cones are 10 m apart by construction (direct problem), so each distance is 10 m.
+    let got: Vec<f64> = v["distances_m"].as_array().unwrap().iter().map(|d| d.as_f64().unwrap()).collect();
+    assert_eq!(got.len(), 9);
+    for d in &got {
+        assert_relative_eq!(*d, spacing_m, max_relative = 1e-6);
+    }
+    assert!(v["rmse_m"].as_f64().unwrap() < 1e-5, "{v}");
+    assert!(v["cross_rms_m"].as_f64().unwrap() < 1e-3, "{v}");
+    assert_relative_eq!(v["line_bearing_deg"].as_f64().unwrap(), bearing_deg, epsilon = 0.01);
+    // Forcing the wrong format is refused, not misread.
+    let (ok, _, err) = vestnav(&["fieldtest", "cones", path.to_str().unwrap(), "--format", "nmea"]);
+    assert!(!ok && !err.contains("panicked"), "{err}");
+    // A last line cut off mid-write (the console stopped) is skipped with a warning.
+    let cut = format!("{text}{{\"t_s\":99.0,\"utc\":\"2026-06-15T15:01:39.000Z\",\"kind\":\"fi");
+    let cut_path = write_tmp("cones-session-cut.jsonl", &cut);
+    let v = json(&["fieldtest", "cones", cut_path.to_str().unwrap(), "--json"]);
+    assert_eq!(v["marks"], 10);
+    let warnings = v["warnings"].as_array().unwrap();
+    assert!(warnings.iter().any(|w| w.as_str().unwrap().contains("cut off")), "{v}");
+    let _ = std::fs::remove_file(cut_path);
+    let _ = std::fs::remove_file(path);
+}
+
+#[test]
+fn session_log_with_a_malformed_line_is_refused_with_its_line_number() {
+    let p = LatLon::new(42.3581, -71.0936);
+    let good = session_fix(1.0, p);
+    for (bad, what) in [
+        ("{\"t_s\":2.0,\"utc\":\"x\",\"kind\":\"fix\",\"lat_deg\":\"north\",\"lon_deg\":-71.0}\n", "bad fix"),
+        (
+            "{\"t_s\":2.0,\"utc\":\"x\",\"kind\":\"fix\",\"lat_deg\":95.0,\"lon_deg\":-71.0,\"error_m\":null,\
+          \"speed_m_s\":null,\"course_deg\":null,\"gps_utc\":null}\n",
+            "out of range",
+        ),
+        ("$GPGGA,not json\n", "not JSON"),
+        ("{\"t_s\":2.0,\"utc\":\"x\"}\n", "kind"),
+    ] {
+        let text = format!("{good}\n{bad}{good}");
+        let path = write_tmp("session-bad.jsonl", &text);
+        for cmd in ["drift", "cones"] {
+            let out = Command::new(env!("CARGO_BIN_EXE_vestnav"))
+                .args(["fieldtest", cmd, path.to_str().unwrap()])
+                .output()
+                .unwrap();
+            let err = String::from_utf8_lossy(&out.stderr);
+            assert_eq!(out.status.code(), Some(1), "{cmd} {bad}: {err}");
+            assert!(err.contains("session-bad.jsonl:3:") && err.contains(what), "{cmd} {bad}: {err}");
+        }
+        let _ = std::fs::remove_file(path);
+    }
+}
+
+#[test]
+fn drift_reads_a_session_log_written_by_the_console_writer() {
+    use vestnav_app::session_log::{LogEntry, SessionLog};
+    // Fixes on a geodesic circle of radius r about a centre: distance from the mean = r for every fix, so
+    // CEP50 = CEP95 = DRMS = r and the largest distance from the first fix is the diameter, 2r.
+    let (centre, r_m) = (LatLon::new(42.3581, -71.0936), 2.0);
+    let path = std::env::temp_dir().join(format!("vestnav-{}-drift-session.jsonl", std::process::id()));
+    let _ = std::fs::remove_file(&path);
+    let log = SessionLog::create_at(&path).unwrap();
+    let tx = log.sender().unwrap();
+    for k in 0..36 {
+        let p = Earth::Wgs84.direct(centre, f64::from(k) * 10.0, r_m);
+        tx.log(LogEntry::Fix {
+            lat_deg: p.lat_deg,
+            lon_deg: p.lon_deg,
+            error_m: None,
+            speed_m_s: None,
+            course_deg: None,
+            gps_utc: None,
+        });
+    }
+    tx.log(LogEntry::Mark { label: "left on the post".into(), lat_deg: None, lon_deg: None });
+    drop(tx);
+    assert_eq!(log.close().unwrap(), 37);
+    let v = json(&["fieldtest", "drift", path.to_str().unwrap(), "--json"]);
+    assert_eq!(v["format"], "session");
+    assert_eq!(v["fixes"], 36);
+    for key in ["cep50_m", "cep95_m", "drms_m"] {
+        assert_relative_eq!(v[key].as_f64().unwrap(), r_m, max_relative = 1e-3);
+    }
+    assert_relative_eq!(v["max_from_first_m"].as_f64().unwrap(), 2.0 * r_m, max_relative = 1e-3);
+    let _ = std::fs::remove_file(path);
+}

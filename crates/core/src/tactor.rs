@@ -517,13 +517,16 @@ impl Consts {
         (v_dot, omega_dot)
     }
 
-    /// `omega'` alone (the integrator's stages do not need `v'`).
+    /// `omega'` alone (the integrator's stages do not need `v'`). Same solve, rearranged for speed: the
+    /// reciprocal determinant depends on the angle only, so it is computed while the speed and current of a
+    /// stage are still being formed: `omega' = (Mt F2 / (m l^2) - m c s omega^2) / (Mt - m c^2)`.
     #[inline]
     fn omega_dot(&self, theta: Angle, omega: f64, current: f64) -> f64 {
         let (s, c) = (theta.sin, theta.cos);
-        let f1 = self.ml * omega * omega * s;
+        let inv_det = 1.0 / (self.mt - self.m * c * c);
+        let mcs = self.m * c * s;
         let f2 = self.kt * current - self.b * omega + self.mgl * s;
-        (self.mt_over_ml2 * f2 - c * f1 * self.inv_l) / (self.mt - self.m * c * c)
+        (self.mt_over_ml2 * f2 - mcs * (omega * omega)) * inv_det
     }
 
     /// Non-stiff part of `i'`: `(u - Kt omega)/L`.
@@ -571,11 +574,12 @@ struct EtdCoeffs {
     e_half: f64,
     a1: f64,
     a2: f64,
-    /// `e^{z}`, `h phi1(z)`, `h^2 phi2(z)`, `2 h^3 phi3(z)`.
+    /// `e^{z}`, `h phi1(z)`, `h^2 phi2(z)`.
     e: f64,
     c1: f64,
     c2: f64,
-    c3: f64,
+    /// `2 h phi3(z)` = `c3 / h^2`.
+    c3_over_h2: f64,
 }
 
 impl EtdCoeffs {
@@ -593,7 +597,7 @@ impl EtdCoeffs {
             e: z.exp(),
             c1: h * p1,
             c2: h * h * p2,
-            c3: 2.0 * h * h * h * p3,
+            c3_over_h2: 2.0 * h * p3,
         }
     }
 }
@@ -613,10 +617,13 @@ fn sin_cos_small(d: f64) -> (f64, f64) {
         1.0 / 479_001_600.0,
         -1.0 / 87_178_291_200.0,
     ];
+    // Estrin's scheme: independent pairs, so the latency is ~4 multiply-adds instead of 7 (Horner).
     let d2 = d * d;
-    let ps = S.iter().rev().fold(0.0, |acc, k| acc * d2 + k);
-    let pc = C.iter().rev().fold(0.0, |acc, k| acc * d2 + k);
-    (d + d * d2 * ps, 1.0 + d2 * pc)
+    let d4 = d2 * d2;
+    let d8 = d4 * d4;
+    let ps = (S[0] + d2 * S[1]) + d4 * (S[2] + d2 * S[3]) + d8 * (S[4] + d2 * S[5]);
+    let pc = (C[0] + d2 * C[1]) + d4 * (C[2] + d2 * C[3]) + d8 * ((C[4] + d2 * C[5]) + d4 * C[6]);
+    (d + (d * d2) * ps, 1.0 + d2 * pc)
 }
 
 /// Angle with its sine and cosine carried along.
@@ -640,6 +647,24 @@ impl Angle {
             return Self::new(self.rad + d);
         }
         let (sd, cd) = sin_cos_small(d);
+        self.rotate(d, sd, cd)
+    }
+
+    /// `self + d` for the small corrections of the Runge–Kutta stages (|d| ~ 1e-3 rad): for
+    /// |d| <= 1/32 the Taylor polynomials to `d^7` and `d^6` are exact to 1e-17.
+    #[inline]
+    fn plus_tiny(self, d: f64) -> Self {
+        if d.abs() > 1.0 / 32.0 {
+            return self.plus(d);
+        }
+        let d2 = d * d;
+        let sd = d + (d * d2) * (-1.0 / 6.0 + d2 * (1.0 / 120.0 - d2 * (1.0 / 5040.0)));
+        let cd = 1.0 + d2 * (-0.5 + d2 * (1.0 / 24.0 - d2 * (1.0 / 720.0)));
+        self.rotate(d, sd, cd)
+    }
+
+    #[inline]
+    fn rotate(self, d: f64, sd: f64, cd: f64) -> Self {
         Self { rad: self.rad + d, sin: self.sin * cd + self.cos * sd, cos: self.cos * cd - self.sin * sd }
     }
 }
@@ -670,7 +695,7 @@ struct MechState {
 /// `(u - Kt omega)/R - tau Kt omega'/R` consistent with each stage's speed when `h >> L/R`, so the spin-up
 /// torque carries no step-size-dependent lag error. For the constant back-emf of the first microseconds the
 /// current is exact for any step. `d0` is `omega'` at the step start, already known.
-#[inline]
+#[inline(always)]
 fn etd_step(k: &Consts, c: &EtdCoeffs, y: &mut MechState, d0: f64) {
     let MechState { theta, omega: om, current: i } = *y;
     let h = c.h;
@@ -678,48 +703,55 @@ fn etd_step(k: &Consts, c: &EtdCoeffs, y: &mut MechState, d0: f64) {
     let g0 = k.current_forcing(om);
     let gd0 = -k.kt_over_l * d0;
     let exp_half_i = c.e_half * i + c.a1 * g0;
+    // Stage angles relative to the predictor `theta + h om` (sin/cos once per step): with
+    // `oma = om + h/2 d0`, `omb = om + h/2 da`, `omc = om + h db`,
+    // `theta + h omb = (theta + h om) + h^2/2 da` and the RK4 update
+    // `theta + h/6 (om + 2 oma + 2 omb + omc) = (theta + h om) + h^2/6 (d0 + da + db)`:
+    // the corrections are ~1e-3 rad and need only short polynomials.
     let tha = theta.plus(hh * om);
+    let thp = theta.plus(h * om);
     let oma = om + hh * d0;
+    let thb = tha.plus_tiny(hh * hh * d0);
     let ia = exp_half_i + c.a2 * gd0;
     let da = k.omega_dot(tha, oma, ia);
-    let thb = theta.plus(hh * oma);
+    let thc = thp.plus_tiny(hh * h * da);
     let omb = om + hh * da;
     let ib = exp_half_i - c.a2 * k.kt_over_l * da;
     let db = k.omega_dot(thb, omb, ib);
-    let thc = theta.plus(h * omb);
+    let theta1 = thp.plus_tiny(c.h6 * h * (d0 + da + db));
     let omc = om + h * db;
     let exp_i = c.e * i + c.c1 * g0;
     let ic = exp_i - c.c2 * k.kt_over_l * db;
+    // End-of-step current: `exp_i + c2 gd0 + c3 g2` with `g2 = (g(om1) - g0 - gd0 h)/h^2` and
+    // `g(om1) = u/L - Kt/L om1`, split so that only one multiply-add waits for `om1`.
+    let i_pre = exp_i + c.c2 * gd0 + c.c3_over_h2 * (k.u_over_l - g0 - gd0 * h);
     let dc = k.omega_dot(thc, omc, ic);
-    let h6 = c.h6;
-    let om1 = om + h6 * (d0 + 2.0 * (da + db) + dc);
-    let g2 = (k.current_forcing(om1) - g0 - gd0 * h) / (h * h);
-    *y = MechState {
-        theta: theta.plus(h6 * (om + 2.0 * (oma + omb) + omc)),
-        omega: om1,
-        current: exp_i + c.c2 * gd0 + c.c3 * g2,
-    };
+    let om1 = om + c.h6 * (d0 + 2.0 * (da + db) + dc);
+    *y = MechState { theta: theta1, omega: om1, current: i_pre - c.c3_over_h2 * k.kt_over_l * om1 };
 }
 
-/// One output sample as the integrator produces it.
-#[derive(Debug, Clone, Copy)]
-struct Sample {
-    t_s: f64,
-    /// `[x, v, theta, omega, i]`.
-    state: [f64; 5],
-    accel_m_s2: f64,
+/// Receiver of the output samples, in time order. Samples before [`SampleSink::full_from`] are handed over
+/// without the body coordinates and `v'` (their sin/cos and mass-matrix solve are skipped); from that index
+/// on, every sample is complete.
+trait SampleSink {
+    /// First sample index that needs `x`, `v` and `v'`.
+    fn full_from(&self) -> usize;
+    /// Sample `n` at `t = n dt` with angle, speed and current only.
+    fn partial(&mut self, n: usize, t_s: f64, theta_rad: f64, omega_rad_s: f64, current_a: f64);
+    /// Sample `n` with the whole state `[x, v, theta, omega, i]` and the body acceleration `v'`.
+    fn full(&mut self, n: usize, t_s: f64, state: &[f64; 5], accel_m_s2: f64);
 }
 
 /// Steps between two re-evaluations of sin/cos by libm (the addition theorem accumulates rounding of
 /// ~1e-16 per step otherwise).
-const RESYNC_STEPS: usize = 16;
+const RESYNC_STEPS: usize = 64;
 
 /// Integrates from rest and hands every output sample to `sink`, in time order.
 fn integrate(
     params: &TactorParams,
     options: &SimOptions,
     step_angle_rad: f64,
-    sink: impl FnMut(&Sample),
+    sink: &mut impl SampleSink,
 ) -> Result<(), TactorError> {
     let h_max = (step_angle_rad / params.steady_state().omega_rad_s).min(MAX_STEP_S);
     integrate_with_step(params, options, h_max, sink)
@@ -747,7 +779,7 @@ fn integrate_with_step(
     params: &TactorParams,
     options: &SimOptions,
     h_max_s: f64,
-    mut sink: impl FnMut(&Sample),
+    sink: &mut impl SampleSink,
 ) -> Result<(), TactorError> {
     let k = Consts::new(params);
     let n_samples = options.sample_count();
@@ -756,14 +788,21 @@ fn integrate_with_step(
     let fine_end_s = FINE_TAUS * tau;
     let h_fine = tau / FINE_STEPS_PER_TAU;
     let x_per_sin = -k.ml / k.mt;
-    let mut emit = |n: usize, y: &MechState, v_dot: f64| -> Result<(), TactorError> {
+    let full_from = sink.full_from();
+    // Step ends: the state and `v'` are known anyway.
+    let emit = |sink: &mut _, n: usize, y: &MechState, v_dot: f64| -> Result<(), TactorError> {
         let t = n as f64 * dt_out;
-        if !(y.theta.rad.is_finite() && y.omega.is_finite() && y.current.is_finite() && v_dot.is_finite()) {
+        // One test for all four: a sum is finite only if every term is (barring overflow, a divergence too).
+        if !(y.theta.rad + y.omega + y.current + v_dot).is_finite() {
             return Err(TactorError::Diverged { t_s: t });
         }
-        let state =
-            [x_per_sin * y.theta.sin, x_per_sin * y.omega * y.theta.cos, y.theta.rad, y.omega, y.current];
-        sink(&Sample { t_s: t, state, accel_m_s2: v_dot });
+        if n < full_from {
+            SampleSink::partial(sink, n, t, y.theta.rad, y.omega, y.current);
+        } else {
+            let state =
+                [x_per_sin * y.theta.sin, x_per_sin * y.omega * y.theta.cos, y.theta.rad, y.omega, y.current];
+            SampleSink::full(sink, n, t, &state, v_dot);
+        }
         Ok(())
     };
     let mut y = MechState { theta: Angle::new(0.0), omega: 0.0, current: 0.0 };
@@ -777,7 +816,7 @@ fn integrate_with_step(
         }
     };
     let (mut v_dot, mut omega_dot) = k.accelerations(y.theta, y.omega, y.current);
-    emit(0, &y, v_dot)?;
+    emit(sink, 0, &y, v_dot)?;
     let mut n = 0usize;
     let mut steps = 0usize;
     while n + 1 < n_samples {
@@ -796,7 +835,7 @@ fn integrate_with_step(
             }
             n += 1;
             (v_dot, omega_dot) = k.accelerations(y.theta, y.omega, y.current);
-            emit(n, &y, v_dot)?;
+            emit(sink, n, &y, v_dot)?;
         } else {
             let q = ((h_max / dt_out + 1e-9).floor() as usize).clamp(1, n_samples - 1 - n);
             let h = q as f64 * dt_out;
@@ -811,30 +850,51 @@ fn integrate_with_step(
             (v_dot, omega_dot) = k.accelerations(y.theta, y.omega, y.current);
             let di0 = k.current_forcing(y0.omega) - k.decay * y0.current;
             let di1 = k.current_forcing(y.omega) - k.decay * y.current;
+            let inv_q = 1.0 / q as f64;
             for j in 1..q {
-                let s = j as f64 / q as f64;
+                let s = j as f64 * inv_q;
                 let th = hermite(s, h, y0.theta.rad, y0.omega, y.theta.rad, y.omega);
-                let yj = MechState {
-                    theta: y0.theta.plus(th - y0.theta.rad),
-                    omega: hermite(s, h, y0.omega, d0, y.omega, omega_dot),
-                    current: hermite(s, h, y0.current, di0, y.current, di1),
-                };
-                let (vj, _) = k.accelerations(yj.theta, yj.omega, yj.current);
-                emit(n + j, &yj, vj)?;
+                let om = hermite(s, h, y0.omega, d0, y.omega, omega_dot);
+                let cur = hermite(s, h, y0.current, di0, y.current, di1);
+                let m = n + j;
+                if m < full_from {
+                    // Finite if both ends are (checked when they were emitted).
+                    sink.partial(m, m as f64 * dt_out, th, om, cur);
+                } else {
+                    let yj = MechState { theta: y0.theta.plus(th - y0.theta.rad), omega: om, current: cur };
+                    let (vj, _) = k.accelerations(yj.theta, yj.omega, yj.current);
+                    emit(sink, m, &yj, vj)?;
+                }
             }
             n += q;
-            emit(n, &y, v_dot)?;
+            emit(sink, n, &y, v_dot)?;
         }
     }
     Ok(())
+}
+
+/// First sample index `n` with `n dt + dt/2 >= t_s` (sample times are `n dt`; the half step of slack puts
+/// a sample at exactly `t_s` on the inside despite rounding).
+fn first_index_at(t_s: f64, dt_s: f64) -> usize {
+    let inside = |n: usize| n as f64 * dt_s + 0.5 * dt_s >= t_s;
+    let mut n = (t_s / dt_s - 0.5).ceil().max(0.0) as usize;
+    while n > 0 && inside(n - 1) {
+        n -= 1;
+    }
+    while !inside(n) {
+        n += 1;
+    }
+    n
 }
 
 /// Streaming accumulator of the summary; stores only theta (for the settling time) and the last second of
 /// acceleration (for the FFT).
 struct SummaryBuilder {
     window_start_s: f64,
-    fft_start_s: f64,
+    window_start_n: usize,
+    fft_start_n: usize,
     dt_out: f64,
+    /// Every sample's angle, for the settling time.
     theta: Vec<f64>,
     fft_accel: Vec<f64>,
     theta_window_start: Option<(f64, f64)>,
@@ -860,12 +920,13 @@ impl SummaryBuilder {
         let duration = options.duration_s;
         let window_start_s = 0.5 * duration;
         let fft_window = (duration - window_start_s).min(1.0);
-        let n = options.sample_count();
+        let dt_out = 1.0 / options.output_rate_hz;
         Self {
             window_start_s,
-            fft_start_s: duration - fft_window,
-            dt_out: 1.0 / options.output_rate_hz,
-            theta: Vec::with_capacity(n),
+            window_start_n: first_index_at(window_start_s, dt_out),
+            fft_start_n: first_index_at(duration - fft_window, dt_out),
+            dt_out,
+            theta: Vec::with_capacity(options.sample_count()),
             fft_accel: Vec::with_capacity((fft_window * options.output_rate_hz) as usize + 2),
             theta_window_start: None,
             theta_last: (0.0, 0.0),
@@ -884,50 +945,67 @@ impl SummaryBuilder {
         }
     }
 
+    /// What every sample contributes: the settling scan's angle and the whole-run current peak.
     #[inline]
-    fn push(&mut self, s: &Sample) {
-        let [x, _, theta, omega, current] = s.state;
+    fn push_any(&mut self, t_s: f64, theta: f64, current: f64) {
         self.theta.push(theta);
-        let prev = (s.t_s, theta);
-        self.push_window(s, x, theta, omega, current);
-        self.prev = prev;
+        self.current_peak = self.current_peak.max(current);
+        self.prev = (t_s, theta);
     }
 
     #[inline]
-    fn push_window(&mut self, s: &Sample, x: f64, theta: f64, omega: f64, current: f64) {
-        self.current_peak = self.current_peak.max(current);
-        // Sample times are k * dt; compare with half a step of slack so that t = T/2 is in the window.
-        if s.t_s + 0.5 * self.dt_out >= self.window_start_s {
-            if self.theta_window_start.is_none() {
-                self.theta_window_start = Some((s.t_s, theta));
-            }
-            self.theta_last = (s.t_s, theta);
-            let next = *self.next_crossing.get_or_insert((theta / std::f64::consts::TAU).ceil());
-            let mut next = next;
-            let (t_prev, th_prev) = self.prev;
-            while theta >= next * std::f64::consts::TAU && theta > th_prev {
-                let target = next * std::f64::consts::TAU;
-                let t_c = t_prev + (s.t_s - t_prev) * (target - th_prev) / (theta - th_prev);
-                if self.first_crossing.is_none() {
-                    self.first_crossing = Some((t_c, next));
-                }
-                self.last_crossing = Some((t_c, next));
-                next += 1.0;
-            }
-            self.next_crossing = Some(next);
-            self.omega_min = self.omega_min.min(omega);
-            self.omega_max = self.omega_max.max(omega);
-            self.accel_peak = self.accel_peak.max(s.accel_m_s2.abs());
-            self.x_min = self.x_min.min(x);
-            self.x_max = self.x_max.max(x);
-            self.current_sum += current;
-            self.window_samples += 1;
+    fn push_window(&mut self, t_s: f64, state: &[f64; 5], accel: f64) {
+        let [x, _, theta, omega, current] = *state;
+        if self.theta_window_start.is_none() {
+            self.theta_window_start = Some((t_s, theta));
         }
-        if s.t_s + 0.5 * self.dt_out >= self.fft_start_s {
-            self.fft_accel.push(s.accel_m_s2);
+        self.theta_last = (t_s, theta);
+        let next = *self.next_crossing.get_or_insert((theta / std::f64::consts::TAU).ceil());
+        let mut next = next;
+        let (t_prev, th_prev) = self.prev;
+        while theta >= next * std::f64::consts::TAU && theta > th_prev {
+            let target = next * std::f64::consts::TAU;
+            let t_c = t_prev + (t_s - t_prev) * (target - th_prev) / (theta - th_prev);
+            if self.first_crossing.is_none() {
+                self.first_crossing = Some((t_c, next));
+            }
+            self.last_crossing = Some((t_c, next));
+            next += 1.0;
         }
+        self.next_crossing = Some(next);
+        self.omega_min = self.omega_min.min(omega);
+        self.omega_max = self.omega_max.max(omega);
+        self.accel_peak = self.accel_peak.max(accel.abs());
+        self.x_min = self.x_min.min(x);
+        self.x_max = self.x_max.max(x);
+        self.current_sum += current;
+        self.window_samples += 1;
+    }
+}
+
+impl SampleSink for SummaryBuilder {
+    fn full_from(&self) -> usize {
+        self.window_start_n.min(self.fft_start_n)
     }
 
+    #[inline]
+    fn partial(&mut self, _n: usize, t_s: f64, theta_rad: f64, _omega_rad_s: f64, current_a: f64) {
+        self.push_any(t_s, theta_rad, current_a);
+    }
+
+    #[inline]
+    fn full(&mut self, n: usize, t_s: f64, state: &[f64; 5], accel_m_s2: f64) {
+        if n >= self.window_start_n {
+            self.push_window(t_s, state, accel_m_s2);
+        }
+        if n >= self.fft_start_n {
+            self.fft_accel.push(accel_m_s2);
+        }
+        self.push_any(t_s, state[2], state[4]);
+    }
+}
+
+impl SummaryBuilder {
     fn finish(mut self, params: &TactorParams, options: &SimOptions) -> Summary {
         let (t0, th0) = self.theta_window_start.unwrap_or((0.0, 0.0));
         let (t1, th1) = self.theta_last;
@@ -1002,7 +1080,7 @@ pub fn simulate_with_step_angle(
             limit: MAX_TRACE_SAMPLES,
         });
     }
-    let mut tr = Traces {
+    let tr = Traces {
         t_s: Vec::with_capacity(n),
         theta_rad: Vec::with_capacity(n),
         omega_rad_s: Vec::with_capacity(n),
@@ -1013,23 +1091,47 @@ pub fn simulate_with_step_angle(
         torque_n_m: Vec::with_capacity(n),
         current_a: Vec::with_capacity(n),
     };
-    let mut builder = SummaryBuilder::new(options);
-    let mt = params.body_mass_kg;
-    let kt = params.torque_constant_n_m_per_a;
-    integrate(params, options, step_angle_rad, |s| {
-        builder.push(s);
-        let [x, v, theta, omega, i] = s.state;
-        tr.t_s.push(s.t_s);
+    let mut sink = TraceSink {
+        traces: tr,
+        builder: SummaryBuilder::new(options),
+        mt_kg: params.body_mass_kg,
+        kt_n_m_per_a: params.torque_constant_n_m_per_a,
+    };
+    integrate(params, options, step_angle_rad, &mut sink)?;
+    Ok(TactorRun { traces: sink.traces, summary: sink.builder.finish(params, options) })
+}
+
+/// Stores every sample as traces and feeds the summary.
+struct TraceSink {
+    traces: Traces,
+    builder: SummaryBuilder,
+    mt_kg: f64,
+    kt_n_m_per_a: f64,
+}
+
+impl SampleSink for TraceSink {
+    fn full_from(&self) -> usize {
+        0
+    }
+
+    fn partial(&mut self, _n: usize, _t_s: f64, _theta_rad: f64, _omega_rad_s: f64, _current_a: f64) {
+        unreachable!("traces take every sample complete (full_from = 0)");
+    }
+
+    fn full(&mut self, n: usize, t_s: f64, state: &[f64; 5], accel_m_s2: f64) {
+        self.builder.full(n, t_s, state, accel_m_s2);
+        let [x, v, theta, omega, i] = *state;
+        let tr = &mut self.traces;
+        tr.t_s.push(t_s);
         tr.theta_rad.push(theta);
         tr.omega_rad_s.push(omega);
         tr.x_m.push(x);
         tr.v_m_s.push(v);
-        tr.accel_m_s2.push(s.accel_m_s2);
-        tr.force_n.push(mt * s.accel_m_s2);
-        tr.torque_n_m.push(kt * i);
+        tr.accel_m_s2.push(accel_m_s2);
+        tr.force_n.push(self.mt_kg * accel_m_s2);
+        tr.torque_n_m.push(self.kt_n_m_per_a * i);
         tr.current_a.push(i);
-    })?;
-    Ok(TactorRun { traces: tr, summary: builder.finish(params, options) })
+    }
 }
 
 /// Like [`simulate`] but keeps no traces: the fast path for sweeps and calibration.
@@ -1037,7 +1139,7 @@ pub fn simulate_summary(params: &TactorParams, options: &SimOptions) -> Result<S
     params.validate()?;
     options.validate()?;
     let mut builder = SummaryBuilder::new(options);
-    integrate(params, options, DEFAULT_STEP_ANGLE_RAD, |s| builder.push(s))?;
+    integrate(params, options, DEFAULT_STEP_ANGLE_RAD, &mut builder)?;
     Ok(builder.finish(params, options))
 }
 

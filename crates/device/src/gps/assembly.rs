@@ -493,26 +493,57 @@ impl NmeaDecoder {
             fix.vdop = g.vdop;
             fix.hdop = fix.hdop.or(g.hdop);
         }
-        let mut used: Vec<(Constellation, u16)> = gsa.iter().flat_map(|g| g.ids.iter().copied()).collect();
-        used.sort_unstable();
-        used.dedup();
-        if !gsa.is_empty() {
-            // An empty id list with mode 1 is the receiver saying "none used".
-            fix.sats_used = Some(used.len() as u32);
-            for (c, _) in &used {
-                *fix.sats_used_by.entry(*c).or_insert(0) += 1;
+        // Satellites used, deduplicated: a bit set over (constellation, id < USED_BITS_IDS), plus a sorted
+        // list of the rare larger ids.
+        let mut used_bits = [0u64; USED_BITS_WORDS];
+        let mut used_big: Vec<(Constellation, u16)> = Vec::new();
+        let mut used_by = [0u32; ALL_CONSTELLATIONS.len()];
+        for &(c, id) in gsa.iter().flat_map(|g| g.ids.iter()) {
+            if usize::from(id) < USED_BITS_IDS {
+                let bit = c as usize * USED_BITS_IDS + usize::from(id);
+                let mask = 1 << (bit % 64);
+                if used_bits[bit / 64] & mask == 0 {
+                    used_bits[bit / 64] |= mask;
+                    used_by[c as usize] += 1;
+                }
+            } else {
+                used_big.push((c, id));
             }
         }
+        used_big.sort_unstable();
+        used_big.dedup();
+        for &(c, _) in &used_big {
+            used_by[c as usize] += 1;
+        }
+        if !gsa.is_empty() {
+            // An empty id list with mode 1 is the receiver saying "none used".
+            fix.sats_used = Some(used_by.iter().sum());
+            for (c, n) in ALL_CONSTELLATIONS.into_iter().zip(used_by) {
+                if n > 0 {
+                    fix.sats_used_by.insert(c, n);
+                }
+            }
+        }
+        let is_used = |c: Constellation, id: u16| {
+            if usize::from(id) < USED_BITS_IDS {
+                let bit = c as usize * USED_BITS_IDS + usize::from(id);
+                used_bits[bit / 64] & (1 << (bit % 64)) != 0
+            } else {
+                used_big.binary_search(&(c, id)).is_ok()
+            }
+        };
         // Sky: every complete GSV group.
         let mut visible = 0u32;
+        let mut visible_by = [0u32; ALL_CONSTELLATIONS.len()];
+        fix.satellites.reserve(self.sky.values().map(|g| g.complete.len()).sum());
         let mut any_sky = false;
         for g in self.sky.values().filter(|g| g.has_complete) {
             any_sky = true;
             visible += u32::from(g.complete_in_view);
             for &(id, el, az, snr) in &g.complete {
                 let constellation = g.constellation.unwrap_or_else(|| Constellation::from_nmea_id(id));
-                *fix.sats_visible_by.entry(constellation).or_insert(0) += 1;
-                let is_used = used.binary_search(&(constellation, id)).is_ok();
+                visible_by[constellation as usize] += 1;
+                let is_used = is_used(constellation, id);
                 fix.satellites.push(Satellite {
                     prn: id,
                     constellation,
@@ -523,6 +554,11 @@ impl NmeaDecoder {
                 });
             }
         }
+        for (c, n) in ALL_CONSTELLATIONS.into_iter().zip(visible_by) {
+            if n > 0 {
+                fix.sats_visible_by.insert(c, n);
+            }
+        }
         if any_sky {
             fix.sats_visible = Some(visible);
         }
@@ -530,6 +566,22 @@ impl NmeaDecoder {
         fix
     }
 }
+
+/// Satellite ids below this are looked up in a bit set when marking satellites used (NMEA ids are < 400).
+const USED_BITS_IDS: usize = 512;
+/// Words of that bit set: one row of [`USED_BITS_IDS`] bits per [`Constellation`].
+const USED_BITS_WORDS: usize = ALL_CONSTELLATIONS.len() * USED_BITS_IDS / 64;
+/// Every [`Constellation`], in discriminant order.
+const ALL_CONSTELLATIONS: [Constellation; 8] = [
+    Constellation::Gps,
+    Constellation::Sbas,
+    Constellation::Glonass,
+    Constellation::Galileo,
+    Constellation::Beidou,
+    Constellation::Qzss,
+    Constellation::Navic,
+    Constellation::Unknown,
+];
 
 fn utc(d: NaiveDate, t: NaiveTime) -> DateTime<Utc> {
     d.and_time(t).and_utc()
@@ -620,6 +672,13 @@ mod tests {
         }
         assert_eq!(d.ender, Some(Kind::Vtg));
         assert_eq!(fixes_before_next_gga, 1, "the last epoch was emitted at its VTG");
+    }
+
+    #[test]
+    fn constellation_table_is_in_discriminant_order() {
+        for (i, c) in ALL_CONSTELLATIONS.into_iter().enumerate() {
+            assert_eq!(c as usize, i, "{c:?}");
+        }
     }
 
     #[test]

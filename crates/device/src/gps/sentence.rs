@@ -116,13 +116,34 @@ pub(crate) enum Unused {
 /// Parses a checksum-verified sentence (`$...*hh`).
 pub(crate) fn parse(sentence: &str) -> Result<Parsed, Unused> {
     let body = sentence.get(1..sentence.len().saturating_sub(3)).ok_or(Unused::Malformed)?;
-    let mut fields = body.split(',');
-    let tag = fields.next().ok_or(Unused::Malformed)?;
-    // A sentence has at most ~80 fields (164 characters); no allocation per sentence.
-    let mut store = [""; 96];
+    // The first 96 fields after the tag are kept (a 164-character sentence has at most ~80). The common
+    // sentences have fewer than 24: those go into a small array (no allocation, little to initialise), longer ones
+    // into a vector. A plain byte scan: `str::split` costs more than the fields are long.
+    let (tag, fields) = body.split_once(',').unwrap_or((body, ""));
+    let has_fields = body.len() > tag.len();
+    let mut small = [""; 24];
+    let mut large: Vec<&str> = Vec::new();
+    let count = if has_fields { fields.bytes().filter(|&b| b == b',').count() + 1 } else { 0 };
+    let store: &mut [&str] = if count <= small.len() {
+        &mut small
+    } else {
+        large.resize(count.min(96), "");
+        &mut large
+    };
     let mut n = 0;
-    for (slot, field) in store.iter_mut().zip(fields) {
-        *slot = field;
+    let mut start = 0;
+    for (i, &b) in fields.as_bytes().iter().enumerate() {
+        if n == store.len() {
+            break;
+        }
+        if b == b',' {
+            store[n] = &fields[start..i];
+            n += 1;
+            start = i + 1;
+        }
+    }
+    if has_fields && n < store.len() {
+        store[n] = &fields[start..];
         n += 1;
     }
     let f = &store[..n];
@@ -136,14 +157,17 @@ pub(crate) fn parse(sentence: &str) -> Result<Parsed, Unused> {
     match kind {
         // The crate refuses a GSA with an empty VDOP field (Septentrio PolarRx2: `...,10.5,10.5,*1F`):
         // fall back to our own parser when it fails.
-        "GSA" => via_crate(sentence, talker).or_else(|_| parse_gsa(talker, f)),
+        "GSA" => fast_gsa(sentence, talker, f)
+            .map_or_else(|| via_crate(sentence, talker), Ok)
+            .or_else(|_| parse_gsa(talker, f)),
         // The crate refuses a ZDA whose zone hours carry a sign (`+00`, Firefly-II, Furuno): fall back.
         "ZDA" => via_crate(sentence, talker).or_else(|_| parse_zda(f)),
         // Hot path: canonical GGA/GLL are decoded here with the crate's own arithmetic; anything unusual
         // goes through the crate so its acceptance rules stay the reference.
         "GGA" => fast_gga(sentence, f).map_or_else(|| via_crate(sentence, talker), Ok),
         "GLL" => fast_gll(sentence, f).map_or_else(|| via_crate(sentence, talker), Ok),
-        "RMC" | "GST" | "HDT" => via_crate(sentence, talker),
+        "RMC" => fast_rmc(sentence, f).map_or_else(|| via_crate(sentence, talker), Ok),
+        "GST" | "HDT" => via_crate(sentence, talker),
         "GNS" => parse_gns(f),
         "GSV" => parse_gsv(talker, f),
         "VTG" => Ok(parse_vtg(f)),
@@ -214,6 +238,11 @@ fn via_crate(sentence: &str, talker: &str) -> Result<Parsed, Unused> {
 /// Longest sentence the `nmea` crate accepts (its `SENTENCE_MAX_LEN`).
 const CRATE_MAX_LEN: usize = 102;
 
+/// The crate reads a sentence up to its first `*` and rejects long ones: decline both cases.
+fn crate_shape(sentence: &str) -> bool {
+    sentence.len() <= CRATE_MAX_LEN && !sentence[..sentence.len().saturating_sub(3)].contains('*')
+}
+
 fn all_digits(s: &str) -> bool {
     !s.is_empty() && s.bytes().all(|b| b.is_ascii_digit())
 }
@@ -228,6 +257,7 @@ fn plain_decimal(s: &str) -> bool {
 
 /// An optional f32 field as the crate reads it (`str::parse::<f32>` of the field), back to f64 via
 /// [`f64_of`]. `None` = not canonical (let the crate decide).
+#[allow(clippy::option_option)] // outer None: decline (the crate decides); inner None: empty field
 fn fast_f32(s: &str, signed: bool) -> Option<Option<f64>> {
     if s.is_empty() {
         return Some(None);
@@ -241,6 +271,7 @@ fn fast_f32(s: &str, signed: bool) -> Option<Option<f64>> {
 
 /// `hhmmss[.s+]` as the crate reads it: `NaiveTime(h, m, trunc(sec), round(fract(sec) * 1e9))`.
 /// Outer `None` = not canonical or out of range (let the crate decide).
+#[allow(clippy::option_option)] // outer None: decline (the crate decides); inner None: empty field
 fn fast_hms(s: &str) -> Option<Option<NaiveTime>> {
     if s.is_empty() {
         return Some(None);
@@ -259,6 +290,7 @@ fn fast_hms(s: &str) -> Option<Option<NaiveTime>> {
 }
 
 /// `ddmm.m+,N,dddmm.m+,E` as the crate reads it: `deg + min / 60`, all four empty = no position.
+#[allow(clippy::option_option)] // outer None: decline (the crate decides); inner None: empty field
 fn fast_lat_lon(f: &[&str]) -> Option<Option<(f64, f64)>> {
     let [lat, ns, lon, ew] = f else { return None };
     if lat.is_empty() && ns.is_empty() && lon.is_empty() && ew.is_empty() {
@@ -287,7 +319,7 @@ fn fast_lat_lon(f: &[&str]) -> Option<Option<(f64, f64)>> {
 /// GGA in its canonical form (`time,lat,N,lon,E,q,sats,hdop,alt,M,sep,M,...`), decoded exactly as
 /// [`via_crate`] would; `None` when any field is unusual, so the crate's rules decide those.
 fn fast_gga(sentence: &str, f: &[&str]) -> Option<Parsed> {
-    if sentence.len() > CRATE_MAX_LEN || f.len() < 12 {
+    if !crate_shape(sentence) || f.len() < 12 {
         return None;
     }
     let time = fast_hms(f[0])?;
@@ -321,7 +353,7 @@ fn fast_gga(sentence: &str, f: &[&str]) -> Option<Parsed> {
 /// GLL in its canonical form (`lat,N,lon,E,time,A,mode`), decoded exactly as [`via_crate`] would;
 /// `None` when any field is unusual.
 fn fast_gll(sentence: &str, f: &[&str]) -> Option<Parsed> {
-    if sentence.len() > CRATE_MAX_LEN || f.len() != 7 {
+    if !crate_shape(sentence) || f.len() != 7 {
         return None;
     }
     let pos = fast_lat_lon(&f[0..4])?;
@@ -335,6 +367,92 @@ fn fast_gll(sentence: &str, f: &[&str]) -> Option<Parsed> {
         return None;
     }
     Some(Parsed::Gll { time, pos: pos.filter(|p| valid_pos(*p)), valid })
+}
+
+/// RMC in its canonical form (`time,A,lat,N,lon,E,knots,course,ddmmyy,magvar,E[,mode[,navstatus]]`),
+/// decoded exactly as [`via_crate`] would (two-digit years: 83-99 = 19xx, else 20xx); `None` when any
+/// field is unusual.
+fn fast_rmc(sentence: &str, f: &[&str]) -> Option<Parsed> {
+    if !crate_shape(sentence) || f.len() < 11 {
+        return None;
+    }
+    let time = fast_hms(f[0])?;
+    let valid = match f[1] {
+        "A" | "D" => true,
+        "V" => false,
+        _ => return None,
+    };
+    let pos = fast_lat_lon(&f[2..6])?;
+    let knots = fast_f32(f[6], false)?;
+    let course_deg = fast_f32(f[7], false)?;
+    let date = match f[8] {
+        "" => None,
+        d if d.len() == 6 && all_digits(d) => {
+            let day: u32 = d[0..2].parse().ok()?;
+            let month: u32 = d[2..4].parse().ok()?;
+            let yy: i32 = d[4..6].parse().ok()?;
+            let year = if (83..=99).contains(&yy) { 1900 + yy } else { 2000 + yy };
+            Some(NaiveDate::from_ymd_opt(year, month, day)?)
+        }
+        _ => return None,
+    };
+    // Magnetic variation: empty, or a number with its hemisphere (the crate rejects anything else).
+    let magvar_ok = f[9].is_empty() || (plain_decimal(f[9]) && matches!(f[10], "E" | "W"));
+    if !magvar_ok {
+        return None;
+    }
+    Some(Parsed::Rmc {
+        time,
+        date,
+        valid,
+        pos: pos.filter(|p| valid_pos(*p)),
+        speed_m_s: knots.map(|k| k * MS_PER_KNOT),
+        course_deg,
+    })
+}
+
+/// GSA in its canonical form (`M|A,1|2|3,id x 12,p.p,h.h,v.v[,system_id]`: DOPs with a decimal point,
+/// so the crate's id list cannot swallow them), decoded exactly as [`via_crate`] would; `None` when
+/// any field is unusual.
+fn fast_gsa(sentence: &str, talker: &str, f: &[&str]) -> Option<Parsed> {
+    if !crate_shape(sentence) || !(f.len() == 17 || f.len() == 18) || !matches!(f[0], "M" | "A") {
+        return None;
+    }
+    let mode = match f[1] {
+        "1" => FixMode::NoFix,
+        "2" => FixMode::Fix2D,
+        "3" => FixMode::Fix3D,
+        _ => return None,
+    };
+    let mut ids = Vec::with_capacity(12);
+    for id in &f[2..14] {
+        if id.is_empty() {
+            continue;
+        }
+        if id.len() > 9 || !all_digits(id) {
+            return None;
+        }
+        // The crate reads u32 ids and we keep those that fit u16.
+        if let Ok(id) = u16::try_from(id.parse::<u32>().ok()?) {
+            ids.push(id);
+        }
+    }
+    let dop =
+        |s: &str| if s.contains('.') && plain_decimal(s) { s.parse::<f32>().ok().map(f64_of) } else { None };
+    let (pdop, hdop, vdop) = (dop(f[14])?, dop(f[15])?, dop(f[16])?);
+    let system = match f.get(17).map(|s| s.as_bytes()) {
+        Some([d @ b'1'..=b'4']) => Constellation::from_system_id(d - b'0'),
+        None | Some([] | [b'0'..=b'9']) => None,
+        Some(_) => return None,
+    };
+    Some(Parsed::Gsa {
+        mode: Some(mode),
+        constellation: system.or_else(|| Constellation::from_talker(talker)),
+        ids,
+        pdop: Some(pdop),
+        hdop: Some(hdop),
+        vdop: Some(vdop),
+    })
 }
 
 /// f32 fields of the nmea crate back to f64, rounded to 7 significant digits (f32's precision), so the
@@ -606,6 +724,24 @@ mod tests {
     }
 
     #[test]
+    fn long_sentences_keep_all_fields() {
+        let label: String = (0..40).map(|i| format!("w{i}")).collect::<Vec<_>>().join(",");
+        assert_eq!(
+            parse(&format!("$PVNAV,MARK,7,{label}*00")),
+            Ok(Parsed::Mark { number: 7, label: label.clone() })
+        );
+        // A GSA with 30 ids (more than 12: no system id field) goes through our own parser.
+        let ids: Vec<String> = (1..=30).map(|i| i.to_string()).collect();
+        let Ok(Parsed::Gsa { ids: got, pdop, vdop, .. }) =
+            parse(&format!("$GPGSA,A,3,{},2.5,1.3,2.1*00", ids.join(",")))
+        else {
+            panic!()
+        };
+        assert_eq!(got, (1..=30).collect::<Vec<u16>>());
+        assert_eq!((pdop, vdop), (Some(2.5), Some(2.1)));
+    }
+
+    #[test]
     fn marks_and_timestamps() {
         assert_eq!(parse("$PVNAV,MARK,3,cone 3*00"), Ok(Parsed::Mark { number: 3, label: "cone 3".into() }));
         assert_eq!(parse("$PVNAV,TS,1700000000123*00"), Ok(Parsed::Timestamp { unix_ms: 1_700_000_000_123 }));
@@ -623,20 +759,27 @@ mod fast_path_tests {
         sentence[1..sentence.len() - 3].split(',').skip(1).collect()
     }
 
-    fn agrees(sentence: &str) {
+    /// Whether the fast path took the sentence (and then agreed with the crate).
+    fn agrees(sentence: &str) -> bool {
         let f = fields(sentence);
-        let fast =
-            if sentence.get(3..6) == Some("GGA") { fast_gga(sentence, &f) } else { fast_gll(sentence, &f) };
+        let fast = match sentence.get(3..6) {
+            Some("GGA") => fast_gga(sentence, &f),
+            Some("GLL") => fast_gll(sentence, &f),
+            Some("RMC") => fast_rmc(sentence, &f),
+            _ => fast_gsa(sentence, &sentence[1..3], &f),
+        };
         if let Some(fast) = fast {
             assert_eq!(Ok(fast), via_crate(sentence, &sentence[1..3]), "{sentence}");
+            return true;
         }
+        false
     }
 
-    /// The own GGA/GLL decoding equals the `nmea` crate's on every such sentence of gpsd's logs.
+    /// The own GGA/GLL/RMC/GSA decoding equals the `nmea` crate's on every such sentence of gpsd's logs.
     #[test]
     fn fast_path_matches_the_crate_on_gpsd_logs() {
         let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/gpsd-logs");
-        let mut checked = 0;
+        let (mut checked, mut fast) = (0, 0);
         for entry in std::fs::read_dir(dir).unwrap() {
             let path = entry.unwrap().path();
             if path.extension().is_none_or(|e| e != "log") {
@@ -646,21 +789,26 @@ mod fast_path_tests {
             for line in text.lines().map(str::trim_end) {
                 let Some(start) = line.find('$') else { continue };
                 let s = &line[start..];
-                if s.len() > 10 && s.is_ascii() && s.as_bytes()[s.len() - 3] == b'*' && !s[1..].contains('$')
+                if s.len() > 10
+                    && s.is_ascii()
+                    && s.as_bytes()[s.len() - 3] == b'*'
+                    && !s[1..].contains('$')
+                    && with_checksum(&s[1..s.len() - 3]).trim_end() == s
                 {
                     let kind = &s[3..6];
-                    if kind == "GGA" || kind == "GLL" {
-                        agrees(s);
+                    if matches!(kind, "GGA" | "GLL" | "RMC" | "GSA") {
+                        fast += usize::from(agrees(s));
                         checked += 1;
                     }
                 }
             }
         }
         assert!(checked > 1000, "{checked}");
+        assert!(fast * 10 > checked * 9, "the fast path took only {fast} of {checked}");
     }
 
     proptest! {
-        /// Random near-canonical GGA and GLL: the fast path either declines or agrees with the crate.
+        /// Random near-canonical GGA, GLL, RMC and GSA: the fast path either declines or agrees with the crate.
         #[test]
         fn fast_path_matches_the_crate(
             time in "[0-9]{6}(\\.[0-9]{1,4})?|[0-9]{5}|",
@@ -675,11 +823,19 @@ mod fast_path_tests {
             sep in "-?[0-9]{1,3}(\\.[0-9]{1,2})?|",
             status in "[AVX]",
             mode in "[ADNX]?",
+            date in "[0-3][0-9][01][0-9][0-9]{2}|[0-9]{5}|",
+            m1 in "[MAX]",
+            ids in proptest::collection::vec("[0-9]{0,3}", 12..14),
+            sys in "(,[0-9]{0,2})?",
         ) {
             let gga = format!("GPGGA,{time},{lat},{ns},{lon},{ew},{q},{sats},{hdop},{alt},M,{sep},M,,");
-            agrees(with_checksum(&gga).trim_end());
+            let _ = agrees(with_checksum(&gga).trim_end());
             let gll = format!("GPGLL,{lat},{ns},{lon},{ew},{time},{status},{mode}");
-            agrees(with_checksum(&gll).trim_end());
+            let _ = agrees(with_checksum(&gll).trim_end());
+            let rmc = format!("GNRMC,{time},{status},{lat},{ns},{lon},{ew},{hdop},{sep},{date},{hdop},{ew},{mode}");
+            let _ = agrees(with_checksum(&rmc).trim_end());
+            let gsa = format!("GPGSA,{m1},{q},{},{hdop},{sep},{alt}{sys}", ids.join(","));
+            let _ = agrees(with_checksum(&gsa).trim_end());
         }
     }
 }
