@@ -15,17 +15,25 @@ i=0
 while [ "$i" -lt "$REPEAT" ]; do cat tests/data/gpsd-logs/*.log >> "$TMP/all.nmea"; i=$((i + 1)); done
 BYTES=$(wc -c < "$TMP/all.nmea")
 
-now() { python3 -c 'import time; print(time.perf_counter())'; }
-best() { # best of 3 wall-clock seconds of "$@"
-  b=""
-  for _ in 1 2 3; do
-    t0=$(now); "$@" > /dev/null 2>&1; t1=$(now)
-    b=$(python3 -c "a='$b'; d=$t1-$t0; print(d if a=='' or d<float(a) else a)")
-  done
-  echo "$b"
-}
-T_OURS=$(best sh -c "$BIN nmea decode --json '$TMP/all.nmea'")
-T_GPSD=$(best sh -c "gpsdecode < '$TMP/all.nmea'")
+# Time both tools in one Python process (best of 3 wall-clock runs each, output to /dev/null), so no shell or
+# interpreter start-up is counted against either side.
+TIMES=$(python3 - "$BIN" "$TMP/all.nmea" <<'PY'
+import subprocess, sys, time
+bin_, path = sys.argv[1], sys.argv[2]
+def best(argv, stdin_path="/dev/null"):
+    b = None
+    for _ in range(3):
+        with open(stdin_path, "rb") as inp:
+            t0 = time.perf_counter()
+            subprocess.run(argv, stdin=inp, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, check=False)
+            d = time.perf_counter() - t0
+        b = d if b is None or d < b else b
+    return b
+print(best([bin_, "nmea", "decode", "--json", path]), best(["gpsdecode"], path))
+PY
+)
+T_OURS=${TIMES% *}
+T_GPSD=${TIMES#* }
 EPOCHS_OURS=$($BIN nmea decode --json "$TMP/all.nmea" 2>/dev/null | wc -l)
 TPV_GPSD=$(gpsdecode < "$TMP/all.nmea" 2>/dev/null | grep -c '"class":"TPV"' || true)
 python3 - "$BYTES" "$T_OURS" "$T_GPSD" "$EPOCHS_OURS" "$TPV_GPSD" <<'PY'

@@ -38,6 +38,10 @@ pub struct RecordArgs {
     /// Stop after this many seconds (default: until interrupted).
     #[arg(long)]
     pub duration_s: Option<f64>,
+    /// Take operator marks from standard input: each line (Enter) records `$PVNAV,MARK,<n>,<line>` at
+    /// that moment, an empty line is labelled `cone <n>` — the cone test's marks (`vestnav fieldtest cones`).
+    #[arg(long)]
+    pub marks: bool,
 }
 
 /// The per-epoch JSON object of `nmea decode --json`.
@@ -229,9 +233,19 @@ pub fn run_record(args: &RecordArgs) -> anyhow::Result<()> {
     let mut buf = [0u8; 4096];
     let mut total = first.len();
     eprintln!("recording {} at {baud} baud to {} (Ctrl-C to stop)", args.port, args.file.display());
+    let marks = args.marks.then(spawn_mark_reader);
+    if marks.is_some() {
+        eprintln!("press Enter to mark a cone (type a label first to name the mark)");
+    }
     loop {
         if args.duration_s.is_some_and(|d| start.elapsed().as_secs_f64() >= d) {
             break;
+        }
+        while let Some(label) = marks.as_ref().and_then(|rx| rx.try_recv().ok()) {
+            let now = unix_ms_now();
+            let n = rec.mark(&label, now)?;
+            rec.flush()?;
+            eprintln!("mark {n} {}", if label.is_empty() { "(cone)" } else { label.as_str() });
         }
         match port.read(&mut buf) {
             Ok(0) => break,
@@ -251,4 +265,26 @@ pub fn run_record(args: &RecordArgs) -> anyhow::Result<()> {
     rec.flush()?;
     eprintln!("recorded {total} bytes");
     Ok(())
+}
+
+/// Reads operator mark labels, one per line of standard input, on a thread of their own (a blocking read
+/// must not stall the recording). An empty line becomes `cone <n>` in the recording.
+fn spawn_mark_reader() -> std::sync::mpsc::Receiver<String> {
+    let (tx, rx) = std::sync::mpsc::sync_channel(64);
+    let spawned = std::thread::Builder::new().name("marks-stdin".into()).spawn(move || {
+        let mut count = 0u32;
+        for line in std::io::stdin().lines() {
+            let Ok(line) = line else { break };
+            count += 1;
+            let label = line.trim();
+            let label = if label.is_empty() { format!("cone {count}") } else { label.to_owned() };
+            if tx.send(label).is_err() {
+                break;
+            }
+        }
+    });
+    if let Err(e) = spawned {
+        eprintln!("cannot read marks from standard input: {e}");
+    }
+    rx
 }

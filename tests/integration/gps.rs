@@ -163,3 +163,56 @@ fn real_gpsd_fed_by_our_emulator() {
     assert!((f.lon_deg.unwrap() + 2.121_37).abs() < 1e-7);
     assert!(ev.iter().any(|e| matches!(e, GpsEvent::State(SourceState::Live { .. }))));
 }
+
+/// `nmea record` on a real PTY fed by the GPS emulator, with cone marks typed on standard input: the
+/// recording decodes to the emulator's fixes (positions of the replayed log) and carries the marks in order.
+#[test]
+fn record_from_a_pty_with_operator_marks() {
+    use std::io::Write as _;
+    let dir = std::env::temp_dir().join(format!("vestnav-rec-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = dir.join("walk.nmea");
+    let log = logs().join("nd-1005.log");
+    let (_emu, path) = emulator(&["--replay", log.to_str().unwrap(), "--speed", "10", "--repeat"]);
+    let mut rec = Command::new(bin())
+        .args([
+            "nmea",
+            "record",
+            &path,
+            out.to_str().unwrap(),
+            "--baud",
+            "4800",
+            "--duration-s",
+            "4",
+            "--marks",
+        ])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start vestnav nmea record");
+    let mut stdin = rec.stdin.take().unwrap();
+    std::thread::sleep(Duration::from_millis(1200));
+    stdin.write_all(b"\n").unwrap();
+    std::thread::sleep(Duration::from_millis(800));
+    stdin.write_all(b"cone B\n").unwrap();
+    drop(stdin);
+    let output = rec.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "record failed: {stderr}");
+    assert!(stderr.contains("mark 1") && stderr.contains("mark 2"), "{stderr}");
+
+    let bytes = std::fs::read(&out).unwrap();
+    let (fixes, marks, stats) = vestnav_device::gps::decode_reader_with_marks(bytes.as_slice()).unwrap();
+    assert!(fixes.len() >= 5, "only {} fixes recorded", fixes.len());
+    // nd-1005 is a stationary log at 57.163445 N, 2.12137 W (gpsd's .chk says the same).
+    for f in fixes.iter().filter(|f| f.has_position()) {
+        assert!((f.lat_deg.unwrap() - 57.163_445).abs() < 1e-7);
+        assert!((f.lon_deg.unwrap() + 2.121_37).abs() < 1e-7);
+    }
+    let labels: Vec<_> = marks.iter().map(|m| (m.number, m.label.as_str())).collect();
+    assert_eq!(labels, vec![(1, "cone 1"), (2, "cone B")]);
+    assert!(marks.iter().all(|m| m.recorded_unix_ms.is_some()));
+    assert_eq!(stats.bad_checksum, 0, "{stats:?}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
