@@ -86,6 +86,19 @@ pub fn nice_length_m(min_m: f64) -> f64 {
     [1.0, 2.0, 5.0, 10.0].into_iter().map(|k| k * p).find(|&v| v >= min_m).unwrap_or(10.0 * p)
 }
 
+/// What the operator asked for on one waypoint, from the list or from the map's context menu.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum WaypointAction {
+    /// Make it the next waypoint.
+    Select,
+    /// One place earlier in the route.
+    MoveUp,
+    /// One place later in the route.
+    MoveDown,
+    /// Remove it.
+    Delete,
+}
+
 fn to_pos2(v: egui::Vec2) -> Pos2 {
     Pos2::new(v.x, v.y)
 }
@@ -240,7 +253,7 @@ impl MapView {
     fn waypoint_list(&mut self, ui: &mut egui::Ui) -> bool {
         let mut changed = false;
         ui.label(RichText::new(format!("{} ({} waypoints)", self.route_name, self.waypoints.len())).strong());
-        let mut action: Option<(usize, i32)> = None;
+        let mut action: Option<(usize, WaypointAction)> = None;
         egui::ScrollArea::vertical().show_rows(ui, 22.0, self.waypoints.len(), |ui, range| {
             for i in range {
                 let w = &self.waypoints[i];
@@ -248,30 +261,34 @@ impl MapView {
                     let marker = if i == self.next { "> " } else { "" };
                     if ui.selectable_label(i == self.next, format!("{marker}{} {}", i + 1, w.name)).clicked()
                     {
-                        action = Some((i, 0));
+                        action = Some((i, WaypointAction::Select));
                     }
                     if ui.small_button("Up").on_hover_text("Move earlier").clicked() {
-                        action = Some((i, -1));
+                        action = Some((i, WaypointAction::MoveUp));
                     }
                     if ui.small_button("Down").on_hover_text("Move later").clicked() {
-                        action = Some((i, 1));
+                        action = Some((i, WaypointAction::MoveDown));
                     }
                     if ui.small_button("Del").on_hover_text("Delete").clicked() {
-                        action = Some((i, 99));
+                        action = Some((i, WaypointAction::Delete));
                     }
                 });
             }
         });
         if let Some((i, a)) = action {
             changed = true;
-            match a {
-                0 => self.next = i,
-                -1 => self.move_waypoint(i, -1),
-                1 => self.move_waypoint(i, 1),
-                _ => self.delete_waypoint(i),
-            }
+            self.apply_waypoint_action(i, a);
         }
         changed
+    }
+
+    fn apply_waypoint_action(&mut self, i: usize, action: WaypointAction) {
+        match action {
+            WaypointAction::Select => self.next = i,
+            WaypointAction::MoveUp => self.move_waypoint(i, -1),
+            WaypointAction::MoveDown => self.move_waypoint(i, 1),
+            WaypointAction::Delete => self.delete_waypoint(i),
+        }
     }
 
     /// Moves waypoint `i` one place earlier (`-1`) or later (`1`).
@@ -387,7 +404,7 @@ impl MapView {
             draw_track(&painter, projector, track, Color32::from_rgb(220, 50, 50));
 
             // Waypoints, draggable, with a context menu.
-            let mut action: Option<(usize, i32)> = None;
+            let mut action: Option<(usize, WaypointAction)> = None;
             let font = egui::FontId::proportional(12.0);
             let visible: Vec<usize> =
                 (0..pts.len()).filter(|&i| rect.expand(20.0).contains(pts[i])).collect();
@@ -467,16 +484,16 @@ impl MapView {
                 let open = r.context_menu(|ui| {
                     ui.label(RichText::new(&waypoints[i].name).strong());
                     if ui.button("Make next").clicked() {
-                        action = Some((i, 0));
+                        action = Some((i, WaypointAction::Select));
                     }
                     if ui.button("Move earlier").clicked() {
-                        action = Some((i, -1));
+                        action = Some((i, WaypointAction::MoveUp));
                     }
                     if ui.button("Move later").clicked() {
-                        action = Some((i, 1));
+                        action = Some((i, WaypointAction::MoveDown));
                     }
                     if ui.button("Delete waypoint").clicked() {
-                        action = Some((i, 99));
+                        action = Some((i, WaypointAction::Delete));
                     }
                 });
                 if open.is_none() && *menu_wp == Some(i) && !r.secondary_clicked() {
@@ -583,12 +600,7 @@ impl MapView {
         let (action, add_here) = resp.inner;
         if let Some((i, a)) = action {
             changed = true;
-            match a {
-                0 => self.next = i,
-                -1 => self.move_waypoint(i, -1),
-                1 => self.move_waypoint(i, 1),
-                _ => self.delete_waypoint(i),
-            }
+            self.apply_waypoint_action(i, a);
         }
         if let (Some(as_next), Some(pos)) = (add_here, self.right_click_at) {
             self.add_waypoint(pos, as_next);

@@ -201,6 +201,17 @@ impl Worker {
         }
         !self.stopped()
     }
+
+    /// Before reconnect attempt `attempt` (0 = the first connection, no wait): reports `Reconnecting` and
+    /// sleeps the backoff delay. False when the source was stopped meanwhile.
+    fn back_off(&self, attempt: u32) -> bool {
+        if attempt == 0 {
+            return true;
+        }
+        let delay = backoff(attempt);
+        self.state(SourceState::Reconnecting { attempt, delay_ms: delay.as_millis() as u64 })
+            && self.sleep(delay)
+    }
 }
 
 /// Reconnection delay for attempt `n` (1-based): 0.5 s doubling, capped at 8 s.
@@ -281,13 +292,8 @@ pub fn detect_baud(port: &str, per_baud: Duration, stop: &AtomicBool) -> Result<
 fn run_serial(w: &Worker, port: &str, baud: Option<u32>) {
     let mut attempt = 0u32;
     loop {
-        if attempt > 0 {
-            let delay = backoff(attempt);
-            if !w.state(SourceState::Reconnecting { attempt, delay_ms: delay.as_millis() as u64 })
-                || !w.sleep(delay)
-            {
-                return;
-            }
+        if !w.back_off(attempt) {
+            return;
         }
         attempt += 1;
         let detail =
@@ -487,13 +493,8 @@ fn run_replay(w: &Worker, path: &std::path::Path, speed: Option<f64>) {
 fn run_gpsd(w: &Worker, host: &str, port: u16) {
     let mut attempt = 0u32;
     loop {
-        if attempt > 0 {
-            let delay = backoff(attempt);
-            if !w.state(SourceState::Reconnecting { attempt, delay_ms: delay.as_millis() as u64 })
-                || !w.sleep(delay)
-            {
-                return;
-            }
+        if !w.back_off(attempt) {
+            return;
         }
         attempt += 1;
         if !w.state(SourceState::Connecting { detail: format!("gpsd at {host}:{port}") }) {
