@@ -12,8 +12,8 @@ use std::path::PathBuf;
 
 use anyhow::{Context, bail};
 use clap::{Args, ValueEnum};
-use serde_json::{Value, json};
 use vestnav_core::analysis::{self, Butterworth, Stats, TTestKind, TimeColumn, TraceSummary};
+use vestnav_report::analysis::{AnalysisReport, GroupTests as GroupReport, TTestPair, TrialReport};
 
 /// Largest input file read [bytes]: 512 MiB of CSV is far beyond any 10 kHz trial set.
 const MAX_FILE_BYTES: u64 = 512 * 1024 * 1024;
@@ -159,60 +159,42 @@ fn two_group_tests(a: &FileReport, b: &FileReport) -> GroupTests {
     GroupTests { frequency: run(|t| t.peak_frequency_hz), amplitude: run(|t| t.steady_amplitude) }
 }
 
-fn result_json<T: serde::Serialize>(r: &Result<T, String>) -> Value {
-    match r {
-        Ok(v) => serde_json::to_value(v).unwrap_or(Value::Null),
-        Err(e) => json!({ "error": e }),
-    }
-}
-
 fn print_json(
     args: &TactorDataArgs,
     files: &[FileReport],
     power_law: &Result<vestnav_core::fit::PowerLawFit, String>,
     tests: Option<&GroupTests>,
 ) -> anyhow::Result<()> {
-    let files_json: Vec<Value> = files
-        .iter()
-        .map(|f| {
-            let trials: Vec<Value> = f
-                .trials
-                .iter()
-                .map(|t| {
-                    let mut v = result_json(&t.result);
-                    if let Value::Object(m) = &mut v {
-                        m.insert("name".into(), json!(t.name));
-                    }
-                    v
-                })
-                .collect();
-            json!({
-                "path": f.path.display().to_string(),
-                "sample_rate_hz": f.sample_rate_hz,
-                "time_from_file": f.time_from_file,
-                "lowpass_hz": args.lowpass_hz,
-                "trials": trials,
-                "peak_frequency_hz": f.stat(|t| t.peak_frequency_hz),
-                "steady_amplitude": f.stat(|t| t.steady_amplitude),
-                "overshoot_pct": f.stat(|t| t.overshoot_pct),
-                "settling_time_s": f.stat(|t| t.settling_time_s),
+    let pair = |r: &[Result<analysis::TTest, String>; 2]| TTestPair {
+        welch: r[0].clone().into(),
+        pooled: r[1].clone().into(),
+    };
+    let report = AnalysisReport {
+        files: files
+            .iter()
+            .map(|f| vestnav_report::analysis::FileReport {
+                path: f.path.display().to_string(),
+                sample_rate_hz: f.sample_rate_hz,
+                time_from_file: f.time_from_file,
+                lowpass_hz: args.lowpass_hz,
+                trials: f
+                    .trials
+                    .iter()
+                    .map(|t| TrialReport { name: t.name.clone(), outcome: t.result.clone().into() })
+                    .collect(),
+                peak_frequency_hz: f.stat(|t| t.peak_frequency_hz),
+                steady_amplitude: f.stat(|t| t.steady_amplitude),
+                overshoot_pct: f.stat(|t| t.overshoot_pct),
+                settling_time_s: f.stat(|t| t.settling_time_s),
             })
-        })
-        .collect();
-    let t_test = tests.map(|g| {
-        json!({
-            "peak_frequency_hz": {
-                "welch": result_json(&g.frequency[0]),
-                "pooled": result_json(&g.frequency[1]),
-            },
-            "steady_amplitude": {
-                "welch": result_json(&g.amplitude[0]),
-                "pooled": result_json(&g.amplitude[1]),
-            },
-        })
-    });
-    let out = json!({ "files": files_json, "power_law": result_json(power_law), "t_test": t_test });
-    println!("{}", serde_json::to_string_pretty(&out)?);
+            .collect(),
+        power_law: power_law.clone().into(),
+        t_test: tests.map(|g| GroupReport {
+            peak_frequency_hz: pair(&g.frequency),
+            steady_amplitude: pair(&g.amplitude),
+        }),
+    };
+    print!("{}", vestnav_report::to_json(&report)?);
     Ok(())
 }
 

@@ -8,13 +8,31 @@ use crate::{analyze, emulate_gps, emulate_vest, fieldtest, nav, nmea, sim_tactor
 
 /// vestnav: a navigation console for a 16-tactor haptic vest, and the physics behind it.
 ///
-/// With no subcommand, opens the console. Subcommands run headless and are scriptable.
+/// With no subcommand, opens the console (the window). Subcommands run headless and are scriptable.
 #[derive(Debug, Parser)]
-#[command(name = "vestnav", version, about, long_about = None)]
+#[command(name = "vestnav", version, about, long_about = None, args_conflicts_with_subcommands = true)]
 pub struct Cli {
+    /// Console only: the GPS to connect at start, winning over the saved settings for this run.
+    /// One of gpsd://HOST:PORT, serial:PATH[@BAUD] (no @BAUD: detected), replay:FILE[@SPEED]
+    /// (SPEED 0 = as fast as possible), sim[:ROUTE.gpx] (the simulator walking ROUTE, also loaded as the
+    /// route to guide along).
+    #[arg(long, value_name = "SPEC", value_parser = parse_gps)]
+    pub gps: Option<vestnav_app::config::GpsSpec>,
+    /// Console only: the vest to connect at start, winning over the saved settings for this run.
+    /// One of emulated, serial:PATH (a WTCU on a serial or Bluetooth SPP port such as /dev/rfcomm0).
+    #[arg(long, value_name = "SPEC", value_parser = parse_vest)]
+    pub vest: Option<vestnav_app::config::VestSourceConfig>,
     /// What to run; none opens the console.
     #[command(subcommand)]
     pub command: Option<Command>,
+}
+
+fn parse_gps(s: &str) -> Result<vestnav_app::config::GpsSpec, String> {
+    vestnav_app::config::parse_gps_spec(s)
+}
+
+fn parse_vest(s: &str) -> Result<vestnav_app::config::VestSourceConfig, String> {
+    vestnav_app::config::parse_vest_spec(s)
 }
 
 /// The headless subcommands.

@@ -1,13 +1,17 @@
 //! `vestnav emulate vest`: the WTCU emulator on a pseudo-terminal (or stdin/stdout), with a live view of
 //! the 4x4 grid. The unit side is `vestnav_device::wtcu::engine` (limits, patterns, watchdog); the protocol
 //! is `docs/wtcu-protocol.md`.
+//!
+//! Replies nobody reads (a full PTY buffer, a stdout pipe nobody drains) are dropped, never waited for: the
+//! unit keeps running its watchdog and limits, and a line on stderr (at most one a second) says how many
+//! were dropped.
 
 use std::fmt::Write as _;
 use std::io::{self, IsTerminal, Read, Write};
 use std::sync::Arc;
 use std::sync::atomic::Ordering;
-use std::sync::mpsc::{Receiver, RecvTimeoutError};
-use std::time::Instant;
+use std::sync::mpsc::{Receiver, RecvTimeoutError, SyncSender, TrySendError};
+use std::time::{Duration, Instant};
 
 use anyhow::Context;
 use clap::Args;
@@ -58,13 +62,14 @@ impl VestArgs {
 pub fn run(args: &VestArgs) -> anyhow::Result<()> {
     let mut engine = Engine::new(args.engine_config());
     let control = Arc::new(EmulatorControl::default());
+    spawn_drop_reporter(control.clone())?;
     if args.stdio {
         let mut port = StdioPort::spawn()?;
         let mut view = View::new(io::stderr(), "stdin/stdout", args.battery_mv);
         view.header()?;
         let end = serve(&mut engine, &mut port, &control, |e, ev| view.update(e, ev))
             .context("serving the protocol on stdin/stdout")?;
-        return view.finish(&end);
+        return view.finish(&end, control.replies_dropped.load(Ordering::Relaxed));
     }
     run_pty(&mut engine, &control, args)
 }
@@ -91,7 +96,7 @@ fn run_pty(engine: &mut Engine, control: &Arc<EmulatorControl>, args: &VestArgs)
     view.header()?;
     let end =
         serve(engine, &mut master, control, |e, ev| view.update(e, ev)).context("serving the protocol")?;
-    view.finish(&end)
+    view.finish(&end, control.replies_dropped.load(Ordering::Relaxed))
 }
 
 #[cfg(not(unix))]
@@ -99,11 +104,36 @@ fn run_pty(_: &mut Engine, _: &Arc<EmulatorControl>, _: &VestArgs) -> anyhow::Re
     anyhow::bail!("pseudo-terminals need a Unix system; use --stdio")
 }
 
-/// stdin/stdout as a serial line: a thread reads stdin into a channel so reads can time out.
+/// Says on stderr, at most once a second, how many replies were dropped because nobody read them.
+fn spawn_drop_reporter(control: Arc<EmulatorControl>) -> io::Result<()> {
+    // Detached: it only reads a counter; the process ends with the emulator either way.
+    std::thread::Builder::new().name("drop-reporter".to_owned()).spawn(move || {
+        let mut reported = 0;
+        while !control.stop.load(Ordering::Relaxed) {
+            std::thread::sleep(Duration::from_secs(1));
+            let dropped = control.replies_dropped.load(Ordering::Relaxed);
+            if dropped > reported {
+                let _ = writeln!(
+                    io::stderr().lock(),
+                    "emulator: {} replies dropped in the last second, nobody reading ({dropped} in total)",
+                    dropped - reported
+                );
+                reported = dropped;
+            }
+        }
+    })?;
+    Ok(())
+}
+
+/// Frames waiting for stdout; more and the unit drops its replies rather than wait for the reader.
+const STDOUT_QUEUE: usize = 64;
+
+/// stdin/stdout as a serial line: a thread reads stdin into a channel so reads can time out, another
+/// writes stdout from a bounded channel so writes never block (a full channel is `WouldBlock`).
 struct StdioPort {
     rx: Receiver<Vec<u8>>,
     pending: Vec<u8>,
-    out: io::Stdout,
+    out: SyncSender<Vec<u8>>,
 }
 
 impl StdioPort {
@@ -118,7 +148,16 @@ impl StdioPort {
                 }
             }
         })?;
-        Ok(Self { rx, pending: Vec::new(), out: io::stdout() })
+        let (out, to_write) = std::sync::mpsc::sync_channel::<Vec<u8>>(STDOUT_QUEUE);
+        std::thread::Builder::new().name("stdout-writer".to_owned()).spawn(move || {
+            let mut stdout = io::stdout().lock();
+            while let Ok(bytes) = to_write.recv() {
+                if stdout.write_all(&bytes).and_then(|()| stdout.flush()).is_err() {
+                    break;
+                }
+            }
+        })?;
+        Ok(Self { rx, pending: Vec::new(), out })
     }
 }
 
@@ -140,13 +179,15 @@ impl Read for StdioPort {
 
 impl Write for StdioPort {
     fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
-        self.out.write_all(buf)?;
-        self.out.flush()?;
-        Ok(buf.len())
+        match self.out.try_send(buf.to_vec()) {
+            Ok(()) => Ok(buf.len()),
+            Err(TrySendError::Full(_)) => Err(io::ErrorKind::WouldBlock.into()),
+            Err(TrySendError::Disconnected(_)) => Err(io::ErrorKind::BrokenPipe.into()),
+        }
     }
 
     fn flush(&mut self) -> io::Result<()> {
-        self.out.flush()
+        Ok(())
     }
 }
 
@@ -253,13 +294,16 @@ impl<W: Write + IsTerminal> View<W> {
         self.out.flush()
     }
 
-    fn finish(&mut self, end: &ServeEnd) -> anyhow::Result<()> {
+    fn finish(&mut self, end: &ServeEnd, replies_dropped: u64) -> anyhow::Result<()> {
         let why = match end {
             ServeEnd::Stopped => "stopped",
             ServeEnd::Eof => "the other side closed",
             ServeEnd::Vanished => "port closed",
         };
         writeln!(self.out, "emulator ended: {why}")?;
+        if replies_dropped > 0 {
+            writeln!(self.out, "{replies_dropped} replies were dropped because nobody read them")?;
+        }
         Ok(())
     }
 }

@@ -5,7 +5,7 @@
 //! `$PVNAV,MARK,<n>,<label>` sentences). Fix times come from the receiver's UTC time of day, unwrapped across
 //! midnight; a fix without time is placed 1 s after the previous one (the receivers are 1 Hz).
 //!
-//! Console session logs (JSON Lines written by `vestnav_app::session_log`) give their `fix` and `mark`
+//! Console session logs (JSON Lines written by `vestnav_device::session_log`) give their `fix` and `mark`
 //! records; times are the records' `t_s` (seconds since the session started), a mark's position is the one
 //! the console recorded at the key press, or the latest fix at or before it when the record has none. The
 //! format is chosen by `--format`, by default from the content (first non-blank byte `{` = session log).
@@ -16,13 +16,12 @@ use std::path::{Path, PathBuf};
 use anyhow::Context as _;
 use chrono::{Datelike as _, NaiveTime, Timelike as _};
 use clap::{Args, ValueEnum};
-use vestnav_app::session_log::{LogEntry, LogRecord};
-use vestnav_core::fieldtest::{
-    ConeConfig, ConeMark, ConeStats, DriftStats, TimedFix, cones, drift, position_at,
-};
-use vestnav_core::geo::{Earth, LatLon, LocalFrame, declination_deg, true_from_magnetic_deg};
+use vestnav_core::fieldtest::{ConeConfig, ConeMark, TimedFix, cones, drift, position_at};
+use vestnav_core::geo::{Earth, LatLon, declination_deg, true_from_magnetic_deg};
 use vestnav_device::gps::{Fix, decode_reader_with_marks};
-use vestnav_plot::{Chart, Color, Figure, Marker, Series};
+use vestnav_device::session_log::{LogEntry, LogRecord};
+use vestnav_report::fieldtest::{ConesReport, DriftReport, Source};
+use vestnav_report::to_json;
 
 /// Earth model on the command line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -350,29 +349,9 @@ pub fn run_drift(args: &DriftArgs) -> anyhow::Result<()> {
     let mut s =
         drift(&log.fixes, earth).with_context(|| format!("{}: no positioned fixes", args.file.display()))?;
     s.warnings.extend(log.warnings.iter().cloned());
+    let report = DriftReport::new(source(args.file.as_path(), &log), earth, None, Ok(s.clone()), &log.fixes);
     if args.json {
-        let v = serde_json::json!({
-            "file": args.file.display().to_string(),
-            "format": log.format.name(),
-            "earth": format!("{:?}", args.earth),
-            "fixes": s.fixes,
-            "duration_s": s.duration_s,
-            "max_from_first_m": s.max_from_first_m,
-            "max_from_mean_m": s.max_from_mean_m,
-            "cep50_m": s.cep50_m,
-            "cep95_m": s.cep95_m,
-            "drms_m": s.drms_m,
-            "twodrms_m": s.twodrms_m,
-            "sigma_east_m": s.sigma_en_m[0],
-            "sigma_north_m": s.sigma_en_m[1],
-            "mean_lat_deg": s.mean.lat_deg,
-            "mean_lon_deg": s.mean.lon_deg,
-            "repeated_fixes": s.pinning.repeated_fixes,
-            "longest_pinned_run_s": s.pinning.longest_run_s,
-            "rejected_sentences": log.rejected,
-            "warnings": s.warnings,
-        });
-        println!("{}", serde_json::to_string_pretty(&v)?);
+        print!("{}", to_json(&report)?);
     } else {
         println!("{}: {} fixes over {:.0} s ({:?})", args.file.display(), s.fixes, s.duration_s, args.earth);
         println!("  mean position      {:.7}, {:.7}", s.mean.lat_deg, s.mean.lon_deg);
@@ -389,38 +368,18 @@ pub fn run_drift(args: &DriftArgs) -> anyhow::Result<()> {
         }
     }
     if let Some(path) = &args.png {
-        drift_figure(&s, &args.file).save_png(path).with_context(|| format!("writing {}", path.display()))?;
+        report.figure().save_png(path).with_context(|| format!("writing {}", path.display()))?;
     }
     Ok(())
 }
 
-/// Drift sheet: scatter about the mean with circles, and distance vs time (thesis Fig 65).
-pub fn drift_figure(s: &DriftStats, file: &Path) -> Figure {
-    let name =
-        file.file_name().map_or_else(|| file.display().to_string(), |n| n.to_string_lossy().into_owned());
-    let scatter = Chart::new(format!("{name}: fixes about the mean ({} fixes)", s.fixes))
-        .x_label("east [m]")
-        .y_label("north [m]")
-        .equal_aspect()
-        .series(
-            Series::scatter(
-                "fix",
-                s.en_about_mean_m.iter().map(|p| p.x).collect(),
-                s.en_about_mean_m.iter().map(|p| p.y).collect(),
-            )
-            .marker(Marker::Circle)
-            .color(Color::rgb(30, 90, 200)),
-        )
-        .circle(0.0, 0.0, s.cep50_m, format!("CEP50 {:.2} m", s.cep50_m))
-        .circle(0.0, 0.0, s.cep95_m, format!("CEP95 {:.2} m", s.cep95_m))
-        .circle(0.0, 0.0, s.twodrms_m, format!("2DRMS {:.2} m", s.twodrms_m));
-    let time = Chart::new("Distance vs time (thesis Fig 65)")
-        .x_label("time [s]")
-        .y_label("distance [m]")
-        .series(Series::line("from first fix", s.t_s.clone(), s.from_first_m.clone()).width(2.0))
-        .series(Series::line("from mean", s.t_s.clone(), s.from_mean_m.clone()).dashed())
-        .hline(s.max_from_first_m, format!("max from first {:.2} m", s.max_from_first_m));
-    Figure::new().title("Stationary drift").columns(2).panel_size(640, 480).push(scatter).push(time)
+/// Where a log's fixes came from, for the reports.
+fn source(path: &Path, log: &Log) -> Source {
+    Source {
+        file: Some(path.display().to_string()),
+        format: log.format.name().to_string(),
+        rejected_sentences: log.rejected,
+    }
 }
 
 /// The log's marks as cone marks: the position recorded with the mark, else the latest fix at or before
@@ -478,29 +437,16 @@ pub fn run_cones(args: &ConesArgs) -> anyhow::Result<()> {
         s.warnings.push(format!("{untimed} marks without a receiver time were ignored"));
     }
     s.warnings.extend(log.warnings.iter().cloned());
+    let report = ConesReport::new(
+        source(args.file.as_path(), &log),
+        config,
+        declination_used,
+        Some(Ok(s.clone())),
+        &marks,
+        &log.fixes,
+    );
     if args.json {
-        let v = serde_json::json!({
-            "file": args.file.display().to_string(),
-            "format": log.format.name(),
-            "earth": format!("{:?}", args.earth),
-            "marks": s.marks,
-            "spacing_m": s.spacing_m,
-            "expected_count": s.expected_count,
-            "line_bearing_deg": s.line_bearing_deg,
-            "declination_deg": declination_used,
-            "distances_m": s.distances_m,
-            "min_m": s.min_m,
-            "max_m": s.max_m,
-            "mean_m": s.mean_m,
-            "rmse_m": s.rmse_m,
-            "along_m": s.along_m,
-            "cross_m": s.cross_m,
-            "along_rmse_m": s.along_rmse_m,
-            "cross_rms_m": s.cross_rms_m,
-            "labels": s.labels,
-            "warnings": s.warnings,
-        });
-        println!("{}", serde_json::to_string_pretty(&v)?);
+        print!("{}", to_json(&report)?);
     } else {
         println!(
             "{}: {} marks, nominal spacing {:.2} m, line bearing {:.1}° true",
@@ -529,54 +475,7 @@ pub fn run_cones(args: &ConesArgs) -> anyhow::Result<()> {
         }
     }
     if let Some(path) = &args.png {
-        cones_figure(&s, &log.fixes, config.earth)
-            .save_png(path)
-            .with_context(|| format!("writing {}", path.display()))?;
+        report.figure().save_png(path).with_context(|| format!("writing {}", path.display()))?;
     }
     Ok(())
-}
-
-/// Cone sheet: the track with the marks circled (Figs 67/68) and the consecutive distances with the RMSE
-/// (Figs 69/70).
-pub fn cones_figure(s: &ConeStats, track: &[TimedFix], earth: Earth) -> Figure {
-    let mut map = Chart::new(format!("Track and cone marks (line {:.0}° true)", s.line_bearing_deg))
-        .x_label("east [m]")
-        .y_label("north [m]")
-        .equal_aspect();
-    // The track in the frame of the marks (about the first mark), only during the walk.
-    let frame = LocalFrame::new(s.origin, earth);
-    let (t0, t1) = (s.marks_t0_s, s.marks_t0_s + s.marks_t_s.last().copied().unwrap_or(0.0));
-    let walk: Vec<_> = track
-        .iter()
-        .filter(|f| f.t_s >= t0 - 5.0 && f.t_s <= t1 + 5.0)
-        .map(|f| frame.enu_from_wgs84(f.pos))
-        .collect();
-    map = map.series(
-        Series::line("track", walk.iter().map(|p| p.x).collect(), walk.iter().map(|p| p.y).collect())
-            .color(Color::rgb(30, 90, 200)),
-    );
-    map = map.series(
-        Series::scatter(
-            "marks",
-            s.marks_en_m.iter().map(|p| p.x).collect(),
-            s.marks_en_m.iter().map(|p| p.y).collect(),
-        )
-        .marker(Marker::Circle)
-        .color(Color::rgb(200, 30, 30)),
-    );
-    for (p, label) in s.marks_en_m.iter().zip(&s.labels) {
-        map = map.circle(p.x, p.y, 1.5, "").annotate(p.x, p.y, label.clone());
-    }
-    let idx: Vec<f64> = (1..=s.distances_m.len()).map(|k| k as f64).collect();
-    let dist = Chart::new(format!("Consecutive distances: mean {:.2} m, RMSE {:.2} m", s.mean_m, s.rmse_m))
-        .x_label("cone pair")
-        .y_label("distance [m]")
-        .series(
-            Series::line("distance", idx.clone(), s.distances_m.clone()).marker(Marker::Circle).width(2.0),
-        )
-        .series(Series::scatter("along-line", idx.clone(), s.along_m.clone()).marker(Marker::Square))
-        .series(Series::scatter("cross-line", idx, s.cross_m.clone()).marker(Marker::Cross))
-        .hline(s.spacing_m, format!("nominal {:.0} m", s.spacing_m))
-        .hline(s.rmse_m, format!("RMSE {:.2} m", s.rmse_m));
-    Figure::new().title("Cone test").columns(2).panel_size(640, 480).push(map).push(dist)
 }

@@ -20,8 +20,10 @@ use cli::{
 
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
+    quiet_on_broken_pipe();
     match run(cli) {
         Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(err) if is_broken_pipe(&err) => std::process::ExitCode::from(EXIT_BROKEN_PIPE),
         Err(err) => {
             eprintln!("vestnav: {err:#}");
             std::process::ExitCode::FAILURE
@@ -29,9 +31,38 @@ fn main() -> std::process::ExitCode {
     }
 }
 
+/// Exit status when the reader of our output went away (`vestnav ... | head`): 128 + SIGPIPE, as a
+/// program killed by the signal would report to the shell.
+const EXIT_BROKEN_PIPE: u8 = 141;
+
+/// Whether `err` comes from writing to a pipe whose reader has gone.
+fn is_broken_pipe(err: &anyhow::Error) -> bool {
+    err.chain().any(|e| {
+        e.downcast_ref::<std::io::Error>().is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+    })
+}
+
+/// Rust ignores SIGPIPE, so `println!` to a closed pipe panics. A report cut short by `head` is not an
+/// error the user needs a backtrace for: end quietly with the shell's broken-pipe status instead.
+fn quiet_on_broken_pipe() {
+    let default = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        let msg = info
+            .payload()
+            .downcast_ref::<String>()
+            .map(String::as_str)
+            .or_else(|| info.payload().downcast_ref::<&str>().copied())
+            .unwrap_or("");
+        if msg.contains("failed printing to stdout") && msg.contains("Broken pipe") {
+            std::process::exit(i32::from(EXIT_BROKEN_PIPE));
+        }
+        default(info);
+    }));
+}
+
 fn run(cli: Cli) -> anyhow::Result<()> {
     let Some(command) = cli.command else {
-        return vestnav_app::run();
+        return vestnav_app::run(vestnav_app::console::DeviceOverrides { gps: cli.gps, vest: cli.vest });
     };
     match command {
         Command::Sim(SimCommand::Tactor(a)) => sim_tactor::run_tactor(&a),

@@ -8,7 +8,8 @@ use vestnav_core::geo::LatLon;
 use vestnav_core::gnss_sim::GnssErrorModel;
 use vestnav_core::guidance::{StrategyKind, Waypoint};
 use vestnav_core::wearer::{SimConfig, SimResult, SimSummary, simulate_many};
-use vestnav_plot::{Chart, Color, Figure, Marker, Series};
+use vestnav_report::nav::{NavReport, nav_figure};
+use vestnav_report::to_json;
 
 /// Guidance strategy on the command line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -67,14 +68,19 @@ pub struct SimulateArgs {
     pub png: Option<PathBuf>,
 }
 
-/// Reads the waypoints of a GPX route file.
+/// Reads the waypoints of a GPX route file: its first route with points, else its waypoints, else its first
+/// track.
 pub fn load_route(path: &Path) -> anyhow::Result<Vec<Waypoint>> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-    let gpx = vestnav_app::route::parse_gpx(&text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
-    if gpx.waypoints.is_empty() {
+    let file =
+        vestnav_device::route_file::read_gpx(path).with_context(|| format!("reading {}", path.display()))?;
+    let Some(route) = file.default_route().filter(|r| !r.waypoints.is_empty()) else {
         anyhow::bail!("{}: no route points or waypoints", path.display());
-    }
-    Ok(gpx.waypoints.into_iter().map(|w| Waypoint::new(w.name, LatLon::new(w.lat_deg, w.lon_deg))).collect())
+    };
+    Ok(route
+        .waypoints
+        .into_iter()
+        .map(|w| Waypoint::new(w.name, LatLon::new(w.lat_deg, w.lon_deg)))
+        .collect())
 }
 
 fn strategies(arg: StrategyArg) -> Vec<StrategyKind> {
@@ -125,30 +131,9 @@ pub fn run_simulate(args: &SimulateArgs) -> anyhow::Result<()> {
         all.push((summary, runs));
     }
     if args.json {
-        let v = serde_json::json!({
-            "route": args.route.display().to_string(),
-            "waypoints": waypoints.len(),
-            "runs": args.runs,
-            "seed": args.seed,
-            "strategies": all.iter().map(|(s, runs)| serde_json::json!({
-                "summary": s,
-                "runs": runs.iter().map(|r| serde_json::json!({
-                    "seed": r.seed,
-                    "finished": r.finished,
-                    "time_s": r.time_s,
-                    "nominal_time_s": r.nominal_time_s,
-                    "walked_m": r.walked_m,
-                    "cross_track_rmse_m": r.cross_track_rmse_m,
-                    "max_cross_track_m": r.max_cross_track_m,
-                    "cues": r.cues,
-                    "cues_per_min": r.cues_per_min,
-                    "cue_counts": r.cue_counts,
-                    "waypoints_reached": r.waypoints_reached,
-                    "waypoints_missed": r.waypoints_missed,
-                })).collect::<Vec<_>>(),
-            })).collect::<Vec<_>>(),
-        });
-        println!("{}", serde_json::to_string_pretty(&v)?);
+        let report =
+            NavReport::new(args.route.display().to_string(), waypoints.len(), args.runs, args.seed, &all);
+        print!("{}", to_json(&report)?);
     } else {
         println!(
             "route {} ({} waypoints), {} runs from seed {}, pace {:.2} m/s, GPS {:?}",
@@ -180,7 +165,7 @@ pub fn run_simulate(args: &SimulateArgs) -> anyhow::Result<()> {
         }
     }
     if let Some(path) = &args.png {
-        figure(&all, args.arrival_radius_m)
+        nav_figure(&all, args.arrival_radius_m)
             .save_png(path)
             .with_context(|| format!("writing {}", path.display()))?;
         if !args.json {
@@ -188,54 +173,4 @@ pub fn run_simulate(args: &SimulateArgs) -> anyhow::Result<()> {
         }
     }
     Ok(())
-}
-
-/// One panel per strategy: route, waypoints with arrival circles, first run's true path and fixes.
-fn figure(all: &[(SimSummary, Vec<SimResult>)], arrival_radius_m: f64) -> Figure {
-    let mut fig =
-        Figure::new().title("Closed-loop guidance: simulated wearer (first run)").columns(all.len().max(1));
-    fig = fig.panel_size(640, 560);
-    for (s, runs) in all {
-        let Some(r) = runs.first() else { continue };
-        // (The binary does not depend on glam: split the east/north vectors by field.)
-        macro_rules! xs {
-            ($v:expr) => {
-                $v.iter().map(|p| p.x).collect::<Vec<f64>>()
-            };
-        }
-        macro_rules! ys {
-            ($v:expr) => {
-                $v.iter().map(|p| p.y).collect::<Vec<f64>>()
-            };
-        }
-        let mut chart = Chart::new(format!(
-            "{}: xtrack RMSE {:.1} m, {:.0} s, {:.1} cues/min, {} missed",
-            s.strategy, r.cross_track_rmse_m, r.time_s, r.cues_per_min, r.waypoints_missed
-        ))
-        .x_label("east [m]")
-        .y_label("north [m]")
-        .equal_aspect()
-        .series(
-            Series::line("route", xs!(r.waypoints_en_m), ys!(r.waypoints_en_m))
-                .dashed()
-                .width(2.0)
-                .color(Color::rgb(90, 90, 90)),
-        )
-        .series(
-            Series::scatter("GPS fixes", xs!(r.path_fix_en_m), ys!(r.path_fix_en_m))
-                .marker(Marker::Cross)
-                .color(Color::rgb(230, 140, 30)),
-        )
-        .series(
-            Series::line("true path", xs!(r.path_true_en_m), ys!(r.path_true_en_m))
-                .width(2.0)
-                .color(Color::rgb(30, 90, 200)),
-        );
-        for (i, w) in r.waypoints_en_m.iter().enumerate() {
-            let label = if i == 0 { "arrival radius" } else { "" };
-            chart = chart.circle(w.x, w.y, arrival_radius_m, label).annotate(w.x, w.y, format!("{}", i + 1));
-        }
-        fig = fig.push(chart);
-    }
-    fig
 }

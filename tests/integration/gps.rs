@@ -1,12 +1,18 @@
 //! Integration tests: the GPS path end to end — CLI decoding, the emulator on a real PTY read by the serial
 //! source (baud detection, port vanishing, reconnect), and a real gpsd fed by our emulator.
 
-use std::io::{BufRead, BufReader};
+use std::io::{BufRead, BufReader, Write};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
+use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};
 
 use vestnav_device::gps::{GpsEvent, GpsHandle, GpsSource, SourceConfig, SourceState};
+
+/// Starts a source with one lossless consumer.
+fn spawn(config: SourceConfig) -> (GpsHandle, Receiver<GpsEvent>) {
+    GpsSource::spawn_channel(config, 1024, None).expect("spawn the GPS worker")
+}
 
 fn bin() -> &'static str {
     env!("CARGO_BIN_EXE_vestnav")
@@ -44,11 +50,15 @@ fn emulator(args: &[&str]) -> (Kill, String) {
     (Kill(child), path)
 }
 
-fn wait_for(h: &GpsHandle, timeout: Duration, mut pred: impl FnMut(&GpsEvent) -> bool) -> Vec<GpsEvent> {
+fn wait_for(
+    rx: &Receiver<GpsEvent>,
+    timeout: Duration,
+    mut pred: impl FnMut(&GpsEvent) -> bool,
+) -> Vec<GpsEvent> {
     let end = Instant::now() + timeout;
     let mut seen = Vec::new();
     while Instant::now() < end {
-        if let Some(ev) = h.recv_timeout(Duration::from_millis(50)) {
+        if let Ok(ev) = rx.recv_timeout(Duration::from_millis(50)) {
             let done = pred(&ev);
             seen.push(ev);
             if done {
@@ -101,15 +111,15 @@ fn pty_emulator_to_serial_source_with_baud_detection_loss_and_reconnect() {
     let _ = std::fs::remove_file(&link);
     std::os::unix::fs::symlink(&path, &link).unwrap();
     let port = link.to_str().unwrap().to_owned();
-    let h = GpsSource::spawn(SourceConfig::Serial { port, baud: None }, || {}).unwrap();
+    let (h, rx) = spawn(SourceConfig::Serial { port, baud: None });
     // Baud detection picks the first rate that yields valid sentences, then fixes flow.
     wait_for(
-        &h,
+        &rx,
         Duration::from_secs(10),
         |e| matches!(e, GpsEvent::State(SourceState::Live { detail }) if detail.contains("baud")),
     );
     let mut fixes = 0;
-    wait_for(&h, Duration::from_secs(10), |e| {
+    wait_for(&rx, Duration::from_secs(10), |e| {
         if let GpsEvent::Fix(f) = e {
             assert!((f.lat_deg.unwrap() - 57.163_445).abs() < 1e-7);
             fixes += 1;
@@ -118,13 +128,13 @@ fn pty_emulator_to_serial_source_with_baud_detection_loss_and_reconnect() {
     });
     // The port vanishes mid-stream: the source reports it lost and starts reconnecting.
     drop(emu);
-    wait_for(&h, Duration::from_secs(15), |e| matches!(e, GpsEvent::State(SourceState::Lost { .. })));
-    wait_for(&h, Duration::from_secs(5), |e| matches!(e, GpsEvent::State(SourceState::Reconnecting { .. })));
+    wait_for(&rx, Duration::from_secs(15), |e| matches!(e, GpsEvent::State(SourceState::Lost { .. })));
+    wait_for(&rx, Duration::from_secs(5), |e| matches!(e, GpsEvent::State(SourceState::Reconnecting { .. })));
     // A new device appears behind the same name: the source reconnects and fixes flow again.
     let (_emu2, path2) = emulator(&["--replay", log, "--speed", "10", "--repeat"]);
     let _ = std::fs::remove_file(&link);
     std::os::unix::fs::symlink(&path2, &link).unwrap();
-    wait_for(&h, Duration::from_secs(30), |e| matches!(e, GpsEvent::Fix(f) if f.has_position()));
+    wait_for(&rx, Duration::from_secs(30), |e| matches!(e, GpsEvent::Fix(f) if f.has_position()));
     drop(h);
     let _ = std::fs::remove_dir_all(&dir);
 }
@@ -155,13 +165,68 @@ fn real_gpsd_fed_by_our_emulator() {
             .spawn()
             .unwrap(),
     );
-    let h = GpsSource::spawn(SourceConfig::Gpsd { host: "127.0.0.1".into(), port }, || {}).unwrap();
-    let ev = wait_for(&h, Duration::from_secs(30), |e| matches!(e, GpsEvent::Fix(f) if f.has_position()));
+    let (_h, rx) = spawn(SourceConfig::Gpsd { host: "127.0.0.1".into(), port });
+    let ev = wait_for(&rx, Duration::from_secs(30), |e| matches!(e, GpsEvent::Fix(f) if f.has_position()));
     let Some(GpsEvent::Fix(f)) = ev.last() else { unreachable!() };
     // The fix gpsd computed from our emulator's bytes is the log's position (gpsd's own .chk value).
     assert!((f.lat_deg.unwrap() - 57.163_445).abs() < 1e-7, "{f:?}");
     assert!((f.lon_deg.unwrap() + 2.121_37).abs() < 1e-7);
     assert!(ev.iter().any(|e| matches!(e, GpsEvent::State(SourceState::Live { .. }))));
+}
+
+/// A gpsd that trickles one byte per 50 ms and never ends its line (the "Safety first" issue): the source
+/// counts time since the last complete line, so it goes stale after 3 s, is lost after 10 s, reconnects,
+/// and gets fixes from the next (well-behaved) connection; the trickling connection never hangs it.
+#[test]
+fn gpsd_trickling_without_newline_goes_stale_then_lost_and_reconnects() {
+    let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let port = listener.local_addr().unwrap().port();
+    let server = std::thread::spawn(move || {
+        // First connection: a byte every 50 ms, never a newline, for at most 15 s.
+        let (mut s, _) = listener.accept().unwrap();
+        s.set_write_timeout(Some(Duration::from_secs(1))).unwrap();
+        let end = Instant::now() + Duration::from_secs(15);
+        let _ = s.write_all(b"{\"class\":\"TPV\",");
+        listener.set_nonblocking(true).unwrap();
+        let mut second = None;
+        while Instant::now() < end && second.is_none() {
+            if s.write_all(b" ").is_err() {
+                break;
+            }
+            std::thread::sleep(Duration::from_millis(50));
+            second = listener.accept().ok();
+        }
+        // Second connection: a proper TPV (gpsd's report for nd-1005.log at 11:05:18).
+        let end = Instant::now() + Duration::from_secs(15);
+        while second.is_none() && Instant::now() < end {
+            std::thread::sleep(Duration::from_millis(20));
+            second = listener.accept().ok();
+        }
+        if let Some((mut s2, _)) = second {
+            s2.set_nonblocking(false).unwrap();
+            let _ = s2.write_all(
+                b"{\"class\":\"TPV\",\"mode\":3,\"time\":\"2011-03-14T11:05:18.000Z\",\"lat\":57.163445000,\
+                  \"lon\":-2.121370000,\"altMSL\":59.300}\n",
+            );
+            std::thread::sleep(Duration::from_millis(500));
+        }
+    });
+    let (mut h, rx) = spawn(SourceConfig::Gpsd { host: "127.0.0.1".into(), port });
+    let t0 = Instant::now();
+    wait_for(&rx, Duration::from_secs(6), |e| matches!(e, GpsEvent::State(SourceState::Stale)));
+    let stale_after = t0.elapsed();
+    assert!(stale_after >= Duration::from_millis(2900), "{stale_after:?}");
+    let ev =
+        wait_for(&rx, Duration::from_secs(10), |e| matches!(e, GpsEvent::State(SourceState::Lost { .. })));
+    assert!(!ev.iter().any(|e| matches!(e, GpsEvent::Fix(_))));
+    wait_for(&rx, Duration::from_secs(3), |e| matches!(e, GpsEvent::State(SourceState::Reconnecting { .. })));
+    let ev = wait_for(&rx, Duration::from_secs(5), |e| matches!(e, GpsEvent::Fix(f) if f.has_position()));
+    let Some(GpsEvent::Fix(f)) = ev.last() else { unreachable!() };
+    assert!((f.lat_deg.unwrap() - 57.163_445).abs() < 1e-9);
+    let t1 = Instant::now();
+    h.stop();
+    assert!(t1.elapsed() < Duration::from_millis(300));
+    server.join().unwrap();
 }
 
 /// `nmea record` on a real PTY fed by the GPS emulator, with cone marks typed on standard input: the

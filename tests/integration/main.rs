@@ -6,6 +6,7 @@
 mod gps;
 mod latency;
 mod nav;
+mod safety;
 mod sim_tactor;
 mod sim_wave;
 mod wtcu;

@@ -266,7 +266,7 @@ fn demo_route_loads_and_both_strategies_finish_it() {
 #[test]
 fn demo_route_is_a_few_hundred_metres_on_briggs_field() {
     let text = std::fs::read_to_string(root().join("assets/routes/demo.gpx")).unwrap();
-    let gpx = vestnav_app::route::parse_gpx(&text).unwrap();
+    let gpx = vestnav_device::route_file::parse_gpx(&text).unwrap().default_route().unwrap();
     assert!((6..=8).contains(&gpx.waypoints.len()));
     let pts: Vec<LatLon> = gpx.waypoints.iter().map(|w| LatLon::new(w.lat_deg, w.lon_deg)).collect();
     let length: f64 = pts.windows(2).map(|w| Earth::Wgs84.distance_m(w[0], w[1])).sum();
@@ -276,11 +276,11 @@ fn demo_route_is_a_few_hundred_metres_on_briggs_field() {
 }
 
 /// One console session-log line (the app's own record type and serialisation).
-fn session_line(t_s: f64, entry: vestnav_app::session_log::LogEntry) -> String {
+fn session_line(t_s: f64, entry: vestnav_device::session_log::LogEntry) -> String {
     let whole_s = t_s.floor() as u32;
     let utc =
         format!("2026-06-15T15:{:02}:{:02}.{:03}Z", whole_s / 60, whole_s % 60, ((t_s.fract()) * 1e3) as u32);
-    let rec = vestnav_app::session_log::LogRecord { t_s, utc, entry };
+    let rec = vestnav_device::session_log::LogRecord { t_s, utc, entry };
     let mut line = serde_json::to_string(&rec).unwrap();
     line.push('\n');
     line
@@ -289,7 +289,7 @@ fn session_line(t_s: f64, entry: vestnav_app::session_log::LogEntry) -> String {
 fn session_fix(t_s: f64, p: LatLon) -> String {
     session_line(
         t_s,
-        vestnav_app::session_log::LogEntry::Fix {
+        vestnav_device::session_log::LogEntry::Fix {
             lat_deg: p.lat_deg,
             lon_deg: p.lon_deg,
             error_m: Some(2.5),
@@ -302,7 +302,7 @@ fn session_fix(t_s: f64, p: LatLon) -> String {
 
 #[test]
 fn cone_test_reads_a_console_session_log() {
-    use vestnav_app::session_log::LogEntry;
+    use vestnav_device::session_log::LogEntry;
     // Cones every 10 m on a 75 deg line (geodesic direct from the first cone); 1 Hz fixes that do not fall on
     // whole session seconds; the walker stands 3 s at each cone and the operator marks 0.4 s after the first
     // fix there. Odd marks carry the position the console recorded, and their arrival fix record is missing
@@ -400,7 +400,7 @@ fn session_log_with_a_malformed_line_is_refused_with_its_line_number() {
 
 #[test]
 fn drift_reads_a_session_log_written_by_the_console_writer() {
-    use vestnav_app::session_log::{LogEntry, SessionLog};
+    use vestnav_device::session_log::{LogEntry, SessionLog};
     // Fixes on a geodesic circle of radius r about a centre: distance from the mean = r for every fix, so
     // CEP50 = CEP95 = DRMS = r and the largest distance from the first fix is the diameter, 2r.
     let (centre, r_m) = (LatLon::new(42.3581, -71.0936), 2.0);
@@ -421,7 +421,7 @@ fn drift_reads_a_session_log_written_by_the_console_writer() {
     }
     tx.log(LogEntry::Mark { label: "left on the post".into(), lat_deg: None, lon_deg: None });
     drop(tx);
-    assert_eq!(log.close().unwrap(), 37);
+    assert_eq!(log.close().unwrap().written, 37);
     let v = json(&["fieldtest", "drift", path.to_str().unwrap(), "--json"]);
     assert_eq!(v["format"], "session");
     assert_eq!(v["fixes"], 36);
@@ -429,5 +429,41 @@ fn drift_reads_a_session_log_written_by_the_console_writer() {
         assert_relative_eq!(v[key].as_f64().unwrap(), r_m, max_relative = 1e-3);
     }
     assert_relative_eq!(v["max_from_first_m"].as_f64().unwrap(), 2.0 * r_m, max_relative = 1e-3);
+    let _ = std::fs::remove_file(path);
+}
+
+/// `fieldtest drift|cones --json` are the `vestnav_report` schemas the console's field-test export writes
+/// too (`crates/app/src/fieldtest_panel.rs` tests): they read back as `DriftReport` / `ConesReport`, and their
+/// statistics are those of the track and marks they carry, recomputed here with the core functions the
+/// console calls on live fixes.
+#[test]
+fn fieldtest_json_is_the_report_schema_of_its_track() {
+    use vestnav_core::fieldtest::{ConeConfig, cones};
+    use vestnav_report::fieldtest::{ConesReport, DriftReport};
+    let (ok, out, err) =
+        vestnav(&["fieldtest", "drift", "--json", logs().join("skytraq-dgps.log").to_str().unwrap()]);
+    assert!(ok, "{err}");
+    let report: DriftReport = serde_json::from_str(&out).unwrap();
+    assert_eq!((report.test.as_str(), report.source.format.as_str()), ("drift", "nmea"));
+    let stats = report.stats.as_ref().unwrap();
+    let again = drift(&report.track, Earth::Wgs84).unwrap();
+    assert_eq!(stats.fixes, again.fixes);
+    for (a, b) in
+        [(stats.cep50_m, again.cep50_m), (stats.cep95_m, again.cep95_m), (stats.drms_m, again.drms_m)]
+    {
+        assert_relative_eq!(a, b, max_relative = 1e-9);
+    }
+    let (log, _) = cone_log(GnssErrorModel::perfect(), 3, 1.4, 2);
+    let path = write_tmp("cones-schema.nmea", &log);
+    let (ok, out, err) = vestnav(&["fieldtest", "cones", path.to_str().unwrap(), "--count", "10", "--json"]);
+    assert!(ok, "{err}");
+    let report: ConesReport = serde_json::from_str(&out).unwrap();
+    assert_eq!(report.cone_marks.len(), 10);
+    let config = ConeConfig { count: Some(10), ..ConeConfig::with_spacing(10.0) };
+    let again = cones(&report.cone_marks, &report.track, &config).unwrap();
+    let stats = report.stats.as_ref().unwrap();
+    for (a, b) in stats.distances_m.iter().zip(&again.distances_m) {
+        assert_relative_eq!(*a, *b, max_relative = 1e-9);
+    }
     let _ = std::fs::remove_file(path);
 }

@@ -184,3 +184,60 @@ fn bad_input_is_rejected_with_a_message() {
         assert!(out.stdout.is_empty(), "{args:?} printed {}", String::from_utf8_lossy(&out.stdout));
     }
 }
+
+/// `vestnav sim tactor --json --png` writes what `vestnav_report` makes of the same inputs, byte for byte: the
+/// console's tactor export calls the same functions (`crates/app/src/sim_panel/mod.rs`
+/// `save_buttons_write_the_report_of_the_shown_inputs`, whose default inputs are these).
+#[test]
+fn tactor_cli_output_is_the_report_of_the_same_inputs() {
+    use vestnav_core::tactor::{BodyMass, DEFAULT_STEP_ANGLE_RAD, Preset, SimOptions, TactorParams};
+    use vestnav_report::tactor::{DEFAULT_SPAN_S, TactorReport, TactorRuns, tactor_figure};
+    let png = scratch("tactor-report.png");
+    let out = vestnav(&[
+        "sim",
+        "tactor",
+        "--duration-s",
+        "1",
+        "--json",
+        "--png",
+        png.to_str().expect("utf-8 path"),
+    ]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let params = TactorParams::preset(Preset::ThesisSim).with_body(BodyMass::Unencased);
+    let options = SimOptions { duration_s: 1.0, output_rate_hz: 10_000.0 };
+    let runs = TactorRuns::simulate(&params, &options, DEFAULT_STEP_ANGLE_RAD, true).unwrap();
+    let want = vestnav_report::to_json(&TactorReport::new(&runs.main.summary)).unwrap();
+    assert_eq!(String::from_utf8_lossy(&out.stdout), want);
+    let figure = tactor_figure(&runs, DEFAULT_SPAN_S);
+    // physics.md §7: Fig 28 is the eccentric angle theta (it ramps up, then grows linearly at omega).
+    let Some(vestnav_plot::Panel::Chart(fig28)) = figure.panels.first() else { panic!("chart expected") };
+    assert!(fig28.title.contains("Fig 28: eccentric angle"), "{}", fig28.title);
+    let theta = &fig28.series[0].y;
+    assert!(theta.windows(2).all(|w| w[1] >= w[0] - 1e-9), "theta never decreases");
+    assert!(std::fs::read(&png).unwrap() == figure.render_png().unwrap(), "the PNG is the report's figure");
+}
+
+/// `vestnav sim sweep --json --png` is the report of the same sweep (keys as before: `current_line` has
+/// `intercept_hz` and `slope_hz_per_a`).
+#[test]
+fn sweep_cli_output_is_the_report_of_the_same_inputs() {
+    use vestnav_core::sweep::SweepOptions;
+    use vestnav_core::tactor::{BodyMass, Preset, TactorParams};
+    use vestnav_report::sweep::{SweepReport, SweepSet, sweep_figure};
+    let png = scratch("sweep-report.png");
+    let args = ["sim", "sweep", "--points", "5", "--min-hz", "100", "--max-hz", "160", "--json", "--png"];
+    let out = vestnav(&[&args[..], &[png.to_str().expect("utf-8 path")]].concat());
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let params = TactorParams::preset(Preset::ThesisSim).with_body(BodyMass::Unencased);
+    let options = SweepOptions { min_hz: 100.0, max_hz: 160.0, points: 5, ..SweepOptions::default() };
+    let set = SweepSet::compute(&params, &options).unwrap();
+    assert_eq!(
+        String::from_utf8_lossy(&out.stdout),
+        vestnav_report::to_json(&SweepReport::new(&set.main)).unwrap()
+    );
+    assert!(std::fs::read(&png).unwrap() == sweep_figure(&set).render_png().unwrap());
+    // The schema reads back, and the closed-form points sit where the sweep put them (80..200 -> 100..160 Hz).
+    let back: SweepReport = serde_json::from_slice(&out.stdout).unwrap();
+    assert_relative_eq!(back.points[0].closed_form_hz, 100.0, max_relative = 1e-9);
+    assert_relative_eq!(back.points[4].closed_form_hz, 160.0, max_relative = 1e-9);
+}

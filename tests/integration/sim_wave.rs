@@ -120,3 +120,44 @@ fn analyze_reports_malformed_csv_with_line_number() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("line 4"), "{err}");
 }
+
+/// `vestnav sim two-point --json --png` is the report of the same fit; the console's two-point export calls
+/// the same functions.
+#[test]
+fn two_point_cli_output_is_the_report_of_the_same_inputs() {
+    use vestnav_core::twopoint::TwoPointSetup;
+    use vestnav_report::twopoint::{fits, fits_figure, fits_json};
+    let path = scratch("two-point-report.png");
+    let out =
+        vestnav(&["sim", "two-point", "--distance-mm", "11", "--json", "--png", path.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let results = fits(&TwoPointSetup::THESIS, &[11.0]).unwrap();
+    assert_eq!(String::from_utf8_lossy(&out.stdout), fits_json(&results).unwrap());
+    assert!(
+        std::fs::read(&path).unwrap() == fits_figure(&TwoPointSetup::THESIS, &results).render_png().unwrap()
+    );
+}
+
+/// The vest view: 60 mm default spacing on both sides (the console's `WaveInputs::thesis` uses the same
+/// `VestFieldInputs::default`), the JSON is the report's `VestField`, and one firing tactor's field is its
+/// Gaussian `a0 exp(-(r/b)^2)` with a0 = 26.02 m/s^2, b = 28.18 mm (physics.md §2).
+#[test]
+fn vest_field_cli_output_is_the_report_with_60_mm_spacing() {
+    use vestnav_report::wave::{VestField, VestFieldInputs};
+    let path = scratch("vest-report.png");
+    let out = vestnav(&["sim", "wave", "--view", "vest", "--json", "--png", path.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let field = VestField::compute(&VestFieldInputs::default()).unwrap();
+    assert_eq!(String::from_utf8_lossy(&out.stdout), vestnav_report::to_json(&field).unwrap());
+    assert!(std::fs::read(&path).unwrap() == field.figure().render_png().unwrap());
+    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_relative_eq!(v["spacing_mm"].as_f64().unwrap(), 60.0);
+    // Tactor 5 fires at (-30, +30) mm; tactor 6 is one spacing to its right: 26.02 exp(-(60/28.18)^2).
+    let at = v["at_tactors"].as_array().unwrap();
+    assert_relative_eq!(at[5]["peak_m_s2"].as_f64().unwrap(), 26.02, max_relative = 1e-9);
+    assert_relative_eq!(
+        at[6]["peak_m_s2"].as_f64().unwrap(),
+        26.02 * (-(60.0_f64 / 28.18).powi(2)).exp(),
+        max_relative = 1e-9
+    );
+}

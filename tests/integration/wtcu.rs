@@ -9,6 +9,7 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use vestnav_core::vest::{Cue, DEFAULT_ON_MS, Frame, TactorMask};
+use vestnav_device::outbox::{Outbox, Overflow};
 use vestnav_device::wtcu::codec::{V1Codec, WireCodec, hex};
 use vestnav_device::wtcu::emulator::PtyEmulator;
 use vestnav_device::wtcu::engine::{Engine, EngineConfig};
@@ -19,7 +20,8 @@ use vestnav_device::wtcu::message::{
     UnitStatus,
 };
 use vestnav_device::wtcu::worker::{
-    Connector, Transport, VestCommand, VestConfig, VestEvent, VestHandle, WorkerSettings,
+    CommandOrigin, Connector, Transport, VestCommand, VestConfig, VestEvent, VestHandle, VestSendError,
+    WorkerSettings,
 };
 
 // ---------------------------------------------------------------------------------------------------------
@@ -425,9 +427,10 @@ fn console_refuses_out_of_bound_commands_before_sending() {
         Err(CommandError::Limit(LimitError::OnTooLong { .. }))
     ));
     // Duty cycle: 2 x 2000 ms + 1000 ms fits 5000 ms per 10 s; one more millisecond-heavy fire does not.
+    // (The fires are 1 ms apart: back to back they would be one 4000 ms run, refused for the on-time.)
     for _ in 0..2 {
         p.console.fire(TactorMask(1), 2000, p.now).unwrap();
-        p.advance_ms(2000);
+        p.advance_ms(2001);
     }
     p.console.fire(TactorMask(1), 1000, p.now).unwrap();
     p.advance_ms(1000);
@@ -439,6 +442,108 @@ fn console_refuses_out_of_bound_commands_before_sending() {
     p.console.fire(TactorMask(2), 500, p.now).unwrap();
     assert_eq!(p.unit.stats().naks_sent, 0);
     assert!(p.console.stats().sent > n);
+}
+
+#[test]
+fn a_repeated_pattern_cannot_bypass_the_on_time_limit() {
+    // The issue: PLAY repeats=5 of [(0x00FF, 1000 ms)] kept 8 tactors on for 5001 ms.
+    let pattern = vestnav_core::vest::Pattern {
+        name: "saved by a user".into(),
+        frames: vec![Frame { mask: TactorMask(0x00FF), duration_ms: 1000 }],
+        repeats: 5,
+    };
+    let mut p = Pair::connected();
+    assert_eq!(
+        p.console.play(&pattern, p.now),
+        Err(CommandError::Limit(LimitError::OnTooLong { requested_ms: 5000, max_ms: 2000 }))
+    );
+    // The unit refuses it too when a console does not check.
+    let mut unit = Engine::new(EngineConfig::default());
+    let codec = V1Codec::new();
+    unit.handle_bytes(&codec.encode_request(0, &Request::Hello).unwrap(), p.now);
+    let play = Request::Play { frames: pattern.frames.clone(), repeats: 5 };
+    unit.handle_bytes(&codec.encode_request(1, &play).unwrap(), p.now);
+    let mut replies = Vec::new();
+    while let Some(frame) = unit.poll_transmit() {
+        V1Codec::new().decode_replies(&frame, &mut replies);
+    }
+    assert_eq!(
+        replies.last().unwrap().as_ref().unwrap().message,
+        Reply::Nak { reason: NakReason::DurationLimit, tactors_on: TactorMask::NONE }
+    );
+    p.advance_ms(6000);
+    assert!(p.unit_changes.is_empty());
+}
+
+#[test]
+fn chained_cues_cannot_keep_a_tactor_on_past_the_limit() {
+    let mut p = Pair::connected();
+    p.console.fire(TactorMask(1), 2000, p.now).unwrap();
+    p.advance_ms(2000);
+    // The fire has just ended; one more at this very instant would make one 4000 ms run.
+    assert_eq!(p.unit.tactors_on(), TactorMask::NONE);
+    assert_eq!(
+        p.console.fire(TactorMask(1), 2000, p.now),
+        Err(CommandError::Limit(LimitError::RunTooLong {
+            tactor: 0,
+            on_for_ms: 2000,
+            requested_ms: 2000,
+            max_ms: 2000
+        }))
+    );
+    p.advance_ms(1);
+    p.console.fire(TactorMask(1), 1500, p.now).unwrap();
+    p.advance_ms(1000);
+    // 1000 ms into the run: 1000 ms more is the limit exactly, 1001 is not; a pattern continuing it alike.
+    let refused = p.console.fire(TactorMask(3), 1001, p.now);
+    assert!(
+        matches!(refused, Err(CommandError::Limit(LimitError::RunTooLong { tactor: 0, .. }))),
+        "{refused:?}"
+    );
+    let pattern = vestnav_core::vest::Pattern {
+        name: "continues".into(),
+        frames: vec![
+            Frame { mask: TactorMask(1), duration_ms: 1200 },
+            Frame { mask: TactorMask(2), duration_ms: 100 },
+        ],
+        repeats: 1,
+    };
+    assert!(matches!(
+        p.console.play(&pattern, p.now),
+        Err(CommandError::Limit(LimitError::RunTooLong { .. }))
+    ));
+    p.console.fire(TactorMask(3), 1000, p.now).unwrap();
+    p.advance_ms(1000);
+    assert_eq!(p.unit.tactors_on(), TactorMask::NONE);
+    // The unit saw only what the console let through and refused nothing.
+    assert_eq!(p.unit.stats().naks_sent, 0);
+    // The unit holds the same line on its own: a console that does not check gets a NAK 0x05.
+    let mut unit = Engine::new(EngineConfig::default());
+    let codec = V1Codec::new();
+    let t = p.now;
+    let ms = |m| t + Duration::from_millis(m);
+    unit.handle_bytes(&codec.encode_request(0, &Request::Hello).unwrap(), ms(0));
+    unit.handle_bytes(
+        &codec.encode_request(1, &Request::Fire { mask: TactorMask(1), duration_ms: 2000 }).unwrap(),
+        ms(0),
+    );
+    unit.handle_bytes(&codec.encode_request(2, &Request::Heartbeat).unwrap(), ms(1000));
+    unit.handle_timeout(ms(2000));
+    unit.handle_bytes(
+        &codec.encode_request(3, &Request::Fire { mask: TactorMask(1), duration_ms: 2000 }).unwrap(),
+        ms(2000),
+    );
+    let mut replies = Vec::new();
+    while let Some(frame) = unit.poll_transmit() {
+        V1Codec::new().decode_replies(&frame, &mut replies);
+    }
+    assert_eq!(
+        replies.last().unwrap().as_ref().unwrap(),
+        &Packet {
+            seq: 3,
+            message: Reply::Nak { reason: NakReason::DurationLimit, tactors_on: TactorMask::NONE }
+        }
+    );
 }
 
 #[test]
@@ -508,9 +613,34 @@ fn pty_connector(path: Arc<Mutex<String>>) -> Connector {
     })
 }
 
+/// A worker with one receiver of its events, sending as the operator.
+struct Vest {
+    handle: VestHandle,
+    rx: std::sync::mpsc::Receiver<VestEvent>,
+}
+
+impl Vest {
+    fn spawn(connector: Connector, settings: WorkerSettings) -> Self {
+        let (handle, rx) = VestHandle::spawn_with_receiver(connector, settings).unwrap();
+        Self { handle, rx }
+    }
+
+    fn send(&self, command: VestCommand) -> Result<(), VestSendError> {
+        self.handle.send(command, CommandOrigin::Manual)
+    }
+
+    fn recv_timeout(&self, timeout: Duration) -> Option<VestEvent> {
+        self.rx.recv_timeout(timeout).ok()
+    }
+
+    fn stop(self) -> bool {
+        self.handle.stop()
+    }
+}
+
 /// Collects events until `pred` holds for one of them (returns it) or `timeout` passes (panics).
 fn wait_for(
-    vest: &VestHandle,
+    vest: &Vest,
     seen: &mut Vec<VestEvent>,
     timeout: Duration,
     pred: impl Fn(&VestEvent) -> bool,
@@ -544,10 +674,12 @@ fn pty_fire_pattern_stop_round_trips() {
     let path = Arc::new(Mutex::new(emu.path().to_owned()));
     let wakes = Arc::new(std::sync::atomic::AtomicU64::new(0));
     let w = wakes.clone();
-    let vest = VestHandle::spawn_with(pty_connector(path), fast_settings(), move || {
+    let waker: vestnav_device::outbox::Waker = Arc::new(move || {
         w.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    })
-    .unwrap();
+    });
+    let (out, rx) = Outbox::channel(1024, Overflow::DropNewest, Some(waker));
+    let handle = VestHandle::spawn_with(pty_connector(path), fast_settings(), vec![out]).unwrap();
+    let vest = Vest { handle, rx };
     let mut seen = Vec::new();
     let s = Duration::from_secs(3);
     wait_for(&vest, &mut seen, s, |e| matches!(e, VestEvent::State(LinkState::Ready)));
@@ -570,7 +702,7 @@ fn pty_fire_pattern_stop_round_trips() {
     vest.send(VestCommand::Fire { mask: TactorMask(0x01FF), duration_ms: 100 }).unwrap();
     let e = wait_for(&vest, &mut seen, s, |e| matches!(e, VestEvent::Rejected { .. }));
     assert!(
-        matches!(e, VestEvent::Rejected { kind: CommandKind::Fire, reason } if reason.contains("current budget"))
+        matches!(e, VestEvent::Rejected { kind: CommandKind::Fire, reason, .. } if reason.contains("current budget"))
     );
     vest.send(VestCommand::RequestStatus).unwrap();
     wait_for(&vest, &mut seen, s, |e| matches!(e, VestEvent::Status(st) if st.battery_mv == 3900));
@@ -590,7 +722,7 @@ fn pty_fire_pattern_stop_round_trips() {
 fn pty_port_vanishing_mid_frame_then_returning() {
     let emu = PtyEmulator::spawn(EngineConfig::default()).unwrap();
     let path = Arc::new(Mutex::new(emu.path().to_owned()));
-    let vest = VestHandle::spawn_with(pty_connector(path.clone()), fast_settings(), || {}).unwrap();
+    let vest = Vest::spawn(pty_connector(path.clone()), fast_settings());
     let mut seen = Vec::new();
     let s = Duration::from_secs(3);
     wait_for(&vest, &mut seen, s, |e| matches!(e, VestEvent::State(LinkState::Ready)));
@@ -617,7 +749,7 @@ fn pty_port_vanishing_mid_frame_then_returning() {
 fn pty_link_loss_leaves_every_tactor_off_within_the_watchdog_bound() {
     let emu = PtyEmulator::spawn(EngineConfig::default()).unwrap();
     let path = Arc::new(Mutex::new(emu.path().to_owned()));
-    let vest = VestHandle::spawn_with(pty_connector(path), fast_settings(), || {}).unwrap();
+    let vest = Vest::spawn(pty_connector(path), fast_settings());
     let mut seen = Vec::new();
     let s = Duration::from_secs(3);
     wait_for(&vest, &mut seen, s, |e| matches!(e, VestEvent::State(LinkState::Ready)));
@@ -698,6 +830,118 @@ fn pty_emulator_drops_garbage_and_naks_out_of_bound_commands() {
     assert!(emu.view().tactors_on.is_empty());
 }
 
+/// Writes `n` `GET_STATUS` requests (after a HELLO) to `port` and never reads: the replies pile up unread.
+fn flood_without_reading(port: &mut dyn serialport::SerialPort, n: usize) {
+    let codec = V1Codec::new();
+    let mut bytes = codec.encode_request(0, &Request::Hello).unwrap();
+    for i in 0..n {
+        bytes.extend(codec.encode_request((i % 200) as u8 + 1, &Request::GetStatus).unwrap());
+    }
+    let deadline = Instant::now() + Duration::from_secs(20);
+    let mut rest = &bytes[..];
+    while !rest.is_empty() {
+        assert!(Instant::now() < deadline, "the emulator stopped reading");
+        // A full line only times out: the emulator reads on, so retry.
+        if let Ok(n) = std::io::Write::write(port, rest) {
+            rest = &rest[n..];
+        }
+    }
+}
+
+/// Reads and throws away everything waiting, then sends a HEARTBEAT with seq 0xAB and waits for its ACK.
+fn drain_then_heartbeat_is_answered(port: &mut dyn serialport::SerialPort) -> usize {
+    let mut stale = 0;
+    let mut buf = [0u8; 4096];
+    let mut quiet_since = Instant::now();
+    while quiet_since.elapsed() < Duration::from_millis(200) {
+        match std::io::Read::read(port, &mut buf) {
+            Ok(n) if n > 0 => {
+                stale += n;
+                quiet_since = Instant::now();
+            }
+            _ => {}
+        }
+    }
+    std::io::Write::write_all(port, &V1Codec::new().encode_request(0xAB, &Request::Heartbeat).unwrap())
+        .unwrap();
+    let mut replies = V1Codec::new();
+    let mut got = Vec::new();
+    let deadline = Instant::now() + Duration::from_secs(2);
+    while Instant::now() < deadline {
+        if let Ok(n) = std::io::Read::read(port, &mut buf) {
+            replies.decode_replies(&buf[..n], &mut got);
+        }
+        if got.iter().any(|r| matches!(r, Ok(Packet { seq: 0xAB, message: Reply::Ack { .. } }))) {
+            return stale;
+        }
+    }
+    panic!("no answer to the heartbeat after the flood: {got:?}");
+}
+
+#[test]
+fn pty_emulator_drops_replies_nobody_reads_and_answers_afterwards() {
+    let emu = PtyEmulator::spawn(EngineConfig::default()).unwrap();
+    let mut port = vestnav_device::serial::open(emu.path(), 115_200, Duration::from_millis(50)).unwrap();
+    // About 110 KB of STATUS replies, more than a PTY holds (the issue: the emulator died at ~20 KB).
+    let t = Instant::now();
+    flood_without_reading(&mut *port, 6000);
+    assert!(
+        wait_until(Duration::from_secs(5), || emu.view().stats.frames_ok >= 6001),
+        "{:?}",
+        emu.view().stats
+    );
+    // Nobody reads for a while longer.
+    std::thread::sleep(Duration::from_millis(300));
+    assert!(emu.is_running());
+    let dropped = emu.replies_dropped();
+    assert!(dropped > 0);
+    let stale = drain_then_heartbeat_is_answered(&mut *port);
+    println!(
+        "flood of 6000 requests unread for {} ms: {dropped} replies dropped, {stale} bytes were waiting; answered afterwards",
+        t.elapsed().as_millis()
+    );
+    assert!(emu.is_running());
+}
+
+#[test]
+fn the_emulator_program_drops_replies_nobody_reads_and_says_so() {
+    use std::io::BufRead;
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_vestnav"))
+        .args(["emulate", "vest", "--pty"])
+        .stdin(std::process::Stdio::null())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut lines = std::io::BufReader::new(child.stdout.take().unwrap()).lines();
+    let first = lines.next().unwrap().unwrap();
+    let path = first.strip_prefix("WTCU emulator on ").unwrap().to_owned();
+    let drain = std::thread::spawn(move || lines.map_while(Result::ok).count());
+    let errors = Arc::new(Mutex::new(Vec::new()));
+    let e = errors.clone();
+    let stderr = std::io::BufReader::new(child.stderr.take().unwrap());
+    let drain_err = std::thread::spawn(move || {
+        for line in stderr.lines().map_while(Result::ok) {
+            e.lock().unwrap().push(line);
+        }
+    });
+    let mut port = vestnav_device::serial::open(&path, 115_200, Duration::from_millis(50)).unwrap();
+    flood_without_reading(&mut *port, 6000);
+    // The report comes at most once a second.
+    let said = wait_until(Duration::from_secs(4), || {
+        errors.lock().unwrap().iter().any(|l| l.contains("replies dropped"))
+    });
+    assert!(said, "{:?}", errors.lock().unwrap());
+    assert!(child.try_wait().unwrap().is_none(), "the emulator exited");
+    drain_then_heartbeat_is_answered(&mut *port);
+    let lines_about_drops = errors.lock().unwrap().iter().filter(|l| l.contains("replies dropped")).count();
+    assert!(lines_about_drops <= 6, "{:?}", errors.lock().unwrap());
+    child.kill().unwrap();
+    child.wait().unwrap();
+    drain.join().unwrap();
+    drain_err.join().unwrap();
+}
+
 // ---------------------------------------------------------------------------------------------------------
 // Measurements (printed, no timing assertion).
 
@@ -739,7 +983,7 @@ fn measure_codec_cost_and_pty_round_trip() {
     // Worker <-> emulator over a PTY: from `send(Fire)` to the `Acked` event.
     let emu = PtyEmulator::spawn(EngineConfig::default()).unwrap();
     let path = Arc::new(Mutex::new(emu.path().to_owned()));
-    let vest = VestHandle::spawn_with(pty_connector(path), fast_settings(), || {}).unwrap();
+    let vest = Vest::spawn(pty_connector(path), fast_settings());
     let mut seen = Vec::new();
     wait_for(&vest, &mut seen, Duration::from_secs(3), |e| matches!(e, VestEvent::State(LinkState::Ready)));
     let mut rtts = Vec::new();
@@ -801,7 +1045,9 @@ fn measure_codec_cost_and_pty_round_trip() {
 
 #[test]
 fn emulated_vest_in_process_connects_out_of_the_box() {
-    let vest = VestHandle::spawn(VestConfig::Emulated(EngineConfig::default()), || {}).unwrap();
+    let (out, rx) = Outbox::channel(1024, Overflow::DropNewest, None);
+    let handle = VestHandle::spawn(VestConfig::Emulated(EngineConfig::default()), vec![out]).unwrap();
+    let vest = Vest { handle, rx };
     let mut seen = Vec::new();
     let s = Duration::from_secs(3);
     wait_for(&vest, &mut seen, s, |e| matches!(e, VestEvent::State(LinkState::Ready)));
@@ -835,8 +1081,7 @@ fn the_emulator_program_serves_a_console_on_its_pty() {
             l.lock().unwrap().push(line);
         }
     });
-    let vest =
-        VestHandle::spawn_with(pty_connector(Arc::new(Mutex::new(path))), fast_settings(), || {}).unwrap();
+    let vest = Vest::spawn(pty_connector(Arc::new(Mutex::new(path))), fast_settings());
     let mut seen = Vec::new();
     let s = Duration::from_secs(5);
     wait_for(&vest, &mut seen, s, |e| matches!(e, VestEvent::State(LinkState::Ready)));

@@ -1,31 +1,31 @@
 //! One frame's CPU time with a 100k-point track and 1,000 waypoints, and the memory cost of 24 h of 1 Hz
-//! fixes pushed through the real channels (router, guidance worker, session log, UI state).
+//! fixes pushed through the real channels (the outboxes of the UI, the guidance worker and the session
+//! log, as a GPS source feeds them).
 //!
 //! Run: `cargo bench -p vestnav-app --bench frame`. The memory figure is printed before the timings.
 
+use std::sync::atomic::AtomicBool;
 use std::sync::{Arc, Mutex};
+use std::time::Instant;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use vestnav_app::config::{Config, GpsSourceConfig, VestSourceConfig};
 use vestnav_app::console::{Console, ConsoleOptions};
-use vestnav_app::devices::{DeviceFactory, VestLink, Worker};
-use vestnav_app::model::{FixMode, GpsEvent, GpsFix, Outbox, VestCommand, VestEvent};
+use vestnav_app::devices::{DeviceFactory, GpsWorker};
 use vestnav_app::route::Waypoint;
+use vestnav_device::gps::{ErrorEstimate, ErrorSource, Fix, FixMode, FixQuality, GpsEvent};
+use vestnav_device::outbox::Outbox;
+use vestnav_device::wtcu::engine::EngineConfig;
+use vestnav_device::wtcu::{VestConfig, VestEvent, VestHandle};
 
-/// Hands the GPS outbox to the bench so it can push fixes as fast as it likes.
+/// Hands the GPS outboxes to the bench so it can push fixes as fast as it likes; the vest is the
+/// emulated unit.
 #[derive(Default, Clone)]
-struct Tap(Arc<Mutex<Option<Outbox<GpsEvent>>>>);
+struct Tap(Arc<Mutex<Vec<Outbox<GpsEvent>>>>);
 
 struct Idle;
-impl Worker for Idle {
+impl GpsWorker for Idle {
     fn stop(&mut self) {}
-}
-struct NullVest;
-impl VestLink for NullVest {
-    fn send(&self, _c: VestCommand) -> Result<(), String> {
-        Ok(())
-    }
-    fn close(&self) {}
 }
 
 impl DeviceFactory for Tap {
@@ -33,30 +33,31 @@ impl DeviceFactory for Tap {
         &self,
         _s: &GpsSourceConfig,
         _r: &[Waypoint],
-        out: Outbox<GpsEvent>,
-    ) -> Result<Box<dyn Worker>, String> {
-        *self.0.lock().map_err(|e| e.to_string())? = Some(out);
+        out: Vec<Outbox<GpsEvent>>,
+    ) -> Result<Box<dyn GpsWorker>, String> {
+        *self.0.lock().map_err(|e| e.to_string())? = out;
         Ok(Box::new(Idle))
     }
-    fn open_vest(&self, _s: &VestSourceConfig, _e: Outbox<VestEvent>) -> Result<Arc<dyn VestLink>, String> {
-        Ok(Arc::new(NullVest))
+    fn open_vest(&self, _s: &VestSourceConfig, out: Vec<Outbox<VestEvent>>) -> Result<VestHandle, String> {
+        VestHandle::spawn(VestConfig::Emulated(EngineConfig::default()), out).map_err(|e| e.to_string())
     }
 }
 
-fn fix(k: usize) -> GpsFix {
+fn fix(k: usize) -> Fix {
     let t = k as f64;
-    GpsFix {
-        lat_deg: 42.3562 + 0.002 * (t / 3000.0).sin(),
-        lon_deg: -71.1 + 0.003 * (t / 3000.0).cos(),
-        mode: FixMode::Fix3d,
-        quality: "GPS".into(),
-        error_m: Some(4.0),
+    Fix {
+        lat_deg: Some(42.3562 + 0.002 * (t / 3000.0).sin()),
+        lon_deg: Some(-71.1 + 0.003 * (t / 3000.0).cos()),
+        mode: Some(FixMode::Fix3D),
+        quality: Some(FixQuality::Gps),
+        error: Some(ErrorEstimate { horizontal_m: 4.0, vertical_m: None, source: ErrorSource::Gst }),
         speed_m_s: Some(1.3),
         course_deg: Some((t * 0.1) % 360.0),
         sats_used: Some(8),
         sats_visible: Some(11),
         hdop: Some(1.1),
-        ..GpsFix::default()
+        received_at: Some(Instant::now()),
+        ..Fix::default()
     }
 }
 
@@ -68,7 +69,7 @@ fn rss_kib() -> Option<u64> {
 
 fn console(tap: &Tap, log_dir: Option<std::path::PathBuf>) -> Console {
     let cfg = Config { map_tiles: false, ..Config::default() };
-    Console::new(Box::new(tap.clone()), ConsoleOptions { cfg, cfg_path: None, log_dir, waker: None })
+    Console::new(Box::new(tap.clone()), ConsoleOptions { cfg, log_dir, ..ConsoleOptions::default() })
 }
 
 fn frame(ctx: &egui::Context, c: &mut Console, t: f64) {
@@ -90,7 +91,8 @@ fn memory_24h() {
     let ctx = egui::Context::default();
     frame(&ctx, &mut c, 0.0);
     let before = rss_kib().unwrap_or(0);
-    let Some(out) = tap.0.lock().ok().and_then(|g| g.clone()) else { return };
+    let Some(outs) = tap.0.lock().ok().map(|g| g.clone()) else { return };
+    let cancel = AtomicBool::new(false);
     let start = std::time::Instant::now();
     let n = 86_400;
     let mut k = 0;
@@ -99,16 +101,18 @@ fn memory_24h() {
             if k >= n {
                 break;
             }
-            out.send_wait(GpsEvent::Fix(fix(k)));
+            for out in &outs {
+                out.send(GpsEvent::Fix(Box::new(fix(k))), &cancel);
+            }
             k += 1;
         }
-        // Let the router drain into the UI channel, then take it in as a frame would.
+        // Let the guidance worker and the log writer keep up, then take the batch in as a frame would.
         std::thread::sleep(std::time::Duration::from_millis(2));
-        c.pump(k as f64);
+        c.pump();
     }
     for _ in 0..50 {
         std::thread::sleep(std::time::Duration::from_millis(5));
-        c.pump(n as f64);
+        c.pump();
     }
     frame(&ctx, &mut c, n as f64);
     let after = rss_kib().unwrap_or(0);
@@ -117,7 +121,7 @@ fn memory_24h() {
         n,
         start.elapsed().as_secs_f64(),
         c.map.track.len(),
-        out.dropped(),
+        outs.iter().map(Outbox::dropped).sum::<u64>(),
         before,
         after,
         after.saturating_sub(before)
@@ -130,7 +134,12 @@ fn bench(cr: &mut Criterion) {
     memory_24h();
     let tap = Tap::default();
     let mut c = console(&tap, None);
-    c.map.track = (0..100_000).map(|k| (fix(k).lat_deg, fix(k).lon_deg)).collect();
+    c.map.track = (0..100_000)
+        .filter_map(|k| {
+            let f = fix(k);
+            f.lat_deg.zip(f.lon_deg)
+        })
+        .collect();
     c.map.waypoints = (0..1000)
         .map(|k| {
             let a = f64::from(k) * 0.00628;
@@ -142,7 +151,7 @@ fn bench(cr: &mut Criterion) {
         })
         .collect();
     c.gps.fix = Some(fix(99_999));
-    c.gps.fix_at_s = Some(0.0);
+    c.gps.last_position = Some(fix(99_999));
     let ctx = egui::Context::default();
     let mut t = 0.0;
     for _ in 0..5 {

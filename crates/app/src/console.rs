@@ -1,33 +1,52 @@
 //! The console's state and frame: top bar, side panels (GPS, Vest, Guidance), central tabs.
 //!
 //! [`Console`] holds everything the UI shows and can be built without a window (tests drive it with
-//! `egui_kittest`). Devices come from an injected [`DeviceFactory`]. Worker threads report on bounded
-//! channels that [`Console::ui`] drains at the start of each frame within a small time budget; the
-//! guidance worker and the session-log writer are fed directly by routing threads, so they keep running
-//! when the window is hidden.
+//! `egui_kittest`). Devices come from an injected [`DeviceFactory`]; the device crate's workers deliver
+//! their own events ([`GpsEvent`], [`VestEvent`]) straight to the UI, to the guidance worker and to the
+//! session log, each through its own bounded [`Outbox`]. [`Console::ui`] drains the UI's channels at the
+//! start of each frame within a small time budget. Every state shown is derived from those events and
+//! their timestamps: the age of a fix is measured from the instant its bytes arrived.
+//!
+//! Threads the console starts: the GPS source's worker, the vest worker, the guidance worker and the
+//! session-log writer — nothing else.
+//!
+//! The stop path: STOP ALL goes from the key or button straight to the vest worker's atomic request (it
+//! never waits in a queue behind anything). The UI thread beats the vest worker's [`Watched::Ui`]
+//! heartbeat every frame: if the UI stalls past its bound, the vest worker stops every tactor by itself.
+//! [`Console::shutdown`] (window close, drop, and the signal handler through [`ExitGuard`]) stops the vest
+//! first, with a bounded wait for the unit's acknowledgement.
 
 use std::path::PathBuf;
-use std::sync::Arc;
 use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
-use std::time::Duration;
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
 
 use egui::{Color32, RichText};
 use vestnav_core::guidance::StrategyKind;
 use vestnav_core::vest::{Cue, TactorMask};
+use vestnav_device::gps::{DecodeStats, Fix, GpsEvent, SourceState};
+use vestnav_device::outbox::{Outbox, Overflow, Waker, drain_within};
+use vestnav_device::wtcu::worker::{Heartbeat, VestStopper, Watched};
+use vestnav_device::wtcu::{
+    CommandKind, CommandOrigin, DeviceInfo, LinkState, UnitStatus, VestCommand, VestEvent, VestHandle,
+};
 
-use crate::config::{Config, GpsSourceConfig, VestSourceConfig};
-use crate::devices::{DeviceFactory, VestLink, Worker};
+use crate::config::{Config, GpsSourceConfig, GpsSpec, VestSourceConfig};
+use crate::devices::{DeviceFactory, GpsWorker};
 use crate::fieldtest_panel::{FieldTestAction, FieldTestPanel};
 use crate::guidance::{GuidanceInput, GuidanceSettings, GuidanceStatus};
 use crate::map_panel::MapView;
-use crate::model::{
-    CommandOrigin, GpsEvent, GpsFix, LinkState, Outbox, VestCommand, VestEvent, drain_within,
-};
-use crate::session_log::{LogEntry, LogSender, SessionLog};
+use vestnav_device::session_log::{LogEntry, LogSender, SessionLog};
 use crate::sim_panel::SimPanel;
 
 /// Time the UI may spend per frame draining worker events.
 const DRAIN_BUDGET: Duration = Duration::from_millis(2);
+/// Capacity of each of the UI's event channels.
+const UI_CHANNEL: usize = 1024;
+/// Capacity of the guidance worker's input channel (fixes beyond it are dropped: it needs the newest).
+const GUIDANCE_CHANNEL: usize = 256;
+/// How long exit waits for the unit to acknowledge STOP ALL.
+pub const EXIT_STOP_WAIT: Duration = Duration::from_millis(180);
 
 /// The central area's tabs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -42,21 +61,21 @@ pub enum Tab {
     SessionLog,
 }
 
-/// What the GPS side shows.
+/// What the GPS side shows, all of it from the source's events.
 #[derive(Debug, Default)]
 pub struct GpsView {
-    /// Link state reported by the worker.
-    pub link: LinkState,
-    /// Latest fix.
-    pub fix: Option<GpsFix>,
-    /// UI time of the latest fix with a position [s].
-    pub fix_at_s: Option<f64>,
-    /// UI time of the latest epoch of any kind [s].
-    pub epoch_at_s: Option<f64>,
-    /// Fixes received this session.
+    /// The source's state (`None`: no source running).
+    pub state: Option<SourceState>,
+    /// Latest epoch, with or without a position.
+    pub fix: Option<Fix>,
+    /// Latest epoch with a position.
+    pub last_position: Option<Fix>,
+    /// Fixes with a position this session.
     pub fixes: u64,
-    /// Latest notice from the worker.
+    /// Latest notice from the source.
     pub notice: Option<String>,
+    /// The decoder's latest counts of accepted and rejected input.
+    pub stats: Option<DecodeStats>,
     /// When the operator silenced the alarm (it re-arms on the next good fix).
     pub alarm_silenced: bool,
     /// Editor state of the source picker.
@@ -78,19 +97,32 @@ pub enum GpsAlarm {
     },
 }
 
-/// What the vest side shows.
+/// The latest reply of the vest, for the operator.
+#[derive(Debug, Clone, PartialEq)]
+pub struct VestReply {
+    /// What happened, in words.
+    pub text: String,
+    /// A refusal (shown as an error) rather than an acknowledgement.
+    pub refused: bool,
+    /// When it arrived.
+    pub at: Instant,
+}
+
+/// What the vest side shows, all of it from the worker's events.
 #[derive(Debug, Default)]
 pub struct VestView {
-    /// Link state.
-    pub link: LinkState,
-    /// Tactors the unit reports on.
-    pub tactors_on: TactorMask,
-    /// Battery [%].
-    pub battery_pct: Option<u8>,
-    /// Firmware version.
-    pub firmware: String,
-    /// Latest ack or refusal, for the operator.
-    pub last_reply: Option<String>,
+    /// Link state (`None`: no worker).
+    pub state: Option<LinkState>,
+    /// Tactors the unit reports on (`None`: unknown, e.g. no link).
+    pub tactors_on: Option<TactorMask>,
+    /// What the unit said about itself at the handshake.
+    pub device: Option<DeviceInfo>,
+    /// The unit's last status report and when it came.
+    pub status: Option<(UnitStatus, Instant)>,
+    /// Latest ack or refusal.
+    pub last_reply: Option<VestReply>,
+    /// Why automatic cues are latched off, when they are (STOP ALL, a stalled thread).
+    pub halted: Option<String>,
     /// Tactors selected for a multi-fire.
     pub selected: TactorMask,
     /// Multi-select mode: clicks select instead of firing.
@@ -101,12 +133,71 @@ pub struct VestView {
     pub port: String,
 }
 
+impl VestView {
+    /// Whether the unit is connected and has identified itself (commands can be delivered).
+    pub fn is_live(&self) -> bool {
+        self.state == Some(LinkState::Ready)
+    }
+
+    /// The state as words for the top bar.
+    pub fn label(&self) -> String {
+        self.state.as_ref().map_or_else(|| "disconnected".to_owned(), ToString::to_string)
+    }
+}
+
+/// Liveness bounds of the threads the vest worker watches (see `vestnav_device::wtcu::worker`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Liveness {
+    /// The UI must draw a frame at least this often (it requests one every 250 ms).
+    pub ui: Duration,
+    /// The guidance worker must turn at least this often (it ticks every 250 ms).
+    pub guidance: Duration,
+}
+
+impl Default for Liveness {
+    fn default() -> Self {
+        Self { ui: Duration::from_millis(1500), guidance: Duration::from_secs(1) }
+    }
+}
+
+/// Where the exit paths (signal handler, window close) find the vest to stop. The console keeps the
+/// stopper of its current vest here; the lock is only ever held to swap or clone it.
+#[derive(Debug, Clone, Default)]
+pub struct ExitGuard(Arc<Mutex<Option<VestStopper>>>);
+
+impl ExitGuard {
+    fn set(&self, stopper: Option<VestStopper>) {
+        if let Ok(mut g) = self.0.lock() {
+            *g = stopper;
+        }
+    }
+
+    /// STOP ALL to the current vest and end its worker, waiting at most `wait` for the acknowledgement;
+    /// returns whether the unit acknowledged (`false` too when no vest is connected).
+    pub fn stop_vest(&self, wait: Duration) -> bool {
+        let stopper = self.0.lock().ok().and_then(|g| g.clone());
+        stopper.is_some_and(|s| s.stop_and_close(wait))
+    }
+}
+
+/// Devices named on the command line: they win over the saved settings for this run (and are not saved).
+#[derive(Debug, Clone, Default)]
+pub struct DeviceOverrides {
+    /// `--gps`.
+    pub gps: Option<GpsSpec>,
+    /// `--vest`.
+    pub vest: Option<VestSourceConfig>,
+}
+
 /// The console.
 pub struct Console {
     /// Settings (persisted).
     pub cfg: Config,
     cfg_path: Option<PathBuf>,
     cfg_saved: Config,
+    /// Device settings as read from the config file, written back instead of command-line overrides.
+    file_devices: (GpsSourceConfig, VestSourceConfig),
+    overrides: DeviceOverrides,
     factory: Box<dyn DeviceFactory>,
     /// Active central tab.
     pub tab: Tab,
@@ -120,14 +211,19 @@ pub struct Console {
     pub guidance: Option<GuidanceStatus>,
     /// Status line (errors shown once).
     pub status: String,
-    gps_router_tx: SyncSender<GpsEvent>,
+    epoch: Instant,
+    liveness: Option<Liveness>,
     gps_rx: Receiver<GpsEvent>,
-    vest_router_tx: SyncSender<VestEvent>,
+    gps_ui: Outbox<GpsEvent>,
     vest_rx: Receiver<VestEvent>,
+    vest_ui: Outbox<VestEvent>,
     guidance_rx: Receiver<GuidanceStatus>,
     guidance_tx: SyncSender<GuidanceInput>,
-    gps_worker: Option<Box<dyn Worker>>,
-    vest_link: Option<Arc<dyn VestLink>>,
+    route_pending: bool,
+    gps_worker: Option<Box<dyn GpsWorker>>,
+    vest_link: Option<Arc<VestHandle>>,
+    ui_beat: Option<Heartbeat>,
+    exit: ExitGuard,
     log: Option<SessionLog>,
     log_tx: Option<LogSender>,
     sim_panel: SimPanel,
@@ -137,6 +233,7 @@ pub struct Console {
 }
 
 /// Options for [`Console::new`].
+#[derive(Default)]
 pub struct ConsoleOptions {
     /// Settings to start with.
     pub cfg: Config,
@@ -146,14 +243,20 @@ pub struct ConsoleOptions {
     pub log_dir: Option<PathBuf>,
     /// The UI context, to wake the UI from workers (`None` in headless tests that step frames anyway).
     pub waker: Option<egui::Context>,
+    /// Devices given on the command line.
+    pub devices: DeviceOverrides,
+    /// Liveness bounds; `None` turns the check off (headless tests that step frames at their own pace).
+    pub liveness: Option<Liveness>,
+    /// Where exit paths find the vest (the signal handler holds a clone).
+    pub exit: ExitGuard,
 }
 
 impl Console {
     /// Builds the console, starts the guidance worker and the session log, and connects the configured
-    /// devices when `cfg.auto_connect` is set.
-    #[allow(clippy::too_many_lines)] // the wiring of every thread and channel, kept in one readable place
+    /// devices when `cfg.auto_connect` is set or devices were given on the command line.
     pub fn new(factory: Box<dyn DeviceFactory>, opts: ConsoleOptions) -> Self {
-        let ConsoleOptions { cfg, cfg_path, log_dir, waker } = opts;
+        let ConsoleOptions { mut cfg, cfg_path, log_dir, waker, devices, liveness, exit } = opts;
+        let waker: Option<Waker> = waker.map(|ctx| Arc::new(move || ctx.request_repaint()) as Waker);
         let mut status = String::new();
         let log = log_dir.and_then(|d| match SessionLog::create(&d) {
             Ok(l) => Some(l),
@@ -164,76 +267,37 @@ impl Console {
         });
         let log_tx = log.as_ref().and_then(SessionLog::sender);
 
-        let (guidance_ui_tx, guidance_rx) = sync_channel(256);
-        let (guidance_tx, guidance_in_rx) = sync_channel(1024);
-        let settings = guidance_settings(&cfg);
-        if let Err(e) = crate::guidance::spawn(
-            guidance_in_rx,
-            settings,
-            Outbox::new(guidance_ui_tx, waker.clone()),
-            log_tx.clone(),
-        ) {
+        let (guidance_ui, guidance_rx) = Outbox::channel(UI_CHANNEL, Overflow::DropNewest, waker.clone());
+        let (guidance_tx, guidance_in_rx) = sync_channel(GUIDANCE_CHANNEL);
+        if let Err(e) = crate::guidance::spawn(guidance_in_rx, guidance_settings(&cfg), guidance_ui, log_tx.clone())
+        {
             status = format!("guidance worker failed to start: {e}");
         }
+        let (gps_ui, gps_rx) = Outbox::channel(UI_CHANNEL, Overflow::DropNewest, waker.clone());
+        let (vest_ui, vest_rx) = Outbox::channel(UI_CHANNEL, Overflow::DropNewest, waker.clone());
 
-        let (gps_ui_tx, gps_rx) = sync_channel(1024);
-        let (gps_router_tx, gps_router_rx) = sync_channel::<GpsEvent>(1024);
-        {
-            let ui = Outbox::new(gps_ui_tx, waker.clone());
-            let guidance = Outbox::new(guidance_tx.clone(), None);
-            let log = log_tx.clone();
-            spawn_router("vestnav-gps-router", gps_router_rx, move |ev: GpsEvent| {
-                if let GpsEvent::Fix(fix) = &ev {
-                    if fix.has_position()
-                        && let Some(log) = &log
-                    {
-                        log.log(LogEntry::Fix {
-                            lat_deg: fix.lat_deg,
-                            lon_deg: fix.lon_deg,
-                            error_m: fix.error_m,
-                            speed_m_s: fix.speed_m_s,
-                            course_deg: fix.course_deg,
-                            gps_utc: fix.time_utc.clone(),
-                        });
-                    }
-                    guidance.send_wait(GuidanceInput::Fix(fix.clone()));
-                } else if let (GpsEvent::State(s), Some(log)) = (&ev, &log) {
-                    log.log(LogEntry::Note { text: format!("gps {}", s.label()) });
-                }
-                ui.send(ev)
-            });
+        let file_devices = (cfg.gps.clone(), cfg.vest.clone());
+        let connect_now = cfg.auto_connect || devices.gps.is_some() || devices.vest.is_some();
+        if let Some(g) = &devices.gps {
+            cfg.gps = g.source.clone();
         }
-        let (vest_ui_tx, vest_rx) = sync_channel(1024);
-        let (vest_router_tx, vest_router_rx) = sync_channel::<VestEvent>(1024);
-        {
-            let ui = Outbox::new(vest_ui_tx, waker.clone());
-            let log = log_tx.clone();
-            spawn_router("vestnav-vest-router", vest_router_rx, move |ev: VestEvent| {
-                if let Some(log) = &log {
-                    match &ev {
-                        VestEvent::Ack { what } => log.log(LogEntry::Ack { what: what.clone() }),
-                        VestEvent::TactorsOn(mask) => log.log(LogEntry::TactorsOn { mask: *mask }),
-                        VestEvent::Rejected { reason } => {
-                            log.log(LogEntry::Note { text: format!("vest rejected: {reason}") });
-                        }
-                        VestEvent::State(s) => {
-                            log.log(LogEntry::Note { text: format!("vest {}", s.label()) });
-                        }
-                        VestEvent::Notice(text) => log.log(LogEntry::Note { text: format!("vest: {text}") }),
-                        VestEvent::Status { .. } => {}
-                    }
-                }
-                ui.send(ev)
-            });
+        if let Some(v) = &devices.vest {
+            cfg.vest = v.clone();
         }
 
         let mut map = MapView::new(cfg.follow);
-        match crate::route::parse_gpx(crate::route::DEMO_GPX) {
+        let route = match devices.gps.as_ref().and_then(|g| g.route.clone()) {
+            Some(path) => std::fs::read_to_string(&path)
+                .map_err(|e| format!("cannot read {}: {e}", path.display()))
+                .and_then(|t| crate::route::parse_gpx(&t).map_err(|e| format!("{}: {e}", path.display()))),
+            None => crate::route::parse_gpx(crate::route::DEMO_GPX).map_err(|e| format!("demo route: {e}")),
+        };
+        match route {
             Ok(c) => {
-                map.route_name = c.name.unwrap_or_else(|| "demo".into());
+                map.route_name = c.name.unwrap_or_else(|| "route".into());
                 map.waypoints = c.waypoints;
             }
-            Err(e) => status = format!("demo route unreadable: {e}"),
+            Err(e) => status = format!("route unreadable: {e}"),
         }
 
         let mut console = Self {
@@ -251,19 +315,26 @@ impl Console {
             cfg_saved: cfg.clone(),
             cfg,
             cfg_path,
+            file_devices,
+            overrides: devices,
             factory,
             tab: Tab::Map,
             map,
             guidance: None,
             status,
-            gps_router_tx,
+            epoch: Instant::now(),
+            liveness,
             gps_rx,
-            vest_router_tx,
+            gps_ui,
             vest_rx,
+            vest_ui,
             guidance_rx,
             guidance_tx,
+            route_pending: true,
             gps_worker: None,
             vest_link: None,
+            ui_beat: None,
+            exit,
             log,
             log_tx,
             sim_panel: SimPanel::new(),
@@ -271,7 +342,7 @@ impl Console {
             log_viewer: crate::log_viewer::LogViewer::default(),
         };
         console.push_route();
-        if console.cfg.auto_connect {
+        if connect_now {
             console.connect_vest();
             console.connect_gps();
         }
@@ -283,77 +354,131 @@ impl Console {
         self.log.as_ref().map(SessionLog::path)
     }
 
-    /// Whether a GPS worker is running.
+    /// Whether a GPS source is running.
     pub fn gps_connected(&self) -> bool {
         self.gps_worker.is_some()
     }
 
-    /// Whether a vest link is open.
+    /// Whether a vest worker is running.
     pub fn vest_connected(&self) -> bool {
         self.vest_link.is_some()
+    }
+
+    /// The running vest worker, if any.
+    pub fn vest_handle(&self) -> Option<&Arc<VestHandle>> {
+        self.vest_link.as_ref()
     }
 
     /// (Re)connects the GPS to the configured source.
     pub fn connect_gps(&mut self) {
         self.disconnect_gps();
-        let out = Outbox::new(self.gps_router_tx.clone(), None);
-        self.gps.link = LinkState::Connecting { attempt: 1 };
-        self.gps.notice = None;
-        match self.factory.open_gps(&self.cfg.gps, &self.map.waypoints, out) {
+        let mut outputs = vec![self.gps_ui.clone()];
+        let guidance = Outbox::mapped(
+            self.guidance_tx.clone(),
+            |ev: GpsEvent| matches!(ev, GpsEvent::Fix(_)).then_some(GuidanceInput::Gps(ev)),
+            None,
+        );
+        outputs.push(guidance);
+        if let Some(log) = self.log_tx.clone() {
+            outputs.push(Outbox::sink(move |ev: GpsEvent| {
+                if let Some(entry) = gps_log_entry(&ev) {
+                    log.log(entry);
+                }
+                true
+            }));
+        }
+        self.gps = GpsView { picker: std::mem::take(&mut self.gps.picker), ..GpsView::default() };
+        match self.factory.open_gps(&self.cfg.gps, &self.map.waypoints, outputs) {
             Ok(w) => self.gps_worker = Some(w),
             Err(e) => {
-                self.gps.link = LinkState::Lost { reason: e.clone() };
+                self.gps.state = Some(SourceState::Lost { reason: e.clone() });
                 self.status = format!("GPS: {e}");
             }
         }
     }
 
-    /// Stops the GPS worker.
+    /// Stops the GPS source (never waits long on its IO).
     pub fn disconnect_gps(&mut self) {
         if let Some(mut w) = self.gps_worker.take() {
             w.stop();
         }
-        self.gps.link = LinkState::Disconnected;
+        self.gps.state = None;
     }
 
     /// (Re)connects the vest.
     pub fn connect_vest(&mut self) {
         self.disconnect_vest();
-        let out = Outbox::new(self.vest_router_tx.clone(), None);
-        self.vest.link = LinkState::Connecting { attempt: 1 };
-        match self.factory.open_vest(&self.cfg.vest, out) {
-            Ok(link) => {
-                self.guidance_tx.try_send(GuidanceInput::Vest(Some(link.clone()))).ok();
-                self.vest_link = Some(link);
+        let mut outputs = vec![self.vest_ui.clone()];
+        outputs.push(Outbox::mapped(
+            self.guidance_tx.clone(),
+            |ev: VestEvent| {
+                matches!(ev, VestEvent::State(_) | VestEvent::Halted { .. } | VestEvent::Resumed)
+                    .then_some(GuidanceInput::Vest(ev))
+            },
+            None,
+        ));
+        if let Some(log) = self.log_tx.clone() {
+            outputs.push(Outbox::sink(move |ev: VestEvent| {
+                if let Some(entry) = vest_log_entry(&ev) {
+                    log.log(entry);
+                }
+                true
+            }));
+        }
+        self.vest = VestView { port: std::mem::take(&mut self.vest.port), ..VestView::default() };
+        match self.factory.open_vest(&self.cfg.vest, outputs) {
+            Ok(handle) => {
+                let handle = Arc::new(handle);
+                self.exit.set(Some(handle.stopper()));
+                let bound = self.liveness.map(|l| (l.ui, l.guidance));
+                self.ui_beat = bound.map(|(ui, _)| handle.heartbeat(Watched::Ui, ui));
+                let g_bound = bound.map_or(Duration::ZERO, |(_, g)| g);
+                if self.guidance_tx.try_send(GuidanceInput::VestLink(Some(handle.clone()), g_bound)).is_err() {
+                    self.status = "guidance worker busy: it does not know the vest yet".into();
+                }
+                self.vest.state = Some(LinkState::Connecting { attempt: 1 });
+                self.vest_link = Some(handle);
             }
             Err(e) => {
-                self.vest.link = LinkState::Lost { reason: e.clone() };
+                self.vest.state = Some(LinkState::Lost { reason: e.clone() });
                 self.status = format!("vest: {e}");
             }
         }
     }
 
-    /// Stops every tactor and closes the vest link.
+    /// Stops every tactor and closes the vest link (waiting a bounded time for the acknowledgement).
     pub fn disconnect_vest(&mut self) {
-        self.guidance_tx.try_send(GuidanceInput::Vest(None)).ok();
+        let _ = self.guidance_tx.try_send(GuidanceInput::VestLink(None, Duration::ZERO));
+        self.ui_beat = None;
         if let Some(link) = self.vest_link.take() {
-            link.close();
+            link.stopper().stop_and_close(EXIT_STOP_WAIT);
         }
-        self.vest.link = LinkState::Disconnected;
-        self.vest.tactors_on = TactorMask::NONE;
+        self.exit.set(None);
+        self.vest.state = None;
+        self.vest.tactors_on = None;
+        self.vest.device = None;
+        self.vest.status = None;
+    }
+
+    /// Stops the vest first (STOP ALL, acknowledged or timed out), then the GPS: the console's exit.
+    pub fn shutdown(&mut self) {
+        self.disconnect_vest();
+        self.disconnect_gps();
     }
 
     /// Sends a manual command to the vest (holding automatic guidance off) and logs it; `cue` names it when
     /// it is one of the vocabulary's cues.
     pub fn send_manual(&mut self, command: VestCommand, cue: Option<Cue>) {
-        if command != VestCommand::StopAll {
-            self.guidance_tx.try_send(GuidanceInput::ManualOverride(cue)).ok();
+        if command == VestCommand::StopAll {
+            self.stop_all();
+            return;
         }
+        let _ = self.guidance_tx.try_send(GuidanceInput::ManualOverride(cue));
         let Some(link) = &self.vest_link else {
-            self.status = "vest not connected".into();
+            self.refused(format!("{} not sent: no vest connected", command.describe()));
             return;
         };
-        match link.send(command.clone()) {
+        match link.send(command.clone(), CommandOrigin::Manual) {
             Ok(()) => {
                 if let Some(log) = &self.log_tx {
                     log.log(LogEntry::Command {
@@ -363,37 +488,64 @@ impl Console {
                     });
                 }
             }
-            Err(e) => self.status = format!("vest: {e}"),
+            Err(e) => self.refused(format!("{} not sent: {e}", command.describe())),
         }
     }
 
-    /// STOP ALL: every tactor off now, automatic guidance off.
+    fn refused(&mut self, text: String) {
+        self.status.clone_from(&text);
+        self.vest.last_reply = Some(VestReply { text, refused: true, at: Instant::now() });
+    }
+
+    /// STOP ALL: every tactor off now, automatic guidance latched off until the operator resumes it.
     pub fn stop_all(&mut self) {
-        // The vest first: nothing else may delay it.
-        self.send_manual(VestCommand::StopAll, Some(Cue::Stop));
-        self.guidance_tx.try_send(GuidanceInput::StopAll).ok();
+        // The vest first: an atomic request the worker serves before anything else.
+        if let Some(link) = &self.vest_link {
+            link.stop_all();
+        }
+        let _ = self.guidance_tx.try_send(GuidanceInput::StopAll);
+        if let Some(log) = &self.log_tx {
+            log.log(LogEntry::Command {
+                origin: CommandOrigin::Manual,
+                command: VestCommand::StopAll,
+                reason: "operator".into(),
+            });
+        }
         if self.cfg.guidance_auto {
             self.cfg.guidance_auto = false;
+            self.cfg_saved.guidance_auto = false;
             self.push_settings();
         }
-        self.status = "STOP ALL sent; automatic guidance off".into();
+        self.status = if self.vest_link.is_some() {
+            "STOP ALL sent; automatic guidance halted until resumed".into()
+        } else {
+            "STOP ALL: no vest connected".into()
+        };
     }
 
-    /// Tells the guidance worker about the current route.
+    /// The operator's deliberate resume of automatic cues.
+    pub fn resume_guidance(&mut self) {
+        self.cfg.guidance_auto = true;
+        if let Some(link) = &self.vest_link {
+            link.resume_guidance();
+        }
+        let _ = self.guidance_tx.try_send(GuidanceInput::Resume);
+        self.push_settings();
+    }
+
+    /// Tells the guidance worker about the current route (retried every frame until it is taken).
     pub fn push_route(&mut self) {
         let msg = GuidanceInput::Route { waypoints: self.map.waypoints.clone(), next: self.map.next };
-        if self.guidance_tx.try_send(msg).is_err() {
-            self.status = "guidance worker busy: route update dropped".into();
-        }
+        self.route_pending = self.guidance_tx.try_send(msg).is_err();
     }
 
     fn push_settings(&mut self) {
-        self.guidance_tx.try_send(GuidanceInput::Settings(guidance_settings(&self.cfg))).ok();
+        let _ = self.guidance_tx.try_send(GuidanceInput::Settings(guidance_settings(&self.cfg)));
     }
 
     /// Logs an operator mark at the wearer's position.
     pub fn mark(&mut self, label: &str) {
-        let pos = self.gps.fix.as_ref().filter(|f| f.has_position()).map(|f| (f.lat_deg, f.lon_deg));
+        let pos = self.gps.last_position.as_ref().and_then(|f| f.lat_deg.zip(f.lon_deg));
         if let Some(log) = &self.log_tx {
             let label = label.to_owned();
             log.log(LogEntry::Mark { label, lat_deg: pos.map(|p| p.0), lon_deg: pos.map(|p| p.1) });
@@ -401,21 +553,25 @@ impl Console {
         self.status = format!("marked '{label}'");
     }
 
-    /// The GPS alarm at UI time `now_s`, if any.
-    pub fn gps_alarm(&self, now_s: f64) -> Option<GpsAlarm> {
-        if self.gps_worker.is_none() || self.gps.link == LinkState::Disconnected {
-            return None;
-        }
-        if let LinkState::Lost { reason } = &self.gps.link {
+    /// Age of the latest position at `now`, from the instant its bytes arrived.
+    pub fn position_age(&self, now: Instant) -> Option<Duration> {
+        self.gps.last_position.as_ref().and_then(|f| f.age(now))
+    }
+
+    /// The GPS alarm at `now`, if any.
+    pub fn gps_alarm(&self, now: Instant) -> Option<GpsAlarm> {
+        let state = self.gps.state.as_ref()?;
+        self.gps_worker.as_ref()?;
+        if let SourceState::Lost { reason } = state {
             return Some(GpsAlarm::Lost { reason: reason.clone() });
         }
         if let Some(f) = &self.gps.fix
             && !f.has_position()
-            && self.gps.epoch_at_s.is_some_and(|t| now_s - t < self.cfg.stale_after_s)
+            && f.age(now).is_some_and(|a| a.as_secs_f64() < self.cfg.stale_after_s)
         {
             return Some(GpsAlarm::Lost { reason: "receiver reports no fix".into() });
         }
-        let age = now_s - self.gps.fix_at_s?;
+        let age = self.position_age(now)?.as_secs_f64();
         if age > self.cfg.lost_after_s {
             Some(GpsAlarm::Lost { reason: format!("no position for {age:.0} s") })
         } else if age > self.cfg.stale_after_s {
@@ -426,40 +582,33 @@ impl Console {
     }
 
     /// Drains worker events into the state (within `DRAIN_BUDGET` per channel).
-    pub fn pump(&mut self, now_s: f64) {
+    pub fn pump(&mut self) {
         let mut fixes = Vec::new();
         drain_within(&self.gps_rx, DRAIN_BUDGET, |ev| match ev {
-            GpsEvent::State(s) => self.gps.link = s,
-            GpsEvent::Fix(f) => fixes.push(f),
+            GpsEvent::State(s) => self.gps.state = Some(s),
+            GpsEvent::Fix(f) => fixes.push(*f),
+            GpsEvent::Stats(s) => self.gps.stats = Some(s),
+            GpsEvent::Mark(m) => self.gps.notice = Some(format!("mark {} {} in the input", m.number, m.label)),
             GpsEvent::Notice(n) => self.gps.notice = Some(n),
         });
         for f in fixes {
-            self.gps.epoch_at_s = Some(now_s);
-            if f.has_position() {
-                self.gps.fix_at_s = Some(now_s);
+            if f.has_position()
+                && let (Some(lat), Some(lon)) = (f.lat_deg, f.lon_deg)
+            {
                 self.gps.fixes += 1;
                 self.gps.alarm_silenced = false;
-                self.map.push_track(f.lat_deg, f.lon_deg);
-                self.field_panel.push_position(now_s, f.lat_deg, f.lon_deg, f.speed_m_s);
+                self.map.push_track(lat, lon);
+                let t_s = f.received_at.map_or(0.0, |t| t.saturating_duration_since(self.epoch).as_secs_f64());
+                self.field_panel.push_position(t_s, lat, lon, f.speed_m_s);
+                self.gps.last_position = Some(f.clone());
             }
             self.gps.fix = Some(f);
         }
-        drain_within(&self.vest_rx, DRAIN_BUDGET, |ev| match ev {
-            VestEvent::State(s) => {
-                if s != LinkState::Live {
-                    self.vest.tactors_on = TactorMask::NONE;
-                }
-                self.vest.link = s;
-            }
-            VestEvent::TactorsOn(m) => self.vest.tactors_on = m,
-            VestEvent::Ack { what } => self.vest.last_reply = Some(format!("ack: {what}")),
-            VestEvent::Rejected { reason } => self.vest.last_reply = Some(format!("refused: {reason}")),
-            VestEvent::Notice(text) => self.vest.last_reply = Some(text),
-            VestEvent::Status { battery_pct, firmware } => {
-                self.vest.battery_pct = battery_pct;
-                self.vest.firmware = firmware;
-            }
-        });
+        let mut vest_events = Vec::new();
+        drain_within(&self.vest_rx, DRAIN_BUDGET, |ev| vest_events.push(ev));
+        for ev in vest_events {
+            self.vest_event(ev);
+        }
         let mut latest = None;
         drain_within(&self.guidance_rx, DRAIN_BUDGET, |st| latest = Some(st));
         if let Some(st) = latest {
@@ -468,16 +617,75 @@ impl Console {
             }
             self.guidance = Some(st);
         }
+        if self.route_pending {
+            self.push_route();
+        }
+    }
+
+    fn vest_event(&mut self, ev: VestEvent) {
+        let now = Instant::now();
+        match ev {
+            VestEvent::State(s) => {
+                if s != LinkState::Ready {
+                    self.vest.tactors_on = None;
+                    self.vest.status = None;
+                }
+                if matches!(s, LinkState::Lost { .. } | LinkState::Disconnected) {
+                    self.vest.device = None;
+                }
+                self.vest.state = Some(s);
+            }
+            VestEvent::Identified(info) => self.vest.device = Some(info),
+            VestEvent::TactorsOn(m) => self.vest.tactors_on = m,
+            VestEvent::Acked { seq, kind } => {
+                self.vest.last_reply =
+                    Some(VestReply { text: format!("ack: {} #{seq}", kind.name()), refused: false, at: now });
+            }
+            VestEvent::Rejected { kind, origin, reason } => {
+                let who = match origin {
+                    Some(CommandOrigin::Guidance) => "automatic ",
+                    Some(CommandOrigin::Manual) | None => "",
+                };
+                let text = format!("refused {who}{}: {reason}", kind.name());
+                if kind == CommandKind::StopAll {
+                    self.status.clone_from(&text);
+                }
+                self.vest.last_reply = Some(VestReply { text, refused: true, at: now });
+            }
+            VestEvent::Status(st) => {
+                self.vest.tactors_on = Some(st.tactors_on);
+                self.vest.status = Some((st, now));
+            }
+            VestEvent::Transport(e) => {
+                self.vest.last_reply = Some(VestReply { text: format!("transport: {e}"), refused: true, at: now });
+            }
+            VestEvent::Halted { reason } => {
+                self.cfg.guidance_auto = false;
+                self.cfg_saved.guidance_auto = false;
+                self.vest.halted = Some(reason);
+            }
+            VestEvent::Resumed => self.vest.halted = None,
+        }
+    }
+
+    /// The UI thread's turn without drawing (also while the window is hidden): beat the liveness
+    /// heartbeat and drain the workers' events.
+    pub fn tick(&mut self) {
+        if let Some(b) = &self.ui_beat {
+            b.beat();
+        }
+        self.pump();
     }
 
     /// Draws one frame (also the entry point of the kittest tests).
     #[allow(clippy::too_many_lines)] // the frame's layout in one place: panels in the order they are drawn
     pub fn ui(&mut self, ui: &mut egui::Ui) {
-        let now_s = ui.input(|i| i.time);
-        self.pump(now_s);
+        self.tick();
+        let now = Instant::now();
+        let anim_s = ui.input(|i| i.time);
         self.handle_keys(ui);
 
-        egui::Panel::top("vestnav-top").show(ui, |ui| self.top_bar(ui, now_s));
+        egui::Panel::top("vestnav-top").show(ui, |ui| self.top_bar(ui, now));
         egui::Panel::bottom("vestnav-status").show(ui, |ui| {
             ui.horizontal(|ui| {
                 ui.label(RichText::new(&self.status).small());
@@ -491,7 +699,7 @@ impl Console {
         egui::Panel::left("vestnav-side").default_size(360.0).min_size(300.0).show(ui, |ui| {
             egui::ScrollArea::vertical().show(ui, |ui| {
                 egui::CollapsingHeader::new("GPS").default_open(true).show(ui, |ui| {
-                    crate::gps_panel::show(self, ui, now_s);
+                    crate::gps_panel::show(self, ui, now, anim_s);
                 });
                 egui::CollapsingHeader::new("Vest").default_open(true).show(ui, |ui| {
                     crate::vest_panel::show(self, ui);
@@ -503,7 +711,7 @@ impl Console {
         });
         egui::CentralPanel::default().show(ui, |ui| match self.tab {
             Tab::Map => {
-                let fix = self.gps.fix.clone().filter(GpsFix::has_position);
+                let fix = self.gps.last_position.clone();
                 let speed = fix.as_ref().and_then(|f| f.speed_m_s);
                 let walking = self.cfg.walking_speed_m_s;
                 let changed = self.map.ui(ui, fix.as_ref(), speed, walking, &mut self.cfg, &mut self.status);
@@ -525,10 +733,15 @@ impl Console {
         });
 
         if self.cfg != self.cfg_saved {
+            if self.cfg.guidance_auto && !self.cfg_saved.guidance_auto {
+                // Switching automatic cues back on is the operator's deliberate resume.
+                self.resume_guidance();
+            }
             self.push_settings();
             self.save_config();
         }
-        // Fix ages and alarms change with time even when no event arrives.
+        // Fix ages and alarms change with time even when no event arrives; the frame is also the UI's
+        // heartbeat.
         ui.ctx().request_repaint_after(Duration::from_millis(250));
     }
 
@@ -538,9 +751,17 @@ impl Console {
 
     fn save_config(&mut self) {
         self.cfg_saved = self.cfg.clone();
-        if let Some(p) = &self.cfg_path
-            && let Err(e) = self.cfg.save(p)
-        {
+        let Some(p) = &self.cfg_path else { return };
+        // Devices given on the command line are for this run only: the file keeps its own unless the
+        // operator changed them in the console.
+        let mut on_disk = self.cfg.clone();
+        if self.overrides.gps.as_ref().is_some_and(|g| g.source == on_disk.gps) {
+            on_disk.gps = self.file_devices.0.clone();
+        }
+        if self.overrides.vest.as_ref().is_some_and(|v| *v == on_disk.vest) {
+            on_disk.vest = self.file_devices.1.clone();
+        }
+        if let Err(e) = on_disk.save(p) {
             self.status = format!("cannot save settings to {}: {e}", p.display());
         }
     }
@@ -559,35 +780,42 @@ impl Console {
         }
     }
 
-    fn top_bar(&mut self, ui: &mut egui::Ui, now_s: f64) {
+    fn top_bar(&mut self, ui: &mut egui::Ui, now: Instant) {
         ui.horizontal(|ui| {
             let stop = egui::Button::new(RichText::new("STOP ALL").strong().size(18.0).color(Color32::WHITE))
                 .fill(Color32::from_rgb(200, 30, 30))
                 .min_size(egui::vec2(120.0, 30.0));
             if ui
                 .add(stop)
-                .on_hover_text("Every tactor off, automatic guidance off (keys: Esc or Space)")
+                .on_hover_text("Every tactor off, automatic guidance halted (keys: Esc or Space)")
                 .clicked()
             {
                 self.stop_all();
             }
             ui.separator();
-            let alarm = self.gps_alarm(now_s);
+            let alarm = self.gps_alarm(now);
             let (gps_text, gps_color) = match &alarm {
                 Some(GpsAlarm::Lost { .. }) => ("GPS: FIX LOST".to_owned(), Color32::from_rgb(230, 40, 40)),
                 Some(GpsAlarm::Stale { .. }) => ("GPS: STALE".to_owned(), Color32::from_rgb(230, 150, 0)),
-                None => (format!("GPS: {}", self.gps.link.label()), link_color(&self.gps.link)),
+                None => (
+                    format!("GPS: {}", crate::gps_panel::state_label(self.gps.state.as_ref())),
+                    gps_color(self.gps.state.as_ref()),
+                ),
             };
             ui.label(RichText::new(gps_text).color(gps_color).strong());
             ui.separator();
             ui.label(
-                RichText::new(format!("Vest: {}", self.vest.link.label()))
-                    .color(link_color(&self.vest.link))
+                RichText::new(format!("Vest: {}", self.vest.label()))
+                    .color(vest_color(self.vest.state.as_ref()))
                     .strong(),
             );
             ui.separator();
-            let g = if self.cfg.guidance_auto { "Guidance: AUTO" } else { "Guidance: manual" };
-            ui.label(RichText::new(g).strong());
+            let (g, color) = match (&self.vest.halted, self.cfg.guidance_auto) {
+                (Some(_), _) => ("Guidance: HALTED", Color32::from_rgb(230, 40, 40)),
+                (None, true) => ("Guidance: AUTO", ui.visuals().text_color()),
+                (None, false) => ("Guidance: manual", ui.visuals().text_color()),
+            };
+            ui.label(RichText::new(g).color(color).strong());
             ui.separator();
             ui.selectable_value(&mut self.tab, Tab::Map, "Map");
             ui.selectable_value(&mut self.tab, Tab::Simulation, "Simulation");
@@ -598,6 +826,12 @@ impl Console {
 
     fn guidance_ui(&mut self, ui: &mut egui::Ui) {
         let mut changed = false;
+        if let Some(why) = self.vest.halted.clone() {
+            ui.label(RichText::new(format!("Automatic cues halted: {why}")).color(Color32::from_rgb(230, 40, 40)));
+            if ui.button("Resume automatic cues").clicked() {
+                self.resume_guidance();
+            }
+        }
         ui.horizontal(|ui| {
             changed |= ui.checkbox(&mut self.cfg.guidance_auto, "Automatic cues").changed();
             changed |= ui.checkbox(&mut self.cfg.loop_route, "Loop route").changed();
@@ -623,7 +857,9 @@ impl Console {
         changed |= ui
             .add(egui::Slider::new(&mut self.cfg.manual_hold_s, 0.0..=60.0).suffix(" s").text("Manual hold"))
             .changed();
-        if changed {
+        // Switching automatic cues back on is handled at the end of the frame (it is the resume).
+        let resuming = self.cfg.guidance_auto && !self.cfg_saved.guidance_auto;
+        if changed && !resuming {
             self.push_settings();
         }
         match &self.guidance {
@@ -631,6 +867,9 @@ impl Console {
                 ui.label("waiting for the first fix");
             }
             Some(st) => {
+                if let Some(hold) = &st.hold {
+                    ui.label(RichText::new(format!("On hold: {hold}")).color(Color32::from_rgb(230, 150, 0)).strong());
+                }
                 let cue = st.cue.map_or("none", Cue::name);
                 let sent = if st.sent { "sent" } else { "not sent now" };
                 ui.label(RichText::new(format!("Cue: {cue} ({sent}) · {}", st.state)).strong());
@@ -663,17 +902,27 @@ impl Console {
 
 impl Drop for Console {
     fn drop(&mut self) {
-        self.disconnect_gps();
-        self.disconnect_vest();
+        self.shutdown();
     }
 }
 
-fn link_color(s: &LinkState) -> Color32 {
+fn vest_color(s: Option<&LinkState>) -> Color32 {
     match s {
-        LinkState::Live => Color32::from_rgb(40, 170, 60),
-        LinkState::Connecting { .. } | LinkState::Stale => Color32::from_rgb(220, 150, 0),
-        LinkState::Lost { .. } => Color32::from_rgb(230, 40, 40),
-        LinkState::Disconnected => Color32::GRAY,
+        Some(LinkState::Ready) => Color32::from_rgb(40, 170, 60),
+        Some(LinkState::Connecting { .. } | LinkState::Handshaking) => Color32::from_rgb(220, 150, 0),
+        Some(LinkState::Lost { .. }) => Color32::from_rgb(230, 40, 40),
+        Some(LinkState::Disconnected) | None => Color32::GRAY,
+    }
+}
+
+fn gps_color(s: Option<&SourceState>) -> Color32 {
+    match s {
+        Some(SourceState::Live { .. }) => Color32::from_rgb(40, 170, 60),
+        Some(SourceState::Connecting { .. } | SourceState::Stale | SourceState::Reconnecting { .. }) => {
+            Color32::from_rgb(220, 150, 0)
+        }
+        Some(SourceState::Lost { .. }) => Color32::from_rgb(230, 40, 40),
+        Some(SourceState::Finished | SourceState::Stopped) | None => Color32::GRAY,
     }
 }
 
@@ -690,27 +939,41 @@ fn guidance_settings(cfg: &Config) -> GuidanceSettings {
     }
 }
 
-/// Forwards every message of `rx` through `forward` until the input closes or `forward` says the UI is gone.
-fn spawn_router<T: Send + 'static>(
-    name: &str,
-    rx: Receiver<T>,
-    forward: impl Fn(T) -> bool + Send + 'static,
-) {
-    let _ = std::thread::Builder::new().name(name.into()).spawn(move || {
-        while let Ok(ev) = rx.recv() {
-            if !forward(ev) {
-                break;
-            }
-        }
-    });
+/// What the session log records of a GPS event.
+fn gps_log_entry(ev: &GpsEvent) -> Option<LogEntry> {
+    match ev {
+        GpsEvent::Fix(f) if f.has_position() => Some(LogEntry::Fix {
+            lat_deg: f.lat_deg?,
+            lon_deg: f.lon_deg?,
+            error_m: f.error.map(|e| e.horizontal_m),
+            speed_m_s: f.speed_m_s,
+            course_deg: f.course_deg,
+            gps_utc: f.time.map(|t| t.to_rfc3339_opts(chrono::SecondsFormat::Millis, true)),
+        }),
+        GpsEvent::State(s) => Some(LogEntry::Note { text: format!("gps {}", crate::gps_panel::state_label(Some(s))) }),
+        GpsEvent::Notice(n) => Some(LogEntry::Note { text: format!("gps: {n}") }),
+        _ => None,
+    }
 }
 
-/// Kept for the config picker: which GPS source kind is chosen.
-pub fn source_kind(s: &GpsSourceConfig) -> &'static str {
-    match s {
-        GpsSourceConfig::Simulator => "Simulator",
-        GpsSourceConfig::Serial { .. } => "Serial port",
-        GpsSourceConfig::Replay { .. } => "NMEA file replay",
-        GpsSourceConfig::Gpsd { .. } => "gpsd",
-    }
+/// What the session log records of a vest event.
+fn vest_log_entry(ev: &VestEvent) -> Option<LogEntry> {
+    Some(match ev {
+        VestEvent::Acked { seq, kind } => LogEntry::Ack { what: format!("{} #{seq}", kind.name()) },
+        VestEvent::TactorsOn(Some(mask)) => LogEntry::TactorsOn { mask: *mask },
+        VestEvent::Rejected { kind, reason, .. } => {
+            LogEntry::Note { text: format!("vest refused {}: {reason}", kind.name()) }
+        }
+        VestEvent::State(s) => LogEntry::Note { text: format!("vest {s}") },
+        VestEvent::Transport(t) => LogEntry::Note { text: format!("vest transport: {t}") },
+        VestEvent::Halted { reason } => LogEntry::Note { text: format!("guidance halted: {reason}") },
+        VestEvent::Resumed => LogEntry::Note { text: "guidance resumed".to_owned() },
+        VestEvent::Identified(info) => LogEntry::Note {
+            text: format!(
+                "vest identified: protocol v{}, firmware {}, {} tactors, watchdog {} ms",
+                info.protocol_version, info.firmware, info.tactor_count, info.watchdog_ms
+            ),
+        },
+        VestEvent::TactorsOn(None) | VestEvent::Status(_) => return None,
+    })
 }

@@ -11,14 +11,16 @@
 //!
 //! Both warn when the receiver looks pinned: `SiRF` Star III "static navigation" holds the position while the
 //! speed is below about 1.2 m/s (physics.md §5), which flatters a drift test and distorts cone marks.
-//! Statistics come from `vestnav_core::fieldtest`, geodesy from `vestnav_core::geo`; reports export as JSON
-//! and as a PNG sheet (`vestnav_plot`) of exactly the plots shown.
+//! Statistics come from `vestnav_core::fieldtest`, geodesy from `vestnav_core::geo`; the sheets shown and
+//! exported and the JSON reports come from `vestnav_report::fieldtest`, the same as `vestnav fieldtest drift|
+//! cones --png/--json` write for the same fixes.
 
-use serde::Serialize;
 use vestnav_core::fieldtest::{self, ConeConfig, ConeMark, ConeStats, DriftStats, TimedFix};
-use vestnav_core::geo::{Earth, LatLon, LocalFrame};
+use vestnav_core::geo::{Earth, LatLon};
+use vestnav_report::Figure;
+use vestnav_report::fieldtest::{ConesReport, DriftReport, Source, cones_figure, drift_figure, drift_rows};
 
-use crate::sim_panel::{ChartSpec, ExportFormat, Exporter, PanelSpec, SeriesSpec, panels_grid, render_png};
+use crate::sim_panel::{ExportFormat, Exporter, figure_grid};
 
 /// Speed below which `SiRF` Star III static navigation may pin the position [m/s] (physics.md §5).
 pub const STATIC_NAV_SPEED_M_S: f64 = 1.2;
@@ -147,7 +149,7 @@ pub struct FieldTestPanel {
     rejected: usize,
     drift: DriftTest,
     cones: ConeTest,
-    plots: Option<(PlotKey, Vec<PanelSpec>)>,
+    plots: Option<(PlotKey, Figure)>,
     exporter: Exporter,
 }
 
@@ -162,18 +164,6 @@ impl Default for FieldTestPanel {
     fn default() -> Self {
         Self::new()
     }
-}
-
-/// A JSON report of one test.
-#[derive(Serialize)]
-struct Report<'a, S: Serialize> {
-    test: &'static str,
-    earth: Earth,
-    settings: serde_json::Value,
-    stats: Option<&'a S>,
-    error: Option<&'a str>,
-    fixes: Vec<[f64; 3]>,
-    marks: &'a [ConeMark],
 }
 
 impl FieldTestPanel {
@@ -510,8 +500,8 @@ impl FieldTestPanel {
         action
     }
 
-    /// The current procedure's plots, rebuilt when its data changed.
-    fn panels(&mut self) -> &[PanelSpec] {
+    /// The current procedure's sheet, rebuilt when its data changed.
+    fn figure(&mut self) -> &Figure {
         let key = PlotKey {
             procedure: self.procedure,
             revision: match self.procedure {
@@ -520,42 +510,50 @@ impl FieldTestPanel {
             },
         };
         if self.plots.as_ref().is_none_or(|(k, _)| *k != key) {
-            let panels = match self.procedure {
-                Procedure::Drift => self.drift.stats.as_ref().map(drift_panels).unwrap_or_default(),
-                Procedure::Cones => cone_panels(&self.cones, self.earth),
+            let figure = match self.procedure {
+                Procedure::Drift => self.drift.stats.as_ref().map_or_else(Figure::new, drift_figure),
+                Procedure::Cones => {
+                    cones_figure(self.cones.stats.as_ref(), &self.cones.marks, &self.cones.track, self.earth)
+                }
             };
-            self.plots = Some((key, panels));
+            self.plots = Some((key, figure));
         }
-        self.plots.as_ref().map_or(&[], |(_, p)| p.as_slice())
+        &self.plots.get_or_insert_with(|| (key, Figure::new())).1
+    }
+
+    /// The drift test's report.
+    fn drift_report(&self) -> DriftReport {
+        let stats = match (&self.drift.stats, &self.drift.error) {
+            (Some(s), _) => Ok(s.clone()),
+            (None, e) => Err(e.clone().unwrap_or_else(|| "no fixes recorded".to_string())),
+        };
+        DriftReport::new(Source::live(), self.earth, Some(self.drift.target_s), stats, &self.drift.fixes)
+    }
+
+    /// The cone test's report.
+    fn cones_report(&self) -> ConesReport {
+        let stats = match (&self.cones.stats, &self.cones.error) {
+            (Some(s), _) => Some(Ok(s.clone())),
+            (None, Some(e)) => Some(Err(e.clone())),
+            (None, None) => None,
+        };
+        ConesReport::new(
+            Source::live(),
+            self.cones.config(self.earth),
+            None,
+            stats,
+            &self.cones.marks,
+            &self.cones.track,
+        )
     }
 
     /// The JSON report of the current procedure.
     fn report_json(&self) -> Result<Vec<u8>, String> {
-        let result = match self.procedure {
-            Procedure::Drift => serde_json::to_vec_pretty(&Report {
-                test: "drift",
-                earth: self.earth,
-                settings: serde_json::json!({ "target_s": self.drift.target_s }),
-                stats: self.drift.stats.as_ref(),
-                error: self.drift.error.as_deref(),
-                fixes: track_rows(&self.drift.fixes),
-                marks: &[],
-            }),
-            Procedure::Cones => serde_json::to_vec_pretty(&Report {
-                test: "cones",
-                earth: self.earth,
-                settings: serde_json::json!({
-                    "spacing_m": self.cones.spacing_m,
-                    "count": self.cones.count,
-                    "line_bearing_deg": self.cones.use_bearing.then_some(self.cones.bearing_deg),
-                }),
-                stats: self.cones.stats.as_ref(),
-                error: self.cones.error.as_deref(),
-                fixes: track_rows(&self.cones.track),
-                marks: &self.cones.marks,
-            }),
+        let text = match self.procedure {
+            Procedure::Drift => vestnav_report::to_json(&self.drift_report()),
+            Procedure::Cones => vestnav_report::to_json(&self.cones_report()),
         };
-        result.map_err(|e| format!("cannot encode the report: {e}"))
+        text.map(String::into_bytes).map_err(|e| format!("cannot encode the report: {e}"))
     }
 
     fn export_and_plots(&mut self, ui: &mut egui::Ui) {
@@ -574,13 +572,9 @@ impl FieldTestPanel {
                     self.exporter.start(&ctx, format, move || json);
                 }
                 ExportFormat::Png | ExportFormat::Csv => {
-                    let title = match self.procedure {
-                        Procedure::Drift => "GPS drift test (thesis §5, Fig 65)",
-                        Procedure::Cones => "GPS cone test (thesis §5, Figs 67-70)",
-                    };
-                    let panels = self.panels().to_vec();
+                    let figure = self.figure().clone();
                     self.exporter.start(&ctx, ExportFormat::Png, move || {
-                        render_png(title, &panels).map_err(|e| format!("cannot render the figure: {e}"))
+                        figure.render_png().map_err(|e| format!("cannot render the figure: {e}"))
                     });
                 }
             }
@@ -589,9 +583,8 @@ impl FieldTestPanel {
             Procedure::Drift => "fieldtest-drift",
             Procedure::Cones => "fieldtest-cones",
         };
-        self.panels();
-        let panels = self.plots.as_ref().map_or(&[][..], |(_, p)| p.as_slice());
-        egui::ScrollArea::vertical().id_salt(id).show(ui, |ui| panels_grid(ui, id, panels, 260.0));
+        let figure = self.figure().clone();
+        egui::ScrollArea::vertical().id_salt(id).show(ui, |ui| figure_grid(ui, id, &figure, 260.0));
     }
 }
 
@@ -632,96 +625,6 @@ fn cone_stats_ui(ui: &mut egui::Ui, s: &ConeStats) {
     for w in &s.warnings {
         ui.colored_label(ui.visuals().warn_fg_color, format!("Warning: {w}"));
     }
-}
-
-/// `[t_s, lat_deg, lon_deg]` rows of a track for the JSON report.
-fn track_rows(track: &[TimedFix]) -> Vec<[f64; 3]> {
-    track.iter().map(|f| [f.t_s, f.pos.lat_deg, f.pos.lon_deg]).collect()
-}
-
-/// Named drift statistics with units.
-fn drift_rows(s: &DriftStats) -> Vec<(&'static str, String)> {
-    vec![
-        ("fixes", format!("{} over {:.0} s", s.fixes, s.duration_s)),
-        ("max distance from the first fix", format!("{:.3} m", s.max_from_first_m)),
-        ("max distance from the mean", format!("{:.3} m", s.max_from_mean_m)),
-        ("CEP50 (about the mean)", format!("{:.3} m", s.cep50_m)),
-        ("CEP95 (about the mean)", format!("{:.3} m", s.cep95_m)),
-        ("DRMS", format!("{:.3} m", s.drms_m)),
-        ("2DRMS", format!("{:.3} m", s.twodrms_m)),
-        ("sigma east / north", format!("{:.3} / {:.3} m", s.sigma_en_m[0], s.sigma_en_m[1])),
-        ("mean position", format!("{:.7}°, {:.7}°", s.mean.lat_deg, s.mean.lon_deg)),
-    ]
-}
-
-/// Drift plots: distance from the first fix against time (Fig 65) and the scatter about the mean.
-fn drift_panels(s: &DriftStats) -> Vec<PanelSpec> {
-    let distance = ChartSpec::new("Distance of each fix from the first (Fig 65)", "time [s]", "distance [m]")
-        .with(SeriesSpec::line("from the first fix", s.t_s.clone(), s.from_first_m.clone()))
-        .with(SeriesSpec::dashed("from the mean", s.t_s.clone(), s.from_mean_m.clone()))
-        .hline(s.max_from_first_m, format!("max {:.2} m", s.max_from_first_m));
-    let (e, n): (Vec<f64>, Vec<f64>) = s.en_about_mean_m.iter().map(|v| (v.x, v.y)).unzip();
-    let scatter = ChartSpec::new("Fixes about the mean position", "east [m]", "north [m]")
-        .equal_aspect()
-        .with(SeriesSpec::scatter("fixes", e, n))
-        .circle(0.0, 0.0, s.cep50_m, format!("CEP50 {:.2} m", s.cep50_m))
-        .circle(0.0, 0.0, s.cep95_m, format!("CEP95 {:.2} m", s.cep95_m));
-    vec![PanelSpec::Chart(distance), PanelSpec::Chart(scatter)]
-}
-
-/// Cone plots: the track with the marks circled (Figs 67/68), the consecutive distances with the spacing and
-/// the RMSE (Figs 69/70), and the along/cross components.
-fn cone_panels(test: &ConeTest, earth: Earth) -> Vec<PanelSpec> {
-    let origin = test.marks.first().map(|m| m.pos).or_else(|| test.track.first().map(|f| f.pos));
-    let Some(origin) = origin else { return Vec::new() };
-    let frame = LocalFrame::new(origin, earth);
-    let (te, tn): (Vec<f64>, Vec<f64>) = test
-        .track
-        .iter()
-        .map(|f| {
-            let v = frame.enu_from_wgs84(f.pos);
-            (v.x, v.y)
-        })
-        .unzip();
-    let mark_en: Vec<(f64, f64)> = test
-        .marks
-        .iter()
-        .map(|m| {
-            let v = frame.enu_from_wgs84(m.pos);
-            (v.x, v.y)
-        })
-        .collect();
-    let mut map = ChartSpec::new("Track and cone marks (Figs 67/68)", "east [m]", "north [m]")
-        .equal_aspect()
-        .with(SeriesSpec::line("track", te, tn))
-        .with(SeriesSpec::scatter(
-            "marks",
-            mark_en.iter().map(|p| p.0).collect(),
-            mark_en.iter().map(|p| p.1).collect(),
-        ));
-    for ((x, y), m) in mark_en.iter().zip(&test.marks) {
-        map = map.circle(*x, *y, 1.0, "");
-        map.annotations.push((*x, *y, m.label.clone()));
-    }
-    let mut panels = vec![PanelSpec::Chart(map)];
-    if let Some(s) = &test.stats {
-        let idx: Vec<f64> = (1..=s.distances_m.len()).map(|k| k as f64).collect();
-        let distances =
-            ChartSpec::new("Distance between consecutive cones (Figs 69/70)", "segment", "distance [m]")
-                .with(SeriesSpec::line("measured", idx.clone(), s.distances_m.clone()))
-                .with(SeriesSpec::scatter("", idx.clone(), s.distances_m.clone()))
-                .hline(s.spacing_m, format!("nominal {} m", s.spacing_m))
-                .hline(s.mean_m, format!("mean {:.2} m", s.mean_m))
-                .hline(s.rmse_m, format!("RMSE {:.2} m", s.rmse_m));
-        let components = ChartSpec::new("Along- and cross-line components", "segment", "component [m]")
-            .with(SeriesSpec::line("along-line", idx.clone(), s.along_m.clone()))
-            .with(SeriesSpec::line("cross-line (right +)", idx, s.cross_m.clone()))
-            .hline(s.spacing_m, "nominal")
-            .hline(0.0, "");
-        panels.push(PanelSpec::Chart(distances));
-        panels.push(PanelSpec::Chart(components));
-    }
-    panels
 }
 
 #[cfg(test)]
@@ -782,9 +685,16 @@ mod tests {
         panel.procedure = Procedure::Cones;
         let json: serde_json::Value = serde_json::from_slice(&panel.report_json().unwrap()).unwrap();
         assert_eq!(json["test"], "cones");
-        assert_eq!(json["marks"].as_array().unwrap().len(), 4);
-        assert_eq!(json["stats"]["distances_m"].as_array().unwrap().len(), 3);
-        assert_eq!(json["settings"]["spacing_m"], 10.0);
+        assert_eq!(json["cone_marks"].as_array().unwrap().len(), 4);
+        assert_eq!(json["marks"], 4);
+        assert_eq!(json["distances_m"].as_array().unwrap().len(), 3);
+        assert_eq!(json["config"]["spacing_m"], 10.0);
+        // The report round-trips through its schema.
+        let back: ConesReport = serde_json::from_slice(&panel.report_json().unwrap()).unwrap();
+        let labels: Vec<&str> = back.cone_marks.iter().map(|m| m.label.as_str()).collect();
+        assert_eq!(labels, ["cone 1", "cone 2", "cone 3", "cone 4"]);
+        let rmse = panel.cones.stats.as_ref().unwrap().rmse_m;
+        assert_relative_eq!(back.stats.unwrap().rmse_m, rmse, max_relative = 1e-12);
     }
 
     #[test]
@@ -805,14 +715,18 @@ mod tests {
         assert_relative_eq!(s.cep50_m, 2.0, max_relative = 1e-3);
         assert_relative_eq!(s.drms_m, 2.0, max_relative = 1e-3);
         assert_relative_eq!(s.max_from_first_m, 4.0, max_relative = 1e-6);
-        let panels = drift_panels(s);
-        let PanelSpec::Chart(scatter) = &panels[1] else { panic!("chart expected") };
-        assert_eq!(scatter.circles.len(), 2);
-        assert_relative_eq!(scatter.circles[0].2, s.cep50_m);
+        let cep50 = s.cep50_m;
         panel.procedure = Procedure::Drift;
+        let Some(vestnav_plot::Panel::Chart(scatter)) = panel.figure().panels.get(1) else {
+            panic!("chart expected")
+        };
+        assert_eq!(scatter.circles.len(), 3, "CEP50, CEP95, 2DRMS");
+        assert_relative_eq!(scatter.circles[0].r, cep50);
         let json: serde_json::Value = serde_json::from_slice(&panel.report_json().unwrap()).unwrap();
-        assert_eq!(json["stats"]["fixes"], 181);
-        assert!(json["stats"]["cep95_m"].is_number() && json["stats"]["twodrms_m"].is_number());
+        assert_eq!(json["test"], "drift");
+        assert_eq!(json["fixes"], 181);
+        assert_eq!(json["track"].as_array().unwrap().len(), 181);
+        assert!(json["cep95_m"].is_number() && json["twodrms_m"].is_number());
     }
 
     #[test]

@@ -2,12 +2,14 @@
 
 use std::path::PathBuf;
 
+use std::time::Instant;
+
 use egui::{Color32, RichText, Stroke, vec2};
+use vestnav_device::gps::{Fix, FixMode, Satellite, SourceState};
 use vestnav_device::serial::{PortInfo, PortKind};
 
 use crate::config::GpsSourceConfig;
 use crate::console::{Console, GpsAlarm};
-use crate::model::{FixMode, GpsFix, Satellite};
 
 /// Baud rates offered (the BT-359 talks 4800 by default); `None` = automatic detection.
 pub const BAUDS: [Option<u32>; 7] =
@@ -107,8 +109,24 @@ pub fn dms(value_deg: f64, pos: char, neg: char) -> String {
     format!("{d:.0}° {m:02.0}' {s:05.2}\" {hemi}")
 }
 
-/// Draws the GPS section.
-pub fn show(c: &mut Console, ui: &mut egui::Ui, now_s: f64) {
+/// The source's state in words (`None`: no source running).
+pub fn state_label(s: Option<&SourceState>) -> String {
+    match s {
+        None => "disconnected".to_owned(),
+        Some(SourceState::Connecting { detail }) => format!("connecting: {detail}"),
+        Some(SourceState::Live { .. }) => "live".to_owned(),
+        Some(SourceState::Stale) => "stale: no data".to_owned(),
+        Some(SourceState::Lost { reason }) => format!("lost: {reason}"),
+        Some(SourceState::Reconnecting { attempt, delay_ms }) => {
+            format!("reconnecting (attempt {attempt}, in {:.1} s)", *delay_ms as f64 / 1000.0)
+        }
+        Some(SourceState::Finished) => "end of input".to_owned(),
+        Some(SourceState::Stopped) => "stopped".to_owned(),
+    }
+}
+
+/// Draws the GPS section; `now` is the clock fix ages are measured on, `anim_s` only drives the blink.
+pub fn show(c: &mut Console, ui: &mut egui::Ui, now: Instant, anim_s: f64) {
     picker_ui(c, ui);
     ui.horizontal(|ui| {
         let connected = c.gps_connected();
@@ -124,17 +142,17 @@ pub fn show(c: &mut Console, ui: &mut egui::Ui, now_s: f64) {
         if ui.add_enabled(connected, egui::Button::new("Disconnect GPS")).clicked() {
             c.disconnect_gps();
         }
-        ui.label(RichText::new(c.gps.link.label()).strong());
+        ui.label(RichText::new(state_label(c.gps.state.as_ref())).strong());
     });
     if let Some(n) = &c.gps.notice {
         ui.label(RichText::new(n).small().weak());
     }
 
-    let alarm = c.gps_alarm(now_s);
+    let alarm = c.gps_alarm(now);
     if let Some(a) = &alarm
         && !c.gps.alarm_silenced
     {
-        let blink = (now_s * 2.0).fract() < 0.5;
+        let blink = (anim_s * 2.0).fract() < 0.5;
         let (text, color) = match a {
             GpsAlarm::Lost { reason } => (format!("GPS FIX LOST: {reason}"), Color32::from_rgb(220, 30, 30)),
             GpsAlarm::Stale { age_s } => {
@@ -157,8 +175,20 @@ pub fn show(c: &mut Console, ui: &mut egui::Ui, now_s: f64) {
         ui.label("no fix yet");
         return;
     };
-    let age = c.gps.fix_at_s.map(|t| now_s - t);
+    let age = c.position_age(now).map(|a| a.as_secs_f64());
     fix_grid(ui, &fix, age, c.gps.fixes);
+    if let Some(st) = &c.gps.stats {
+        ui.label(
+            RichText::new(format!(
+                "{} sentences, {} epochs, {} rejected ({} bad checksums)",
+                st.sentences,
+                st.epochs,
+                st.rejected(),
+                st.bad_checksum
+            ))
+            .small(),
+        );
+    }
     if !fix.satellites.is_empty() {
         ui.horizontal(|ui| {
             sky_plot(ui, &fix.satellites, 130.0);
@@ -245,29 +275,36 @@ fn picker_ui(c: &mut Console, ui: &mut egui::Ui) {
     }
 }
 
-fn fix_grid(ui: &mut egui::Ui, f: &GpsFix, age_s: Option<f64>, fixes: u64) {
+fn fix_grid(ui: &mut egui::Ui, f: &Fix, age_s: Option<f64>, fixes: u64) {
     let opt = |v: Option<f64>, unit: &str, prec: usize| {
         v.filter(|x| x.is_finite()).map_or_else(|| "—".to_owned(), |x| format!("{x:.prec$} {unit}"))
     };
     egui::Grid::new("gps-fix").num_columns(2).striped(true).show(ui, |ui| {
-        if f.has_position() {
+        if f.has_position()
+            && let (Some(lat), Some(lon)) = (f.lat_deg, f.lon_deg)
+        {
             ui.label("Latitude");
-            ui.label(format!("{:.7}°  {}", f.lat_deg, dms(f.lat_deg, 'N', 'S')));
+            ui.label(format!("{lat:.7}°  {}", dms(lat, 'N', 'S')));
             ui.end_row();
             ui.label("Longitude");
-            ui.label(format!("{:.7}°  {}", f.lon_deg, dms(f.lon_deg, 'E', 'W')));
+            ui.label(format!("{lon:.7}°  {}", dms(lon, 'E', 'W')));
             ui.end_row();
         }
         ui.label("UTC");
-        ui.label(f.time_utc.as_deref().unwrap_or("—"));
+        let utc = f
+            .time
+            .map(|t| t.to_rfc3339_opts(chrono::SecondsFormat::Millis, true))
+            .or_else(|| f.time_of_day.map(|t| t.format("%H:%M:%S%.3f").to_string()));
+        ui.label(utc.as_deref().unwrap_or("—"));
         ui.end_row();
         ui.label("Fix");
         let mode = match f.mode {
-            FixMode::NoFix => "no fix",
-            FixMode::Fix2d => "2D",
-            FixMode::Fix3d => "3D",
+            None | Some(FixMode::NoFix) => "no fix",
+            Some(FixMode::Fix2D) => "2D",
+            Some(FixMode::Fix3D) => "3D",
         };
-        ui.label(format!("{mode} · {}", if f.quality.is_empty() { "—" } else { &f.quality }));
+        let quality = f.quality.map_or_else(|| "—".to_owned(), |q| format!("{q:?}"));
+        ui.label(format!("{mode} · {quality}"));
         ui.end_row();
         ui.label("Satellites");
         let n = |v: Option<u32>| v.map_or_else(|| "—".to_owned(), |v| v.to_string());
@@ -277,7 +314,7 @@ fn fix_grid(ui: &mut egui::Ui, f: &GpsFix, age_s: Option<f64>, fixes: u64) {
         ui.label(format!("{} / {}", opt(f.hdop, "", 1), opt(f.pdop, "", 1)));
         ui.end_row();
         ui.label("Error estimate");
-        ui.label(opt(f.error_m, "m", 1));
+        ui.label(opt(f.error.map(|e| e.horizontal_m), "m", 1));
         ui.end_row();
         ui.label("Altitude");
         ui.label(opt(f.alt_m, "m", 1));
@@ -326,7 +363,7 @@ fn sky_plot(ui: &mut egui::Ui, sats: &[Satellite], size: f32) {
         let rr = r * ((90.0 - el.clamp(0.0, 90.0)) / 90.0) as f32;
         let a = (az as f32).to_radians();
         let pos = c + vec2(rr * a.sin(), -rr * a.cos());
-        p.circle_filled(pos, 5.0, snr_color(s.snr_db, s.used));
+        p.circle_filled(pos, 5.0, snr_color(s.snr_dbhz, s.used));
         p.text(
             pos + vec2(0.0, -9.0),
             egui::Align2::CENTER_CENTER,
@@ -345,13 +382,13 @@ fn signal_bars(ui: &mut egui::Ui, sats: &[Satellite], size: egui::Vec2) {
     let w = rect.width() / n as f32;
     let font = egui::FontId::proportional(9.0);
     for (i, s) in sats.iter().take(n).enumerate() {
-        let h = (rect.height() - 14.0) * (s.snr_db.unwrap_or(0.0).clamp(0.0, 50.0) / 50.0) as f32;
+        let h = (rect.height() - 14.0) * (s.snr_dbhz.unwrap_or(0.0).clamp(0.0, 50.0) / 50.0) as f32;
         let x0 = rect.left() + i as f32 * w + 1.0;
         let bottom = rect.bottom() - 12.0;
         p.rect_filled(
             egui::Rect::from_min_max(egui::pos2(x0, bottom - h), egui::pos2(x0 + w - 2.0, bottom)),
             1.0,
-            snr_color(s.snr_db, s.used),
+            snr_color(s.snr_dbhz, s.used),
         );
         p.text(
             egui::pos2(x0 + w / 2.0, bottom + 6.0),

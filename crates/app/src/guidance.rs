@@ -1,11 +1,17 @@
 //! The guidance worker: a thread that runs `vestnav_core::guidance::Guidance` on every fix and sends its cues
 //! to the vest.
 //!
-//! It runs outside the frame update so guidance keeps going when the window is hidden or busy. Every 250 ms
-//! without a fix it updates the engine with the age of the last fix, so a stale or lost fix turns into the
-//! engine's "attention / hold" instead of a directional cue. Override rules (the engine's, see
-//! `docs/guidance.md`): STOP ALL halts automatic cues until automatic guidance is switched on again; a manual
-//! cue or tactor mutes automatic cues for the manual hold time.
+//! It runs outside the frame update so guidance keeps going when the window is busy. The GPS and vest
+//! workers deliver their events to it directly (its input channel is one of their outboxes). Every 250 ms
+//! without a fix it updates the engine with the age of the last fix — measured from the instant the fix's
+//! bytes arrived, the same clock the UI and the session log use — so a stale or lost fix turns into the
+//! engine's "attention / hold" instead of a directional cue.
+//!
+//! Override rules (the engine's, see `docs/guidance.md`): STOP ALL halts automatic cues until the operator
+//! resumes them; a manual cue or tactor mutes automatic cues for the manual hold time. The STOP ALL latch
+//! itself lives in the vest worker (it refuses automatic commands), so no ordering of messages between the
+//! UI and this thread can let a cue through after a stop. The thread beats the vest worker's
+//! [`Watched::Guidance`] heartbeat: if it stalls, the vest worker stops every tactor by itself.
 
 use std::sync::Arc;
 use std::sync::mpsc::{Receiver, RecvTimeoutError};
@@ -17,11 +23,16 @@ use vestnav_core::guidance::{
     Waypoint as CoreWaypoint,
 };
 use vestnav_core::vest::Cue;
+use vestnav_device::gps::{Fix, GpsEvent};
+use vestnav_device::outbox::Outbox;
+use vestnav_device::wtcu::worker::{Heartbeat, VestSendError, Watched};
+use vestnav_device::wtcu::{CommandOrigin, LinkState, VestCommand, VestEvent, VestHandle};
 
-use crate::devices::VestLink;
-use crate::model::{CommandOrigin, GpsFix, Outbox, VestCommand};
 use crate::route::Waypoint;
-use crate::session_log::{LogEntry, LogSender};
+use vestnav_device::session_log::{LogEntry, LogSender};
+
+/// How often the worker re-evaluates without a new fix (and beats its heartbeat).
+pub const TICK: Duration = Duration::from_millis(250);
 
 /// Guidance settings the operator controls.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -47,8 +58,10 @@ pub struct GuidanceSettings {
 /// Messages to the guidance worker.
 #[derive(Clone)]
 pub enum GuidanceInput {
-    /// A new fix.
-    Fix(GpsFix),
+    /// An event of the GPS source (fixes; the rest is ignored).
+    Gps(GpsEvent),
+    /// An event of the vest worker (link state, the STOP ALL latch, refusals).
+    Vest(VestEvent),
     /// The route changed (edited on the map, imported, skipped); `next` is the waypoint to head for.
     Route {
         /// The waypoints.
@@ -60,10 +73,12 @@ pub enum GuidanceInput {
     Settings(GuidanceSettings),
     /// The operator sent a manual command (`Some(cue)` when it was one of the named cues).
     ManualOverride(Option<Cue>),
-    /// The operator pressed STOP ALL.
+    /// The operator pressed STOP ALL (the vest worker already has it; this tells the engine).
     StopAll,
-    /// The vest link changed (connected / gone).
-    Vest(Option<Arc<dyn VestLink>>),
+    /// The operator resumed automatic cues.
+    Resume,
+    /// The vest worker changed (connected / gone); the liveness bound of this thread's heartbeat.
+    VestLink(Option<Arc<VestHandle>>, Duration),
 }
 
 /// What the worker tells the UI after each update.
@@ -73,8 +88,11 @@ pub struct GuidanceStatus {
     pub cue: Option<Cue>,
     /// Why, in words (the engine's reason, plus what happened to the cue).
     pub reason: String,
-    /// Whether a cue was sent to the vest by this update.
+    /// Whether a cue was handed to the vest worker by this update.
     pub sent: bool,
+    /// Why automatic guidance cannot steer the wearer now, when it cannot: no vest, vest not ready,
+    /// halted by STOP ALL, automatic cues off. `None` while cues can reach the wearer.
+    pub hold: Option<String>,
     /// Index of the next waypoint.
     pub next: usize,
     /// Distance to the next waypoint [m].
@@ -123,17 +141,19 @@ pub fn engine_config(s: &GuidanceSettings) -> (GuidanceConfig, RouteConfig) {
     (g, r)
 }
 
-/// The engine's input for a fix `age_s` old.
-pub fn nav_input(fix: &GpsFix, age_s: f64) -> NavInput {
+/// The engine's input for `fix` at `now`: its age is measured from the instant its bytes arrived (a fix
+/// without that instant counts as infinitely old).
+pub fn nav_input(fix: &Fix, now: Instant) -> NavInput {
+    let age_s = fix.age(now).map_or(f64::INFINITY, |a| a.as_secs_f64());
     NavInput {
-        position: fix.has_position().then(|| LatLon::new(fix.lat_deg, fix.lon_deg)),
+        position: fix.has_position().then(|| fix.lat_deg.zip(fix.lon_deg)).flatten().map(|(la, lo)| LatLon::new(la, lo)),
         fix_age_s: age_s,
         speed_m_s: fix.speed_m_s,
         cog_deg: fix.course_deg,
-        true_heading_deg: None,
+        true_heading_deg: fix.true_heading_deg,
         compass_deg: None,
         hdop: fix.hdop,
-        accuracy_m: fix.error_m,
+        accuracy_m: fix.error.map(|e| e.horizontal_m),
     }
 }
 
@@ -151,17 +171,29 @@ pub fn spawn(
             waypoints: Vec::new(),
             engine: None,
             vest: None,
+            beat: None,
+            vest_state: None,
+            halted: None,
             last_fix: None,
             ui,
             log,
         };
+        let mut next_tick = Instant::now() + TICK;
         loop {
-            let msg = rx.recv_timeout(Duration::from_millis(250));
-            let now_s = start.elapsed().as_secs_f64();
+            let msg = rx.recv_timeout(next_tick.saturating_duration_since(Instant::now()));
+            if let Some(b) = &w.beat {
+                b.beat();
+            }
+            let now = Instant::now();
+            let now_s = now.duration_since(start).as_secs_f64();
             match msg {
-                Ok(m) => w.handle(m, now_s),
-                Err(RecvTimeoutError::Timeout) => w.tick(now_s),
+                Ok(m) => w.handle(m, now, now_s),
+                Err(RecvTimeoutError::Timeout) => {}
                 Err(RecvTimeoutError::Disconnected) => break,
+            }
+            if now >= next_tick {
+                next_tick = now + TICK;
+                w.tick(now, now_s);
             }
         }
     })
@@ -171,38 +203,47 @@ struct GuidanceWorker {
     settings: GuidanceSettings,
     waypoints: Vec<Waypoint>,
     engine: Option<Guidance>,
-    vest: Option<Arc<dyn VestLink>>,
-    last_fix: Option<(GpsFix, f64)>,
+    vest: Option<Arc<VestHandle>>,
+    beat: Option<Heartbeat>,
+    vest_state: Option<LinkState>,
+    /// Why automatic cues are latched off (the vest worker's word), if they are.
+    halted: Option<String>,
+    last_fix: Option<Fix>,
     ui: Outbox<GuidanceStatus>,
     log: Option<LogSender>,
 }
 
 impl GuidanceWorker {
-    fn handle(&mut self, msg: GuidanceInput, now_s: f64) {
+    fn handle(&mut self, msg: GuidanceInput, now: Instant, now_s: f64) {
         match msg {
-            GuidanceInput::Fix(fix) => {
-                let input = nav_input(&fix, 0.0);
-                self.last_fix = Some((fix, now_s));
+            GuidanceInput::Gps(GpsEvent::Fix(fix)) => {
+                let input = nav_input(&fix, now);
+                self.last_fix = Some(*fix);
                 self.update(&input, now_s);
             }
+            GuidanceInput::Gps(_) => {}
+            GuidanceInput::Vest(ev) => match ev {
+                VestEvent::State(s) => self.vest_state = Some(s),
+                VestEvent::Halted { reason } => {
+                    self.halted = Some(reason);
+                    if let Some(g) = &mut self.engine {
+                        let _ = g.stop_all(now_s);
+                    }
+                }
+                VestEvent::Resumed => self.halted = None,
+                _ => {}
+            },
             GuidanceInput::Route { waypoints, next } => {
                 self.waypoints = waypoints;
                 self.rebuild(next);
             }
             GuidanceInput::Settings(s) => {
-                let was_auto = self.settings.auto;
                 // Anything but the auto switch changes the engine's configuration.
                 let structural = GuidanceSettings { auto: s.auto, ..self.settings } != s;
                 self.settings = s;
                 if structural {
                     let next = self.engine.as_ref().map_or(0, |g| g.route().active_index());
                     self.rebuild(next);
-                }
-                if s.auto
-                    && !was_auto
-                    && let Some(g) = &mut self.engine
-                {
-                    g.resume();
                 }
             }
             GuidanceInput::ManualOverride(cue) => {
@@ -216,7 +257,21 @@ impl GuidanceWorker {
                     let _ = g.stop_all(now_s);
                 }
             }
-            GuidanceInput::Vest(v) => self.vest = v,
+            GuidanceInput::Resume => {
+                self.halted = None;
+                if let Some(g) = &mut self.engine {
+                    g.resume();
+                }
+            }
+            GuidanceInput::VestLink(v, bound) => {
+                self.beat = v.as_ref().map(|h| h.heartbeat(Watched::Guidance, bound));
+                if let Some(b) = &self.beat {
+                    b.beat();
+                }
+                self.halted = v.as_ref().filter(|h| h.is_halted()).map(|_| "STOP ALL".to_owned());
+                self.vest_state = None;
+                self.vest = v;
+            }
         }
     }
 
@@ -241,10 +296,11 @@ impl GuidanceWorker {
                 Some(g)
             }
             Err(e) => {
-                self.ui.send(GuidanceStatus {
+                self.ui.try_send(GuidanceStatus {
                     cue: None,
                     reason: format!("no guidance: {e}"),
                     sent: false,
+                    hold: Some(format!("no route: {e}")),
                     next: 0,
                     distance_m: None,
                     bearing_deg: None,
@@ -260,49 +316,72 @@ impl GuidanceWorker {
     }
 
     /// Without new fixes, keep the engine informed of the fix age (stale fix: attention, not a direction).
-    fn tick(&mut self, now_s: f64) {
-        if let Some((fix, at)) = &self.last_fix {
-            let input = nav_input(fix, now_s - at);
+    fn tick(&mut self, now: Instant, now_s: f64) {
+        if let Some(fix) = &self.last_fix {
+            let input = nav_input(fix, now);
             self.update(&input, now_s);
         }
     }
 
+    /// Why cues cannot reach the wearer now, if they cannot.
+    fn hold_reason(&self) -> Option<String> {
+        if !self.settings.auto {
+            return Some("automatic cues off".to_owned());
+        }
+        if let Some(why) = &self.halted {
+            return Some(format!("halted ({why}); resume to guide again"));
+        }
+        match (&self.vest, &self.vest_state) {
+            (None, _) => Some("no vest connected".to_owned()),
+            (Some(_), Some(LinkState::Ready)) => None,
+            (Some(_), Some(s)) => Some(format!("vest {s}")),
+            (Some(_), None) => Some("vest not ready".to_owned()),
+        }
+    }
+
     fn update(&mut self, input: &NavInput, now_s: f64) {
+        let hold = self.hold_reason();
         let Some(g) = &mut self.engine else { return };
         let d = g.update(input, now_s);
         let mut sent = false;
         let mut reason = d.reason.clone();
         if let Some(pattern) = d.pattern.clone().filter(|_| d.cue.is_some()) {
-            if !self.settings.auto {
-                reason.push_str(" (automatic cues off)");
-            } else if let Some(vest) = &self.vest {
-                let cmd = VestCommand::Play(pattern);
-                match vest.send(cmd.clone()) {
-                    Ok(()) => {
-                        sent = true;
-                        if let Some(log) = &self.log {
-                            log.log(LogEntry::Command {
-                                origin: CommandOrigin::Guidance,
-                                command: cmd,
-                                reason: d.reason.clone(),
-                            });
+            match (&hold, &self.vest) {
+                (Some(why), _) => reason = format!("{reason} (not sent: {why})"),
+                (None, None) => reason.push_str(" (not sent: no vest)"),
+                (None, Some(vest)) => {
+                    let cmd = VestCommand::Play(pattern);
+                    match vest.send(cmd.clone(), CommandOrigin::Guidance) {
+                        Ok(()) => {
+                            sent = true;
+                            if let Some(log) = &self.log {
+                                log.log(LogEntry::Command {
+                                    origin: CommandOrigin::Guidance,
+                                    command: cmd,
+                                    reason: d.reason.clone(),
+                                });
+                            }
+                        }
+                        Err(e) => {
+                            if let VestSendError::Halted(_) = e {
+                                self.halted.get_or_insert_with(|| "STOP ALL".to_owned());
+                            }
+                            reason = format!("{reason} (not sent: {e})");
                         }
                     }
-                    Err(e) => reason = format!("{reason} (not sent: {e})"),
                 }
-            } else {
-                reason.push_str(" (no vest)");
             }
         }
-        self.ui.send(status(&d, reason, sent));
+        self.ui.try_send(status(&d, reason, sent, self.hold_reason()));
     }
 }
 
-fn status(d: &Decision, reason: String, sent: bool) -> GuidanceStatus {
+fn status(d: &Decision, reason: String, sent: bool, hold: Option<String>) -> GuidanceStatus {
     GuidanceStatus {
         cue: d.cue.or(d.wanted),
         reason,
         sent,
+        hold,
         next: d.waypoint_index,
         distance_m: d.distance_m,
         bearing_deg: d.bearing_deg,
@@ -311,70 +390,5 @@ fn status(d: &Decision, reason: String, sent: bool) -> GuidanceStatus {
         heading_source: d.heading_source.name(),
         state: state_name(d.state),
         finished: d.state == NavState::Finished,
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use std::sync::Mutex;
-    use std::sync::mpsc::sync_channel;
-
-    #[derive(Default)]
-    struct Rec(Mutex<Vec<VestCommand>>);
-    impl VestLink for Rec {
-        fn send(&self, c: VestCommand) -> Result<(), String> {
-            self.0.lock().unwrap().push(c);
-            Ok(())
-        }
-        fn close(&self) {}
-    }
-
-    fn settings() -> GuidanceSettings {
-        GuidanceSettings {
-            auto: true,
-            arrival_radius_m: 8.0,
-            cue_interval_s: 3.0,
-            manual_hold_s: 10.0,
-            stale_after_s: 3.0,
-            on_ms: 500,
-            loop_route: false,
-            strategy: StrategyKind::BearingOnly,
-        }
-    }
-
-    fn moving(lat: f64, lon: f64, course: f64) -> GpsFix {
-        GpsFix {
-            lat_deg: lat,
-            lon_deg: lon,
-            mode: crate::model::FixMode::Fix3d,
-            speed_m_s: Some(1.4),
-            course_deg: Some(course),
-            error_m: Some(3.0),
-            ..GpsFix::default()
-        }
-    }
-
-    #[test]
-    fn a_fix_heading_away_from_the_waypoint_sends_a_turn_and_stop_all_halts() {
-        let (in_tx, in_rx) = sync_channel(16);
-        let (ui_tx, ui_rx) = sync_channel(64);
-        let _t = spawn(in_rx, settings(), Outbox::new(ui_tx, None), None).unwrap();
-        let vest = Arc::new(Rec::default());
-        in_tx.send(GuidanceInput::Vest(Some(vest.clone()))).unwrap();
-        // One waypoint 100 m due north; the wearer walks due east: it is 90° to the left.
-        let wp = Waypoint { name: "N".into(), lat_deg: 42.0009, lon_deg: -71.0 };
-        in_tx.send(GuidanceInput::Route { waypoints: vec![wp], next: 0 }).unwrap();
-        in_tx.send(GuidanceInput::Fix(moving(42.0, -71.0, 90.0))).unwrap();
-        let st = ui_rx.recv_timeout(Duration::from_secs(2)).unwrap();
-        assert_eq!(st.cue, Some(Cue::TurnLeft), "{st:?}");
-        assert!(st.sent);
-        assert!((st.bearing_error_deg.unwrap() + 90.0).abs() < 1.0);
-        assert_eq!(vest.0.lock().unwrap().as_slice(), &[VestCommand::Play(Cue::TurnLeft.pattern(500))]);
-        in_tx.send(GuidanceInput::StopAll).unwrap();
-        in_tx.send(GuidanceInput::Fix(moving(42.0, -71.0, 180.0))).unwrap();
-        let st = ui_rx.recv_timeout(Duration::from_secs(2)).unwrap();
-        assert_eq!(st.state, "halted");
-        assert_eq!(vest.0.lock().unwrap().len(), 1, "nothing automatic after STOP ALL");
     }
 }

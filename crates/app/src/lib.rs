@@ -3,16 +3,13 @@
 //!
 //! Panels: GPS (source, fix, sky, alarm), Vest (4x4 grid as worn, patterns, STOP ALL), Guidance (automatic
 //! cues and why), Map (walkers tiles or a local metric grid, waypoints, track, GPX), Simulation and Field
-//! tests, and the session log viewer. Devices, guidance and the session log run on worker threads that talk
-//! to the UI over bounded channels ([`model::Outbox`]); [`console::Console`] is the whole UI state and can be
-//! driven without a window:
+//! tests, and the session log viewer. The device crate's workers, the guidance worker and the session log
+//! run on their own threads and hand their events to the UI over bounded channels;
+//! [`console::Console`] is the whole UI state and can be driven without a window:
 //!
 //! ```no_run
-//! # use vestnav_app::{console::{Console, ConsoleOptions}, config::Config, hardware::Hardware};
-//! let console = Console::new(
-//!     Box::new(Hardware),
-//!     ConsoleOptions { cfg: Config::default(), cfg_path: None, log_dir: None, waker: None },
-//! );
+//! # use vestnav_app::{console::{Console, ConsoleOptions}, hardware::Hardware};
+//! let console = Console::new(Box::new(Hardware), ConsoleOptions::default());
 //! assert!(console.gps_connected());
 //! ```
 
@@ -21,28 +18,33 @@ pub mod console;
 pub mod devices;
 mod fieldtest_panel;
 pub mod gps_panel;
-pub mod gps_source;
 pub mod guidance;
 pub mod hardware;
 pub mod log_viewer;
 pub mod map_panel;
-pub mod model;
 pub mod route;
-pub mod session_log;
 mod sim_panel;
 pub mod vest_panel;
 
-use console::{Console, ConsoleOptions};
+use console::{Console, ConsoleOptions, DeviceOverrides, EXIT_STOP_WAIT, ExitGuard, Liveness};
 
-/// Opens the console window and runs until it is closed.
+/// Opens the console window and runs until it is closed or the process is told to end.
 ///
-/// Settings come from the platform config file (see [`config`]); without one, the console starts with the
-/// built-in GPS simulator walking the demo route and the emulated vest.
-pub fn run() -> anyhow::Result<()> {
+/// Settings come from the platform config file (see [`config`]); devices given in `devices` (the
+/// command line's `--gps`/`--vest`) win over it for this run and connect at start. Without either, the
+/// console starts with the built-in GPS simulator walking the demo route and the emulated vest.
+///
+/// Every way out stops the vest first: closing the window, and SIGTERM, SIGINT or SIGHUP (a handler
+/// thread sends STOP ALL, waits at most [`EXIT_STOP_WAIT`] for the unit's acknowledgement, then ends the
+/// process).
+pub fn run(devices: DeviceOverrides) -> anyhow::Result<()> {
     let cfg_path = config::default_path();
     let (cfg, cfg_error) =
         cfg_path.as_deref().map_or_else(|| (config::Config::default(), None), config::Config::load);
     let log_dir = cfg.log_dir.clone().unwrap_or_else(|| config::data_dir().join("sessions"));
+    let exit = ExitGuard::default();
+    #[cfg(unix)]
+    stop_on_signals(exit.clone())?;
     let options = eframe::NativeOptions {
         viewport: egui::ViewportBuilder::default()
             .with_title("vestnav console")
@@ -56,7 +58,15 @@ pub fn run() -> anyhow::Result<()> {
         Box::new(move |cc| {
             let mut console = Console::new(
                 Box::new(hardware::Hardware),
-                ConsoleOptions { cfg, cfg_path, log_dir: Some(log_dir), waker: Some(cc.egui_ctx.clone()) },
+                ConsoleOptions {
+                    cfg,
+                    cfg_path,
+                    log_dir: Some(log_dir),
+                    waker: Some(cc.egui_ctx.clone()),
+                    devices,
+                    liveness: Some(Liveness::default()),
+                    exit,
+                },
             );
             if let Some(e) = cfg_error {
                 console.status = e;
@@ -67,11 +77,41 @@ pub fn run() -> anyhow::Result<()> {
     .map_err(|e| anyhow::anyhow!("cannot open the console window: {e}"))
 }
 
+/// Ends the process on SIGTERM, SIGINT or SIGHUP, after stopping the vest.
+#[cfg(unix)]
+fn stop_on_signals(exit: ExitGuard) -> anyhow::Result<()> {
+    use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
+    let mut signals = signal_hook::iterator::Signals::new([SIGTERM, SIGINT, SIGHUP])?;
+    std::thread::Builder::new().name("vestnav-signals".into()).spawn(move || {
+        if let Some(sig) = signals.forever().next() {
+            let acked = exit.stop_vest(EXIT_STOP_WAIT);
+            let how = if acked {
+                "acknowledged by the unit"
+            } else {
+                "not acknowledged (no vest, or the unit's watchdog stops the tactors)"
+            };
+            eprintln!("vestnav: signal {sig}: STOP ALL {how}; exiting");
+            std::process::exit(128 + sig);
+        }
+    })?;
+    Ok(())
+}
+
 /// eframe's view of the console.
 struct App(Console);
 
 impl eframe::App for App {
+    fn logic(&mut self, ctx: &egui::Context, _frame: &mut eframe::Frame) {
+        // Runs even while the window is hidden: the heartbeat and the event drain go on.
+        self.0.tick();
+        ctx.request_repaint_after(std::time::Duration::from_millis(250));
+    }
+
     fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
         self.0.ui(ui);
+    }
+
+    fn on_exit(&mut self, _gl: Option<&eframe::glow::Context>) {
+        self.0.shutdown();
     }
 }

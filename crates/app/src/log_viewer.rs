@@ -5,15 +5,15 @@ use std::path::{Path, PathBuf};
 use egui::RichText;
 
 use crate::map_panel::MapView;
-use crate::session_log::{LoadedLog, LogEntry, list_logs, read_log};
+use vestnav_device::session_log::{LogEntry, LogRecord, ReadStats, list_logs, read_log, track};
 
 /// Viewer state.
 #[derive(Debug, Default)]
 pub struct LogViewer {
     /// Path typed or picked.
     pub path: String,
-    /// The log loaded.
-    pub loaded: Option<(PathBuf, LoadedLog)>,
+    /// The log loaded: its records and what the reader skipped.
+    pub loaded: Option<(PathBuf, Vec<LogRecord>, ReadStats)>,
     /// Replay position [s since session start].
     pub cursor_s: f64,
     /// Replay running.
@@ -28,15 +28,15 @@ impl LogViewer {
     /// Loads `path`.
     pub fn load(&mut self, path: &Path) {
         match read_log(path) {
-            Ok(l) => {
-                self.loaded = Some((path.to_path_buf(), l));
+            Ok((records, stats)) => {
+                self.loaded = Some((path.to_path_buf(), records, stats));
                 self.cursor_s = 0.0;
                 self.error = None;
                 if self.speed <= 0.0 {
                     self.speed = 10.0;
                 }
             }
-            Err(e) => self.error = Some(format!("cannot read {}: {e}", path.display())),
+            Err(e) => self.error = Some(e.to_string()),
         }
     }
 
@@ -66,13 +66,13 @@ impl LogViewer {
         if let Some(e) = &self.error {
             ui.colored_label(egui::Color32::from_rgb(220, 40, 40), e);
         }
-        let Some((path, log)) = &self.loaded else {
+        let Some((path, records, stats)) = &self.loaded else {
             ui.label("Open a session log (JSON Lines, see docs/console.md) to view and replay it.");
             return;
         };
-        let track = log.track();
+        let track = track(records);
         let (mut fixes, mut cmds, mut acks, mut marks) = (0, 0, 0, 0);
-        for r in &log.records {
+        for r in records {
             match r.entry {
                 LogEntry::Fix { .. } => fixes += 1,
                 LogEntry::Command { .. } => cmds += 1,
@@ -81,13 +81,15 @@ impl LogViewer {
                 LogEntry::Note { .. } => {}
             }
         }
+        let dur = records.last().map_or(0.0, |r| r.t_s);
         ui.label(format!(
-            "{}: {:.0} s, {fixes} fixes, {cmds} commands, {acks} acks, {marks} marks, {} unreadable lines",
+            "{}: {dur:.0} s, {fixes} fixes, {cmds} commands, {acks} acks, {marks} marks; skipped: {} unreadable \
+             lines, {} over-long lines, {} invalid fixes",
             path.display(),
-            log.duration_s(),
-            log.bad_lines
+            stats.bad_lines,
+            stats.long_lines,
+            stats.invalid_fix_count()
         ));
-        let dur = log.duration_s();
         ui.horizontal(|ui| {
             if ui.button(if self.playing { "Pause" } else { "Replay" }).clicked() {
                 self.playing = !self.playing;
@@ -110,10 +112,10 @@ impl LogViewer {
         map.replay = Some((track.iter().map(|p| (p.1, p.2)).collect(), upto));
         ui.label(RichText::new("The replayed track is drawn in purple on the Map tab.").weak());
         // The records around the cursor.
-        let i0 = log.records.partition_point(|r| r.t_s < self.cursor_s);
+        let i0 = records.partition_point(|r| r.t_s < self.cursor_s);
         egui::ScrollArea::vertical().max_height(ui.available_height()).show(ui, |ui| {
             egui::Grid::new("log-records").striped(true).num_columns(2).show(ui, |ui| {
-                for r in log.records.iter().skip(i0.saturating_sub(20)).take(60) {
+                for r in records.iter().skip(i0.saturating_sub(20)).take(60) {
                     ui.label(format!("{:9.2}", r.t_s));
                     ui.label(summary(&r.entry));
                     ui.end_row();

@@ -12,7 +12,7 @@ use egui::{Color32, Pos2, RichText, Stroke, vec2};
 use walkers::{HttpOptions, HttpTiles, MapMemory, Position, Projector, TileId, TilePiece, Tiles, lat_lon};
 
 use crate::config::Config;
-use crate::model::GpsFix;
+use vestnav_device::gps::Fix;
 use crate::route::{Waypoint, decimation_stride, distance_bearing, enu_from_wgs84};
 
 /// Track points drawn at most per frame (older points are strided, the newest [`TRACK_TAIL`] drawn in full).
@@ -149,7 +149,7 @@ impl MapView {
     pub fn ui(
         &mut self,
         ui: &mut egui::Ui,
-        fix: Option<&GpsFix>,
+        fix: Option<&Fix>,
         speed_m_s: Option<f64>,
         walking_m_s: f64,
         cfg: &mut Config,
@@ -183,10 +183,7 @@ impl MapView {
             ui.separator();
             ui.add(egui::TextEdit::singleline(&mut self.gpx_path).hint_text("file.gpx").desired_width(160.0));
             if ui.button("Import GPX").clicked() {
-                match std::fs::read_to_string(self.gpx_path.trim())
-                    .map_err(|e| e.to_string())
-                    .and_then(|t| crate::route::parse_gpx(&t))
-                {
+                match crate::route::read_gpx(std::path::Path::new(self.gpx_path.trim())) {
                     Ok(c) => {
                         let (nw, nt) = (c.waypoints.len(), c.track.len());
                         if nw > 0 {
@@ -224,7 +221,7 @@ impl MapView {
         changed
     }
 
-    fn next_info(&self, ui: &mut egui::Ui, fix: Option<&GpsFix>, speed_m_s: Option<f64>, walking_m_s: f64) {
+    fn next_info(&self, ui: &mut egui::Ui, fix: Option<&Fix>, speed_m_s: Option<f64>, walking_m_s: f64) {
         let text = match (fix, self.waypoints.get(self.next)) {
             (_, None) if self.waypoints.is_empty() => {
                 "no waypoints: right-click the map to add one".to_owned()
@@ -234,7 +231,8 @@ impl MapView {
                 format!("next: {} ({}/{}) · waiting for a fix", w.name, self.next + 1, self.waypoints.len())
             }
             (Some(f), Some(w)) => {
-                let (d, b) = distance_bearing(f.lat_deg, f.lon_deg, w.lat_deg, w.lon_deg);
+                let (lat, lon) = f.lat_deg.zip(f.lon_deg).unwrap_or((f64::NAN, f64::NAN));
+                let (d, b) = distance_bearing(lat, lon, w.lat_deg, w.lon_deg);
                 let v = speed_m_s.filter(|v| *v >= 0.3).unwrap_or(walking_m_s).max(0.1);
                 let ttg = d / v;
                 format!(
@@ -321,7 +319,7 @@ impl MapView {
     }
 
     #[allow(clippy::too_many_lines)] // one paint pass over every layer of the map, in order
-    fn map_ui(&mut self, ui: &mut egui::Ui, fix: Option<&GpsFix>, cfg: &mut Config) -> bool {
+    fn map_ui(&mut self, ui: &mut egui::Ui, fix: Option<&Fix>, cfg: &mut Config) -> bool {
         let mut changed = false;
         if cfg.map_tiles && self.tiles.is_none() {
             let options = HttpOptions {
@@ -332,7 +330,7 @@ impl MapView {
             self.tiles =
                 Some(HttpTiles::with_options(walkers::sources::OpenStreetMap, options, ui.ctx().clone()));
         }
-        let wearer = fix.map(|f| lat_lon(f.lat_deg, f.lon_deg));
+        let wearer = fix.and_then(|f| f.lat_deg.zip(f.lon_deg)).map(|(la, lo)| lat_lon(la, lo));
         let anchor = self.anchor();
         let my_position = wearer.unwrap_or_else(|| lat_lon(anchor.0, anchor.1));
         self.tile_hits.set(0);
@@ -504,7 +502,7 @@ impl MapView {
             // The wearer: accuracy circle, dot, course arrow.
             if let (Some(w), Some(f)) = (wearer, fix) {
                 let c = to_pos2(projector.project(w));
-                if let Some(e) = f.error_m.filter(|e| e.is_finite() && *e > 0.0) {
+                if let Some(e) = f.error.map(|e| e.horizontal_m).filter(|e| e.is_finite() && *e > 0.0) {
                     let r = (e * px_per_m) as f32;
                     painter.circle(
                         c,

@@ -1,24 +1,15 @@
-//! Waypoints, the wearer's track, and GPX import/export.
+//! Waypoints and the wearer's track on the map: geometry for drawing, and the console's use of the GPX
+//! files read and written by `vestnav_device::route_file` (the one home of the format).
 //!
 //! Distances and bearings are WGS-84 geodesics (geographiclib, Karney 2013), the default of the guidance
 //! issue; the thesis's spherical formula is not used in the console.
 
+use std::path::Path;
+
 use geographiclib_rs::{Geodesic, InverseGeodesic};
-use serde::{Deserialize, Serialize};
+use vestnav_device::route_file::{self, RouteFile, Track, TrackPoint};
 
-/// The demo route shipped with vestnav (Briggs Field loop, MIT), loaded when nothing else is.
-pub const DEMO_GPX: &str = include_str!("../../../assets/routes/demo.gpx");
-
-/// A named point the wearer should reach.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Waypoint {
-    /// Name shown on the map.
-    pub name: String,
-    /// Latitude [deg].
-    pub lat_deg: f64,
-    /// Longitude [deg].
-    pub lon_deg: f64,
-}
+pub use vestnav_device::route_file::{DEMO_GPX, Waypoint};
 
 /// Geodesic distance [m] and initial bearing [deg, 0..360 clockwise from true north] from point 1 to 2.
 ///
@@ -61,79 +52,59 @@ pub fn cross_track_m(a: (f64, f64), b: (f64, f64), p: (f64, f64)) -> f64 {
     -(bx * py - by * px) / len
 }
 
-/// What was in a GPX file.
+/// What the console takes from a GPX file: the route to guide along (its first route, else its
+/// waypoints, else its first track), and every track point for the replayed track.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct GpxContent {
     /// Route name, if any.
     pub name: Option<String>,
-    /// Route points (the first route), else the standalone waypoints.
+    /// The route's points.
     pub waypoints: Vec<Waypoint>,
     /// Track points of every track and segment, as `(lat_deg, lon_deg)`.
     pub track: Vec<(f64, f64)>,
 }
 
-/// Parses GPX text: the first route becomes the waypoints (standalone `<wpt>` when there is no route),
-/// tracks become the track. Points with non-finite or out-of-range coordinates are an error.
-pub fn parse_gpx(text: &str) -> Result<GpxContent, String> {
-    let g = gpx::read(text.as_bytes()).map_err(|e| format!("not a readable GPX file: {e}"))?;
-    let to_wp = |i: usize, w: &gpx::Waypoint| -> Result<Waypoint, String> {
-        let p = w.point();
-        let (lat, lon) = (p.y(), p.x());
-        if !(lat.is_finite() && lon.is_finite() && lat.abs() <= 90.0 && lon.abs() <= 180.0) {
-            return Err(format!("point {} has invalid coordinates ({lat}, {lon})", i + 1));
-        }
-        Ok(Waypoint {
-            name: w.name.clone().unwrap_or_else(|| format!("WP{}", i + 1)),
-            lat_deg: lat,
-            lon_deg: lon,
-        })
-    };
-    let (name, pts) = match g.routes.first() {
-        Some(r) => (r.name.clone(), &r.points),
-        None => (g.metadata.as_ref().and_then(|m| m.name.clone()), &g.waypoints),
-    };
-    let waypoints = pts.iter().enumerate().map(|(i, w)| to_wp(i, w)).collect::<Result<Vec<_>, _>>()?;
-    let mut track = Vec::new();
-    for t in &g.tracks {
-        for s in &t.segments {
-            for (i, w) in s.points.iter().enumerate() {
-                let wp = to_wp(i, w)?;
-                track.push((wp.lat_deg, wp.lon_deg));
-            }
+impl GpxContent {
+    fn from_file(file: &RouteFile) -> Self {
+        let route = file.default_route();
+        Self {
+            name: route.as_ref().and_then(|r| r.name.clone()).or_else(|| file.name.clone()),
+            waypoints: route.map(|r| r.waypoints).unwrap_or_default(),
+            track: file.tracks.iter().flat_map(Track::points).map(|p| (p.lat_deg, p.lon_deg)).collect(),
         }
     }
-    Ok(GpxContent { name, waypoints, track })
 }
 
-/// Writes the waypoints as a GPX 1.1 route (and as `<wpt>`s, for tools that only read those) and the
-/// track as one track segment.
-pub fn write_gpx(name: &str, waypoints: &[Waypoint], track: &[(f64, f64)]) -> Result<String, String> {
-    let mk = |name: Option<&str>, lat: f64, lon: f64| {
-        let mut w = gpx::Waypoint::new(walkers::geo_types::Point::new(lon, lat));
-        w.name = name.map(str::to_owned);
-        w
-    };
-    let mut route = gpx::Route::new();
-    route.name = Some(name.to_owned());
-    route.points = waypoints.iter().map(|w| mk(Some(&w.name), w.lat_deg, w.lon_deg)).collect();
-    let mut g = gpx::Gpx {
-        version: gpx::GpxVersion::Gpx11,
-        creator: Some("vestnav".to_owned()),
-        waypoints: route.points.clone(),
-        routes: vec![route],
-        ..Default::default()
-    };
+/// Parses GPX text (see [`GpxContent`]); errors name the bad point.
+pub fn parse_gpx(text: &str) -> Result<GpxContent, String> {
+    route_file::parse_gpx(text).map(|f| GpxContent::from_file(&f)).map_err(|e| e.to_string())
+}
+
+/// Reads a GPX file (size-limited); errors name the file.
+pub fn read_gpx(path: &Path) -> Result<GpxContent, String> {
+    route_file::read_gpx(path).map(|f| GpxContent::from_file(&f)).map_err(|e| e.to_string())
+}
+
+/// The route (and the track, when there is one) as a GPX file.
+pub fn to_route_file(name: &str, waypoints: &[Waypoint], track: &[(f64, f64)]) -> RouteFile {
+    let mut file = RouteFile::from_route(name, waypoints.to_vec());
     if !track.is_empty() {
-        let mut seg = gpx::TrackSegment::new();
-        seg.points = track.iter().map(|&(lat, lon)| mk(None, lat, lon)).collect();
-        let mut t = gpx::Track::new();
-        t.name = Some(format!("{name} track"));
-        t.segments.push(seg);
-        g.tracks.push(t);
+        file.tracks.push(Track {
+            name: Some(format!("{name} track")),
+            segments: vec![
+                track
+                    .iter()
+                    .map(|&(lat_deg, lon_deg)| TrackPoint { lat_deg, lon_deg, ele_m: None, time: None })
+                    .collect(),
+            ],
+        });
     }
-    let mut out = Vec::new();
-    gpx::write(&g, &mut out).map_err(|e| format!("cannot write GPX: {e}"))?;
-    String::from_utf8(out).map_err(|e| format!("cannot write GPX: {e}"))
+    file
+}
+
+/// GPX 1.1 text of the route and track.
+pub fn write_gpx(name: &str, waypoints: &[Waypoint], track: &[(f64, f64)]) -> Result<String, String> {
+    Ok(route_file::to_gpx(&to_route_file(name, waypoints, track)))
 }
 
 /// Picks at most about `max_points` of `n` points for drawing: a fixed stride, always keeping the last.
@@ -189,6 +160,8 @@ mod tests {
         assert_eq!(back.track, vec![(42.0, -71.0), (42.1, -71.1)]);
         assert!(parse_gpx("<gpx><rte><rtept lat=\"99\" lon=\"0\"/></rte></gpx>").is_err());
         assert!(parse_gpx("garbage").is_err());
+        let missing = read_gpx(Path::new("/nonexistent/route.gpx")).unwrap_err();
+        assert!(missing.contains("/nonexistent/route.gpx"), "{missing}");
     }
 
     #[test]

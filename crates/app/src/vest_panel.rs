@@ -9,7 +9,7 @@ use vestnav_core::vest::{Cue, Frame, GRID, Pattern, TactorMask};
 
 use crate::config::VestSourceConfig;
 use crate::console::Console;
-use crate::model::VestCommand;
+use vestnav_device::wtcu::VestCommand;
 
 /// Draws the Vest section.
 pub fn show(c: &mut Console, ui: &mut egui::Ui) {
@@ -20,26 +20,29 @@ pub fn show(c: &mut Console, ui: &mut egui::Ui) {
         ui.checkbox(&mut c.vest.select_mode, "Multi-select");
         let n = c.vest.selected.count();
         if ui.add_enabled(n > 0, egui::Button::new(format!("Fire selected ({n})"))).clicked() {
-            c.send_manual(VestCommand::Fire { mask: c.vest.selected, on_ms: c.cfg.on_ms }, None);
+            c.send_manual(VestCommand::Fire { mask: c.vest.selected, duration_ms: c.cfg.on_ms }, None);
         }
         if ui.add_enabled(n > 0, egui::Button::new("Clear")).clicked() {
             c.vest.selected = TactorMask::NONE;
         }
     });
     grid_ui(c, ui);
-    ui.label(
-        RichText::new(format!(
-            "on now: {}",
-            if c.vest.tactors_on.is_empty() {
-                "none".to_owned()
-            } else {
-                c.vest.tactors_on.indices().map(|i| i.to_string()).collect::<Vec<_>>().join(", ")
-            }
-        ))
-        .small(),
-    );
+    ui.label(format!(
+        "on now (as the unit reports): {}",
+        match c.vest.tactors_on {
+            None => "unknown".to_owned(),
+            Some(m) if m.is_empty() => "none".to_owned(),
+            Some(m) => m.indices().map(|i| i.to_string()).collect::<Vec<_>>().join(", "),
+        }
+    ));
     if let Some(r) = &c.vest.last_reply {
-        ui.label(RichText::new(r).small().weak());
+        let age = r.at.elapsed().as_secs_f64();
+        let text = format!("{} ({age:.0} s ago)", r.text);
+        if r.refused {
+            ui.label(RichText::new(text).color(Color32::from_rgb(230, 60, 40)).strong());
+        } else {
+            ui.label(text);
+        }
     }
     ui.separator();
     patterns_ui(c, ui);
@@ -87,11 +90,17 @@ fn connection_ui(c: &mut Console, ui: &mut egui::Ui) {
         if ui.add_enabled(connected, egui::Button::new("Disconnect vest")).clicked() {
             c.disconnect_vest();
         }
-        ui.label(RichText::new(c.vest.link.label()).strong());
+        ui.label(RichText::new(c.vest.label()).strong());
     });
-    let battery = c.vest.battery_pct.map_or_else(|| "—".to_owned(), |b| format!("{b} %"));
-    let fw = if c.vest.firmware.is_empty() { "—" } else { c.vest.firmware.as_str() };
-    ui.label(format!("battery {battery} · firmware {fw}"));
+    // Shown only while the unit is live: what it said on a link that is gone is not its state now.
+    if c.vest.is_live() {
+        let battery = c.vest.status.as_ref().map_or_else(
+            || "—".to_owned(),
+            |(s, at)| format!("{} % ({:.0} s ago)", s.battery_pct, at.elapsed().as_secs_f64()),
+        );
+        let fw = c.vest.device.as_ref().map_or_else(|| "—".to_owned(), |d| d.firmware.to_string());
+        ui.label(format!("battery {battery} · firmware {fw}"));
+    }
 }
 
 fn grid_ui(c: &mut Console, ui: &mut egui::Ui) {
@@ -106,7 +115,7 @@ fn grid_ui(c: &mut Console, ui: &mut egui::Ui) {
         for row in 0..GRID {
             for col in 0..GRID {
                 let i = row * GRID + col;
-                let on = c.vest.tactors_on.contains(i);
+                let on = c.vest.tactors_on.is_some_and(|m| m.contains(i));
                 let selected = c.vest.selected.contains(i);
                 let fill = if on {
                     Color32::from_rgb(250, 170, 20)
@@ -126,7 +135,7 @@ fn grid_ui(c: &mut Console, ui: &mut egui::Ui) {
                     if c.vest.select_mode || ctrl {
                         c.vest.selected = TactorMask(c.vest.selected.0 ^ (1 << i));
                     } else if let Some(mask) = TactorMask::single(i) {
-                        c.send_manual(VestCommand::Fire { mask, on_ms: c.cfg.on_ms }, None);
+                        c.send_manual(VestCommand::Fire { mask, duration_ms: c.cfg.on_ms }, None);
                     }
                 }
             }
@@ -134,7 +143,7 @@ fn grid_ui(c: &mut Console, ui: &mut egui::Ui) {
         }
     });
     // The live state comes from acks; keep repainting while something is on.
-    if !c.vest.tactors_on.is_empty() {
+    if c.vest.tactors_on.is_some_and(|m| !m.is_empty()) {
         ui.ctx().request_repaint_after(std::time::Duration::from_millis(50));
     }
 }

@@ -1,51 +1,77 @@
 //! The console driven by label with `egui_kittest`, devices injected.
 #![allow(clippy::unwrap_used)]
 
+use std::io::{Read, Write};
+use std::sync::atomic::AtomicBool;
 use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
 
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable as _;
 use vestnav_app::config::{Config, GpsSourceConfig, VestSourceConfig};
 use vestnav_app::console::{Console, ConsoleOptions, GpsAlarm};
-use vestnav_app::devices::{DeviceFactory, VestLink, Worker};
-use vestnav_app::model::{FixMode, GpsEvent, GpsFix, LinkState, Outbox, VestCommand, VestEvent};
+use vestnav_app::devices::{DeviceFactory, GpsWorker};
 use vestnav_app::route::Waypoint;
-use vestnav_app::session_log::LogEntry;
+use vestnav_device::session_log::LogEntry;
 use vestnav_core::vest::TactorMask;
+use vestnav_device::gps::{ErrorEstimate, ErrorSource, Fix, FixMode, GpsEvent, SourceState};
+use vestnav_device::outbox::Outbox;
+use vestnav_device::wtcu::codec::{V1Codec, WireCodec};
+use vestnav_device::wtcu::engine::EngineConfig;
+use vestnav_device::wtcu::worker::{EmulatedPort, Transport, WorkerSettings};
+use vestnav_device::wtcu::{LinkState, Request, VestCommand, VestEvent, VestHandle};
 
-/// A vest that records every command and answers like a unit would: ack, then the tactors it turned on.
-#[derive(Default)]
-struct RecordingVest {
-    sent: Mutex<Vec<VestCommand>>,
-    out: Mutex<Option<Outbox<VestEvent>>>,
+/// The emulated unit behind a transport that also records every command it was sent (decoded with the
+/// unit-side codec): the device side of the real protocol, seen from the vest.
+struct RecordingUnit {
+    port: EmulatedPort,
+    codec: V1Codec,
+    sent: Arc<Mutex<Vec<Request>>>,
 }
 
-impl VestLink for RecordingVest {
-    fn send(&self, c: VestCommand) -> Result<(), String> {
-        let on = match &c {
-            VestCommand::Fire { mask, .. } => *mask,
-            VestCommand::Play(p) => p.frames.first().map_or(TactorMask::NONE, |f| f.mask),
-            VestCommand::StopAll => TactorMask::NONE,
-        };
-        self.sent.lock().unwrap().push(c);
-        if let Some(o) = self.out.lock().unwrap().as_ref() {
-            o.send(VestEvent::Ack { what: "ok".into() });
-            o.send(VestEvent::TactorsOn(on));
-        }
-        Ok(())
+impl Read for RecordingUnit {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        self.port.read(buf)
     }
-    fn close(&self) {}
+}
+
+impl Write for RecordingUnit {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let mut out = Vec::new();
+        self.codec.decode_requests(buf, &mut out);
+        for p in out.into_iter().flatten() {
+            if !matches!(p.message, Request::Hello | Request::Heartbeat | Request::GetStatus) {
+                self.sent.lock().unwrap().push(p.message);
+            }
+        }
+        self.port.write(buf)
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.port.flush()
+    }
 }
 
 struct Idle;
-impl Worker for Idle {
+impl GpsWorker for Idle {
     fn stop(&mut self) {}
 }
 
 #[derive(Default, Clone)]
 struct Fake {
-    vest: Arc<RecordingVest>,
-    gps: Arc<Mutex<Option<Outbox<GpsEvent>>>>,
+    sent: Arc<Mutex<Vec<Request>>>,
+    gps: Arc<Mutex<Vec<Outbox<GpsEvent>>>>,
+}
+
+impl Fake {
+    fn sent(&self) -> Vec<Request> {
+        self.sent.lock().unwrap().clone()
+    }
+
+    fn gps(&self, ev: &GpsEvent) {
+        for o in self.gps.lock().unwrap().iter() {
+            o.send(ev.clone(), &AtomicBool::new(false));
+        }
+    }
 }
 
 impl DeviceFactory for Fake {
@@ -53,28 +79,33 @@ impl DeviceFactory for Fake {
         &self,
         _s: &GpsSourceConfig,
         _r: &[Waypoint],
-        out: Outbox<GpsEvent>,
-    ) -> Result<Box<dyn Worker>, String> {
-        out.send(GpsEvent::State(LinkState::Live));
-        *self.gps.lock().unwrap() = Some(out);
+        out: Vec<Outbox<GpsEvent>>,
+    ) -> Result<Box<dyn GpsWorker>, String> {
+        for o in &out {
+            o.send(GpsEvent::State(SourceState::Live { detail: "fake".into() }), &AtomicBool::new(false));
+        }
+        *self.gps.lock().unwrap() = out;
         Ok(Box::new(Idle))
     }
-    fn open_vest(&self, _s: &VestSourceConfig, out: Outbox<VestEvent>) -> Result<Arc<dyn VestLink>, String> {
-        out.send(VestEvent::State(LinkState::Live));
-        *self.vest.out.lock().unwrap() = Some(out);
-        Ok(self.vest.clone())
+    fn open_vest(&self, _s: &VestSourceConfig, out: Vec<Outbox<VestEvent>>) -> Result<VestHandle, String> {
+        let sent = self.sent.clone();
+        let connector = Box::new(move || {
+            let port = EmulatedPort::new(EngineConfig::default(), Duration::from_millis(2));
+            Ok(Box::new(RecordingUnit { port, codec: V1Codec::default(), sent: sent.clone() }) as Box<dyn Transport>)
+        });
+        VestHandle::spawn_with(connector, WorkerSettings::default(), out).map_err(|e| e.to_string())
     }
 }
 
 fn harness(fake: &Fake) -> Harness<'static, Console> {
     let cfg = Config { map_tiles: false, guidance_auto: false, ..Config::default() };
-    let console = Console::new(
-        Box::new(fake.clone()),
-        ConsoleOptions { cfg, cfg_path: None, log_dir: None, waker: None },
-    );
-    Harness::builder()
+    let console = Console::new(Box::new(fake.clone()), ConsoleOptions { cfg, ..ConsoleOptions::default() });
+    let mut h = Harness::builder()
         .with_size(egui::vec2(1400.0, 900.0))
-        .build_ui_state(|ui, c: &mut Console| c.ui(ui), console)
+        .build_ui_state(|ui, c: &mut Console| c.ui(ui), console);
+    settle(&mut h, |c| c.vest.is_live());
+    assert!(h.state().vest.is_live(), "the emulated unit did not come up: {:?}", h.state().vest.state);
+    h
 }
 
 /// Steps frames until `done` holds (workers run on their own threads), at most ~2 s.
@@ -84,12 +115,24 @@ fn settle(h: &mut Harness<'static, Console>, done: impl Fn(&Console) -> bool) {
         if done(h.state()) {
             return;
         }
-        std::thread::sleep(std::time::Duration::from_millis(10));
+        std::thread::sleep(Duration::from_millis(10));
     }
 }
 
-fn fix(lat: f64, lon: f64) -> GpsFix {
-    GpsFix { lat_deg: lat, lon_deg: lon, mode: FixMode::Fix3d, error_m: Some(3.0), ..GpsFix::default() }
+/// A 3D fix whose bytes arrived `age` ago.
+fn fix(lat: f64, lon: f64, age: Duration) -> Fix {
+    Fix {
+        lat_deg: Some(lat),
+        lon_deg: Some(lon),
+        mode: Some(FixMode::Fix3D),
+        error: Some(ErrorEstimate { horizontal_m: 3.0, vertical_m: None, source: ErrorSource::Gst }),
+        received_at: Some(Instant::now().checked_sub(age).unwrap()),
+        ..Fix::default()
+    }
+}
+
+fn on(c: &Console) -> TactorMask {
+    c.vest.tactors_on.unwrap_or(TactorMask::NONE)
 }
 
 #[test]
@@ -97,10 +140,9 @@ fn clicking_a_tactor_fires_it_and_shows_it_on() {
     let fake = Fake::default();
     let mut h = harness(&fake);
     h.get_by_label("T5").click();
-    settle(&mut h, |c| !c.vest.tactors_on.is_empty());
-    let sent = fake.vest.sent.lock().unwrap().clone();
-    assert_eq!(sent, vec![VestCommand::Fire { mask: TactorMask::from_indices([5]), on_ms: 500 }]);
-    assert_eq!(h.state().vest.tactors_on, TactorMask::from_indices([5]));
+    settle(&mut h, |c| !on(c).is_empty());
+    assert_eq!(fake.sent(), vec![Request::Fire { mask: TactorMask::from_indices([5]), duration_ms: 500 }]);
+    assert_eq!(on(h.state()), TactorMask::from_indices([5]));
 }
 
 #[test]
@@ -108,11 +150,10 @@ fn stop_all_button_and_key() {
     let fake = Fake::default();
     let mut h = harness(&fake);
     h.get_by_label("STOP ALL").click();
-    h.run_steps(2);
+    settle(&mut h, |_| fake.sent().len() == 1);
     h.key_press(egui::Key::Escape);
-    h.run_steps(2);
-    let sent = fake.vest.sent.lock().unwrap().clone();
-    assert_eq!(sent, vec![VestCommand::StopAll, VestCommand::StopAll]);
+    settle(&mut h, |_| fake.sent().len() == 2);
+    assert_eq!(fake.sent(), vec![Request::StopAll, Request::StopAll]);
     assert!(!h.state().cfg.guidance_auto);
 }
 
@@ -129,9 +170,8 @@ fn multi_select_fires_several() {
     assert!(h.state().vest.select_mode);
     assert_eq!(h.state().vest.selected, TactorMask::from_indices([0, 3, 12]));
     h.get_by_label("Fire selected (3)").click();
-    h.run_steps(1);
-    let sent = fake.vest.sent.lock().unwrap().clone();
-    assert_eq!(sent, vec![VestCommand::Fire { mask: TactorMask::from_indices([0, 3, 12]), on_ms: 500 }]);
+    settle(&mut h, |_| !fake.sent().is_empty());
+    assert_eq!(fake.sent(), vec![Request::Fire { mask: TactorMask::from_indices([0, 3, 12]), duration_ms: 500 }]);
 }
 
 #[test]
@@ -168,26 +208,26 @@ fn add_waypoint_with_the_mouse() {
 fn a_fix_shows_and_losing_it_raises_the_alarm() {
     let fake = Fake::default();
     let mut h = harness(&fake);
-    let gps = fake.gps.lock().unwrap().clone().unwrap();
-    gps.send(GpsEvent::Fix(fix(42.3562, -71.1)));
+    fake.gps(&GpsEvent::Fix(Box::new(fix(42.3562, -71.1, Duration::ZERO))));
     settle(&mut h, |c| c.gps.fix.is_some());
     assert!(h.query_by_label_contains("42.3562000°").is_some());
     assert!(h.query_by_label_contains("GPS FIX LOST").is_none());
-    // No more fixes: kittest's clock runs one step_dt per frame; step past the stale and lost limits.
-    let now = h.ctx.input(|i| i.time);
+    // The last position's bytes arrived longer ago than the lost limit (ages run on the real clock, from
+    // the instant the bytes arrived).
     let lost = h.state().cfg.lost_after_s;
-    let steps = ((lost + 1.0) / f64::from(h.ctx.input(|i| i.stable_dt).max(1e-3))).ceil() as usize;
-    h.run_steps(steps.min(2000));
-    let later = h.ctx.input(|i| i.time);
-    assert!(later - now > lost, "clock advanced only {}", later - now);
-    assert!(matches!(h.state().gps_alarm(later), Some(GpsAlarm::Lost { .. })));
-    assert!(h.query_by_label_contains("GPS FIX LOST").is_some());
-    // A receiver that reports "no fix" raises it at once.
-    gps.send(GpsEvent::Fix(fix(42.3562, -71.1)));
+    fake.gps(&GpsEvent::Fix(Box::new(fix(42.3562, -71.1, Duration::from_secs_f64(lost + 1.0)))));
     settle(&mut h, |c| c.gps.fixes == 2);
+    assert!(matches!(h.state().gps_alarm(Instant::now()), Some(GpsAlarm::Lost { .. })));
+    h.run_steps(1);
+    assert!(h.query_by_label_contains("GPS FIX LOST").is_some());
+    // A fresh fix clears it; a receiver that reports "no fix" raises it at once.
+    fake.gps(&GpsEvent::Fix(Box::new(fix(42.3562, -71.1, Duration::ZERO))));
+    settle(&mut h, |c| c.gps.fixes == 3);
     assert!(h.query_by_label_contains("GPS FIX LOST").is_none());
-    gps.send(GpsEvent::Fix(GpsFix { mode: FixMode::NoFix, ..GpsFix::default() }));
-    settle(&mut h, |c| c.gps.fix.as_ref().is_some_and(|f| f.mode == FixMode::NoFix));
+    let no_fix = Fix { mode: Some(FixMode::NoFix), received_at: Some(Instant::now()), ..Fix::default() };
+    fake.gps(&GpsEvent::Fix(Box::new(no_fix)));
+    settle(&mut h, |c| c.gps.fix.as_ref().is_some_and(|f| f.mode == Some(FixMode::NoFix)));
+    h.run_steps(1);
     assert!(h.query_by_label_contains("receiver reports no fix").is_some());
 }
 
@@ -196,7 +236,7 @@ fn real_harness(log_dir: Option<std::path::PathBuf>) -> Harness<'static, Console
     let cfg = Config { map_tiles: false, guidance_auto: false, ..Config::default() };
     let console = Console::new(
         Box::new(vestnav_app::hardware::Hardware),
-        ConsoleOptions { cfg, cfg_path: None, log_dir, waker: None },
+        ConsoleOptions { cfg, log_dir, ..ConsoleOptions::default() },
     );
     Harness::builder()
         .with_size(egui::vec2(1400.0, 900.0))
@@ -207,34 +247,34 @@ fn real_harness(log_dir: Option<std::path::PathBuf>) -> Harness<'static, Console
 fn emulated_vest_reports_the_clicked_tactor_on_then_stop_all_clears_it() {
     let dir = std::env::temp_dir().join(format!("vestnav-ui-{}", std::process::id()));
     let mut h = real_harness(Some(dir.clone()));
-    settle(&mut h, |c| c.vest.link == LinkState::Live);
-    assert_eq!(h.state().vest.link, LinkState::Live, "emulated vest did not come up");
+    settle(&mut h, |c| c.vest.state == Some(LinkState::Ready));
+    assert_eq!(h.state().vest.state, Some(LinkState::Ready), "emulated vest did not come up");
     h.get_by_label("T9").click();
     // The orange state comes from the unit's acks/status, not from what we sent.
-    settle(&mut h, |c| c.vest.tactors_on.contains(9));
-    assert_eq!(h.state().vest.tactors_on, TactorMask::from_indices([9]));
+    settle(&mut h, |c| on(c).contains(9));
+    assert_eq!(on(h.state()), TactorMask::from_indices([9]));
     h.get_by_label("STOP ALL").click();
-    settle(&mut h, |c| c.vest.tactors_on.is_empty());
-    assert!(h.state().vest.tactors_on.is_empty());
+    settle(&mut h, |c| on(c).is_empty());
+    assert!(on(h.state()).is_empty());
     // The simulator walks the demo route: a fix arrives within about a second.
     settle(&mut h, |c| c.gps.fix.is_some());
     assert!(h.state().gps.fix.as_ref().unwrap().has_position());
     let log_path = h.state().log_path().unwrap().to_path_buf();
     drop(h);
     std::thread::sleep(std::time::Duration::from_millis(300));
-    let log = vestnav_app::session_log::read_log(&log_path).unwrap();
+    let (records, _) = vestnav_device::session_log::read_log(&log_path).unwrap();
     assert!(
-        log.records
+        records
             .iter()
             .any(|r| matches!(&r.entry, LogEntry::Command { command: VestCommand::Fire { .. }, .. }))
     );
     assert!(
-        log.records
+        records
             .iter()
             .any(|r| matches!(&r.entry, LogEntry::Command { command: VestCommand::StopAll, .. }))
     );
-    assert!(log.records.iter().any(|r| matches!(&r.entry, LogEntry::Ack { .. })));
-    assert!(log.records.iter().any(|r| matches!(&r.entry, LogEntry::Fix { .. })));
+    assert!(records.iter().any(|r| matches!(&r.entry, LogEntry::Ack { .. })));
+    assert!(records.iter().any(|r| matches!(&r.entry, LogEntry::Fix { .. })));
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
@@ -259,12 +299,12 @@ fn nmea_replay_shows_the_fix_then_the_no_fix_alarm() {
     }
     h.get_by_label("Connect GPS").click();
     // Epoch 12:00:04 is the last with a position (42.3562667 N, independent: 42° 21.3760').
-    settle(&mut h, |c| {
-        c.gps.fix.as_ref().is_some_and(|f| f.time_utc.as_deref() == Some("2026-11-22T12:00:04.000Z"))
-    });
+    let t4 = "2026-11-22T12:00:04Z".parse::<chrono::DateTime<chrono::Utc>>().unwrap();
+    settle(&mut h, |c| c.gps.fix.as_ref().is_some_and(|f| f.time == Some(t4)));
     let f = h.state().gps.fix.clone().unwrap();
-    assert!((f.lat_deg - (42.0 + 21.376 / 60.0)).abs() < 1e-9, "{}", f.lat_deg);
-    assert!((f.lon_deg + 71.1).abs() < 1e-9);
+    let (lat, lon) = (f.lat_deg.unwrap(), f.lon_deg.unwrap());
+    assert!((lat - (42.0 + 21.376 / 60.0)).abs() < 1e-9, "{lat}");
+    assert!((lon + 71.1).abs() < 1e-9);
     assert!(h.query_by_label_contains("-71.1000000°").is_some());
     // Then the receiver reports no fix: the alarm is raised at once.
     settle(&mut h, |c| c.gps.fix.as_ref().is_some_and(|f| !f.has_position()));

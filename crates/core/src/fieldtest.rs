@@ -55,6 +55,15 @@ pub struct TimedFix {
     pub pos: LatLon,
 }
 
+impl TimedFix {
+    /// Whether the fix can be used: finite time, finite latitude in [-90, 90] and longitude in [-180, 180].
+    /// The statistics skip (and count) the others, so one absurd fix never poisons a session.
+    pub fn is_valid(&self) -> bool {
+        let (lat, lon) = (self.pos.lat_deg, self.pos.lon_deg);
+        self.t_s.is_finite() && lat.is_finite() && lon.is_finite() && lat.abs() <= 90.0 && lon.abs() <= 180.0
+    }
+}
+
 /// Runs of identical consecutive positions (static-navigation pinning).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct PinningReport {
@@ -115,8 +124,10 @@ pub fn percentile_nearest_rank(values: &[f64], p: f64) -> Option<f64> {
 /// Results of a stationary drift test.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct DriftStats {
-    /// Number of fixes.
+    /// Number of fixes used.
     pub fixes: usize,
+    /// Fixes skipped as invalid (non-finite time or position, position out of range).
+    pub skipped_invalid: usize,
     /// Time from the first to the last fix [s].
     pub duration_s: f64,
     /// The first fix.
@@ -156,10 +167,12 @@ pub struct DriftStats {
 /// With `e_i` the east/north of fix i in a local frame ([`LocalFrame`]) about the first fix, the mean is
 /// `m = (1/n) sum e_i`; `r_i = |p_i - mean|` is the geodesic distance from the mean (frame re-centred on it);
 /// `DRMS = sqrt((1/n) sum r_i^2)`, `2DRMS = 2 DRMS`, `CEP50 = P50(r)`, `CEP95 = P95(r)` (measured, nearest-rank,
-/// see the module doc); distances from the first fix are geodesic on `earth`. Non-finite fixes are dropped.
+/// see the module doc); distances from the first fix are geodesic on `earth`. Invalid fixes (see
+/// [`TimedFix::is_valid`]) are skipped and counted in [`DriftStats::skipped_invalid`].
 pub fn drift(fixes: &[TimedFix], earth: Earth) -> Result<DriftStats, FieldTestError> {
-    let fixes: Vec<TimedFix> =
-        fixes.iter().copied().filter(|f| f.t_s.is_finite() && f.pos.validated().is_ok()).collect();
+    let all = fixes.len();
+    let fixes: Vec<TimedFix> = fixes.iter().copied().filter(TimedFix::is_valid).collect();
+    let skipped_invalid = all - fixes.len();
     let [first, ..] = fixes.as_slice() else {
         return Err(FieldTestError::TooFew { what: "fixes", have: 0, need: 1 });
     };
@@ -176,6 +189,10 @@ pub fn drift(fixes: &[TimedFix], earth: Earth) -> Result<DriftStats, FieldTestEr
     let var = en.iter().map(|v| (*v - centre) * (*v - centre)).sum::<DVec2>() / n;
     let pin = pinning(&fixes);
     let mut warnings = Vec::new();
+    if skipped_invalid > 0 {
+        warnings
+            .push(format!("{skipped_invalid} invalid fixes skipped (non-finite or out-of-range position)"));
+    }
     if fixes.len() > 2 && pin.repeated_fraction > 0.5 {
         warnings.push(format!(
             "receiver looks pinned: {:.0} % of fixes repeat the previous position exactly (longest run {} fixes, \
@@ -187,6 +204,7 @@ pub fn drift(fixes: &[TimedFix], earth: Earth) -> Result<DriftStats, FieldTestEr
     }
     Ok(DriftStats {
         fixes: fixes.len(),
+        skipped_invalid,
         duration_s: fixes.last().map_or(0.0, |l| l.t_s - first.t_s),
         first: first.pos,
         mean,
@@ -218,9 +236,11 @@ pub struct ConeMark {
 }
 
 /// The receiver's position at a mark time: the latest fix at or before `t_s` (what a live console records
-/// when the key is pressed); the first fix after it if none precedes. `None` for an empty track.
+/// when the key is pressed); the first fix after it if none precedes. Invalid fixes
+/// ([`TimedFix::is_valid`]) are passed over. `None` when the track has no valid fix.
 pub fn position_at(track: &[TimedFix], t_s: f64) -> Option<LatLon> {
-    track.iter().rev().find(|f| f.t_s <= t_s).or_else(|| track.iter().find(|f| f.t_s > t_s)).map(|f| f.pos)
+    let mut valid = track.iter().filter(|f| f.is_valid());
+    valid.clone().rev().find(|f| f.t_s <= t_s).or_else(|| valid.find(|f| f.t_s > t_s)).map(|f| f.pos)
 }
 
 /// Settings of a cone test.
@@ -249,8 +269,12 @@ impl ConeConfig {
 /// Results of a cone test.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ConeStats {
-    /// Number of marks.
+    /// Number of marks used.
     pub marks: usize,
+    /// Marks skipped as invalid (non-finite time or position, position out of range).
+    pub skipped_invalid_marks: usize,
+    /// Track fixes skipped as invalid (see [`TimedFix::is_valid`]).
+    pub skipped_invalid: usize,
     /// Nominal spacing [m].
     pub spacing_m: f64,
     /// Expected cone count, if given.
@@ -296,17 +320,20 @@ pub struct ConeStats {
 /// with `s` the spacing (the thesis's Figs 69/70 line); with `u` the unit vector of the line bearing
 /// `theta` (`u = (sin theta, cos theta)`), `along_k = delta_k·u`, `cross_k = delta_k x u` (right positive).
 /// Pinning warnings: two consecutive marks at the same position, or a run of identical track fixes longer
-/// than `pinned_run_s` between the first and the last mark.
+/// than `pinned_run_s` between the first and the last mark. Invalid marks and track fixes (see
+/// [`TimedFix::is_valid`]) are skipped and counted.
 pub fn cones(
     marks: &[ConeMark],
     track: &[TimedFix],
     config: &ConeConfig,
 ) -> Result<ConeStats, FieldTestError> {
+    let all_marks = marks.len();
     if !(config.spacing_m.is_finite() && config.spacing_m > 0.0) {
         return Err(FieldTestError::BadSetting("spacing must be a positive number of metres"));
     }
     let marks: Vec<&ConeMark> =
-        marks.iter().filter(|m| m.t_s.is_finite() && m.pos.validated().is_ok()).collect();
+        marks.iter().filter(|m| TimedFix { t_s: m.t_s, pos: m.pos }.is_valid()).collect();
+    let skipped_invalid_marks = all_marks - marks.len();
     if marks.len() < 2 {
         return Err(FieldTestError::TooFew { what: "cone marks", have: marks.len(), need: 2 });
     }
@@ -328,7 +355,14 @@ pub fn cones(
     let s = config.spacing_m;
     let rms = |it: &mut dyn Iterator<Item = f64>| (it.map(|x| x * x).sum::<f64>() / m).sqrt();
 
+    let skipped_invalid = track.iter().filter(|f| !f.is_valid()).count();
     let mut warnings = Vec::new();
+    if skipped_invalid_marks + skipped_invalid > 0 {
+        warnings.push(format!(
+            "skipped as invalid (non-finite or out-of-range position): {skipped_invalid_marks} marks, \
+             {skipped_invalid} track fixes"
+        ));
+    }
     if let Some(c) = config.count.filter(|&c| c != marks.len()) {
         warnings.push(format!("{} marks for {c} cones: a cone was missed or marked twice", marks.len()));
     }
@@ -342,7 +376,8 @@ pub fn cones(
         }
     }
     let (t0, t1) = (marks[0].t_s, marks[marks.len() - 1].t_s);
-    let during: Vec<TimedFix> = track.iter().copied().filter(|f| f.t_s >= t0 && f.t_s <= t1).collect();
+    let during: Vec<TimedFix> =
+        track.iter().copied().filter(|f| f.is_valid() && f.t_s >= t0 && f.t_s <= t1).collect();
     let pin = pinning(&during);
     if pin.longest_run_s >= config.pinned_run_s {
         warnings.push(format!(
@@ -354,6 +389,8 @@ pub fn cones(
     }
     Ok(ConeStats {
         marks: marks.len(),
+        skipped_invalid_marks,
+        skipped_invalid,
         spacing_m: s,
         expected_count: config.count,
         line_bearing_deg,
@@ -509,6 +546,44 @@ mod tests {
         assert!(s.warnings.iter().any(|w| w.contains("19 s")), "{:?}", s.warnings);
         assert!(cones(&marks[..1], &[], &ConeConfig::with_spacing(10.0)).is_err());
         assert!(cones(&marks, &[], &ConeConfig::with_spacing(f64::NAN)).is_err());
+    }
+
+    #[test]
+    fn one_absurd_fix_is_skipped_and_counted_in_drift() {
+        // The circle of radius 2 m (CEP50 = DRMS = 2 m) plus absurd fixes anywhere in the log.
+        let mut fixes: Vec<TimedFix> = (0..8)
+            .map(|i| TimedFix { t_s: f64::from(i), pos: Earth::Wgs84.direct(C, 45.0 * f64::from(i), 2.0) })
+            .collect();
+        fixes.insert(3, TimedFix { t_s: 2.5, pos: LatLon::new(42.3575, 500.0) });
+        fixes.insert(0, TimedFix { t_s: -1.0, pos: LatLon::new(f64::NAN, -71.1) });
+        fixes.push(TimedFix { t_s: f64::INFINITY, pos: C });
+        fixes.push(TimedFix { t_s: 9.0, pos: LatLon::new(-91.0, 0.0) });
+        let s = drift(&fixes, Earth::Wgs84).unwrap();
+        assert_eq!(s.fixes, 8);
+        assert_eq!(s.skipped_invalid, 4);
+        assert_relative_eq!(s.cep50_m, 2.0, max_relative = 1e-6);
+        assert_relative_eq!(s.drms_m, 2.0, max_relative = 1e-6);
+        assert_relative_eq!(s.duration_s, 7.0);
+        assert!(s.warnings.iter().any(|w| w.starts_with("4 invalid fixes skipped")), "{:?}", s.warnings);
+        // Only invalid fixes: not enough data, not a panic.
+        assert!(matches!(drift(&fixes[..1], Earth::Wgs84), Err(FieldTestError::TooFew { have: 0, .. })));
+    }
+
+    #[test]
+    fn one_absurd_fix_or_mark_is_skipped_and_counted_in_cones() {
+        let mut marks = line_marks(&[10.0; 9], &[0.0; 10], 15.4);
+        marks.insert(4, ConeMark { t_s: 35.0, label: "bad".into(), pos: LatLon::new(1e300, -71.0) });
+        let mut track: Vec<TimedFix> = marks.iter().map(|m| TimedFix { t_s: m.t_s, pos: m.pos }).collect();
+        track.push(TimedFix { t_s: 36.0, pos: LatLon::new(42.0, -200.0) });
+        let cfg =
+            ConeConfig { count: Some(10), line_bearing_deg: Some(15.4), ..ConeConfig::with_spacing(10.0) };
+        let s = cones(&marks, &track, &cfg).unwrap();
+        assert_eq!((s.marks, s.skipped_invalid_marks, s.skipped_invalid), (10, 1, 2));
+        assert!(s.rmse_m < 1e-6, "{s:?}");
+        assert_relative_eq!(s.mean_m, 10.0, max_relative = 1e-9);
+        assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
+        // A mark taken just after the absurd fixes (35 s, 36 s) gets the latest valid one: cone 4 at 30 s.
+        assert_eq!(position_at(&track, 36.5), Some(marks[3].pos));
     }
 
     #[test]

@@ -125,35 +125,86 @@ pub struct Pattern {
 }
 
 impl Pattern {
-    /// Total time the pattern takes [ms], all repeats included.
+    /// Total time the pattern takes [ms], all repeats included: `max(repeats, 1) * sum(duration_ms)`, saturating
+    /// at `u32::MAX` (a pattern read from a file may hold any number of frames).
     pub fn total_ms(&self) -> u32 {
-        let once: u32 = self.frames.iter().map(|f| u32::from(f.duration_ms)).sum();
-        once * u32::from(self.repeats.max(1))
+        let once: u64 = self.frames.iter().map(|f| u64::from(f.duration_ms)).sum();
+        saturate_u32(once.saturating_mul(u64::from(self.repeats.max(1))))
     }
 
-    /// Longest continuous on-time of any single tactor [ms], counting consecutive frames (and the wrap from
-    /// the last frame to the first when the pattern repeats) in which it stays on.
+    /// Longest continuous on-time of any single tactor over the whole played pattern, all repeats included
+    /// [ms]: the maximum of [`Self::longest_on_ms_of`] over the 16 tactors.
     pub fn longest_on_ms(&self) -> u32 {
-        let mut longest = 0;
-        for t in 0..TACTOR_COUNT {
-            let passes = if self.repeats > 1 { 2 } else { 1 };
-            let mut run = 0u32;
-            for f in self.frames.iter().cycle().take(self.frames.len() * passes) {
-                if f.mask.contains(t) {
-                    run += u32::from(f.duration_ms);
-                    longest = longest.max(run);
-                } else {
-                    run = 0;
-                }
-            }
+        (0..TACTOR_COUNT).map(|t| self.longest_on_ms_of(t)).max().unwrap_or(0)
+    }
+
+    /// Longest continuous on-time of tactor `tactor` over the whole played pattern, all repeats included [ms].
+    ///
+    /// A run is a stretch of consecutive frames containing the tactor; frames of 0 ms are skipped (they
+    /// neither add on-time nor interrupt a run). With `r = max(repeats, 1)` passes over frames of total time
+    /// `T`, in closed form (no expansion of the repeats):
+    /// - on in every (non-empty) frame: the tactor never goes off, the run is `r * T`;
+    /// - otherwise it is off somewhere in each pass, so no run spans more than one wrap:
+    ///   `max(M, S + P)` where `M` is the longest run within one pass, `P` the on-time of the leading run
+    ///   (frames from the first one), `S` that of the trailing run (frames up to the last one), and the wrap
+    ///   term `S + P` only counts when `r >= 2`.
+    ///
+    /// Saturates at `u32::MAX`.
+    pub fn longest_on_ms_of(&self, tactor: usize) -> u32 {
+        let frames = || self.frames.iter().filter(|f| f.duration_ms > 0);
+        let repeats = u64::from(self.repeats.max(1));
+        if frames().all(|f| f.mask.contains(tactor)) {
+            let once: u64 = frames().map(|f| u64::from(f.duration_ms)).sum();
+            return saturate_u32(once.saturating_mul(repeats));
         }
-        longest
+        let (mut longest, mut run) = (0u64, 0u64);
+        for f in frames() {
+            run = if f.mask.contains(tactor) { run + u64::from(f.duration_ms) } else { 0 };
+            longest = longest.max(run);
+        }
+        if repeats >= 2 {
+            let leading = self.leading_run_once(tactor);
+            let trailing: u64 = frames()
+                .rev()
+                .take_while(|f| f.mask.contains(tactor))
+                .map(|f| u64::from(f.duration_ms))
+                .sum();
+            longest = longest.max(trailing + leading);
+        }
+        saturate_u32(longest)
+    }
+
+    /// Continuous on-time of tactor `tactor` from the very start of the pattern [ms]: how long a tactor that
+    /// is already on when the pattern starts stays on without a break. `r * T` when it is on in every
+    /// (non-empty) frame (see [`Self::longest_on_ms_of`]), otherwise `P`, the on-time of the leading run
+    /// (0 when the first non-empty frame does not contain it). Saturates at `u32::MAX`.
+    pub fn leading_on_ms(&self, tactor: usize) -> u32 {
+        let frames = || self.frames.iter().filter(|f| f.duration_ms > 0);
+        if frames().all(|f| f.mask.contains(tactor)) {
+            let once: u64 = frames().map(|f| u64::from(f.duration_ms)).sum();
+            return saturate_u32(once.saturating_mul(u64::from(self.repeats.max(1))));
+        }
+        saturate_u32(self.leading_run_once(tactor))
+    }
+
+    /// On-time of the run of `tactor` that starts with the first non-empty frame, within one pass [ms].
+    fn leading_run_once(&self, tactor: usize) -> u64 {
+        self.frames
+            .iter()
+            .filter(|f| f.duration_ms > 0)
+            .take_while(|f| f.mask.contains(tactor))
+            .map(|f| u64::from(f.duration_ms))
+            .sum()
     }
 
     /// Largest number of tactors on at once in any frame.
     pub fn max_simultaneous(&self) -> u32 {
         self.frames.iter().map(|f| f.mask.count()).max().unwrap_or(0)
     }
+}
+
+fn saturate_u32(ms: u64) -> u32 {
+    u32::try_from(ms).unwrap_or(u32::MAX)
 }
 
 /// The named cues of vestnav's tactile vocabulary.
@@ -272,6 +323,84 @@ mod tests {
             assert!(p.max_simultaneous() <= 8, "{cue:?}");
             assert!(p.longest_on_ms() <= u32::from(DEFAULT_ON_MS), "{cue:?}: {}", p.longest_on_ms());
             assert!(p.total_ms() > 0);
+        }
+    }
+
+    fn frame(mask: u16, duration_ms: u16) -> Frame {
+        Frame { mask: TactorMask(mask), duration_ms }
+    }
+
+    fn pattern(frames: Vec<Frame>, repeats: u8) -> Pattern {
+        Pattern { name: "test".to_owned(), frames, repeats }
+    }
+
+    /// Independent truth: the pattern expanded millisecond by millisecond, every repeat, longest streak.
+    fn expanded_longest_ms(p: &Pattern, tactor: usize) -> u32 {
+        let (mut longest, mut run) = (0u32, 0u32);
+        for _ in 0..p.repeats.max(1) {
+            for f in &p.frames {
+                for _ in 0..f.duration_ms {
+                    run = if f.mask.contains(tactor) { run + 1 } else { 0 };
+                    longest = longest.max(run);
+                }
+            }
+        }
+        longest
+    }
+
+    #[test]
+    fn a_tactor_on_in_every_frame_runs_for_every_repeat() {
+        // The bypass: 8 tactors, one 1000 ms frame, 5 repeats = 5000 ms without a break.
+        let p = pattern(vec![frame(0x00FF, 1000)], 5);
+        assert_eq!(p.longest_on_ms(), 5000);
+        assert_eq!(p.longest_on_ms_of(0), 5000);
+        assert_eq!(p.longest_on_ms_of(8), 0);
+        assert_eq!(p.leading_on_ms(7), 5000);
+        // On in two frames out of two, three repeats: 3 x (300 + 400).
+        let p = pattern(vec![frame(0b01, 300), frame(0b11, 400)], 3);
+        assert_eq!(p.longest_on_ms_of(0), 2100);
+        assert_eq!(p.longest_on_ms_of(1), 400);
+    }
+
+    #[test]
+    fn runs_wrap_between_repeats_once() {
+        // Tactor 0: 300 on, 200 off, 400 on; repeated, the 400 + 300 wrap is the longest.
+        let p = pattern(vec![frame(1, 300), frame(0, 200), frame(1, 400)], 3);
+        assert_eq!(p.longest_on_ms_of(0), 700);
+        assert_eq!(p.leading_on_ms(0), 300);
+        assert_eq!(pattern(p.frames.clone(), 1).longest_on_ms_of(0), 400);
+        // A 0 ms frame is no break.
+        let p = pattern(vec![frame(1, 300), frame(0, 0), frame(1, 400)], 1);
+        assert_eq!(p.longest_on_ms_of(0), 700);
+        assert_eq!(p.leading_on_ms(0), 700);
+        // 255 repeats of 65535 ms do not overflow.
+        let p = pattern(vec![frame(1, u16::MAX)], u8::MAX);
+        assert_eq!(p.longest_on_ms(), 255 * 65_535);
+        assert_eq!(p.total_ms(), 255 * 65_535);
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn closed_form_matches_the_expanded_pattern(
+            raw in proptest::collection::vec((0u16..8, 0u16..40), 1..7),
+            repeats in 0u8..6,
+            tactor in 0usize..3,
+        ) {
+            let p = pattern(raw.into_iter().map(|(m, d)| frame(m, d)).collect(), repeats);
+            proptest::prop_assert_eq!(p.longest_on_ms_of(tactor), expanded_longest_ms(&p, tactor));
+            // Leading run: streak from the first millisecond.
+            let mut lead = 0u32;
+            'outer: for _ in 0..p.repeats.max(1) {
+                for f in &p.frames {
+                    for _ in 0..f.duration_ms {
+                        if !f.mask.contains(tactor) {
+                            break 'outer;
+                        }
+                        lead += 1;
+                    }
+                }
+            }
+            proptest::prop_assert_eq!(p.leading_on_ms(tactor), lead);
         }
     }
 }

@@ -38,7 +38,7 @@ use rand::{RngExt, SeedableRng};
 use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
 
-use crate::geo::{LocalFrame, bearing_of_enu_deg, normalize_deg, wrap_deg_180};
+use crate::geo::{LatLon, LocalFrame, bearing_of_enu_deg, normalize_deg, wrap_deg_180};
 use crate::gnss_sim::{GnssErrorModel, GnssErrorState};
 use crate::guidance::{
     Guidance, GuidanceConfig, NavInput, NavState, Route, RouteConfig, RouteError, RouteEvent, StrategyKind,
@@ -179,20 +179,144 @@ pub struct SimResult {
 
 /// Distance from `p` to the polyline through `pts` [m] (planar): min over segments of the distance to the
 /// segment, `|p - (a + clamp(t, 0, 1)(b - a))|` with `t = (p - a)·(b - a)/|b - a|^2`.
+///
+/// Linear in the number of points; for many queries on one polyline use [`PolylineIndex`].
 pub fn distance_to_polyline_m(p: DVec2, pts: &[DVec2]) -> f64 {
     match pts {
         [] => f64::INFINITY,
         [only] => (p - *only).length(),
-        _ => pts
-            .windows(2)
-            .map(|w| {
-                let (a, b) = (w[0], w[1]);
-                let ab = b - a;
-                let len2 = ab.length_squared();
-                let t = if len2 > 0.0 { ((p - a).dot(ab) / len2).clamp(0.0, 1.0) } else { 0.0 };
-                (p - (a + ab * t)).length()
-            })
-            .fold(f64::INFINITY, f64::min),
+        _ => pts.windows(2).map(|w| distance_to_segment_m(p, w[0], w[1])).fold(f64::INFINITY, f64::min),
+    }
+}
+
+/// Distance from `p` to the segment `a b` [m] (planar), see [`distance_to_polyline_m`].
+fn distance_to_segment_m(p: DVec2, a: DVec2, b: DVec2) -> f64 {
+    let ab = b - a;
+    let len2 = ab.length_squared();
+    let t = if len2 > 0.0 { ((p - a).dot(ab) / len2).clamp(0.0, 1.0) } else { 0.0 };
+    (p - (a + ab * t)).length()
+}
+
+/// [`distance_to_polyline_m`] for many queries on one polyline, in about constant time per query near
+/// the line: the segments are binned in a uniform grid of square cells (side twice the mean segment
+/// length, at least 5 m), and a query scans rings of cells around its own, nearest first.
+///
+/// Exact, not approximate: after scanning every cell within Chebyshev distance `r` of the query's cell, any
+/// segment not yet seen lies outside a square of `2r + 1` cells whose border is at least `r s` from the
+/// query (`s` the cell side), so the scan stops once the best distance found is at most `r s`. The answer is the same
+/// minimum of the same per-segment distances as the linear scan. A query far from the line (more cells to
+/// scan than there are segments) falls back to the linear scan, so no query costs more than that.
+#[derive(Debug, Clone)]
+pub struct PolylineIndex {
+    pts: Vec<DVec2>,
+    cell_m: f64,
+    origin: DVec2,
+    cells: std::collections::HashMap<(i64, i64), Vec<u32>>,
+}
+
+impl PolylineIndex {
+    /// Polylines with fewer segments are scanned linearly (the grid would not pay).
+    const MIN_SEGMENTS: usize = 32;
+    /// A segment whose bounding box spans more cells than this is binned by sampling along it.
+    const MAX_BOX_CELLS: i64 = 16;
+
+    /// Bins the segments of the polyline through `pts`.
+    pub fn new(pts: &[DVec2]) -> Self {
+        let mut index = Self {
+            pts: pts.to_vec(),
+            cell_m: 1.0,
+            origin: pts.first().copied().unwrap_or(DVec2::ZERO),
+            cells: std::collections::HashMap::new(),
+        };
+        let segments = pts.len().saturating_sub(1);
+        let finite = pts.iter().all(|p| p.is_finite());
+        if segments < Self::MIN_SEGMENTS || !finite || u32::try_from(segments).is_err() {
+            return index;
+        }
+        let length_m: f64 = pts.windows(2).map(|w| (w[1] - w[0]).length()).sum();
+        index.cell_m = (2.0 * length_m / segments as f64).max(5.0);
+        for (k, w) in pts.windows(2).enumerate() {
+            let (a, b) = (index.cell_of(w[0]), index.cell_of(w[1]));
+            let (x0, x1, y0, y1) = (a.0.min(b.0), a.0.max(b.0), a.1.min(b.1), a.1.max(b.1));
+            let k = k as u32;
+            if (x1 - x0 + 1).saturating_mul(y1 - y0 + 1) <= Self::MAX_BOX_CELLS {
+                // Every cell the segment crosses lies in its bounding box.
+                for x in x0..=x1 {
+                    for y in y0..=y1 {
+                        index.cells.entry((x, y)).or_default().push(k);
+                    }
+                }
+            } else {
+                // Samples at most half a cell apart: every point of the segment is within a quarter cell
+                // of a sample, so every cell it crosses is the cell of a sample or one of its neighbours.
+                let n = ((w[1] - w[0]).length() / (0.5 * index.cell_m)).ceil().max(1.0) as u64;
+                let mut last = None;
+                for i in 0..=n {
+                    let c = index.cell_of(w[0].lerp(w[1], i as f64 / n as f64));
+                    if last == Some(c) {
+                        continue;
+                    }
+                    last = Some(c);
+                    for x in c.0 - 1..=c.0 + 1 {
+                        for y in c.1 - 1..=c.1 + 1 {
+                            let v = index.cells.entry((x, y)).or_default();
+                            if v.last() != Some(&k) {
+                                v.push(k);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        index
+    }
+
+    fn cell_of(&self, p: DVec2) -> (i64, i64) {
+        let c = (p - self.origin) / self.cell_m;
+        (c.x.floor() as i64, c.y.floor() as i64)
+    }
+
+    /// Distance from `p` to the polyline [m]; equal to [`distance_to_polyline_m`]`(p, pts)`.
+    pub fn distance_m(&self, p: DVec2) -> f64 {
+        if self.cells.is_empty() || !p.is_finite() {
+            return distance_to_polyline_m(p, &self.pts);
+        }
+        let budget = self.pts.len();
+        let c = self.cell_of(p);
+        let mut best = f64::INFINITY;
+        let mut visited = 0usize;
+        for r in 0i64.. {
+            visited += if r == 0 { 1 } else { 8 * r as usize };
+            if visited > budget {
+                return distance_to_polyline_m(p, &self.pts);
+            }
+            let mut visit = |x: i64, y: i64| {
+                if let Some(segs) = self.cells.get(&(x, y)) {
+                    for &k in segs {
+                        let k = k as usize;
+                        best = best.min(distance_to_segment_m(p, self.pts[k], self.pts[k + 1]));
+                    }
+                }
+            };
+            if r == 0 {
+                visit(c.0, c.1);
+            } else {
+                for x in c.0 - r..=c.0 + r {
+                    visit(x, c.1 - r);
+                    visit(x, c.1 + r);
+                }
+                for y in c.1 - r + 1..c.1 + r {
+                    visit(c.0 - r, y);
+                    visit(c.0 + r, y);
+                }
+            }
+            // Rings 0..=r scanned: p is at least r cells from the border of that block, so every segment not
+            // seen yet is at least that far (less a rounding margin).
+            if best <= r as f64 * self.cell_m * (1.0 - 1e-9) {
+                return best;
+            }
+        }
+        best
     }
 }
 
@@ -209,6 +333,8 @@ pub fn simulate(waypoints: &[Waypoint], config: &SimConfig, seed: u64) -> Result
     let mut guidance = Guidance::new(route, config.guidance, config.strategy);
     let frame = LocalFrame::new(waypoints[0].pos, config.guidance.earth);
     let wps_en: Vec<DVec2> = waypoints.iter().map(|w| frame.enu_from_wgs84(w.pos)).collect();
+    // The cross-track metric runs every step: an index keeps a walk linear in the route's length.
+    let route_line = PolylineIndex::new(&wps_en);
     let length_m: f64 = wps_en.windows(2).map(|w| (w[1] - w[0]).length()).sum();
     let w = config.wearer;
     let pace = w.pace_m_s.max(0.1);
@@ -231,7 +357,8 @@ pub fn simulate(waypoints: &[Waypoint], config: &SimConfig, seed: u64) -> Result
     let mut pos = wps_en[0];
     let mut walking = true;
     let mut pending: Vec<(f64, f64)> = Vec::new(); // (time to act, heading change), in cue order
-    let mut last_fix: Option<(f64, DVec2, f64, f64)> = None; // (time, en, cog, speed)
+    // (time, position, cog, speed); the position is mapped to WGS-84 once per fix, not once per step.
+    let mut last_fix: Option<(f64, LatLon, f64, f64)> = None;
     let mut result = SimResult {
         strategy: config.strategy.name().to_owned(),
         seed,
@@ -263,13 +390,13 @@ pub fn simulate(waypoints: &[Waypoint], config: &SimConfig, seed: u64) -> Result
         if step.is_multiple_of(fix_every) {
             let fix_en = gnss.apply(fix_interval_s, pos, speed);
             let cog = normalize_deg(heading + config.cog_noise_deg * normal(&mut rng));
-            last_fix = Some((t, fix_en, cog, speed));
+            last_fix = Some((t, frame.wgs84_from_enu(fix_en), cog, speed));
             result.path_true_en_m.push(pos);
             result.path_fix_en_m.push(fix_en);
         }
-        let input = last_fix.map_or_else(NavInput::default, |(tf, en, cog, spd)| NavInput {
+        let input = last_fix.map_or_else(NavInput::default, |(tf, fix_pos, cog, spd)| NavInput {
             fix_age_s: t - tf,
-            ..NavInput::moving(frame.wgs84_from_enu(en), cog, spd)
+            ..NavInput::moving(fix_pos, cog, spd)
         });
         let decision = guidance.update(&input, t);
         match decision.event {
@@ -329,7 +456,7 @@ pub fn simulate(waypoints: &[Waypoint], config: &SimConfig, seed: u64) -> Result
         }
         if left_start || (pos - wps_en[0]).length() > config.route.arrival_radius_m {
             left_start = true;
-            let xt = distance_to_polyline_m(pos, &wps_en);
+            let xt = route_line.distance_m(pos);
             xt_sum2 += xt * xt;
             xt_n += 1;
             result.max_cross_track_m = result.max_cross_track_m.max(xt);
@@ -465,6 +592,63 @@ mod tests {
         assert_relative_eq!(distance_to_polyline_m(DVec2::new(5.0, 3.0), &pts), 3.0);
         assert_relative_eq!(distance_to_polyline_m(DVec2::new(13.0, 5.0), &pts), 3.0);
         assert_relative_eq!(distance_to_polyline_m(DVec2::new(-3.0, -4.0), &pts), 5.0);
+    }
+
+    #[test]
+    fn polyline_index_gives_the_linear_scan_s_answer() {
+        let mut rng = StdRng::seed_from_u64(7);
+        // A wandering 3 m-step walk that crosses itself, with a few long legs and a repeated point.
+        let mut pts = vec![DVec2::ZERO];
+        let mut h: f64 = 0.0;
+        for i in 0..2000 {
+            h += 0.3 * normal(&mut rng);
+            let step = if i % 500 == 250 { 400.0 } else { 3.0 };
+            let last = pts[pts.len() - 1];
+            pts.push(last + DVec2::new(h.sin(), h.cos()) * step);
+            if i == 1000 {
+                pts.push(last + DVec2::new(h.sin(), h.cos()) * step);
+            }
+        }
+        let index = PolylineIndex::new(&pts);
+        assert!(!index.cells.is_empty());
+        let (lo, hi) =
+            pts.iter().fold((DVec2::INFINITY, DVec2::NEG_INFINITY), |(a, b), p| (a.min(*p), b.max(*p)));
+        for i in 0..3000 {
+            // Near the line (most queries) and anywhere in and around its box.
+            let p = if i % 3 == 0 {
+                lo - DVec2::splat(200.0)
+                    + (hi - lo + DVec2::splat(400.0)) * DVec2::new(rng.random(), rng.random())
+            } else {
+                pts[rng.random_range(0..pts.len())] + DVec2::new(normal(&mut rng), normal(&mut rng)) * 15.0
+            };
+            let (fast, slow) = (index.distance_m(p), distance_to_polyline_m(p, &pts));
+            assert!(fast.to_bits() == slow.to_bits(), "{p}: {fast} vs {slow}");
+        }
+        // Short and degenerate lines.
+        for short in [vec![], vec![DVec2::ONE], vec![DVec2::ZERO, DVec2::X]] {
+            let q = DVec2::new(0.5, 2.0);
+            let (fast, slow) = (PolylineIndex::new(&short).distance_m(q), distance_to_polyline_m(q, &short));
+            assert_eq!(fast.to_bits(), slow.to_bits());
+        }
+    }
+
+    #[test]
+    fn a_long_route_of_short_legs_is_walked() {
+        // A 2000-point, 6 km route of 3 m legs (a recorded track used as a route).
+        let o = LatLon::new(42.3575, -71.1010);
+        let mut wps = vec![Waypoint::new("0", o)];
+        for i in 1..2000 {
+            let h = 45.0 + 60.0 * (f64::from(i) / 150.0).sin();
+            let last = wps[wps.len() - 1].pos;
+            wps.push(Waypoint::new(format!("{i}"), Earth::Wgs84.direct(last, h, 3.0)));
+        }
+        let mut cfg = SimConfig::new(StrategyKind::Pursuit);
+        cfg.gnss = GnssErrorModel::perfect();
+        let t = std::time::Instant::now();
+        let r = simulate(&wps, &cfg, 1).unwrap();
+        println!("{} in {:?}", brief(&r), t.elapsed());
+        assert!(r.finished, "{}", brief(&r));
+        assert!(r.cross_track_rmse_m < 10.0, "{}", brief(&r));
     }
 
     #[test]

@@ -4,8 +4,14 @@
 //! send); transports are thin `Read + Write` adapters owned by one worker thread each.
 //! - [`gps`]: NMEA 0183 decoding and fix assembly, GPS sources (serial, log replay, gpsd, simulator);
 //! - [`wtcu`]: the Wireless Tactile Control Unit protocol, link, and vest emulator;
-//! - [`serial`]: serial-port discovery and opening (Bluetooth SPP ports are serial ports).
+//! - [`serial`]: serial-port discovery and opening (Bluetooth SPP ports are serial ports);
+//! - [`session_log`]: the console's session log (JSON Lines): records, writer, reader;
+//! - [`route_file`]: routes in GPX (waypoints, routes, tracks) read and written;
+//! - [`outbox`]: how workers hand events to their consumers (bounded, never blocking a stop).
 
 pub mod gps;
+pub mod outbox;
+pub mod route_file;
 pub mod serial;
+pub mod session_log;
 pub mod wtcu;

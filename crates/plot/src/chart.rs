@@ -26,23 +26,34 @@ pub enum Marker {
     Cross,
 }
 
+/// How a [`Series`] is drawn.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum SeriesKind {
+pub enum SeriesKind {
+    /// A polyline (non-finite values break it).
     Line,
+    /// One marker per point.
     Scatter,
 }
 
 /// One data series of a [`Chart`]: a line or a scatter of points.
 #[derive(Debug, Clone)]
 pub struct Series {
-    pub(crate) label: String,
-    pub(crate) x: Vec<f64>,
-    pub(crate) y: Vec<f64>,
-    pub(crate) kind: SeriesKind,
-    pub(crate) dashed: bool,
-    pub(crate) width_px: f32,
-    pub(crate) marker: Marker,
-    pub(crate) color: Option<Color>,
+    /// Legend label (empty: not in the legend).
+    pub label: String,
+    /// X values (data units).
+    pub x: Vec<f64>,
+    /// Y values (data units), paired with `x`.
+    pub y: Vec<f64>,
+    /// Line or scatter.
+    pub kind: SeriesKind,
+    /// Whether the line is dashed.
+    pub dashed: bool,
+    /// Line width [px] (also scales markers).
+    pub width_px: f32,
+    /// Marker at each point.
+    pub marker: Marker,
+    /// Explicit colour, or the palette colour of the series index when `None`.
+    pub color: Option<Color>,
 }
 
 impl Series {
@@ -92,44 +103,66 @@ impl Series {
 
 /// A labelled horizontal or vertical reference line.
 #[derive(Debug, Clone)]
-pub(crate) struct RefLine {
-    pub(crate) value: f64,
-    pub(crate) label: String,
+pub struct RefLine {
+    /// Position in data units (y of a horizontal line, x of a vertical one).
+    pub value: f64,
+    /// Label drawn next to the line.
+    pub label: String,
 }
 
 /// A circle in data units.
 #[derive(Debug, Clone)]
-pub(crate) struct DataCircle {
-    pub(crate) cx: f64,
-    pub(crate) cy: f64,
-    pub(crate) r: f64,
-    pub(crate) label: String,
+pub struct DataCircle {
+    /// Centre x (data units).
+    pub cx: f64,
+    /// Centre y (data units).
+    pub cy: f64,
+    /// Radius (data units).
+    pub r: f64,
+    /// Legend label (empty: none).
+    pub label: String,
 }
 
 /// Text placed at a data point.
 #[derive(Debug, Clone)]
-pub(crate) struct Annotation {
-    pub(crate) x: f64,
-    pub(crate) y: f64,
-    pub(crate) text: String,
+pub struct Annotation {
+    /// X of the anchor point (data units).
+    pub x: f64,
+    /// Y of the anchor point (data units).
+    pub y: f64,
+    /// The text.
+    pub text: String,
 }
 
 /// One chart panel: axes, ticks, grid, series, reference lines, legend and title.
 #[derive(Debug, Clone)]
 pub struct Chart {
-    pub(crate) title: String,
-    pub(crate) x_label: String,
-    pub(crate) y_label: String,
-    pub(crate) x_scale: Scale,
-    pub(crate) y_scale: Scale,
-    pub(crate) x_range: Option<(f64, f64)>,
-    pub(crate) y_range: Option<(f64, f64)>,
-    pub(crate) equal_aspect: bool,
-    pub(crate) series: Vec<Series>,
-    pub(crate) hlines: Vec<RefLine>,
-    pub(crate) vlines: Vec<RefLine>,
-    pub(crate) circles: Vec<DataCircle>,
-    pub(crate) annotations: Vec<Annotation>,
+    /// Panel title.
+    pub title: String,
+    /// X axis label with units.
+    pub x_label: String,
+    /// Y axis label with units.
+    pub y_label: String,
+    /// X axis scale.
+    pub x_scale: Scale,
+    /// Y axis scale.
+    pub y_scale: Scale,
+    /// Explicit x range, else automatic.
+    pub x_range: Option<(f64, f64)>,
+    /// Explicit y range, else automatic.
+    pub y_range: Option<(f64, f64)>,
+    /// One x unit as long as one y unit.
+    pub equal_aspect: bool,
+    /// Data series, drawn in order.
+    pub series: Vec<Series>,
+    /// Horizontal reference lines.
+    pub hlines: Vec<RefLine>,
+    /// Vertical reference lines.
+    pub vlines: Vec<RefLine>,
+    /// Circles in data units.
+    pub circles: Vec<DataCircle>,
+    /// Texts at data points.
+    pub annotations: Vec<Annotation>,
 }
 
 impl Chart {

@@ -18,7 +18,7 @@ const ANCHORS: [(u8, u8, u8); 10] = [
 ];
 
 /// Colour of `t` in 0..=1 (clamped), linear interpolation between the anchors; NaN gives light grey.
-pub(crate) fn viridis(t: f64) -> Color {
+pub fn viridis(t: f64) -> Color {
     if t.is_nan() {
         return Color::rgb(230, 230, 230);
     }

@@ -42,11 +42,16 @@ impl From<Heatmap> for Panel {
 /// A figure: an optional sheet title above a grid of panels, on a white background.
 #[derive(Debug, Clone)]
 pub struct Figure {
-    pub(crate) title: String,
-    pub(crate) columns: usize,
-    pub(crate) panel_width_px: u32,
-    pub(crate) panel_height_px: u32,
-    pub(crate) panels: Vec<Panel>,
+    /// Sheet title (empty: none).
+    pub title: String,
+    /// Panels per row.
+    pub columns: usize,
+    /// Width of one panel [px].
+    pub panel_width_px: u32,
+    /// Height of one panel [px].
+    pub panel_height_px: u32,
+    /// The panels, row by row.
+    pub panels: Vec<Panel>,
 }
 
 impl Default for Figure {

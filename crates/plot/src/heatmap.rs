@@ -13,18 +13,30 @@ use crate::{Color, Scale, colormap};
 /// A colour-mapped image of values on a regular `nx` by `ny` grid, with a colorbar.
 #[derive(Debug, Clone)]
 pub struct Heatmap {
-    pub(crate) title: String,
-    pub(crate) x_extent: (f64, f64),
-    pub(crate) y_extent: (f64, f64),
-    pub(crate) nx: usize,
-    pub(crate) ny: usize,
-    pub(crate) values: Vec<f64>,
-    pub(crate) x_label: String,
-    pub(crate) y_label: String,
-    pub(crate) colorbar_label: String,
-    pub(crate) value_range: Option<(f64, f64)>,
-    pub(crate) points: Vec<(f64, f64, String)>,
-    pub(crate) equal_aspect: bool,
+    /// Panel title.
+    pub title: String,
+    /// X extent (outer cell edges, data units).
+    pub x_extent: (f64, f64),
+    /// Y extent (outer cell edges); row 0 at `y_extent.0`.
+    pub y_extent: (f64, f64),
+    /// Columns.
+    pub nx: usize,
+    /// Rows.
+    pub ny: usize,
+    /// Row-major values, `values[j * nx + i]`.
+    pub values: Vec<f64>,
+    /// X axis label with units.
+    pub x_label: String,
+    /// Y axis label with units.
+    pub y_label: String,
+    /// Colorbar label with units.
+    pub colorbar_label: String,
+    /// Fixed range of the colour map, else min..max of the finite values.
+    pub value_range: Option<(f64, f64)>,
+    /// Labelled markers `(x, y, label)` drawn on top.
+    pub points: Vec<(f64, f64, String)>,
+    /// One x unit as long as one y unit.
+    pub equal_aspect: bool,
 }
 
 impl Heatmap {

@@ -27,6 +27,7 @@
 mod canvas;
 mod chart;
 mod colormap;
+mod decimate;
 mod draw_chart;
 mod figure;
 mod heatmap;
@@ -34,7 +35,9 @@ mod style;
 mod text;
 mod ticks;
 
-pub use chart::{Chart, Marker, Scale, Series};
+pub use chart::{Annotation, Chart, DataCircle, Marker, RefLine, Scale, Series, SeriesKind};
+pub use colormap::viridis;
+pub use decimate::decimate_minmax;
 pub use figure::{Figure, Panel};
 pub use heatmap::Heatmap;
 pub use style::Color;

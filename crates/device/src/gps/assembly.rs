@@ -16,6 +16,9 @@
 //! epochs until replaced, because receivers send them less often than GGA/RMC (the `GPSlim` 236 sends GSA
 //! every 5 s). The date comes from RMC or ZDA and rolls over at midnight on its own when the time of day
 //! wraps before the next date arrives.
+//!
+//! Every fix is checked by [`Fix::validate`] as it is emitted (out-of-range positions removed, implausible
+//! values removed or corrected); what was removed is counted in [`DecodeStats`].
 
 use std::collections::{BTreeMap, VecDeque};
 use std::time::{Duration, Instant};
@@ -160,6 +163,8 @@ pub struct NmeaDecoder {
     events: VecDeque<GpsEvent>,
     last_timestamp_ms: Option<i64>,
     epochs: u64,
+    /// What [`Fix::validate`] removed from the emitted fixes.
+    checked: DecodeStats,
 }
 
 impl Default for NmeaDecoder {
@@ -188,12 +193,18 @@ impl NmeaDecoder {
             events: VecDeque::new(),
             last_timestamp_ms: None,
             epochs: 0,
+            checked: DecodeStats::default(),
         }
     }
 
     /// Counts of accepted and rejected input so far.
     pub fn stats(&self) -> DecodeStats {
-        DecodeStats { epochs: self.epochs, ..*self.framer.stats() }
+        DecodeStats {
+            epochs: self.epochs,
+            invalid_positions: self.checked.invalid_positions,
+            implausible_values: self.checked.implausible_values,
+            ..*self.framer.stats()
+        }
     }
 
     /// The last `$PVNAV,TS` recording timestamp seen (Unix milliseconds), if any.
@@ -411,7 +422,9 @@ impl NmeaDecoder {
             self.last_tod = epoch.tod;
             self.last_closed_tod_ms = epoch.tod.map(sentence::tod_ms);
         }
-        let fix = self.build_fix(epoch);
+        let mut fix = self.build_fix(epoch);
+        // The one boundary check of every value before the fix leaves the decoder.
+        fix.validate().count_into(&mut self.checked);
         self.epochs += 1;
         self.events.push_back(GpsEvent::Fix(Box::new(fix)));
     }
@@ -717,5 +730,57 @@ mod tests {
                 .filter(|f| f.mode == Some(FixMode::NoFix))
                 .all(|f| f.lat_deg.is_none() && f.error.is_none())
         );
+    }
+
+    /// Implausible values with correct checksums: removed or corrected by `Fix::validate` and counted,
+    /// the position (which is fine) kept.
+    #[test]
+    fn implausible_nmea_values_are_removed_and_counted() {
+        use crate::gps::framing::with_checksum;
+        let text = [
+            // 10 100 satellites used and a negative HDOP.
+            "GPGGA,110518.000,5709.8067,N,00207.2822,W,1,10100,-1.0,59.3,M,48.2,M,,0000",
+            // Speed -5 kn and course 400 deg.
+            "GPRMC,110518.000,A,5709.8067,N,00207.2822,W,-5.0,400.0,140311,,,A",
+        ]
+        .map(with_checksum)
+        .concat();
+        let (fixes, stats) = crate::gps::decode_reader(text.as_bytes()).unwrap();
+        assert_eq!(stats.rejected(), 0, "{stats}");
+        assert_eq!(fixes.len(), 1);
+        let f = &fixes[0];
+        assert!(f.has_position());
+        assert!((f.lat_deg.unwrap() - 57.163_445).abs() < 1e-9);
+        assert_eq!((f.sats_used, f.hdop, f.speed_m_s), (None, None, None));
+        assert!((f.course_deg.unwrap() - 40.0).abs() < 1e-9, "{f:?}");
+        // The DOP model made a negative error estimate (-1.0 x UERE) from the negative HDOP: removed too.
+        assert_eq!(f.error, None);
+        // sats, HDOP, speed, course (normalised), error estimate.
+        assert_eq!(stats.implausible_values, 5, "{stats}");
+        assert_eq!(stats.invalid_positions, 0);
+        assert!(stats.to_string().contains("5 implausible values"), "{stats}");
+    }
+
+    /// The same through VTG and GSA, which carry course, speed and DOPs on their own.
+    #[test]
+    fn implausible_vtg_and_gsa_values_are_removed_and_counted() {
+        use crate::gps::framing::with_checksum;
+        let text = [
+            "GPGGA,110518.000,5709.8067,N,00207.2822,W,1,08,,59.3,M,48.2,M,,0000",
+            "GPGSA,A,3,02,05,07,12,13,15,18,20,,,,,1.8,-1.0,-1.5",
+            "GPVTG,400.0,T,,M,-5.0,N,-9.3,K,A",
+        ]
+        .map(with_checksum)
+        .concat();
+        let (fixes, stats) = crate::gps::decode_reader(text.as_bytes()).unwrap();
+        assert_eq!(stats.rejected(), 0, "{stats}");
+        let f = &fixes[0];
+        assert!(f.has_position());
+        assert_eq!((f.hdop, f.vdop, f.pdop), (None, None, Some(1.8)));
+        assert_eq!(f.speed_m_s, None);
+        assert!((f.course_deg.unwrap() - 40.0).abs() < 1e-9, "{f:?}");
+        assert_eq!(f.sats_used, Some(8));
+        // HDOP, VDOP, speed, course, and the DOP model's negative error estimate.
+        assert_eq!(stats.implausible_values, 5, "{stats}");
     }
 }

@@ -29,7 +29,8 @@ pub struct DecodeStats {
     pub bad_checksum: u64,
     /// Sentences without a `*hh` checksum (rejected).
     pub missing_checksum: u64,
-    /// Lines longer than [`MAX_SENTENCE_LEN`] (rejected).
+    /// Lines longer than [`MAX_SENTENCE_LEN`] (NMEA) or [`super::gpsd::MAX_LINE_LEN`] (gpsd JSON), dropped
+    /// without being buffered (rejected).
     pub overlong: u64,
     /// Sentences cut short by a new `$`, a control or non-ASCII byte (rejected).
     pub truncated: u64,
@@ -47,6 +48,14 @@ pub struct DecodeStats {
     pub epochs: u64,
     /// Operator marks (`$PVNAV,MARK`).
     pub marks: u64,
+    /// Fixes whose position was not finite or out of range (|lat| > 90°, |lon| > 180°): the position was
+    /// removed and the fix reported as no fix ([`super::Fix::validate`]).
+    #[serde(default)]
+    pub invalid_positions: u64,
+    /// Implausible values removed or corrected in fixes (negative DOPs, speeds or error estimates, courses
+    /// outside 0–360°, absurd satellite counts...; [`super::Fix::validate`]).
+    #[serde(default)]
+    pub implausible_values: u64,
 }
 
 impl DecodeStats {
@@ -70,6 +79,8 @@ impl DecodeStats {
         self.comment_lines += o.comment_lines;
         self.epochs += o.epochs;
         self.marks += o.marks;
+        self.invalid_positions += o.invalid_positions;
+        self.implausible_values += o.implausible_values;
     }
 }
 
@@ -79,7 +90,7 @@ impl std::fmt::Display for DecodeStats {
             f,
             "{} bytes, {} sentences, {} epochs, {} marks; rejected {} (bad checksum {}, no checksum {}, \
              truncated {}, overlong {}, malformed {}); ignored: {} unsupported sentences, {} binary frames, \
-             {} junk bytes, {} comment lines",
+             {} junk bytes, {} comment lines; removed from fixes: {} invalid positions, {} implausible values",
             self.bytes,
             self.sentences,
             self.epochs,
@@ -93,7 +104,9 @@ impl std::fmt::Display for DecodeStats {
             self.unsupported,
             self.binary_frames,
             self.junk_bytes,
-            self.comment_lines
+            self.comment_lines,
+            self.invalid_positions,
+            self.implausible_values
         )
     }
 }

@@ -4,12 +4,119 @@
 //! `time` completes a fix; the latest SKY supplies DOPs and satellites. gpsd's own `eph` (its DOP model, or
 //! the receiver's GST/PGRME) becomes the error estimate.
 
+use std::time::Instant;
+
 use chrono::{DateTime, Utc};
 
 use super::fix::{Constellation, ErrorEstimate, ErrorSource, Fix, FixMode, Satellite};
+use super::framing::DecodeStats;
 
 /// The command that starts the JSON stream.
 pub const WATCH: &str = "?WATCH={\"enable\":true,\"json\":true}\n";
+
+/// Longest report line accepted [bytes]: 64 KiB.
+///
+/// gpsd's own client library reads each report into a buffer of `GPS_JSON_RESPONSE_MAX` = 10 240 bytes
+/// (`gps_json.h`, sized for u-blox 9 RAW reports); a SKY with 100 satellites is about 8 kB, a TPV under
+/// 1 kB. Six times the largest report gpsd itself can send leaves room for future fields; a longer line
+/// is not gpsd and is discarded up to its next newline without being stored.
+pub const MAX_LINE_LEN: usize = 64 * 1024;
+
+/// Splits a byte stream into `\n`-terminated lines while never holding more than its limit: a line
+/// longer than the limit is dropped as soon as it is known to be too long, and the bytes up to its newline
+/// are skipped without being stored (sans-IO; used by the gpsd transport).
+///
+/// ```
+/// use vestnav_device::gps::gpsd::LineFramer;
+/// let mut f = LineFramer::new(8);
+/// let mut lines = Vec::new();
+/// f.feed(b"short\r\nthis one is too long", |l| lines.push(l.to_vec()));
+/// f.feed(b" still\nok\n", |l| lines.push(l.to_vec()));
+/// assert_eq!(lines, [b"short".to_vec(), b"ok".to_vec()]);
+/// assert_eq!(f.overlong(), 1);
+/// assert!(f.buffered() <= 8);
+/// ```
+#[derive(Debug, Clone)]
+pub struct LineFramer {
+    buf: Vec<u8>,
+    limit: usize,
+    discarding: bool,
+    overlong: u64,
+    lines: u64,
+}
+
+impl LineFramer {
+    /// A framer accepting lines of up to `limit` bytes (without the line end).
+    pub fn new(limit: usize) -> Self {
+        Self { buf: Vec::new(), limit, discarding: false, overlong: 0, lines: 0 }
+    }
+
+    /// Feeds bytes; calls `on_line` with each complete line of at most the limit, without its `\n` and
+    /// without a `\r` before it. Returns how many lines were handed out.
+    pub fn feed(&mut self, data: &[u8], mut on_line: impl FnMut(&[u8])) -> usize {
+        let mut handed = 0;
+        let mut rest = data;
+        while !rest.is_empty() {
+            let Some(i) = rest.iter().position(|&b| b == b'\n') else {
+                if !self.discarding {
+                    if self.buf.len() + rest.len() > self.limit {
+                        self.too_long();
+                        self.discarding = true;
+                    } else {
+                        self.buf.extend_from_slice(rest);
+                    }
+                }
+                break;
+            };
+            let (part, tail) = (&rest[..i], &rest[i + 1..]);
+            rest = tail;
+            if self.discarding {
+                self.discarding = false;
+                continue;
+            }
+            if self.buf.len() + part.len() > self.limit {
+                self.too_long();
+                continue;
+            }
+            let line = if self.buf.is_empty() {
+                part
+            } else {
+                self.buf.extend_from_slice(part);
+                &self.buf[..]
+            };
+            on_line(line.strip_suffix(b"\r").unwrap_or(line));
+            self.buf.clear();
+            self.lines += 1;
+            handed += 1;
+        }
+        handed
+    }
+
+    fn too_long(&mut self) {
+        self.overlong += 1;
+        self.buf.clear();
+    }
+
+    /// Lines dropped for being longer than the limit.
+    pub fn overlong(&self) -> u64 {
+        self.overlong
+    }
+
+    /// Lines handed out.
+    pub fn lines(&self) -> u64 {
+        self.lines
+    }
+
+    /// Bytes of an incomplete line held now (never more than the limit).
+    pub fn buffered(&self) -> usize {
+        self.buf.len()
+    }
+
+    /// Bytes allocated for the incomplete line (at most twice the limit: the buffer grows by doubling).
+    pub fn capacity(&self) -> usize {
+        self.buf.capacity()
+    }
+}
 
 /// Turns gpsd report lines into fixes.
 #[derive(Debug, Default)]
@@ -18,6 +125,7 @@ pub struct GpsdClient {
     last_time: Option<DateTime<Utc>>,
     /// Lines that were not JSON objects of a known class.
     pub ignored_lines: u64,
+    stats: DecodeStats,
 }
 
 impl GpsdClient {
@@ -26,19 +134,38 @@ impl GpsdClient {
         Self::default()
     }
 
-    /// Handles one line; returns a fix when a TPV with a new time arrives.
-    pub fn handle_line(&mut self, line: &str) -> Option<Fix> {
+    /// Counts so far: `bytes` and `sentences` (report lines parsed as JSON), `malformed` (lines that are
+    /// not JSON), `epochs` (fixes made), and what [`Fix::validate`] removed from them
+    /// (`invalid_positions`, `implausible_values`).
+    pub fn stats(&self) -> DecodeStats {
+        self.stats
+    }
+
+    /// Handles one line whose bytes arrived at `now`; returns a fix (already validated, stamped
+    /// `received_at = now`) when a TPV with a new time arrives.
+    pub fn handle_line(&mut self, line: &str, now: Instant) -> Option<Fix> {
+        self.stats.bytes += line.len() as u64;
         let Ok(v) = serde_json::from_str::<serde_json::Value>(line.trim()) else {
             self.ignored_lines += 1;
+            self.stats.malformed += 1;
             return None;
         };
+        self.stats.sentences += 1;
         match v.get("class").and_then(serde_json::Value::as_str) {
             Some("SKY") => {
                 self.apply_sky(&v);
                 None
             }
-            Some("TPV") => self.tpv(&v),
-            _ => None,
+            Some("TPV") => {
+                let mut fix = self.tpv(&v, now)?;
+                fix.validate().count_into(&mut self.stats);
+                self.stats.epochs += 1;
+                Some(fix)
+            }
+            _ => {
+                self.stats.unsupported += 1;
+                None
+            }
         }
     }
 
@@ -47,8 +174,10 @@ impl GpsdClient {
         f.hdop = v["hdop"].as_f64().or(f.hdop);
         f.pdop = v["pdop"].as_f64().or(f.pdop);
         f.vdop = v["vdop"].as_f64().or(f.vdop);
-        f.sats_used = v["uSat"].as_u64().map(|n| n as u32).or(f.sats_used);
-        f.sats_visible = v["nSat"].as_u64().map(|n| n as u32).or(f.sats_visible);
+        // Saturated rather than wrapped, so that an absurd count is seen (and refused) by `Fix::validate`.
+        let count = |n: u64| u32::try_from(n).unwrap_or(u32::MAX);
+        f.sats_used = v["uSat"].as_u64().map(count).or(f.sats_used);
+        f.sats_visible = v["nSat"].as_u64().map(count).or(f.sats_visible);
         if let Some(list) = v["satellites"].as_array() {
             f.satellites = list
                 .iter()
@@ -86,7 +215,7 @@ impl GpsdClient {
         }
     }
 
-    fn tpv(&mut self, v: &serde_json::Value) -> Option<Fix> {
+    fn tpv(&mut self, v: &serde_json::Value, now: Instant) -> Option<Fix> {
         let time = v["time"].as_str().and_then(|t| DateTime::parse_from_rfc3339(t).ok())?.with_timezone(&Utc);
         if self.last_time == Some(time) {
             return None;
@@ -108,7 +237,7 @@ impl GpsdClient {
             geoid_sep_m: v["geoidSep"].as_f64(),
             speed_m_s: v["speed"].as_f64(),
             course_deg: v["track"].as_f64(),
-            received_at: Some(std::time::Instant::now()),
+            received_at: Some(now),
             ..self.sky.clone()
         };
         // gpsd's eph/epv: its own DOP model or the receiver's GST/PGRME ("certainty unknown", gpsd_json(5)).
@@ -135,11 +264,107 @@ mod tests {
         )
         .unwrap();
         let mut c = GpsdClient::new();
-        let fixes: Vec<Fix> = text.lines().filter_map(|l| c.handle_line(l)).collect();
+        let now = Instant::now();
+        let fixes: Vec<Fix> = text.lines().filter_map(|l| c.handle_line(l, now)).collect();
         assert_eq!(fixes.len(), 16);
         assert!((fixes[0].lat_deg.unwrap() - 57.163_445).abs() < 1e-9);
         assert_eq!(fixes[0].mode, Some(FixMode::Fix3D));
         assert_eq!(fixes[0].sats_used, Some(8));
         assert!(c.ignored_lines > 0, "NMEA echo lines are ignored");
+        assert!(fixes.iter().all(|f| f.received_at == Some(now)));
+        let st = c.stats();
+        assert_eq!(st.epochs, 16);
+        assert_eq!((st.invalid_positions, st.implausible_values), (0, 0), "gpsd's own output is plausible");
+    }
+
+    fn tpv(n: u32, fields: &str) -> String {
+        format!(r#"{{"class":"TPV","mode":3,"time":"2011-03-14T11:05:{n:02}.000Z",{fields}}}"#)
+    }
+
+    /// The values of the "Safety first" issue never leave the client as a position, and are counted.
+    #[test]
+    fn absurd_positions_become_no_fix_and_are_counted() {
+        let mut c = GpsdClient::new();
+        let now = Instant::now();
+        let bad = [
+            r#""lat":57.0,"lon":-1e15"#,
+            r#""lat":91.0,"lon":181.0"#,
+            r#""lat":9999,"lon":2.0"#,
+            r#""lat":1e20,"lon":2.0"#,
+            r#""lat":-90.0000001,"lon":2.0"#,
+        ];
+        for (k, f) in bad.iter().enumerate() {
+            let fix = c.handle_line(&tpv(k as u32, f), now).unwrap();
+            assert!(!fix.has_position(), "{f}: {fix:?}");
+            assert_eq!((fix.lat_deg, fix.lon_deg, fix.mode), (None, None, Some(FixMode::NoFix)));
+        }
+        assert_eq!(c.stats().invalid_positions, 5);
+        // NaN, Infinity and 1e400 are not JSON numbers (RFC 8259 §6): the line is not a report at all.
+        for (k, f) in [r#""lat":NaN,"lon":2.0"#, r#""lat":Infinity,"lon":2.0"#, r#""lat":1e400,"lon":2.0"#]
+            .iter()
+            .enumerate()
+        {
+            assert!(c.handle_line(&tpv(10 + k as u32, f), now).is_none(), "{f}");
+        }
+        // The poles and the antimeridian are positions.
+        let fix = c.handle_line(&tpv(20, r#""lat":-90.0,"lon":180.0"#), now).unwrap();
+        assert!(fix.has_position());
+        assert_eq!(c.stats().invalid_positions, 5);
+    }
+
+    #[test]
+    fn implausible_tpv_and_sky_values_are_removed_and_counted() {
+        let mut c = GpsdClient::new();
+        let now = Instant::now();
+        assert!(
+            c.handle_line(
+                r#"{"class":"SKY","hdop":-1.5,"pdop":2.0,"vdop":1e300,"uSat":10100,"nSat":12}"#,
+                now
+            )
+            .is_none()
+        );
+        let fix = c
+            .handle_line(
+                &tpv(1, r#""lat":57.0,"lon":-2.0,"altMSL":2e6,"speed":-5,"track":400,"eph":-3,"epv":2"#),
+                now,
+            )
+            .unwrap();
+        assert!(fix.has_position());
+        assert_eq!((fix.hdop, fix.pdop, fix.vdop), (None, Some(2.0), None));
+        assert_eq!((fix.sats_used, fix.sats_visible), (None, Some(12)));
+        assert_eq!((fix.alt_m, fix.speed_m_s, fix.error), (None, None, None));
+        assert!((fix.course_deg.unwrap() - 40.0).abs() < 1e-12);
+        // hdop, vdop, uSat, altitude, speed, track (normalised), eph.
+        assert_eq!(c.stats().implausible_values, 7);
+        assert_eq!(c.stats().invalid_positions, 0);
+    }
+
+    #[test]
+    fn line_framer_splits_across_reads_and_bounds_overlong_lines() {
+        let mut f = LineFramer::new(16);
+        let mut got: Vec<Vec<u8>> = Vec::new();
+        let mut n = 0;
+        for chunk in [&b"{\"a\""[..], b":1}\r", b"\n{}\n", b"x", b"y\n"] {
+            n += f.feed(chunk, |l| got.push(l.to_vec()));
+        }
+        assert_eq!(got, [b"{\"a\":1}".to_vec(), b"{}".to_vec(), b"xy".to_vec()]);
+        assert_eq!(n, 3);
+        // Too long inside one chunk, and too long across chunks: dropped, then the next line is fine.
+        got.clear();
+        f.feed(&[b'a'; 17], |l| got.push(l.to_vec()));
+        assert_eq!(f.buffered(), 0);
+        f.feed(b"\n", |l| got.push(l.to_vec()));
+        f.feed(&[[b'b'; 20].as_slice(), b"\nok\n"].concat(), |l| got.push(l.to_vec()));
+        f.feed(&[b'c'; 10], |l| got.push(l.to_vec()));
+        f.feed(&[b'c'; 10], |l| got.push(l.to_vec()));
+        f.feed(&[b'c'; 10], |l| got.push(l.to_vec()));
+        assert!(f.buffered() <= 16 && f.capacity() <= 32);
+        f.feed(b"\nend\n", |l| got.push(l.to_vec()));
+        assert_eq!(got, [b"ok".to_vec(), b"end".to_vec()]);
+        assert_eq!(f.overlong(), 3);
+        // Exactly at the limit is accepted.
+        got.clear();
+        f.feed(&[[b'd'; 16].as_slice(), b"\n"].concat(), |l| got.push(l.to_vec()));
+        assert_eq!(got, [vec![b'd'; 16]]);
     }
 }

@@ -2,8 +2,9 @@
 //!
 //! - [`framing`]: bytes to checksummed sentences (resync, binary frames, junk, limits);
 //! - [`assembly`]: sentences to epochs to [`Fix`]es — the sans-IO [`NmeaDecoder`];
-//! - [`fix`]: the fix type;
-//! - [`gpsd`]: gpsd's JSON protocol (TPV/SKY to [`Fix`]);
+//! - [`fix`]: the fix type and its plausibility check ([`Fix::validate`], applied to every fix from every
+//!   source);
+//! - [`gpsd`]: gpsd's JSON protocol (TPV/SKY to [`Fix`]) and its bounded line framer;
 //! - [`nmea_out`]: NMEA sentence generation (simulator, emulator);
 //! - [`record`]: the timestamped recording format;
 //! - [`source`]: worker threads for serial, replay, gpsd and simulator sources with one event stream.
@@ -36,7 +37,7 @@ use std::time::Instant;
 use chrono::{DateTime, NaiveTime, Utc};
 
 pub use assembly::{DecoderConfig, NmeaDecoder};
-pub use fix::{Constellation, ErrorEstimate, ErrorSource, Fix, FixMode, FixQuality, Satellite};
+pub use fix::{Constellation, ErrorEstimate, ErrorSource, Fix, FixCheck, FixMode, FixQuality, Satellite};
 pub use framing::{DecodeStats, MAX_SENTENCE_LEN};
 pub use source::{GpsHandle, GpsSource, SourceConfig, SourceState};
 
@@ -74,6 +75,9 @@ pub enum GpsEvent {
     Stats(DecodeStats),
     /// The source's connection state changed.
     State(SourceState),
+    /// Something the operator should know that is neither a state change nor an error, as one line of
+    /// text (e.g. a looped simulator starting its next lap).
+    Notice(String),
 }
 
 /// Errors of the GPS layer.
@@ -127,7 +131,7 @@ fn drain(decoder: &mut NmeaDecoder, fixes: &mut Vec<Fix>, marks: &mut Vec<Mark>)
         match ev {
             GpsEvent::Fix(f) => fixes.push(*f),
             GpsEvent::Mark(m) => marks.push(m),
-            GpsEvent::Stats(_) | GpsEvent::State(_) => {}
+            GpsEvent::Stats(_) | GpsEvent::State(_) | GpsEvent::Notice(_) => {}
         }
     }
 }

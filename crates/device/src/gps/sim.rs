@@ -65,13 +65,18 @@ impl SimulatedReceiver {
         self.walker.sample(self.t_s).finished
     }
 
+    /// UTC time of the last epoch returned (the start time before the first).
+    pub fn time(&self) -> DateTime<Utc> {
+        self.start + TimeDelta::milliseconds((self.t_s * 1000.0).round() as i64)
+    }
+
     /// Advances by `dt_s` and returns that epoch's NMEA sentences (GGA, GSA, GSV, RMC, GST).
     pub fn next_epoch(&mut self, dt_s: f64) -> String {
         self.t_s += dt_s;
         let truth = self.walker.sample(self.t_s);
         let en = self.error.apply(dt_s, truth.en_m, truth.speed_m_s);
         let (lat, lon) = self.walker.frame().latlon_from_en(en);
-        let time = self.start + TimeDelta::milliseconds((self.t_s * 1000.0).round() as i64);
+        let time = self.time();
         let satellites = (0u16..10)
             .map(|k| SimSatellite {
                 prn: [2, 5, 7, 12, 13, 15, 18, 20, 25, 29][usize::from(k)],

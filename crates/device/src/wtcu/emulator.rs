@@ -3,10 +3,14 @@
 //! [`serve`] is the loop (`vestnav emulate vest` runs it on the main thread with a terminal view);
 //! [`PtyEmulator`] runs it on a named thread behind a PTY whose slave path a console can open, with controls
 //! that tests use to make the unit go out of range or vanish mid-frame.
+//!
+//! A unit must not stop because nobody listens: when its replies go unread (the PTY buffer is full, a write
+//! times out), [`serve`] drops them and counts them in [`EmulatorControl::replies_dropped`] instead of
+//! blocking or ending. The leading delimiter of every frame makes a half-written one harmless.
 
 use std::collections::VecDeque;
 use std::io::{self, Read, Write};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, PoisonError};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
@@ -29,6 +33,9 @@ pub struct EmulatorControl {
     pub out_of_range: AtomicBool,
     /// Write half a frame, then close the port (the port vanishing mid-frame).
     pub vanish: AtomicBool,
+    /// Reply frames dropped (counted by [`serve`]) because the port would not take them in time: nobody is
+    /// reading the other side.
+    pub replies_dropped: AtomicU64,
 }
 
 /// Why [`serve`] returned.
@@ -42,8 +49,10 @@ pub enum ServeEnd {
     Vanished,
 }
 
-/// Serves `engine` on `port` (whose reads must time out, e.g. after [`SERVE_POLL`]) until stopped, EOF or
-/// a port error. `observe` sees the engine after every event it raises.
+/// Serves `engine` on `port` (whose reads and writes must time out, e.g. after [`SERVE_POLL`]) until
+/// stopped, EOF or a port error. `observe` sees the engine after every event it raises. A write that times
+/// out (or would block) is not an error: that frame and the rest of this round's are dropped and counted in
+/// [`EmulatorControl::replies_dropped`], so an unread port costs at most one write timeout per round.
 pub fn serve<C: WireCodec>(
     engine: &mut Engine<C>,
     port: &mut (impl Read + Write + ?Sized),
@@ -77,10 +86,23 @@ pub fn serve<C: WireCodec>(
         while let Some(event) = engine.poll_event() {
             observe(engine, &event);
         }
+        let mut dropped = 0u64;
         while let Some(frame) = engine.poll_transmit() {
-            if !muted {
-                port.write_all(&frame)?;
+            if muted {
+                continue;
             }
+            if dropped > 0 {
+                dropped += 1;
+                continue;
+            }
+            match port.write_all(&frame) {
+                Ok(()) => {}
+                Err(e) if is_timeout(&e) => dropped += 1,
+                Err(e) => return Err(e),
+            }
+        }
+        if dropped > 0 {
+            control.replies_dropped.fetch_add(dropped, Ordering::Relaxed);
         }
     }
 }
@@ -209,6 +231,16 @@ impl PtyEmulator {
     /// A snapshot of the unit.
     pub fn view(&self) -> EmulatorView {
         self.view.lock().unwrap_or_else(PoisonError::into_inner).clone()
+    }
+
+    /// Reply frames dropped so far because nobody read them (see [`EmulatorControl::replies_dropped`]).
+    pub fn replies_dropped(&self) -> u64 {
+        self.control.replies_dropped.load(Ordering::Relaxed)
+    }
+
+    /// Whether the serving thread is still running.
+    pub fn is_running(&self) -> bool {
+        self.thread.as_ref().is_some_and(|t| !t.is_finished())
     }
 
     /// Makes the unit deaf and mute (out of range) or brings it back.

@@ -5,18 +5,31 @@
 //! the clock it is given, answers retransmitted requests without running them twice, and stops everything
 //! when the console has been silent for the watchdog time. Garbage and truncated frames are dropped and
 //! counted; no input makes it panic.
+//!
+//! Time is played exactly: however coarsely `handle_*` is called, every pattern step, fire end and watchdog
+//! trip happens (and is booked for the limits) at its own instant. No tactor is ever on without a break for
+//! longer than `max_on_ms`: besides each command's own limits, a FIRE or PLAY that keeps a tactor on which
+//! is already on continues its run ([`RunTracker`]) and is refused (NAK 0x05) if the run would exceed it.
+//! Outgoing frames wait in a queue of at most [`MAX_QUEUED_FRAMES`]; an unsent REPORT is superseded by the
+//! next one, and when the queue is full the oldest frame (a REPORT first) is dropped and counted.
 
 use std::collections::VecDeque;
 use std::time::{Duration, Instant};
 
-use vestnav_core::vest::{Frame, TACTOR_COUNT, TactorMask};
+use vestnav_core::vest::{TACTOR_COUNT, TactorMask};
 
 use super::codec::{DecodeError, V1Codec, WireCodec};
-use super::limits::{DutyLedger, LimitError, Limits, planned_fire_ms, planned_pattern_ms};
+use super::limits::{
+    DutyLedger, LimitError, Limits, RunTracker, Schedule, Timeline, leading_pattern_ms, planned_fire_ms,
+    planned_pattern_ms,
+};
 use super::message::{
     Capabilities, CommandKind, DeviceInfo, Faults, FirmwareVersion, NakReason, Packet, Reply, Request,
     UnitStatus,
 };
+
+/// Most frames waiting in the engine's outgoing queue: the engine never holds more, whoever (not) drains it.
+pub const MAX_QUEUED_FRAMES: usize = 64;
 
 /// Battery voltage below which [`Faults::LOW_BATTERY`] is raised (mV).
 pub const LOW_BATTERY_MV: u16 = 3500;
@@ -100,13 +113,9 @@ pub struct EngineStats {
     pub duplicates: u64,
     /// Times the watchdog stopped everything.
     pub watchdog_trips: u64,
-}
-
-#[derive(Debug, Clone)]
-enum Activity {
-    Idle,
-    Fire { mask: TactorMask, until: Instant },
-    Pattern { frames: Vec<Frame>, repeats: u8, start: Instant },
+    /// Outgoing frames dropped because [`MAX_QUEUED_FRAMES`] were already waiting (nobody drained them).
+    /// REPORTs superseded by a newer unsent REPORT are not counted: nothing is lost with them.
+    pub frames_dropped: u64,
 }
 
 /// The device engine (see the module doc).
@@ -115,10 +124,8 @@ pub struct Engine<C: WireCodec = V1Codec> {
     config: EngineConfig,
     codec: C,
     identified: bool,
-    activity: Activity,
-    on: TactorMask,
+    timeline: Timeline,
     segment_start: Option<Instant>,
-    last_update: Option<Instant>,
     ledger: DutyLedger,
     intensity: [u8; TACTOR_COUNT],
     faults: Faults,
@@ -126,7 +133,8 @@ pub struct Engine<C: WireCodec = V1Codec> {
     watchdog_tripped: bool,
     last: Option<(u8, Request, Reply)>,
     report_seq: u8,
-    out: VecDeque<Vec<u8>>,
+    /// Frames to send, each marked whether it is a REPORT.
+    out: VecDeque<(bool, Vec<u8>)>,
     events: VecDeque<EngineEvent>,
     stats: EngineStats,
 }
@@ -145,10 +153,8 @@ impl<C: WireCodec> Engine<C> {
             config,
             codec,
             identified: false,
-            activity: Activity::Idle,
-            on: TactorMask::NONE,
+            timeline: Timeline::new(),
             segment_start: None,
-            last_update: None,
             ledger: DutyLedger::new(),
             intensity: [255; TACTOR_COUNT],
             faults: Faults::default(),
@@ -180,7 +186,12 @@ impl<C: WireCodec> Engine<C> {
 
     /// The tactors running now (as of the last `handle_*` call).
     pub fn tactors_on(&self) -> TactorMask {
-        self.on
+        self.timeline.on()
+    }
+
+    /// The continuous runs of the tactors so far (when each one's current run began).
+    pub fn runs(&self) -> &RunTracker {
+        self.timeline.runs()
     }
 
     /// Drive level of each tactor (255 = full).
@@ -222,7 +233,7 @@ impl<C: WireCodec> Engine<C> {
         UnitStatus {
             battery_mv: self.config.battery_mv,
             battery_pct: battery_pct_from_mv(self.config.battery_mv),
-            tactors_on: self.on,
+            tactors_on: self.tactors_on(),
             faults,
             firmware: self.config.firmware,
         }
@@ -230,7 +241,22 @@ impl<C: WireCodec> Engine<C> {
 
     /// Next frame to send to the console.
     pub fn poll_transmit(&mut self) -> Option<Vec<u8>> {
-        self.out.pop_front()
+        self.out.pop_front().map(|(_, frame)| frame)
+    }
+
+    /// Queues a frame for the console, keeping the queue bounded (see the module doc).
+    fn push_out(&mut self, frame: Vec<u8>, report: bool) {
+        if report && let Some((true, last)) = self.out.back_mut() {
+            // A REPORT carries the whole state: an unsent older one says nothing the new one does not.
+            *last = frame;
+            return;
+        }
+        if self.out.len() >= MAX_QUEUED_FRAMES {
+            let oldest_report = self.out.iter().position(|(is_report, _)| *is_report).unwrap_or(0);
+            self.out.remove(oldest_report);
+            self.stats.frames_dropped += 1;
+        }
+        self.out.push_back((report, frame));
     }
 
     /// Next event for a view or log.
@@ -240,7 +266,7 @@ impl<C: WireCodec> Engine<C> {
 
     /// When [`Self::handle_timeout`] must be called next (a pattern step, a fire's end, the watchdog).
     pub fn poll_timeout(&self) -> Option<Instant> {
-        let change = self.next_change();
+        let change = self.timeline.next_change();
         let watchdog = self.watchdog_deadline();
         match (change, watchdog) {
             (Some(a), Some(b)) => Some(a.min(b)),
@@ -255,16 +281,25 @@ impl<C: WireCodec> Engine<C> {
         self.last_rx.map(|t| t + Duration::from_millis(u64::from(self.config.watchdog_ms)))
     }
 
-    /// Advances the clock: trips the watchdog, steps patterns, ends fires; reports changes unsolicited.
+    /// Advances the clock: trips the watchdog, steps patterns, ends fires, each at its own instant even when
+    /// `now` is well past it; reports changes unsolicited.
     pub fn handle_timeout(&mut self, now: Instant) {
-        if self.watchdog_deadline().is_some_and(|d| now >= d) {
-            self.watchdog_tripped = true;
-            self.stats.watchdog_trips += 1;
-            self.faults = self.faults | Faults::WATCHDOG;
-            self.activity = Activity::Idle;
-            self.events.push_back(EngineEvent::WatchdogTripped);
+        loop {
+            let change = self.timeline.next_change().filter(|&t| t <= now);
+            let watchdog = self.watchdog_deadline().filter(|&t| t <= now);
+            match (change, watchdog) {
+                (change, Some(w)) if change.is_none_or(|c| w <= c) => {
+                    self.watchdog_tripped = true;
+                    self.stats.watchdog_trips += 1;
+                    self.faults = self.faults | Faults::WATCHDOG;
+                    self.events.push_back(EngineEvent::WatchdogTripped);
+                    self.replace(Schedule::Idle, w, true);
+                }
+                (Some(c), _) => self.step(c, true),
+                (None, _) => break,
+            }
         }
-        self.update(now, true);
+        self.step(now, true);
     }
 
     /// Feeds bytes received from the console at `now`.
@@ -302,8 +337,9 @@ impl<C: WireCodec> Engine<C> {
 
     fn nak(&mut self, seq: u8, reason: NakReason, detail: String, event_seq: Option<u8>) -> Reply {
         self.stats.naks_sent += 1;
-        let reply = Reply::Nak { reason, tactors_on: self.on };
-        self.out.push_back(self.codec.encode_reply(seq, &reply));
+        let reply = Reply::Nak { reason, tactors_on: self.tactors_on() };
+        let frame = self.codec.encode_reply(seq, &reply);
+        self.push_out(frame, false);
         self.events.push_back(EngineEvent::Rejected { seq: event_seq, reason, detail });
         reply
     }
@@ -316,13 +352,15 @@ impl<C: WireCodec> Engine<C> {
         {
             // A retransmission (our reply was lost): answer again with fresh state, do not run it twice.
             self.stats.duplicates += 1;
+            let on = self.tactors_on();
             let reply = match last_reply.clone() {
-                Reply::Ack { .. } => Reply::Ack { tactors_on: self.on },
-                Reply::Nak { reason, .. } => Reply::Nak { reason, tactors_on: self.on },
+                Reply::Ack { .. } => Reply::Ack { tactors_on: on },
+                Reply::Nak { reason, .. } => Reply::Nak { reason, tactors_on: on },
                 Reply::Status(_) => Reply::Status(self.status()),
                 other => other,
             };
-            self.out.push_back(self.codec.encode_reply(seq, &reply));
+            let frame = self.codec.encode_reply(seq, &reply);
+            self.push_out(frame, false);
             return;
         }
         if message == Request::Hello {
@@ -331,7 +369,8 @@ impl<C: WireCodec> Engine<C> {
         let kind = message.kind();
         let reply = match self.execute(&message, now) {
             Ok(reply) => {
-                self.out.push_back(self.codec.encode_reply(seq, &reply));
+                let frame = self.codec.encode_reply(seq, &reply);
+                self.push_out(frame, false);
                 self.events.push_back(EngineEvent::Accepted { seq, kind });
                 reply
             }
@@ -355,8 +394,7 @@ impl<C: WireCodec> Engine<C> {
         let limit = |e: LimitError| (e.nak_reason(), e.to_string());
         if *request == Request::Hello {
             // A new session: whoever was driving the vest before is gone, so nothing keeps running.
-            self.activity = Activity::Idle;
-            self.update(now, false);
+            self.replace(Schedule::Idle, now, false);
             self.identified = true;
             self.events.push_back(EngineEvent::SessionStarted);
             return Ok(Reply::Identify(self.device_info()));
@@ -367,23 +405,23 @@ impl<C: WireCodec> Engine<C> {
         match request {
             Request::Hello | Request::Heartbeat => {}
             Request::Fire { mask, duration_ms } => {
+                let planned = planned_fire_ms(*mask, *duration_ms);
                 self.config.limits.check_fire(*mask, *duration_ms).map_err(limit)?;
-                self.close_segment(now);
-                self.ledger
-                    .check(&planned_fire_ms(*mask, *duration_ms), now, &self.config.limits)
-                    .map_err(limit)?;
-                let until = now + Duration::from_millis(u64::from(*duration_ms));
-                self.activity = Activity::Fire { mask: *mask, until };
-                self.update(now, false);
+                self.timeline.runs().check(&planned, now, &self.config.limits).map_err(limit)?;
+                self.close_segment(self.tactors_on(), now);
+                self.ledger.check(&planned, now, &self.config.limits).map_err(limit)?;
+                self.replace(Schedule::fire(*mask, *duration_ms, now), now, false);
             }
             Request::Play { frames, repeats } => {
                 self.config.limits.check_pattern(frames, *repeats).map_err(limit)?;
-                self.close_segment(now);
+                let leading = leading_pattern_ms(frames, *repeats);
+                self.timeline.runs().check(&leading, now, &self.config.limits).map_err(limit)?;
+                self.close_segment(self.tactors_on(), now);
                 self.ledger
                     .check(&planned_pattern_ms(frames, *repeats), now, &self.config.limits)
                     .map_err(limit)?;
-                self.activity = Activity::Pattern { frames: frames.clone(), repeats: *repeats, start: now };
-                self.update(now, false);
+                let schedule = Schedule::Pattern { frames: frames.clone(), repeats: *repeats, start: now };
+                self.replace(schedule, now, false);
             }
             Request::SetIntensity { mask, level } => {
                 if !self.config.intensity {
@@ -393,84 +431,191 @@ impl<C: WireCodec> Engine<C> {
                     self.intensity[t] = *level;
                 }
             }
-            Request::StopAll => {
-                self.activity = Activity::Idle;
-                self.update(now, false);
-            }
+            Request::StopAll => self.replace(Schedule::Idle, now, false),
             Request::GetStatus => {
                 let status = self.status();
                 self.faults = Faults::default();
                 return Ok(Reply::Status(status));
             }
         }
-        Ok(Reply::Ack { tactors_on: self.on })
+        Ok(Reply::Ack { tactors_on: self.tactors_on() })
     }
 
-    /// Books the on-time since the last change into the duty ledger.
-    fn close_segment(&mut self, now: Instant) {
+    /// Books `mask`, on since the last booking, into the duty ledger up to `now`.
+    fn close_segment(&mut self, mask: TactorMask, now: Instant) {
         if let Some(start) = self.segment_start {
-            self.ledger.record(self.on, start, now);
+            self.ledger.record(mask, start, now);
         }
         self.segment_start = Some(now);
         let window = Duration::from_millis(u64::from(self.config.limits.duty_window_ms));
         self.ledger.prune(now, window);
     }
 
-    /// The mask the current activity asks for at `now`, and when that changes next.
-    fn activity_at(&self, now: Instant) -> (TactorMask, Option<Instant>) {
-        match &self.activity {
-            Activity::Idle => (TactorMask::NONE, None),
-            Activity::Fire { mask, until } => {
-                if now < *until {
-                    (*mask, Some(*until))
-                } else {
-                    (TactorMask::NONE, None)
-                }
-            }
-            Activity::Pattern { frames, repeats, start } => {
-                let cycle_ms: u64 = frames.iter().map(|f| u64::from(f.duration_ms)).sum();
-                let total_ms = cycle_ms * u64::from(*repeats);
-                let elapsed_ms = now.saturating_duration_since(*start).as_millis() as u64;
-                if cycle_ms == 0 || elapsed_ms >= total_ms {
-                    return (TactorMask::NONE, None);
-                }
-                let cycle_start = elapsed_ms - elapsed_ms % cycle_ms;
-                let mut end = cycle_start;
-                for f in frames {
-                    end += u64::from(f.duration_ms);
-                    if elapsed_ms < end {
-                        return (f.mask, Some(*start + Duration::from_millis(end)));
-                    }
-                }
-                (TactorMask::NONE, None)
-            }
+    /// Moves the timeline to `at`; a change is booked, announced and (if `report`) reported.
+    fn step(&mut self, at: Instant, report: bool) {
+        let before = self.tactors_on();
+        if let Some(mask) = self.timeline.step(at) {
+            self.changed(before, mask, at, report);
         }
     }
 
-    fn next_change(&self) -> Option<Instant> {
-        match self.activity {
-            Activity::Idle => None,
-            _ => self.activity_at(self.last_update?).1,
+    /// Replaces the schedule at `at`; a change is booked, announced and (if `report`) reported.
+    fn replace(&mut self, schedule: Schedule, at: Instant, report: bool) {
+        let before = self.tactors_on();
+        if let Some(mask) = self.timeline.replace(schedule, at) {
+            self.changed(before, mask, at, report);
         }
     }
 
-    fn update(&mut self, now: Instant, report: bool) {
-        self.last_update = Some(now);
-        let (mask, next) = self.activity_at(now);
-        if next.is_none() && mask.is_empty() {
-            self.activity = Activity::Idle;
+    fn changed(&mut self, before: TactorMask, mask: TactorMask, at: Instant, report: bool) {
+        self.close_segment(before, at);
+        self.events.push_back(EngineEvent::TactorsChanged(mask));
+        if report {
+            self.report_seq = self.report_seq.wrapping_add(1);
+            let reply = Reply::Report { tactors_on: mask, faults: self.faults };
+            let frame = self.codec.encode_reply(self.report_seq, &reply);
+            self.push_out(frame, true);
         }
-        if mask != self.on {
-            self.close_segment(now);
-            self.on = mask;
-            self.events.push_back(EngineEvent::TactorsChanged(mask));
-            if report {
-                self.report_seq = self.report_seq.wrapping_add(1);
-                let reply = Reply::Report { tactors_on: mask, faults: self.faults };
-                self.out.push_back(self.codec.encode_reply(self.report_seq, &reply));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use vestnav_core::vest::Frame;
+
+    /// A unit that said hello at `t0`, asked with requests encoded by an independent codec.
+    struct Bench {
+        unit: Engine,
+        t0: Instant,
+        seq: u8,
+    }
+
+    impl Bench {
+        fn new() -> Self {
+            let t0 = Instant::now();
+            let mut unit = Engine::new(EngineConfig::default());
+            unit.handle_bytes(&V1Codec::new().encode_request(0, &Request::Hello).unwrap(), t0);
+            while unit.poll_transmit().is_some() {}
+            Self { unit, t0, seq: 0 }
+        }
+
+        fn at(&self, ms: u64) -> Instant {
+            self.t0 + Duration::from_millis(ms)
+        }
+
+        /// Sends `request` at `ms` after hello (stepping the clock through every deadline on the way) and
+        /// returns the answer.
+        fn ask(&mut self, ms: u64, request: &Request) -> Reply {
+            let at = self.at(ms);
+            while let Some(t) = self.unit.poll_timeout().filter(|&t| t <= at) {
+                self.unit.handle_timeout(t);
             }
-        } else if self.segment_start.is_none() {
-            self.segment_start = Some(now);
+            while self.unit.poll_transmit().is_some() {}
+            self.seq = self.seq.wrapping_add(1);
+            self.unit.handle_bytes(&V1Codec::new().encode_request(self.seq, request).unwrap(), at);
+            let mut out = Vec::new();
+            V1Codec::new().decode_replies(&self.unit.poll_transmit().unwrap(), &mut out);
+            out.pop().unwrap().unwrap().message
         }
+    }
+
+    fn fire(mask: u16, duration_ms: u16) -> Request {
+        Request::Fire { mask: TactorMask(mask), duration_ms }
+    }
+
+    fn play(frames: &[(u16, u16)], repeats: u8) -> Request {
+        let frames = frames.iter().map(|&(m, d)| Frame { mask: TactorMask(m), duration_ms: d }).collect();
+        Request::Play { frames, repeats }
+    }
+
+    fn is_nak(reply: &Reply, want: NakReason) -> bool {
+        matches!(reply, Reply::Nak { reason, .. } if *reason == want)
+    }
+
+    #[test]
+    fn a_repeated_pattern_cannot_hold_tactors_past_the_limit() {
+        // The issue: 8 tactors, 1000 ms, 5 repeats = 5001 ms on before the fix.
+        let mut b = Bench::new();
+        let reply = b.ask(0, &play(&[(0x00FF, 1000)], 5));
+        assert!(is_nak(&reply, NakReason::DurationLimit), "{reply:?}");
+        assert_eq!(b.unit.tactors_on(), TactorMask::NONE);
+        // Two repeats are exactly 2000 ms: fine.
+        assert!(matches!(b.ask(1, &play(&[(0x00FF, 1000)], 2)), Reply::Ack { .. }));
+    }
+
+    #[test]
+    fn a_fire_cannot_chain_onto_a_run() {
+        let mut b = Bench::new();
+        assert!(matches!(b.ask(0, &fire(1, 2000)), Reply::Ack { .. }));
+        b.ask(1000, &Request::Heartbeat);
+        // The first fire ends at 2000 ms; a fire at that very instant continues the run: 4000 ms.
+        assert!(is_nak(&b.ask(2000, &fire(1, 2000)), NakReason::DurationLimit));
+        assert!(is_nak(&b.ask(2000, &fire(1, 1)), NakReason::DurationLimit));
+        // Another tactor, or the same after any break, starts afresh.
+        assert!(matches!(b.ask(2000, &fire(2, 2000)), Reply::Ack { .. }));
+        assert!(matches!(b.ask(3000, &fire(1, 2000)), Reply::Ack { .. }));
+        // Replacing a running fire: the run goes on from 3000 ms; exactly 2000 ms in all is allowed.
+        assert!(matches!(b.ask(4000, &fire(1, 1000)), Reply::Ack { .. }));
+        assert!(is_nak(&b.ask(4500, &fire(1, 501)), NakReason::DurationLimit));
+        assert!(matches!(b.ask(4500, &fire(1, 500)), Reply::Ack { .. }));
+        assert!(b.unit.faults().contains(Faults::LIMIT_REJECTED));
+    }
+
+    #[test]
+    fn a_pattern_continues_the_run_it_starts_in() {
+        let mut b = Bench::new();
+        assert!(matches!(b.ask(0, &fire(1, 1500)), Reply::Ack { .. }));
+        // Tactor 0 on since 0; a pattern whose first 1100 ms keep it on would make 2100 ms.
+        assert!(is_nak(&b.ask(1000, &play(&[(1, 1100), (2, 100)], 1)), NakReason::DurationLimit));
+        // One that keeps it on 500 ms more (1500 ms in all), then switches it off and on, is fine.
+        assert!(matches!(b.ask(1000, &play(&[(1, 500), (2, 100)], 2)), Reply::Ack { .. }));
+        // A pattern that does not start with tactor 0 switches it off: a new run later.
+        assert!(matches!(b.ask(1400, &play(&[(2, 100), (1, 2000)], 1)), Reply::Ack { .. }));
+        assert_eq!(b.unit.tactors_on(), TactorMask(2));
+    }
+
+    #[test]
+    fn a_late_clock_still_plays_every_step_at_its_own_instant() {
+        let mut b = Bench::new();
+        b.ask(0, &play(&[(1, 250), (2, 250), (4, 250), (8, 250)], 1));
+        while b.unit.poll_event().is_some() {}
+        // Nobody called for 1000 ms: every step happens anyway, and only the latest state is reported.
+        b.unit.handle_timeout(b.at(1000));
+        let changes: Vec<u16> = std::iter::from_fn(|| b.unit.poll_event())
+            .filter_map(|e| if let EngineEvent::TactorsChanged(m) = e { Some(m.0) } else { None })
+            .collect();
+        assert_eq!(changes, vec![2, 4, 8, 0]);
+        let frames: Vec<_> = std::iter::from_fn(|| b.unit.poll_transmit()).collect();
+        assert_eq!(frames.len(), 1);
+        let mut out = Vec::new();
+        V1Codec::new().decode_replies(&frames[0], &mut out);
+        assert!(matches!(
+            out[0].as_ref().unwrap().message,
+            Reply::Report { tactors_on: TactorMask::NONE, .. }
+        ));
+        // Each tactor was booked for its 250 ms, not for the whole late second.
+        let runs = b.unit.runs();
+        assert_eq!(runs.run_start(3, b.at(1000)), Some(b.at(750)));
+        assert_eq!(runs.run_start(0, b.at(1000)), None);
+    }
+
+    #[test]
+    fn the_outgoing_queue_is_bounded_and_keeps_the_newest() {
+        let mut b = Bench::new();
+        let codec = V1Codec::new();
+        for seq in 1..=200u8 {
+            b.unit.handle_bytes(&codec.encode_request(seq, &Request::GetStatus).unwrap(), b.t0);
+        }
+        let frames: Vec<_> = std::iter::from_fn(|| b.unit.poll_transmit()).collect();
+        assert_eq!(frames.len(), MAX_QUEUED_FRAMES);
+        assert_eq!(b.unit.stats().frames_dropped, 200 - MAX_QUEUED_FRAMES as u64);
+        let seq_of = |frame: &Vec<u8>| {
+            let mut out = Vec::new();
+            V1Codec::new().decode_replies(frame, &mut out);
+            out[0].as_ref().unwrap().seq
+        };
+        assert_eq!(seq_of(&frames[0]), 200 - MAX_QUEUED_FRAMES as u8 + 1);
+        assert_eq!(seq_of(&frames[MAX_QUEUED_FRAMES - 1]), 200);
     }
 }

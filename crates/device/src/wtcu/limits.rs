@@ -2,8 +2,10 @@
 //!
 //! Defaults and why (physics.md §4, §6: 16 tactors, ~70 mA each at 200 Hz, 1.12 A all together, 500 ms
 //! normal on-time):
-//! - **on-time**: at most 2000 ms per command or per continuous run in a pattern (4x the normal 500 ms), so
-//!   no single message can leave a tactor on for long;
+//! - **on-time**: no tactor is ever on continuously for more than 2000 ms (4x the normal 500 ms), whatever
+//!   the commands: a FIRE's duration, a pattern's longest run over all its repeats
+//!   ([`Pattern::longest_on_ms`]), and a command that keeps a tactor on which is already on (its run
+//!   continues, [`RunTracker`]) are all held to it;
 //! - **current budget**: at most 8 tactors at once, 8 x 70 mA = 560 mA, half the 1.12 A of the full vest.
 //!   A small Li-ion pack and the motor drivers of a belt-worn unit are sized for such a peak, and every cue of
 //!   vestnav's vocabulary (`vestnav_core::vest::Cue`) needs at most 8;
@@ -55,10 +57,27 @@ pub enum LimitError {
     /// An on-time of zero (a fire must end, a frame must last).
     #[error("on-time of 0 ms")]
     ZeroDuration,
-    /// A tactor would stay on longer than allowed in one go.
+    /// A tactor would stay on longer than allowed in one go (one FIRE, or one run of a pattern over all its
+    /// repeats).
     #[error("on-time {requested_ms} ms exceeds the limit of {max_ms} ms")]
     OnTooLong {
         /// Requested continuous on-time (ms).
+        requested_ms: u32,
+        /// Limit (ms).
+        max_ms: u16,
+    },
+    /// A command would keep a tactor that is already on running past the continuous limit, counted from the
+    /// start of its current run.
+    #[error(
+        "tactor {tactor} has been on for {on_for_ms} ms; {requested_ms} ms more without a break exceeds the \
+         continuous limit of {max_ms} ms"
+    )]
+    RunTooLong {
+        /// The tactor.
+        tactor: usize,
+        /// How long its current run has lasted so far (ms, rounded up).
+        on_for_ms: u32,
+        /// Continuous on-time the command adds from now (ms).
         requested_ms: u32,
         /// Limit (ms).
         max_ms: u16,
@@ -97,7 +116,7 @@ impl LimitError {
     /// The NAK reason a unit sends for this violation.
     pub fn nak_reason(&self) -> NakReason {
         match self {
-            Self::ZeroDuration | Self::OnTooLong { .. } => NakReason::DurationLimit,
+            Self::ZeroDuration | Self::OnTooLong { .. } | Self::RunTooLong { .. } => NakReason::DurationLimit,
             Self::TooManyTactors { .. } => NakReason::TooManyTactors,
             Self::DutyCycle { .. } => NakReason::DutyCycle,
             Self::Pattern(_) => NakReason::PatternLimit,
@@ -141,7 +160,9 @@ impl Limits {
 
     /// Checks a pattern: 1..=`max_pattern_frames` frames, every frame longer than 0 ms, at least one repeat,
     /// total time (frames x repeats) within `max_pattern_ms`, every frame within the current budget, and no
-    /// tactor on longer than `max_on_ms` in one go ([`Pattern::longest_on_ms`], across repeats).
+    /// tactor on longer than `max_on_ms` in one go over the whole played pattern, all repeats and the wraps
+    /// between them included ([`Pattern::longest_on_ms`], in closed form). Whether the pattern continues a
+    /// run already under way is [`RunTracker::check`]'s business.
     pub fn check_pattern(&self, frames: &[Frame], repeats: u8) -> Result<(), LimitError> {
         if frames.is_empty() {
             return Err(LimitError::Pattern("no frames".to_owned()));
@@ -200,6 +221,226 @@ pub fn planned_pattern_ms(frames: &[Frame], repeats: u8) -> [u32; TACTOR_COUNT] 
         *p *= u32::from(repeats.max(1));
     }
     planned
+}
+
+/// Continuous on-time each tactor gets from the start of a pattern (ms), [`Pattern::leading_on_ms`]: what
+/// it adds to a run already under way when the pattern starts.
+pub fn leading_pattern_ms(frames: &[Frame], repeats: u8) -> [u32; TACTOR_COUNT] {
+    let pattern = Pattern { name: String::new(), frames: frames.to_vec(), repeats };
+    std::array::from_fn(|t| pattern.leading_on_ms(t))
+}
+
+/// Per-tactor continuous runs on a timeline (sans-IO: times are parameters).
+///
+/// A *run* of a tactor is a maximal stretch of time during which it is driven without a break. An off time
+/// of zero length (a command switching it on at the very instant another switched it off, consecutive
+/// frames, the wrap between repeats) is no break. The limit is: no run lasts longer than `max_on_ms`.
+/// Feed it every change of the driven set, in time order, with [`Self::set`].
+#[derive(Debug, Clone, Default)]
+pub struct RunTracker {
+    /// Start of the current run of each tactor that is on.
+    on_since: [Option<Instant>; TACTOR_COUNT],
+    /// The last finished run of each tactor that is off: (start, end).
+    last_run: [Option<(Instant, Instant)>; TACTOR_COUNT],
+}
+
+impl RunTracker {
+    /// No tactor on, no history.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// The driven set becomes `mask` at `at` (not earlier than the previous call).
+    pub fn set(&mut self, mask: TactorMask, at: Instant) {
+        for (t, (on_since, last_run)) in self.on_since.iter_mut().zip(&mut self.last_run).enumerate() {
+            match (*on_since, mask.contains(t)) {
+                (None, true) => {
+                    // Switched off and on again at the same instant: the same run goes on.
+                    let start = match *last_run {
+                        Some((start, end)) if end >= at => start,
+                        _ => at,
+                    };
+                    *on_since = Some(start);
+                }
+                (Some(start), false) => {
+                    *on_since = None;
+                    *last_run = Some((start, at));
+                }
+                _ => {}
+            }
+        }
+    }
+
+    /// When the run began that a command switching `tactor` on at `at` would continue: the start of its
+    /// current run if it is on, or of the run that ended exactly at `at`; `None` when it would start afresh.
+    pub fn run_start(&self, tactor: usize, at: Instant) -> Option<Instant> {
+        let on = self.on_since.get(tactor).copied().flatten();
+        on.or_else(|| {
+            self.last_run.get(tactor).copied().flatten().filter(|&(_, end)| end >= at).map(|(start, _)| start)
+        })
+    }
+
+    /// Checks a command at `at` that keeps each tactor `t` on without a break for `leading_ms[t]` from `at`
+    /// ([`planned_fire_ms`], [`leading_pattern_ms`]): for every tactor whose run it continues,
+    /// `(at - run_start) + leading_ms <= max_on_ms`. Runs the command starts afresh are
+    /// [`Limits::check_fire`]'s and [`Limits::check_pattern`]'s business.
+    pub fn check(
+        &self,
+        leading_ms: &[u32; TACTOR_COUNT],
+        at: Instant,
+        limits: &Limits,
+    ) -> Result<(), LimitError> {
+        let max = Duration::from_millis(u64::from(limits.max_on_ms));
+        for (tactor, &requested_ms) in leading_ms.iter().enumerate() {
+            if requested_ms == 0 {
+                continue;
+            }
+            let Some(start) = self.run_start(tactor, at) else { continue };
+            let on_for = at.saturating_duration_since(start);
+            if on_for + Duration::from_millis(u64::from(requested_ms)) > max {
+                let on_for_ms = on_for.as_micros().div_ceil(1000);
+                return Err(LimitError::RunTooLong {
+                    tactor,
+                    on_for_ms: u32::try_from(on_for_ms).unwrap_or(u32::MAX),
+                    requested_ms,
+                    max_ms: limits.max_on_ms,
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
+/// What a unit drives, as planned by the last FIRE or PLAY it accepted.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub enum Schedule {
+    /// Nothing.
+    #[default]
+    Idle,
+    /// `mask` on until `until`.
+    Fire {
+        /// The tactors.
+        mask: TactorMask,
+        /// When they go off.
+        until: Instant,
+    },
+    /// `frames` stepped through `repeats` times from `start`.
+    Pattern {
+        /// The frames.
+        frames: Vec<Frame>,
+        /// Passes over the frames.
+        repeats: u8,
+        /// When the first frame began.
+        start: Instant,
+    },
+}
+
+impl Schedule {
+    /// A FIRE of `mask` for `duration_ms` starting at `start`.
+    pub fn fire(mask: TactorMask, duration_ms: u16, start: Instant) -> Self {
+        Self::Fire { mask, until: start + Duration::from_millis(u64::from(duration_ms)) }
+    }
+
+    /// The tactors driven at `at`, and when that changes next (`None`: never again, the schedule is over).
+    /// The next change is always later than `at`.
+    pub fn at(&self, at: Instant) -> (TactorMask, Option<Instant>) {
+        match self {
+            Self::Idle => (TactorMask::NONE, None),
+            Self::Fire { mask, until } => {
+                if at < *until {
+                    (*mask, Some(*until))
+                } else {
+                    (TactorMask::NONE, None)
+                }
+            }
+            Self::Pattern { frames, repeats, start } => {
+                let cycle_ms: u64 = frames.iter().map(|f| u64::from(f.duration_ms)).sum();
+                let total_ms = cycle_ms * u64::from(*repeats);
+                let elapsed_ms =
+                    u64::try_from(at.saturating_duration_since(*start).as_millis()).unwrap_or(u64::MAX);
+                if cycle_ms == 0 || elapsed_ms >= total_ms {
+                    return (TactorMask::NONE, None);
+                }
+                let mut end = elapsed_ms - elapsed_ms % cycle_ms;
+                for f in frames {
+                    end += u64::from(f.duration_ms);
+                    if elapsed_ms < end {
+                        return (f.mask, Some(*start + Duration::from_millis(end)));
+                    }
+                }
+                (TactorMask::NONE, None)
+            }
+        }
+    }
+}
+
+/// A [`Schedule`] played on a clock, with the [`RunTracker`] of what it drove: the unit's timeline, or the
+/// console's model of it. Sans-IO: the clock only moves through [`Self::step`] and [`Self::advance_to`].
+#[derive(Debug, Clone, Default)]
+pub struct Timeline {
+    schedule: Schedule,
+    on: TactorMask,
+    now: Option<Instant>,
+    runs: RunTracker,
+}
+
+impl Timeline {
+    /// Nothing scheduled, nothing on.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// The tactors driven as of the last step.
+    pub fn on(&self) -> TactorMask {
+        self.on
+    }
+
+    /// The runs of what was driven.
+    pub fn runs(&self) -> &RunTracker {
+        &self.runs
+    }
+
+    /// The schedule in force.
+    pub fn schedule(&self) -> &Schedule {
+        &self.schedule
+    }
+
+    /// When the driven set changes next by itself (a pattern step, a fire's end), after the last step.
+    pub fn next_change(&self) -> Option<Instant> {
+        self.schedule.at(self.now?).1
+    }
+
+    /// Moves the clock to `at` (an earlier time counts as the last one) and returns the new driven set if it
+    /// changed. Changes between the last step and `at` are not looked at: step at every
+    /// [`Self::next_change`] in turn (or use [`Self::advance_to`]) to see each one at its own instant.
+    pub fn step(&mut self, at: Instant) -> Option<TactorMask> {
+        let at = self.now.map_or(at, |now| now.max(at));
+        self.now = Some(at);
+        let (mask, next) = self.schedule.at(at);
+        if next.is_none() && mask.is_empty() {
+            self.schedule = Schedule::Idle;
+        }
+        if mask == self.on {
+            return None;
+        }
+        self.on = mask;
+        self.runs.set(mask, at);
+        Some(mask)
+    }
+
+    /// Plays the schedule up to `to`, every change at its own instant.
+    pub fn advance_to(&mut self, to: Instant) {
+        while let Some(t) = self.next_change().filter(|&t| t <= to) {
+            self.step(t);
+        }
+        self.step(to);
+    }
+
+    /// Replaces the schedule at `at` (advance to `at` first) and returns the new driven set if it changed.
+    pub fn replace(&mut self, schedule: Schedule, at: Instant) -> Option<TactorMask> {
+        self.schedule = schedule;
+        self.step(at)
+    }
 }
 
 /// Per-tactor history of on-intervals, for the duty-cycle limit (sans-IO: times are parameters).

@@ -13,6 +13,11 @@
 //!   unit's watchdog) keeps the unit's watchdog fed and refreshes the tactors-on state.
 //! - **Loss**: nothing valid from the unit for [`LinkConfig::loss_timeout`] -> [`LinkState::Lost`].
 //! - **Tactors on** come only from the unit (ACK, NAK, STATUS, REPORT), never from what was sent.
+//! - **Limits before sending**: every FIRE and PLAY is checked against the limits in force, including the
+//!   continuous on-time across commands: the link replays the cues the unit acknowledged (each from the time
+//!   it was first sent, the one in flight as if it will be acknowledged) and refuses a cue that would keep a
+//!   tactor on past `max_on_ms` counted from the start of its current run ([`LimitError::RunTooLong`]). The
+//!   unit checks the same on its own clock and has the last word (NAK 0x05).
 
 use std::collections::VecDeque;
 use std::time::{Duration, Instant};
@@ -20,7 +25,10 @@ use std::time::{Duration, Instant};
 use vestnav_core::vest::{Pattern, TACTOR_COUNT, TactorMask};
 
 use super::codec::{EncodeError, V1Codec, WireCodec};
-use super::limits::{DutyLedger, LimitError, Limits, planned_fire_ms, planned_pattern_ms};
+use super::limits::{
+    DutyLedger, LimitError, Limits, Schedule, Timeline, leading_pattern_ms, planned_fire_ms,
+    planned_pattern_ms,
+};
 use super::message::{Capabilities, CommandKind, DeviceInfo, NakReason, Packet, Reply, Request, UnitStatus};
 
 /// Timing and limits of the console side.
@@ -182,6 +190,8 @@ struct InFlight {
     retries_left: u8,
     /// STOP ALL: retried until acknowledged or the link is lost.
     persistent: bool,
+    /// When it was first transmitted: the earliest the unit can have started it.
+    first_sent: Instant,
 }
 
 /// The console-side link (see the module doc).
@@ -202,6 +212,8 @@ pub struct Link<C: WireCodec = V1Codec> {
     last_tx: Option<Instant>,
     tactors_on: Option<TactorMask>,
     ledger: DutyLedger,
+    /// What the unit drives, replayed from the cues it acknowledged (from when each was first sent).
+    unit_model: Timeline,
     stats: LinkStats,
 }
 
@@ -231,6 +243,7 @@ impl<C: WireCodec> Link<C> {
             last_tx: None,
             tactors_on: None,
             ledger: DutyLedger::new(),
+            unit_model: Timeline::new(),
             stats: LinkStats::default(),
         }
     }
@@ -283,6 +296,9 @@ impl<C: WireCodec> Link<C> {
         self.device = None;
         self.last_rx = None;
         self.tactors_on = None;
+        // HELLO stops everything on the unit.
+        self.unit_model.advance_to(now);
+        self.unit_model.replace(Schedule::Idle, now);
         self.set_state(LinkState::Handshaking);
         let out = self.outgoing(Request::Hello).unwrap_or_else(|_| unreachable_hello());
         self.start(out, self.config.hello_retries, false, now);
@@ -415,7 +431,12 @@ impl<C: WireCodec> Link<C> {
             Reply::Ack { tactors_on } => {
                 self.set_tactors(tactors_on);
                 if let Some(kind) = self.in_flight_matches(seq).map(Request::kind) {
-                    self.in_flight = None;
+                    if let Some(f) = self.in_flight.take()
+                        && let Some(schedule) = schedule_of(&f.out.request, f.first_sent)
+                    {
+                        self.unit_model.advance_to(f.first_sent);
+                        self.unit_model.replace(schedule, f.first_sent);
+                    }
                     if kind != CommandKind::Heartbeat {
                         self.events.push_back(LinkEvent::Acked { seq, kind });
                     }
@@ -455,7 +476,9 @@ impl<C: WireCodec> Link<C> {
     pub fn fire(&mut self, mask: TactorMask, duration_ms: u16, now: Instant) -> Result<u8, CommandError> {
         self.require_ready()?;
         self.limits.check_fire(mask, duration_ms)?;
-        self.check_duty(&planned_fire_ms(mask, duration_ms), now)?;
+        let planned = planned_fire_ms(mask, duration_ms);
+        self.check_runs(&planned, now)?;
+        self.check_duty(&planned, now)?;
         let out = self.outgoing(Request::Fire { mask, duration_ms })?;
         let seq = self.enqueue_cue(out, now)?;
         self.ledger.truncate_after(now);
@@ -471,6 +494,7 @@ impl<C: WireCodec> Link<C> {
             return Err(CommandError::NotSupported("patterns"));
         }
         self.limits.check_pattern(&pattern.frames, pattern.repeats)?;
+        self.check_runs(&leading_pattern_ms(&pattern.frames, pattern.repeats), now)?;
         self.check_duty(&planned_pattern_ms(&pattern.frames, pattern.repeats), now)?;
         let out =
             self.outgoing(Request::Play { frames: pattern.frames.clone(), repeats: pattern.repeats })?;
@@ -534,6 +558,27 @@ impl<C: WireCodec> Link<C> {
         if self.state == LinkState::Ready { Ok(()) } else { Err(CommandError::NotReady(self.state.clone())) }
     }
 
+    /// What the unit drives at `now` as far as the console can know: the acknowledged cues replayed, plus the
+    /// one in flight as if it will be acknowledged.
+    fn unit_model_at(&self, now: Instant) -> Timeline {
+        let mut model = self.unit_model.clone();
+        if let Some(f) = &self.in_flight
+            && let Some(schedule) = schedule_of(&f.out.request, f.first_sent)
+        {
+            model.advance_to(f.first_sent);
+            model.replace(schedule, f.first_sent);
+        }
+        model.advance_to(now);
+        model
+    }
+
+    /// The continuous on-time across commands: a cue sent now must not keep a tactor on past `max_on_ms`
+    /// from the start of its current run.
+    fn check_runs(&self, leading_ms: &[u32; TACTOR_COUNT], now: Instant) -> Result<(), CommandError> {
+        self.unit_model_at(now).runs().check(leading_ms, now, &self.limits)?;
+        Ok(())
+    }
+
     fn check_duty(&mut self, planned: &[u32; TACTOR_COUNT], now: Instant) -> Result<(), CommandError> {
         let window = Duration::from_millis(u64::from(self.limits.duty_window_ms));
         self.ledger.prune(now, window);
@@ -588,6 +633,7 @@ impl<C: WireCodec> Link<C> {
             deadline: now + self.config.ack_timeout,
             retries_left: retries,
             persistent,
+            first_sent: now,
         });
     }
 
@@ -644,6 +690,18 @@ impl<C: WireCodec> Link<C> {
         self.codec.reset();
         self.tactors_on = None;
         self.set_state(LinkState::Lost { reason });
+    }
+}
+
+/// What `request`, once run by the unit from `start`, makes it drive; `None` if it changes nothing.
+fn schedule_of(request: &Request, start: Instant) -> Option<Schedule> {
+    match request {
+        Request::Fire { mask, duration_ms } => Some(Schedule::fire(*mask, *duration_ms, start)),
+        Request::Play { frames, repeats } => {
+            Some(Schedule::Pattern { frames: frames.clone(), repeats: *repeats, start })
+        }
+        Request::Hello | Request::StopAll => Some(Schedule::Idle),
+        Request::Heartbeat | Request::SetIntensity { .. } | Request::GetStatus => None,
     }
 }
 

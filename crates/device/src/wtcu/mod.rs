@@ -44,4 +44,4 @@ pub use codec::{V1Codec, WireCodec};
 pub use limits::Limits;
 pub use link::{Backoff, Link, LinkConfig, LinkEvent, LinkState};
 pub use message::{CommandKind, DeviceInfo, NakReason, Reply, Request, UnitStatus};
-pub use worker::{VestCommand, VestConfig, VestEvent, VestHandle};
+pub use worker::{CommandOrigin, VestCommand, VestConfig, VestEvent, VestHandle};

@@ -1,22 +1,37 @@
 //! The vest worker: a named thread that owns one transport, one [`Link`] and one [`Backoff`], and talks to
 //! the rest of the program through bounded channels ([`VestHandle`]).
 //!
-//! The worker connects, handshakes, relays commands, reports events (waking the UI after each batch), and
-//! on loss reconnects with exponential backoff. STOP ALL bypasses the command queue (a flag the worker checks
-//! every turn). When the handle is stopped or dropped, the worker sends STOP ALL and waits briefly for its
-//! acknowledgement before closing the port; if the link is already gone, the unit's watchdog stops
-//! everything.
+//! The worker connects, handshakes, relays commands, reports events to its consumers ([`Outbox`]es that
+//! never block it), and on loss reconnects with exponential backoff.
+//!
+//! **The stop path does not depend on any other thread.** STOP ALL bypasses the command queue: the
+//! caller sets an atomic request that the worker reads on every turn (at most one read timeout, 2 ms, later)
+//! and bumps a stop generation, so every command queued before the stop is refused instead of played.
+//! A STOP ALL also latches automatic commands off ([`CommandOrigin::Guidance`] is refused) until the
+//! operator resumes them ([`VestHandle::resume_guidance`]). The worker never waits on another thread: its
+//! events go out through non-blocking outboxes, commands come in through `try_recv`.
+//!
+//! **Liveness.** The threads that can be the operator's only way to stop the vest (the UI) or that send
+//! automatic cues (guidance) beat a [`Heartbeat`]. If an armed heartbeat is older than its bound, the worker
+//! stops every tactor by itself and latches automatic commands off, exactly as if the operator had pressed
+//! STOP ALL.
+//!
+//! When the handle is stopped or dropped — or a [`VestStopper`] is used from a signal handler thread — the
+//! worker sends STOP ALL and waits briefly for its acknowledgement before closing the port; if the link is
+//! already gone, the unit's watchdog stops everything.
 
 use std::io::{self, Read, Write};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::mpsc::{Receiver, SyncSender, TryRecvError, TrySendError};
+use std::thread::Thread;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use vestnav_core::vest::{Pattern, TactorMask};
 
 use super::emulator::is_timeout;
+use crate::outbox::Outbox;
 use super::engine::{Engine, EngineConfig};
 use super::link::{Backoff, CommandError, Link, LinkConfig, LinkEvent, LinkState};
 use super::message::{CommandKind, DeviceInfo, UnitStatus};
@@ -44,7 +59,7 @@ pub enum VestConfig {
 }
 
 /// A command for the vest.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum VestCommand {
     /// Fire `mask` for `duration_ms`.
     Fire {
@@ -68,7 +83,29 @@ pub enum VestCommand {
     RequestStatus,
 }
 
+/// Who asked for a vest command: the worker refuses automatic commands after a STOP ALL until the
+/// operator resumes them, and the session log records it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+pub enum CommandOrigin {
+    /// The operator, by hand.
+    Manual,
+    /// Automatic guidance.
+    Guidance,
+}
+
 impl VestCommand {
+    /// A short human description ("fire [0 3] 500 ms", "play 'turn left' (4 frames, x1)", "STOP ALL").
+    pub fn describe(&self) -> String {
+        let list = |m: TactorMask| m.indices().map(|i| i.to_string()).collect::<Vec<_>>().join(" ");
+        match self {
+            Self::Fire { mask, duration_ms } => format!("fire [{}] {duration_ms} ms", list(*mask)),
+            Self::Play(p) => format!("play '{}' ({} frames, x{})", p.name, p.frames.len(), p.repeats),
+            Self::SetIntensity { mask, level } => format!("intensity {level} on [{}]", list(*mask)),
+            Self::StopAll => "STOP ALL".to_owned(),
+            Self::RequestStatus => "status request".to_owned(),
+        }
+    }
+
     /// Its kind.
     pub fn kind(&self) -> CommandKind {
         match self {
@@ -81,7 +118,8 @@ impl VestCommand {
     }
 }
 
-/// What the worker reports.
+/// What the worker reports. Every event carries what the device (or our own refusal) said; the time it
+/// happened is when the consumer receives it, a few milliseconds later at most.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum VestEvent {
     /// The link changed state.
@@ -97,10 +135,12 @@ pub enum VestEvent {
         /// Its kind.
         kind: CommandKind,
     },
-    /// A command was refused (by our limits or the unit), not delivered, or cancelled.
+    /// A command was refused (by our limits, the STOP ALL latch, or the unit), not delivered, or cancelled.
     Rejected {
         /// Its kind.
         kind: CommandKind,
+        /// Who sent it, when known.
+        origin: Option<CommandOrigin>,
         /// Why, in words.
         reason: String,
     },
@@ -108,6 +148,14 @@ pub enum VestEvent {
     Status(UnitStatus),
     /// The transport could not be opened or failed.
     Transport(String),
+    /// Automatic commands are latched off: by the operator's STOP ALL, or by the worker itself because a
+    /// watched thread stalled.
+    Halted {
+        /// Why, in words.
+        reason: String,
+    },
+    /// The operator resumed automatic commands.
+    Resumed,
 }
 
 /// Tuning of the worker.
@@ -117,12 +165,10 @@ pub struct WorkerSettings {
     pub link: LinkConfig,
     /// Reconnect backoff.
     pub backoff: Backoff,
-    /// Read timeout of the transport: bounds how late a command or timer is served.
+    /// Read timeout of the transport: bounds how late a command, a STOP ALL or a timer is served.
     pub io_poll: Duration,
     /// Capacity of the command channel.
     pub command_capacity: usize,
-    /// Capacity of the event channel (events beyond it are dropped and counted).
-    pub event_capacity: usize,
     /// How long the worker waits for the STOP ALL acknowledgement when shutting down.
     pub shutdown_grace: Duration,
 }
@@ -134,8 +180,9 @@ impl Default for WorkerSettings {
             backoff: Backoff::default(),
             io_poll: Duration::from_millis(2),
             command_capacity: 32,
-            event_capacity: 256,
-            shutdown_grace: Duration::from_millis(300),
+            // Exit must stop the vest within 200 ms of a signal: STOP ALL's round trip at 115200 baud is
+            // a few ms; this leaves room for a retransmission.
+            shutdown_grace: Duration::from_millis(150),
         }
     }
 }
@@ -149,18 +196,94 @@ pub enum VestSendError {
     /// The worker has stopped.
     #[error("vest worker stopped")]
     Stopped,
+    /// Automatic commands are latched off since a STOP ALL (or a stalled thread) until the operator
+    /// resumes them.
+    #[error("automatic cues halted: {0}")]
+    Halted(String),
+}
+
+/// A thread whose liveness the worker watches (see the module doc).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Watched {
+    /// The UI thread: while it stalls, the operator cannot press STOP ALL.
+    Ui,
+    /// The guidance thread: a stalled one may have left a cue running with nobody deciding.
+    Guidance,
+}
+
+impl Watched {
+    fn index(self) -> usize {
+        match self {
+            Self::Ui => 0,
+            Self::Guidance => 1,
+        }
+    }
+
+    /// Its name, for messages.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Ui => "console UI",
+            Self::Guidance => "guidance",
+        }
+    }
+}
+
+const WATCHED: [Watched; 2] = [Watched::Ui, Watched::Guidance];
+
+/// One watched thread's last beat, in microseconds since the worker's epoch (0 = not armed).
+#[derive(Debug, Default)]
+struct WatchSlot {
+    last_us: AtomicU64,
+    bound_us: AtomicU64,
+    tripped: AtomicBool,
+}
+
+/// A command waiting in the queue, with the stop generation it was queued in.
+struct Queued {
+    cmd: VestCommand,
+    origin: CommandOrigin,
+    generation: u64,
 }
 
 struct Shared {
+    epoch: Instant,
+    /// A STOP ALL is waiting for the worker.
     stop_all: AtomicBool,
+    /// Bumped by every STOP ALL: commands queued before it are refused.
+    generation: AtomicU64,
+    /// Automatic commands are refused while set.
+    halted: AtomicBool,
+    /// The operator resumed automatic commands; the worker reports it.
+    resumed: AtomicBool,
     shutdown: AtomicBool,
-    dropped_events: AtomicU64,
+    /// The worker has ended.
+    finished: AtomicBool,
+    /// The last STOP ALL sent was acknowledged by the unit (cleared when a new one is requested).
+    stop_acked: AtomicBool,
+    watches: [WatchSlot; 2],
+    thread: std::sync::OnceLock<Thread>,
 }
 
-/// The handle the application holds (see the module doc).
+impl Shared {
+    fn now_us(&self) -> u64 {
+        u64::try_from(self.epoch.elapsed().as_micros()).unwrap_or(u64::MAX).max(1)
+    }
+
+    fn request_stop_all(&self) {
+        self.generation.fetch_add(1, Ordering::SeqCst);
+        self.halted.store(true, Ordering::SeqCst);
+        self.stop_acked.store(false, Ordering::SeqCst);
+        self.stop_all.store(true, Ordering::SeqCst);
+        if let Some(t) = self.thread.get() {
+            t.unpark();
+        }
+    }
+}
+
+/// The handle the application holds (see the module doc). Sending takes `&self`: the UI and the guidance
+/// thread can share it behind an `Arc`.
 pub struct VestHandle {
-    commands: SyncSender<VestCommand>,
-    events: Receiver<VestEvent>,
+    commands: SyncSender<Queued>,
     shared: Arc<Shared>,
     thread: Option<JoinHandle<()>>,
 }
@@ -171,10 +294,73 @@ impl std::fmt::Debug for VestHandle {
     }
 }
 
+/// A clonable STOP ALL button for the worker, for threads that must be able to stop the vest whatever
+/// else happens (the signal handler thread, the exit path).
+#[derive(Clone)]
+pub struct VestStopper {
+    shared: Arc<Shared>,
+}
+
+impl std::fmt::Debug for VestStopper {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("VestStopper").finish_non_exhaustive()
+    }
+}
+
+impl VestStopper {
+    /// STOP ALL now (the worker sends it within one read timeout) and latch automatic commands off.
+    pub fn stop_all(&self) {
+        self.shared.request_stop_all();
+    }
+
+    /// STOP ALL, then end the worker, waiting at most `timeout` for it to finish; returns whether the
+    /// unit acknowledged the STOP ALL before the worker ended.
+    pub fn stop_and_close(&self, timeout: Duration) -> bool {
+        self.shared.request_stop_all();
+        self.shared.shutdown.store(true, Ordering::SeqCst);
+        let end = Instant::now() + timeout;
+        while !self.shared.finished.load(Ordering::SeqCst) && Instant::now() < end {
+            std::thread::sleep(Duration::from_millis(1));
+        }
+        self.shared.stop_acked.load(Ordering::SeqCst)
+    }
+}
+
+/// The beat of one watched thread (see [`Watched`]). The first beat arms the check; dropping or
+/// [`Heartbeat::release`] disarms it (a thread that ends cleanly is not a stalled one).
+pub struct Heartbeat {
+    shared: Arc<Shared>,
+    who: Watched,
+}
+
+impl std::fmt::Debug for Heartbeat {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Heartbeat").field("who", &self.who).finish_non_exhaustive()
+    }
+}
+
+impl Heartbeat {
+    /// "Still alive"; arms the check.
+    pub fn beat(&self) {
+        let slot = &self.shared.watches[self.who.index()];
+        slot.last_us.store(self.shared.now_us(), Ordering::SeqCst);
+    }
+
+    /// Disarms the check.
+    pub fn release(&self) {
+        self.shared.watches[self.who.index()].last_us.store(0, Ordering::SeqCst);
+    }
+}
+
+impl Drop for Heartbeat {
+    fn drop(&mut self) {
+        self.release();
+    }
+}
+
 impl VestHandle {
-    /// Starts the worker for `config`; `waker` is called after each batch of events (e.g. egui's
-    /// `request_repaint`).
-    pub fn spawn(config: VestConfig, waker: impl Fn() + Send + Sync + 'static) -> io::Result<Self> {
+    /// Starts the worker for `config`; every event goes to every outbox of `events`.
+    pub fn spawn(config: VestConfig, events: Vec<Outbox<VestEvent>>) -> io::Result<Self> {
         let settings = WorkerSettings::default();
         let connector: Connector = match config {
             VestConfig::Serial { port, baud } => {
@@ -189,21 +375,37 @@ impl VestHandle {
                 Box::new(move || Ok(Box::new(EmulatedPort::new(engine, poll)) as Box<dyn Transport>))
             }
         };
-        Self::spawn_with(connector, settings, waker)
+        Self::spawn_with(connector, settings, events)
+    }
+
+    /// Starts the worker on transports from `connector` with one lossless-enough receiver of its events
+    /// (a 1024-event channel; a consumer that lags further loses the newest events): for tools and tests.
+    pub fn spawn_with_receiver(
+        connector: Connector,
+        settings: WorkerSettings,
+    ) -> io::Result<(Self, Receiver<VestEvent>)> {
+        let (out, rx) = Outbox::channel(1024, crate::outbox::Overflow::DropNewest, None);
+        Ok((Self::spawn_with(connector, settings, vec![out])?, rx))
     }
 
     /// Starts the worker on transports from `connector` (tests, other transports).
     pub fn spawn_with(
         connector: Connector,
         settings: WorkerSettings,
-        waker: impl Fn() + Send + Sync + 'static,
+        events: Vec<Outbox<VestEvent>>,
     ) -> io::Result<Self> {
         let (cmd_tx, cmd_rx) = std::sync::mpsc::sync_channel(settings.command_capacity.max(1));
-        let (ev_tx, ev_rx) = std::sync::mpsc::sync_channel(settings.event_capacity.max(1));
         let shared = Arc::new(Shared {
+            epoch: Instant::now(),
             stop_all: AtomicBool::new(false),
+            generation: AtomicU64::new(0),
+            halted: AtomicBool::new(false),
+            resumed: AtomicBool::new(false),
             shutdown: AtomicBool::new(false),
-            dropped_events: AtomicU64::new(0),
+            finished: AtomicBool::new(false),
+            stop_acked: AtomicBool::new(false),
+            watches: [WatchSlot::default(), WatchSlot::default()],
+            thread: std::sync::OnceLock::new(),
         });
         let mut worker = Worker {
             link: Link::new(settings.link),
@@ -211,56 +413,92 @@ impl VestHandle {
             settings,
             connector,
             commands: cmd_rx,
-            events: ev_tx,
+            events,
             shared: shared.clone(),
-            waker: Box::new(waker),
         };
-        let thread =
-            std::thread::Builder::new().name("vest-worker".to_owned()).spawn(move || worker.run())?;
-        Ok(Self { commands: cmd_tx, events: ev_rx, shared, thread: Some(thread) })
+        let thread = std::thread::Builder::new().name("vest-worker".to_owned()).spawn(move || {
+            worker.shared.thread.get_or_init(std::thread::current);
+            worker.run();
+            worker.shared.finished.store(true, Ordering::SeqCst);
+        })?;
+        Ok(Self { commands: cmd_tx, shared, thread: Some(thread) })
     }
 
-    /// Queues a command without blocking. STOP ALL never fails while the worker runs: it bypasses the queue.
-    pub fn send(&self, command: VestCommand) -> Result<(), VestSendError> {
-        if self.thread.as_ref().is_none_or(JoinHandle::is_finished) {
+    /// Queues a command without blocking. STOP ALL never fails while the worker runs: it bypasses the
+    /// queue (see [`VestHandle::stop_all`]). Automatic commands are refused while halted.
+    pub fn send(&self, command: VestCommand, origin: CommandOrigin) -> Result<(), VestSendError> {
+        if self.shared.finished.load(Ordering::SeqCst) || self.shared.shutdown.load(Ordering::SeqCst) {
             return Err(VestSendError::Stopped);
         }
         if command == VestCommand::StopAll {
-            self.shared.stop_all.store(true, Ordering::SeqCst);
+            self.stop_all();
             return Ok(());
         }
-        self.commands.try_send(command).map_err(|e| match e {
+        if origin == CommandOrigin::Guidance && self.shared.halted.load(Ordering::SeqCst) {
+            return Err(VestSendError::Halted("since STOP ALL, until the operator resumes".to_owned()));
+        }
+        let generation = self.shared.generation.load(Ordering::SeqCst);
+        self.commands.try_send(Queued { cmd: command, origin, generation }).map_err(|e| match e {
             TrySendError::Full(_) => VestSendError::Full,
             TrySendError::Disconnected(_) => VestSendError::Stopped,
         })
     }
 
-    /// The next event, if any.
-    pub fn try_recv(&self) -> Option<VestEvent> {
-        self.events.try_recv().ok()
+    /// STOP ALL: every tactor off (the worker sends it within one read timeout, whatever the queue holds),
+    /// every command queued before it refused, automatic commands latched off until
+    /// [`VestHandle::resume_guidance`].
+    pub fn stop_all(&self) {
+        self.shared.request_stop_all();
     }
 
-    /// Waits up to `timeout` for the next event.
-    pub fn recv_timeout(&self, timeout: Duration) -> Option<VestEvent> {
-        self.events.recv_timeout(timeout).ok()
+    /// The operator's deliberate resume of automatic commands after a STOP ALL or a liveness stop.
+    pub fn resume_guidance(&self) {
+        if self.shared.halted.swap(false, Ordering::SeqCst) {
+            for slot in &self.shared.watches {
+                slot.tripped.store(false, Ordering::SeqCst);
+            }
+            self.shared.resumed.store(true, Ordering::SeqCst);
+            if let Some(t) = self.shared.thread.get() {
+                t.unpark();
+            }
+        }
     }
 
-    /// Events dropped because the receiver lagged.
-    pub fn dropped_events(&self) -> u64 {
-        self.shared.dropped_events.load(Ordering::Relaxed)
+    /// Whether automatic commands are latched off.
+    pub fn is_halted(&self) -> bool {
+        self.shared.halted.load(Ordering::SeqCst)
     }
 
-    /// Sends STOP ALL, waits briefly for its acknowledgement, closes the port and ends the worker.
-    pub fn stop(mut self) {
-        self.shutdown();
+    /// A STOP ALL button for other threads (signal handlers, exit paths).
+    pub fn stopper(&self) -> VestStopper {
+        VestStopper { shared: self.shared.clone() }
     }
 
-    fn shutdown(&mut self) {
-        self.shared.stop_all.store(true, Ordering::SeqCst);
+    /// The heartbeat of `who`, to be beaten at least every `bound` (see the module doc).
+    pub fn heartbeat(&self, who: Watched, bound: Duration) -> Heartbeat {
+        let slot = &self.shared.watches[who.index()];
+        slot.bound_us.store(u64::try_from(bound.as_micros()).unwrap_or(u64::MAX), Ordering::SeqCst);
+        Heartbeat { shared: self.shared.clone(), who }
+    }
+
+    /// Whether the worker still runs.
+    pub fn is_running(&self) -> bool {
+        !self.shared.finished.load(Ordering::SeqCst)
+    }
+
+    /// Sends STOP ALL, waits briefly for its acknowledgement, closes the port and ends the worker; returns
+    /// whether the STOP ALL was acknowledged.
+    pub fn stop(mut self) -> bool {
+        self.shutdown()
+    }
+
+    fn shutdown(&mut self) -> bool {
+        self.shared.request_stop_all();
         self.shared.shutdown.store(true, Ordering::SeqCst);
         if let Some(t) = self.thread.take() {
             let _ = t.join();
         }
+        self.shared.stop_acked.load(Ordering::SeqCst)
     }
 }
 
@@ -280,10 +518,9 @@ struct Worker {
     backoff: Backoff,
     settings: WorkerSettings,
     connector: Connector,
-    commands: Receiver<VestCommand>,
-    events: SyncSender<VestEvent>,
+    commands: Receiver<Queued>,
+    events: Vec<Outbox<VestEvent>>,
     shared: Arc<Shared>,
-    waker: Box<dyn Fn() + Send + Sync>,
 }
 
 impl Worker {
@@ -326,19 +563,27 @@ impl Worker {
             if self.shared.stop_all.swap(false, Ordering::SeqCst) {
                 self.emit(VestEvent::Rejected {
                     kind: CommandKind::StopAll,
+                    origin: Some(CommandOrigin::Manual),
                     reason: "vest not connected; its watchdog stops every tactor when the link is lost"
                         .to_owned(),
                 });
+                self.emit_halted("STOP ALL");
                 refused = true;
             }
-            while let Ok(cmd) = self.commands.try_recv() {
-                self.emit(VestEvent::Rejected { kind: cmd.kind(), reason: "vest not connected".to_owned() });
+            self.check_liveness(None, Instant::now());
+            self.report_resume();
+            while let Ok(q) = self.commands.try_recv() {
+                self.emit(VestEvent::Rejected {
+                    kind: q.cmd.kind(),
+                    origin: Some(q.origin),
+                    reason: "vest not connected".to_owned(),
+                });
                 refused = true;
             }
             if refused {
                 self.wake();
             }
-            std::thread::sleep(self.settings.io_poll.min(until.saturating_duration_since(Instant::now())));
+            std::thread::park_timeout(self.settings.io_poll.min(until.saturating_duration_since(Instant::now())));
         }
     }
 
@@ -351,12 +596,11 @@ impl Worker {
                 self.graceful_stop(port);
                 return SessionEnd::Shutdown;
             }
-            if self.shared.stop_all.swap(false, Ordering::SeqCst) {
-                self.apply(&VestCommand::StopAll, now);
-            }
+            self.serve_stop_all(now);
+            self.check_liveness(Some(&mut *port), now);
             loop {
                 match self.commands.try_recv() {
-                    Ok(cmd) => self.apply(&cmd, Instant::now()),
+                    Ok(q) => self.apply_queued(&q, Instant::now()),
                     Err(TryRecvError::Empty) => break,
                     // The handle is gone without a shutdown (cannot happen through Drop, but be safe).
                     Err(TryRecvError::Disconnected) => {
@@ -387,6 +631,66 @@ impl Worker {
         }
     }
 
+    /// Serves a pending STOP ALL request: first thing on every turn.
+    fn serve_stop_all(&mut self, now: Instant) {
+        if self.shared.stop_all.swap(false, Ordering::SeqCst) {
+            self.apply(&VestCommand::StopAll, CommandOrigin::Manual, now);
+            self.emit_halted("STOP ALL");
+        }
+        self.report_resume();
+    }
+
+    fn report_resume(&self) {
+        if self.shared.resumed.swap(false, Ordering::SeqCst) && !self.shared.halted.load(Ordering::SeqCst) {
+            self.emit(VestEvent::Resumed);
+            self.wake();
+        }
+    }
+
+    /// Stops every tactor when an armed watched thread has not beaten within its bound.
+    fn check_liveness(&mut self, port: Option<&mut dyn Transport>, now: Instant) {
+        let now_us = self.shared.now_us();
+        let mut stalled = None;
+        for who in WATCHED {
+            let slot = &self.shared.watches[who.index()];
+            let last = slot.last_us.load(Ordering::SeqCst);
+            let bound = slot.bound_us.load(Ordering::SeqCst);
+            if last == 0 || bound == 0 {
+                continue;
+            }
+            let late_us = now_us.saturating_sub(last);
+            if late_us > bound {
+                if !slot.tripped.swap(true, Ordering::SeqCst) {
+                    stalled = Some((who, late_us));
+                }
+            } else if !self.shared.halted.load(Ordering::SeqCst) {
+                slot.tripped.store(false, Ordering::SeqCst);
+            }
+        }
+        if let Some((who, late_us)) = stalled {
+            self.shared.generation.fetch_add(1, Ordering::SeqCst);
+            self.shared.halted.store(true, Ordering::SeqCst);
+            if self.link.is_ready() {
+                self.apply(&VestCommand::StopAll, CommandOrigin::Manual, now);
+                if let Some(port) = port {
+                    self.flush_transmit(port);
+                }
+            }
+            self.emit(VestEvent::Halted {
+                reason: format!(
+                    "the {} did not respond for {:.1} s: every tactor stopped, automatic cues halted",
+                    who.name(),
+                    late_us as f64 / 1e6
+                ),
+            });
+            self.wake();
+        }
+    }
+
+    fn emit_halted(&self, why: &str) {
+        self.emit(VestEvent::Halted { reason: format!("{why}: automatic cues halted until resumed") });
+    }
+
     fn flush_transmit(&mut self, port: &mut dyn Transport) {
         while let Some(bytes) = self.link.poll_transmit() {
             if let Err(e) = port.write_all(&bytes).and_then(|()| port.flush()) {
@@ -399,10 +703,12 @@ impl Worker {
     /// STOP ALL and a short wait for its acknowledgement, so no tactor is left running when we go.
     fn graceful_stop(&mut self, port: &mut dyn Transport) {
         let start = Instant::now();
+        self.shared.stop_all.store(false, Ordering::SeqCst);
         if self.link.stop_all(start).is_err() {
             return;
         }
         let mut buf = [0u8; 512];
+        self.flush_transmit(port);
         while start.elapsed() < self.settings.shutdown_grace && self.link.is_busy() && self.link.is_ready() {
             self.flush_transmit(port);
             match port.read(&mut buf) {
@@ -419,7 +725,26 @@ impl Worker {
         self.forward_link_events();
     }
 
-    fn apply(&mut self, cmd: &VestCommand, now: Instant) {
+    fn apply_queued(&mut self, q: &Queued, now: Instant) {
+        let kind = q.cmd.kind();
+        if q.generation != self.shared.generation.load(Ordering::SeqCst) {
+            self.emit(VestEvent::Rejected {
+                kind,
+                origin: Some(q.origin),
+                reason: "cancelled by STOP ALL".to_owned(),
+            });
+        } else if q.origin == CommandOrigin::Guidance && self.shared.halted.load(Ordering::SeqCst) {
+            self.emit(VestEvent::Rejected {
+                kind,
+                origin: Some(q.origin),
+                reason: "automatic cues halted until the operator resumes them".to_owned(),
+            });
+        } else {
+            self.apply(&q.cmd, q.origin, now);
+        }
+    }
+
+    fn apply(&mut self, cmd: &VestCommand, origin: CommandOrigin, now: Instant) {
         let kind = cmd.kind();
         let result = match cmd {
             VestCommand::Fire { mask, duration_ms } => self.link.fire(*mask, *duration_ms, now),
@@ -433,7 +758,7 @@ impl Worker {
                 CommandError::NotReady(_) => format!("vest not ready: {}", self.link.state()),
                 e => e.to_string(),
             };
-            self.emit(VestEvent::Rejected { kind, reason });
+            self.emit(VestEvent::Rejected { kind, origin: Some(origin), reason });
         }
     }
 
@@ -453,17 +778,25 @@ impl Worker {
                 }
                 LinkEvent::Identified(info) => VestEvent::Identified(info),
                 LinkEvent::TactorsOn(m) => VestEvent::TactorsOn(Some(m)),
-                LinkEvent::Acked { seq, kind } => VestEvent::Acked { seq, kind },
+                LinkEvent::Acked { seq, kind } => {
+                    if kind == CommandKind::StopAll {
+                        self.shared.stop_acked.store(true, Ordering::SeqCst);
+                    }
+                    VestEvent::Acked { seq, kind }
+                }
                 LinkEvent::Rejected { kind, reason, .. } => VestEvent::Rejected {
                     kind,
+                    origin: None,
                     reason: format!("the unit refused {}: {reason}", kind.name()),
                 },
                 LinkEvent::NotDelivered { kind, .. } => VestEvent::Rejected {
                     kind,
+                    origin: None,
                     reason: format!("{} not acknowledged by the unit", kind.name()),
                 },
                 LinkEvent::Cancelled { kind, .. } => VestEvent::Rejected {
                     kind,
+                    origin: None,
                     reason: format!("{} cancelled (superseded or stopped)", kind.name()),
                 },
                 LinkEvent::Status(s) => VestEvent::Status(s),
@@ -474,13 +807,19 @@ impl Worker {
     }
 
     fn emit(&self, event: VestEvent) {
-        if let Err(TrySendError::Full(_)) = self.events.try_send(event) {
-            self.shared.dropped_events.fetch_add(1, Ordering::Relaxed);
+        // Never waits: a lagging consumer loses events (counted by its outbox), the stop path never does.
+        if let Some((last, rest)) = self.events.split_last() {
+            for out in rest {
+                out.try_send(event.clone());
+            }
+            last.try_send(event);
         }
     }
 
     fn wake(&self) {
-        (self.waker)();
+        for out in &self.events {
+            out.wake();
+        }
     }
 }
 
@@ -539,5 +878,136 @@ impl Write for EmulatedPort {
 
     fn flush(&mut self) -> io::Result<()> {
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::wtcu::engine::EngineConfig;
+    use vestnav_core::vest::Frame;
+
+    fn emulated() -> (VestHandle, Receiver<VestEvent>) {
+        let connector: Connector = Box::new(|| {
+            Ok(Box::new(EmulatedPort::new(EngineConfig::default(), Duration::from_millis(2))) as Box<dyn Transport>)
+        });
+        VestHandle::spawn_with_receiver(connector, WorkerSettings::default()).unwrap()
+    }
+
+    /// Waits for the first event matching `f`, collecting everything seen.
+    fn wait(rx: &Receiver<VestEvent>, seen: &mut Vec<VestEvent>, f: impl Fn(&VestEvent) -> bool) -> Option<Instant> {
+        let end = Instant::now() + Duration::from_secs(3);
+        while Instant::now() < end {
+            if let Ok(ev) = rx.recv_timeout(Duration::from_millis(10)) {
+                let hit = f(&ev);
+                seen.push(ev);
+                if hit {
+                    return Some(Instant::now());
+                }
+            }
+        }
+        None
+    }
+
+    fn ready(rx: &Receiver<VestEvent>) {
+        let mut seen = Vec::new();
+        assert!(wait(rx, &mut seen, |e| *e == VestEvent::State(LinkState::Ready)).is_some(), "{seen:?}");
+    }
+
+    fn long_pattern() -> Pattern {
+        Pattern {
+            name: "long".into(),
+            frames: vec![Frame { mask: TactorMask(0x000F), duration_ms: 1500 }, Frame { mask: TactorMask::NONE, duration_ms: 500 }],
+            repeats: 3,
+        }
+    }
+
+    #[test]
+    fn stop_all_jumps_a_full_queue_and_cancels_what_was_queued() {
+        let (vest, rx) = emulated();
+        ready(&rx);
+        // Fill the queue: whatever is waiting there must not delay the stop, nor play after it.
+        let mut queued = 0;
+        while vest.send(VestCommand::Play(long_pattern()), CommandOrigin::Manual).is_ok() {
+            queued += 1;
+            assert!(queued <= 64, "the queue is bounded");
+        }
+        assert_eq!(vest.send(VestCommand::RequestStatus, CommandOrigin::Manual), Err(VestSendError::Full));
+        let t0 = Instant::now();
+        vest.stop_all();
+        let mut seen = Vec::new();
+        let acked = wait(&rx, &mut seen, |e| matches!(e, VestEvent::Acked { kind: CommandKind::StopAll, .. }))
+            .expect("STOP ALL acknowledged");
+        assert!(acked - t0 < Duration::from_millis(50), "{:?}", acked - t0);
+        // Everything queued before the stop is refused, never played after it.
+        std::thread::sleep(Duration::from_millis(100));
+        seen.extend(rx.try_iter());
+        let plays_after_stop = seen
+            .iter()
+            .skip_while(|e| !matches!(e, VestEvent::Acked { kind: CommandKind::StopAll, .. }))
+            .filter(|e| matches!(e, VestEvent::Acked { kind: CommandKind::Play, .. }))
+            .count();
+        assert_eq!(plays_after_stop, 0, "{seen:?}");
+        assert!(seen.iter().any(|e| matches!(e, VestEvent::Rejected { reason, .. } if reason.contains("cancelled by STOP ALL"))));
+    }
+
+    #[test]
+    fn automatic_commands_are_refused_after_stop_all_until_resumed() {
+        let (vest, rx) = emulated();
+        ready(&rx);
+        let cue = VestCommand::Fire { mask: TactorMask(1), duration_ms: 200 };
+        assert_eq!(vest.send(cue.clone(), CommandOrigin::Guidance), Ok(()));
+        vest.stop_all();
+        assert!(vest.is_halted());
+        assert!(matches!(vest.send(cue.clone(), CommandOrigin::Guidance), Err(VestSendError::Halted(_))));
+        // The operator's own commands still go.
+        assert_eq!(vest.send(cue.clone(), CommandOrigin::Manual), Ok(()));
+        let mut seen = Vec::new();
+        assert!(wait(&rx, &mut seen, |e| matches!(e, VestEvent::Halted { .. })).is_some());
+        vest.resume_guidance();
+        assert!(!vest.is_halted());
+        assert_eq!(vest.send(cue, CommandOrigin::Guidance), Ok(()));
+        assert!(wait(&rx, &mut seen, |e| *e == VestEvent::Resumed).is_some());
+    }
+
+    #[test]
+    fn a_stalled_watched_thread_stops_every_tactor() {
+        let (vest, rx) = emulated();
+        ready(&rx);
+        let beat = vest.heartbeat(Watched::Guidance, Duration::from_millis(100));
+        beat.beat();
+        assert_eq!(vest.send(VestCommand::Play(long_pattern()), CommandOrigin::Guidance), Ok(()));
+        let mut seen = Vec::new();
+        assert!(wait(&rx, &mut seen, |e| matches!(e, VestEvent::TactorsOn(Some(m)) if !m.is_empty())).is_some());
+        // The guidance thread stops beating: the worker stops the vest by itself within the bound.
+        let stalled = Instant::now();
+        let stopped = wait(&rx, &mut seen, |e| matches!(e, VestEvent::Acked { kind: CommandKind::StopAll, .. }))
+            .expect("the worker stopped the vest");
+        let after = stopped - stalled;
+        assert!(after >= Duration::from_millis(90) && after < Duration::from_millis(300), "{after:?}");
+        assert!(seen.iter().any(|e| matches!(e, VestEvent::Halted { reason } if reason.contains("guidance"))));
+        assert!(matches!(
+            vest.send(VestCommand::Play(long_pattern()), CommandOrigin::Guidance),
+            Err(VestSendError::Halted(_))
+        ));
+        // A released heartbeat is not a stall.
+        vest.resume_guidance();
+        beat.beat();
+        beat.release();
+        std::thread::sleep(Duration::from_millis(300));
+        assert!(!vest.is_halted());
+    }
+
+    #[test]
+    fn the_stopper_stops_and_closes_within_the_exit_budget() {
+        let (vest, rx) = emulated();
+        ready(&rx);
+        assert_eq!(vest.send(VestCommand::Play(long_pattern()), CommandOrigin::Guidance), Ok(()));
+        let stopper = vest.stopper();
+        let t0 = Instant::now();
+        assert!(stopper.stop_and_close(Duration::from_millis(180)), "STOP ALL acknowledged");
+        assert!(t0.elapsed() < Duration::from_millis(200), "{:?}", t0.elapsed());
+        assert!(!vest.is_running());
+        assert_eq!(vest.send(VestCommand::RequestStatus, CommandOrigin::Manual), Err(VestSendError::Stopped));
     }
 }

@@ -1,0 +1,265 @@
+//! Draws a `vestnav_plot::Figure` on screen with `egui_plot`, panel by panel: the same figure the views
+//! export as PNG, so what the operator sees is what they save. Colours come from `vestnav_plot` (its series
+//! palette and its viridis colour map).
+
+use egui_plot::{Legend, Line, LineStyle, MarkerShape, Plot, PlotPoint, Points, Text, VLine};
+use vestnav_plot::{Chart, Color, Figure, Heatmap, Marker, Panel, Scale, SeriesKind, viridis};
+
+fn color32(c: Color) -> egui::Color32 {
+    egui::Color32::from_rgba_unmultiplied(c.r, c.g, c.b, c.a)
+}
+
+/// Position of `v` on an axis of `scale` (log axes are drawn in decades; non-positive values vanish).
+fn on_axis(scale: Scale, v: f64) -> f64 {
+    match scale {
+        Scale::Linear => v,
+        Scale::Log10 if v > 0.0 => v.log10(),
+        Scale::Log10 => f64::NAN,
+    }
+}
+
+/// Value at an axis position (inverse of [`on_axis`]).
+fn from_axis(scale: Scale, p: f64) -> f64 {
+    match scale {
+        Scale::Linear => p,
+        Scale::Log10 => 10f64.powf(p),
+    }
+}
+
+/// Splits a polyline at non-finite points into runs of at least one point.
+fn finite_runs(points: &[[f64; 2]]) -> Vec<Vec<[f64; 2]>> {
+    let mut runs = Vec::new();
+    let mut current = Vec::new();
+    for p in points {
+        if p[0].is_finite() && p[1].is_finite() {
+            current.push(*p);
+        } else if !current.is_empty() {
+            runs.push(std::mem::take(&mut current));
+        }
+    }
+    if !current.is_empty() {
+        runs.push(current);
+    }
+    runs
+}
+
+fn marker_shape(m: Marker) -> MarkerShape {
+    match m {
+        Marker::Square => MarkerShape::Square,
+        Marker::Cross => MarkerShape::Cross,
+        Marker::None | Marker::Circle => MarkerShape::Circle,
+    }
+}
+
+/// Draws a chart (pan/zoom; double-click resets).
+fn show_chart(ui: &mut egui::Ui, c: &Chart, id_salt: &str, height: f32) {
+    let (xs, ys) = (c.x_scale, c.y_scale);
+    let at = move |x: f64, y: f64| [on_axis(xs, x), on_axis(ys, y)];
+    ui.label(egui::RichText::new(&c.title).strong());
+    let mut plot = Plot::new(id_salt)
+        .height(height)
+        .legend(Legend::default())
+        .x_axis_label(c.x_label.clone())
+        .y_axis_label(c.y_label.clone());
+    if c.equal_aspect {
+        plot = plot.data_aspect(1.0);
+    }
+    if let Some((lo, hi)) = c.y_range {
+        plot = plot.include_y(on_axis(ys, lo)).include_y(on_axis(ys, hi));
+    }
+    if xs == Scale::Log10 {
+        plot = plot.x_axis_formatter(|mark, _| format!("{:.0e}", 10f64.powf(mark.value)));
+    }
+    if ys == Scale::Log10 {
+        plot = plot.y_axis_formatter(|mark, _| format!("{:.0e}", 10f64.powf(mark.value)));
+    }
+    if xs == Scale::Log10 || ys == Scale::Log10 {
+        plot = plot.label_formatter(move |pos| {
+            Some(match pos {
+                egui_plot::HoverPosition::NearDataPoint { plot_name, position, .. } => format!(
+                    "{plot_name}\nx = {:.4}\ny = {:.4e}",
+                    from_axis(xs, position.x),
+                    from_axis(ys, position.y)
+                ),
+                egui_plot::HoverPosition::Elsewhere { position } => {
+                    format!("x = {:.4}\ny = {:.4e}", from_axis(xs, position.x), from_axis(ys, position.y))
+                }
+            })
+        });
+    }
+    plot.show(ui, |plot_ui| {
+        for (idx, s) in c.series.iter().enumerate() {
+            let color = color32(s.color.unwrap_or_else(|| Color::palette(idx)));
+            let points: Vec<[f64; 2]> = s.x.iter().zip(&s.y).map(|(&x, &y)| at(x, y)).collect();
+            match s.kind {
+                SeriesKind::Line => {
+                    // egui_plot does not break lines at NaN: draw each finite run separately.
+                    for run in finite_runs(&points) {
+                        let mut line = Line::new(s.label.clone(), run).color(color).width(s.width_px);
+                        if s.dashed {
+                            line = line.style(LineStyle::dashed_loose());
+                        }
+                        plot_ui.line(line);
+                    }
+                    if s.marker != Marker::None {
+                        let finite: Vec<[f64; 2]> =
+                            points.into_iter().filter(|p| p[0].is_finite() && p[1].is_finite()).collect();
+                        plot_ui.points(
+                            Points::new(s.label.clone(), finite)
+                                .shape(marker_shape(s.marker))
+                                .radius(2.5)
+                                .color(color),
+                        );
+                    }
+                }
+                SeriesKind::Scatter => {
+                    let finite: Vec<[f64; 2]> =
+                        points.into_iter().filter(|p| p[0].is_finite() && p[1].is_finite()).collect();
+                    plot_ui.points(
+                        Points::new(s.label.clone(), finite)
+                            .shape(marker_shape(s.marker))
+                            .radius(2.5)
+                            .color(color),
+                    );
+                }
+            }
+        }
+        for l in &c.hlines {
+            plot_ui.hline(
+                egui_plot::HLine::new(l.label.clone(), on_axis(ys, l.value)).style(LineStyle::dashed_dense()),
+            );
+        }
+        for l in &c.vlines {
+            plot_ui.vline(VLine::new(l.label.clone(), on_axis(xs, l.value)).style(LineStyle::dashed_dense()));
+        }
+        for k in &c.circles {
+            let ring: Vec<[f64; 2]> = (0..=128)
+                .map(|i| {
+                    let a = f64::from(i) / 128.0 * std::f64::consts::TAU;
+                    at(k.cx + k.r * a.cos(), k.cy + k.r * a.sin())
+                })
+                .collect();
+            plot_ui.line(Line::new(k.label.clone(), ring).style(LineStyle::dashed_loose()));
+        }
+        for a in &c.annotations {
+            let [x, y] = at(a.x, a.y);
+            plot_ui.text(Text::new(a.text.clone(), PlotPoint::new(x, y), a.text.clone()));
+        }
+    });
+}
+
+/// Smallest and largest finite value, or `None` if there is none (or they are equal).
+fn value_range(h: &Heatmap) -> Option<(f64, f64)> {
+    if let Some((lo, hi)) = h.value_range {
+        return (hi > lo).then_some((lo, hi));
+    }
+    let (lo, hi) = h
+        .values
+        .iter()
+        .filter(|v| v.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| (lo.min(v), hi.max(v)));
+    (lo.is_finite() && hi > lo).then_some((lo, hi))
+}
+
+/// Draws a heat map (equal aspect) with its colour scale and the labelled markers.
+fn show_heatmap(ui: &mut egui::Ui, h: &Heatmap, id_salt: &str, height: f32) {
+    ui.label(egui::RichText::new(&h.title).strong());
+    let range = value_range(h);
+    match range {
+        None => {
+            let value = h.values.iter().find(|v| v.is_finite()).copied().unwrap_or(0.0);
+            ui.label(format!("uniform field: {} = {value:.3} everywhere", h.colorbar_label));
+        }
+        Some((lo, hi)) => {
+            ui.horizontal(|ui| {
+                ui.label(format!("{}:", h.colorbar_label));
+                ui.label(format!("{lo:.3}"));
+                let (rect, _) = ui.allocate_exact_size(egui::vec2(160.0, 12.0), egui::Sense::hover());
+                let steps = 32;
+                for k in 0..steps {
+                    let f0 = k as f32 / steps as f32;
+                    let f1 = (k + 1) as f32 / steps as f32;
+                    let seg = egui::Rect::from_x_y_ranges(
+                        egui::lerp(rect.x_range(), f0)..=egui::lerp(rect.x_range(), f1),
+                        rect.y_range(),
+                    );
+                    ui.painter().rect_filled(seg, 0.0, color32(viridis(f64::from(f0 + f1) / 2.0)));
+                }
+                ui.label(format!("{hi:.3}"));
+            });
+        }
+    }
+    let valid = h.nx > 0 && h.values.len() == h.nx * h.ny;
+    Plot::new(id_salt)
+        .height(height)
+        .data_aspect(1.0)
+        .x_axis_label(h.x_label.clone())
+        .y_axis_label(h.y_label.clone())
+        .show(ui, |plot_ui| {
+            if valid && let Some((lo, hi)) = range {
+                let w = (h.x_extent.1 - h.x_extent.0) as f32;
+                let ht = (h.y_extent.1 - h.y_extent.0) as f32;
+                let heat = egui_plot::Heatmap::new(h.values.clone(), h.nx)
+                    .at(PlotPoint::new(h.x_extent.0, h.y_extent.0))
+                    .size(w, ht)
+                    .show_labels(false)
+                    .custom_mapping(Box::new(move |v| color32(viridis((v - lo) / (hi - lo)))));
+                plot_ui.add(heat);
+            }
+            let pts: Vec<[f64; 2]> = h.points.iter().map(|p| [p.0, p.1]).collect();
+            plot_ui.points(
+                Points::new("tactors", pts)
+                    .shape(MarkerShape::Circle)
+                    .radius(3.0)
+                    .color(egui::Color32::WHITE),
+            );
+            for (x, y, label) in &h.points {
+                plot_ui.text(
+                    Text::new(label.clone(), PlotPoint::new(*x, *y), label.clone())
+                        .color(egui::Color32::WHITE)
+                        .anchor(egui::Align2::LEFT_BOTTOM),
+                );
+            }
+        });
+}
+
+/// Draws one panel of a figure.
+pub(crate) fn show_panel(ui: &mut egui::Ui, panel: &Panel, id_salt: &str, height: f32) {
+    match panel {
+        Panel::Chart(c) => show_chart(ui, c, id_salt, height),
+        Panel::Heatmap(h) => show_heatmap(ui, h, id_salt, height),
+    }
+}
+
+/// Draws a figure's panels in a two-column grid that fills the available width.
+pub(crate) fn figure_grid(ui: &mut egui::Ui, id: &str, figure: &Figure, height: f32) {
+    let columns = if ui.available_width() > 900.0 { 2 } else { 1 };
+    for (row, chunk) in figure.panels.chunks(columns).enumerate() {
+        ui.columns(columns, |cols| {
+            for (k, (col, panel)) in cols.iter_mut().zip(chunk).enumerate() {
+                show_panel(col, panel, &format!("{id}-{row}-{k}"), height);
+            }
+        });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn finite_runs_split_at_nan() {
+        let pts = [[0.0, 1.0], [1.0, f64::NAN], [2.0, 3.0], [3.0, 4.0], [f64::INFINITY, 0.0]];
+        let runs = finite_runs(&pts);
+        assert_eq!(runs, vec![vec![[0.0, 1.0]], vec![[2.0, 3.0], [3.0, 4.0]]]);
+    }
+
+    #[test]
+    fn log_axes_round_trip_and_drop_non_positive_values() {
+        for v in [1e-6, 0.3, 133.0] {
+            assert!((from_axis(Scale::Log10, on_axis(Scale::Log10, v)) / v - 1.0).abs() < 1e-12);
+        }
+        assert!(on_axis(Scale::Log10, 0.0).is_nan());
+        assert!(on_axis(Scale::Log10, -1.0).is_nan());
+    }
+}

@@ -1,0 +1,142 @@
+//! Closed-loop guidance simulation: the JSON schema of `vestnav nav simulate --json` and its figure.
+
+use std::collections::BTreeMap;
+
+use serde::{Deserialize, Serialize};
+use vestnav_core::wearer::{SimResult, SimSummary};
+use vestnav_plot::{Chart, Color, Figure, Marker, Series};
+
+/// One run's numbers (a [`SimResult`] without its paths).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RunReport {
+    /// Random seed of the run.
+    pub seed: u64,
+    /// Whether the wearer reached the last waypoint in time.
+    pub finished: bool,
+    /// Time taken [s].
+    pub time_s: f64,
+    /// Route length over the pace [s].
+    pub nominal_time_s: f64,
+    /// Distance walked [m].
+    pub walked_m: f64,
+    /// RMS cross-track distance [m].
+    pub cross_track_rmse_m: f64,
+    /// Largest cross-track distance [m].
+    pub max_cross_track_m: f64,
+    /// Cues sent.
+    pub cues: usize,
+    /// Cues per minute.
+    pub cues_per_min: f64,
+    /// Cues sent by name.
+    pub cue_counts: BTreeMap<String, usize>,
+    /// Waypoints reached.
+    pub waypoints_reached: usize,
+    /// Waypoints passed without arriving.
+    pub waypoints_missed: usize,
+}
+
+impl From<&SimResult> for RunReport {
+    fn from(r: &SimResult) -> Self {
+        Self {
+            seed: r.seed,
+            finished: r.finished,
+            time_s: r.time_s,
+            nominal_time_s: r.nominal_time_s,
+            walked_m: r.walked_m,
+            cross_track_rmse_m: r.cross_track_rmse_m,
+            max_cross_track_m: r.max_cross_track_m,
+            cues: r.cues,
+            cues_per_min: r.cues_per_min,
+            cue_counts: r.cue_counts.clone(),
+            waypoints_reached: r.waypoints_reached,
+            waypoints_missed: r.waypoints_missed,
+        }
+    }
+}
+
+/// One strategy's summary and runs.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct StrategyReport {
+    /// Means and spreads over the runs.
+    pub summary: SimSummary,
+    /// Every run.
+    pub runs: Vec<RunReport>,
+}
+
+/// JSON of `vestnav nav simulate --json`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct NavReport {
+    /// The route file.
+    pub route: String,
+    /// Number of waypoints.
+    pub waypoints: usize,
+    /// Runs per strategy.
+    pub runs: usize,
+    /// First seed.
+    pub seed: u64,
+    /// One entry per strategy simulated.
+    pub strategies: Vec<StrategyReport>,
+}
+
+impl NavReport {
+    /// The report of the simulations `all` (summary and runs per strategy).
+    pub fn new(
+        route: String,
+        waypoints: usize,
+        runs: usize,
+        seed: u64,
+        all: &[(SimSummary, Vec<SimResult>)],
+    ) -> Self {
+        let strategies = all
+            .iter()
+            .map(|(s, rs)| StrategyReport {
+                summary: s.clone(),
+                runs: rs.iter().map(RunReport::from).collect(),
+            })
+            .collect();
+        Self { route, waypoints, runs, seed, strategies }
+    }
+}
+
+/// One panel per strategy: the route, the waypoints with their arrival circles, the first run's true path
+/// and its GPS fixes, in east/north metres.
+pub fn nav_figure(all: &[(SimSummary, Vec<SimResult>)], arrival_radius_m: f64) -> Figure {
+    let mut fig = Figure::new()
+        .title("Closed-loop guidance: simulated wearer (first run)")
+        .columns(all.len().max(1))
+        .panel_size(640, 560);
+    for (s, runs) in all {
+        let Some(r) = runs.first() else { continue };
+        let xs = |v: &[vestnav_core::wave::DVec2]| v.iter().map(|p| p.x).collect::<Vec<f64>>();
+        let ys = |v: &[vestnav_core::wave::DVec2]| v.iter().map(|p| p.y).collect::<Vec<f64>>();
+        let mut chart = Chart::new(format!(
+            "{}: xtrack RMSE {:.1} m, {:.0} s, {:.1} cues/min, {} missed",
+            s.strategy, r.cross_track_rmse_m, r.time_s, r.cues_per_min, r.waypoints_missed
+        ))
+        .x_label("east [m]")
+        .y_label("north [m]")
+        .equal_aspect()
+        .series(
+            Series::line("route", xs(&r.waypoints_en_m), ys(&r.waypoints_en_m))
+                .dashed()
+                .width(2.0)
+                .color(Color::rgb(90, 90, 90)),
+        )
+        .series(
+            Series::scatter("GPS fixes", xs(&r.path_fix_en_m), ys(&r.path_fix_en_m))
+                .marker(Marker::Cross)
+                .color(Color::rgb(230, 140, 30)),
+        )
+        .series(
+            Series::line("true path", xs(&r.path_true_en_m), ys(&r.path_true_en_m))
+                .width(2.0)
+                .color(Color::rgb(30, 90, 200)),
+        );
+        for (i, w) in r.waypoints_en_m.iter().enumerate() {
+            let label = if i == 0 { "arrival radius" } else { "" };
+            chart = chart.circle(w.x, w.y, arrival_radius_m, label).annotate(w.x, w.y, format!("{}", i + 1));
+        }
+        fig = fig.push(chart);
+    }
+    fig
+}
