@@ -30,5 +30,8 @@ end=$(date +%s)
 
 echo
 echo "==== fuzz summary (seed $FUZZ_SEED, $((end - start)) s wall) ===="
-grep -E "^FUZZ-SUMMARY|^    |^  (NEW|KNOWN)|^test .* (ok|FAILED)$|^test result|FUZZ HANG" "$log" || true
+# With --nocapture a summary can follow the "test name ... " prefix on the same line.
+sed -E 's/^test .* \.\.\. (FUZZ-SUMMARY)/\1/' "$log" |
+    grep -E "^FUZZ-SUMMARY|^    [a-z ]+: [0-9]+$|^  (NEW|KNOWN)|^    (first|minimised|known issue)|FAILED|^test result|FUZZ HANG" |
+    cut -c1-400 || true
 exit "$status"

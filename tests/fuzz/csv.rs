@@ -114,11 +114,7 @@ fn check(input: &[u8], counts: &mut Counts) -> Result<(), String> {
     Ok(())
 }
 
-const KNOWN: &[Known] = &[Known {
-    needle: "sample rate not finite",
-    why: "crates/core/src/analysis.rs, parse_csv: the rate is 1/step with no finiteness check; a uniform \
-          subnormal time step (e.g. 0, 1e-323) passes uniform_steps (step > 0) and gives sample_rate_hz = inf",
-}];
+const KNOWN: &[Known] = &[];
 
 #[test]
 fn csv_parser_survives_mutated_traces() {
@@ -127,7 +123,6 @@ fn csv_parser_survives_mutated_traces() {
 
 /// The reproducer of the known issue above; passes once `parse_csv` refuses (or caps) such a step.
 #[test]
-#[ignore = "known bug in vestnav_core::analysis::parse_csv: subnormal time step gives an infinite sample rate"]
 fn subnormal_time_step_does_not_give_an_infinite_rate() {
     if let Ok(set) = parse_csv("0e4 5\n1e-323 1\n", TimeColumn::Present, 1.0) {
         assert!(set.sample_rate_hz.is_finite(), "sample rate {} Hz", set.sample_rate_hz);

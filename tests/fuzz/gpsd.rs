@@ -228,12 +228,7 @@ fn check(input: &[u8], counts: &mut Counts) -> Result<(), String> {
     Ok(())
 }
 
-const KNOWN: &[Known] = &[Known {
-    needle: "half a position",
-    why: "crates/device/src/gps/gpsd.rs, GpsdClient::tpv: a TPV with mode 2/3 and only one of lat/lon gives a \
-          Fix with mode Fix2D/Fix3D, lat Some, lon None (has_position() is false, but the mode claims a fix); \
-          Fix::validate only removes out-of-range values, not half positions",
-}];
+const KNOWN: &[Known] = &[];
 
 #[test]
 fn gpsd_client_survives_mutated_reports() {
@@ -266,7 +261,6 @@ proptest! {
 
 /// The reproducer of the known issue above; passes once the client drops half positions.
 #[test]
-#[ignore = "known bug in GpsdClient::tpv: a TPV with lat but no lon keeps the lat and the 3D mode"]
 fn tpv_with_half_a_position_gives_no_position() {
     let mut c = GpsdClient::new();
     let fix = c

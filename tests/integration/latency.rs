@@ -238,16 +238,17 @@ fn nmea_fix_to_vest_play_latency_p50_p99() {
         ..Config::default()
     };
     let log_dir = std::env::temp_dir().join(format!("vestnav-latency-{}", std::process::id()));
-    let mut console =
-        Console::new(Box::new(Hardware), ConsoleOptions { cfg, log_dir: Some(log_dir.clone()), ..ConsoleOptions::default() });
+    let mut console = Console::new(
+        Box::new(Hardware),
+        ConsoleOptions { cfg, log_dir: Some(log_dir.clone()), ..ConsoleOptions::default() },
+    );
     console.map.waypoints = vec![
         Waypoint { name: "start".into(), lat_deg: START.lat_deg, lon_deg: START.lon_deg },
         Waypoint { name: "end".into(), lat_deg: end.lat_deg, lon_deg: end.lon_deg },
     ];
     console.map.next = 1;
     console.push_route();
-    let started: Vec<String> =
-        thread_names().into_iter().filter(|n| !threads_before.contains(n)).collect();
+    let started: Vec<String> = thread_names().into_iter().filter(|n| !threads_before.contains(n)).collect();
     eprintln!("threads the console started: {} {started:?}", started.len());
 
     let deadline = Instant::now() + Duration::from_secs(5);

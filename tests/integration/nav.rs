@@ -408,15 +408,22 @@ fn drift_reads_a_session_log_written_by_the_console_writer() {
     let _ = std::fs::remove_file(&path);
     let log = SessionLog::create_at(&path).unwrap();
     let tx = log.sender().unwrap();
+    // One fix a second of session time, as a 1 Hz receiver gives them (the writer rate-limits floods by the
+    // records' own session time).
     for k in 0..36 {
         let p = Earth::Wgs84.direct(centre, f64::from(k) * 10.0, r_m);
-        tx.log(LogEntry::Fix {
-            lat_deg: p.lat_deg,
-            lon_deg: p.lon_deg,
-            error_m: None,
-            speed_m_s: None,
-            course_deg: None,
-            gps_utc: None,
+        let utc = vestnav_device::session_log::utc_stamp(chrono::Utc::now());
+        tx.send(vestnav_device::session_log::LogRecord {
+            t_s: f64::from(k),
+            utc,
+            entry: LogEntry::Fix {
+                lat_deg: p.lat_deg,
+                lon_deg: p.lon_deg,
+                error_m: None,
+                speed_m_s: None,
+                course_deg: None,
+                gps_utc: None,
+            },
         });
     }
     tx.log(LogEntry::Mark { label: "left on the post".into(), lat_deg: None, lon_deg: None });

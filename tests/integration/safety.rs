@@ -45,7 +45,11 @@ impl Unit {
                 match master.read(&mut buf) {
                     Ok(0) => break,
                     Ok(n) => engine.handle_bytes(&buf[..n], Instant::now()),
-                    Err(e) if matches!(e.kind(), std::io::ErrorKind::TimedOut | std::io::ErrorKind::WouldBlock) => {}
+                    Err(e)
+                        if matches!(
+                            e.kind(),
+                            std::io::ErrorKind::TimedOut | std::io::ErrorKind::WouldBlock
+                        ) => {}
                     Err(_) => std::thread::sleep(Duration::from_millis(5)),
                 }
                 let now = Instant::now();
@@ -66,7 +70,9 @@ impl Unit {
     fn accepted(&self, kind: CommandKind) -> Vec<Instant> {
         let log = self.log.lock().unwrap();
         log.iter()
-            .filter_map(|(t, e)| matches!(e, EngineEvent::Accepted { kind: k, .. } if *k == kind).then_some(*t))
+            .filter_map(|(t, e)| {
+                matches!(e, EngineEvent::Accepted { kind: k, .. } if *k == kind).then_some(*t)
+            })
             .collect()
     }
 
@@ -150,15 +156,17 @@ fn serve(mut s: TcpStream, mode: Hostile, stop: &AtomicBool, end: Instant) {
     let _ = s.set_nodelay(true);
     let _ = s.set_write_timeout(Some(Duration::from_millis(200)));
     let live = || !stop.load(Ordering::Relaxed) && Instant::now() < end;
-    let _ = s.write_all(b"{\"class\":\"VERSION\",\"release\":\"3.22\",\"proto_major\":3,\"proto_minor\":14}\n");
+    let _ =
+        s.write_all(b"{\"class\":\"VERSION\",\"release\":\"3.22\",\"proto_major\":3,\"proto_minor\":14}\n");
     let mut k = 0u64;
     match mode {
         Hostile::Absurd => {
-            let absurd = [(42.3558, -1e15), (91.0, 181.0), (9999.0, -71.1), (1e20, -71.1), (42.3558, f64::MAX)];
+            let absurd =
+                [(42.3558, -1e15), (91.0, 181.0), (9999.0, -71.1), (1e20, -71.1), (42.3558, f64::MAX)];
             while live() {
                 k += 1;
                 let lat = 42.3558 - 0.000_01 * (k % 50) as f64;
-                let line = if k % 5 == 0 {
+                let line = if k.is_multiple_of(5) {
                     let (a, b) = absurd[(k / 5) as usize % absurd.len()];
                     tpv(k, a, b)
                 } else {
@@ -184,7 +192,9 @@ fn serve(mut s: TcpStream, mode: Hostile, stop: &AtomicBool, end: Instant) {
             while live() && sent < 200 << 20 {
                 match s.write(&chunk) {
                     Ok(n) => sent += n,
-                    Err(e) if e.kind() == std::io::ErrorKind::WouldBlock || e.kind() == std::io::ErrorKind::TimedOut => {}
+                    Err(e)
+                        if e.kind() == std::io::ErrorKind::WouldBlock
+                            || e.kind() == std::io::ErrorKind::TimedOut => {}
                     Err(_) => return,
                 }
             }
@@ -236,7 +246,8 @@ fn run_ui(c: &mut Console, ctx: &egui::Context, d: Duration) {
             screen_rect: Some(egui::Rect::from_min_size(egui::Pos2::ZERO, egui::vec2(1400.0, 880.0))),
             ..egui::RawInput::default()
         };
-        let _ = ctx.run_ui(input, |ui| c.ui(ui));
+        let mut out = ctx.run_ui(input, |ui| c.ui(ui));
+        out.textures_delta.clear();
         std::thread::sleep(Duration::from_millis(16));
     }
 }
@@ -352,13 +363,20 @@ fn a_stalled_ui_stops_the_vest_by_itself() {
     let before = unit.accepted(CommandKind::StopAll).len();
     // The UI thread stops drawing (a stall): nobody could press STOP ALL now.
     let stalled_at = Instant::now();
-    wait_for("the liveness stop", Duration::from_secs(5), || unit.accepted(CommandKind::StopAll).len() > before);
+    wait_for("the liveness stop", Duration::from_secs(5), || {
+        unit.accepted(CommandKind::StopAll).len() > before
+    });
     let t = unit.accepted(CommandKind::StopAll)[before].saturating_duration_since(stalled_at);
     let bound = Liveness::default().ui;
-    eprintln!("UI stalled: the unit got STOP ALL after {:.0} ms (bound {:.0} ms)", t.as_secs_f64() * 1e3, bound.as_secs_f64() * 1e3);
+    eprintln!(
+        "UI stalled: the unit got STOP ALL after {:.0} ms (bound {:.0} ms)",
+        t.as_secs_f64() * 1e3,
+        bound.as_secs_f64() * 1e3
+    );
     assert!(t < bound + Duration::from_millis(200), "{t:?}");
     std::thread::sleep(Duration::from_secs(2));
-    let plays_after: Vec<_> = unit.accepted(CommandKind::Play).into_iter().filter(|p| *p > stalled_at + t).collect();
+    let plays_after: Vec<_> =
+        unit.accepted(CommandKind::Play).into_iter().filter(|p| *p > stalled_at + t).collect();
     assert!(plays_after.is_empty(), "automatic cues went on while the UI was stalled");
     run_ui(&mut c, &ctx, Duration::from_millis(100));
     assert!(c.vest.halted.as_deref().is_some_and(|r| r.contains("console UI")), "{:?}", c.vest.halted);
@@ -378,7 +396,12 @@ fn signals_stop_the_vest_before_the_process_exits() {
         let home = std::env::temp_dir().join(format!("vestnav-sig-{}-{name}", std::process::id()));
         std::fs::create_dir_all(&home).unwrap();
         let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_vestnav"))
-            .args(["--gps", &format!("gpsd://127.0.0.1:{}", gpsd.port), "--vest", &format!("serial:{}", unit.path)])
+            .args([
+                "--gps",
+                &format!("gpsd://127.0.0.1:{}", gpsd.port),
+                "--vest",
+                &format!("serial:{}", unit.path),
+            ])
             .env("DISPLAY", &xvfb.display)
             .env("HOME", &home)
             .env("XDG_CONFIG_HOME", home.join("config"))
@@ -386,7 +409,7 @@ fn signals_stop_the_vest_before_the_process_exits() {
             .env("XDG_CACHE_HOME", home.join("cache"))
             .env_remove("WAYLAND_DISPLAY")
             .stdout(std::process::Stdio::null())
-            .stderr(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::inherit())
             .spawn()
             .unwrap();
         let played = {
@@ -403,12 +426,18 @@ fn signals_stop_the_vest_before_the_process_exits() {
         };
         if !played {
             let _ = child.kill();
-            let out = child.wait_with_output().unwrap();
-            panic!("SIG{name}: the console never guided: {}", String::from_utf8_lossy(&out.stderr));
+            let status = child.wait().unwrap();
+            let log =
+                unit.log.lock().unwrap().iter().map(|(_, e)| format!("{e:?}")).collect::<Vec<_>>().join("\n");
+            panic!("SIG{name}: the console never guided ({status}); the unit saw:\n{log}");
         }
         let before = unit.accepted(CommandKind::StopAll).len();
         let t0 = Instant::now();
-        let ok = std::process::Command::new("kill").arg(format!("-{name}")).arg(child.id().to_string()).status().unwrap();
+        let ok = std::process::Command::new("kill")
+            .arg(format!("-{name}"))
+            .arg(child.id().to_string())
+            .status()
+            .unwrap();
         assert!(ok.success());
         let status = loop {
             if let Some(s) = child.try_wait().unwrap() {

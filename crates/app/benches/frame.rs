@@ -78,7 +78,8 @@ fn frame(ctx: &egui::Context, c: &mut Console, t: f64) {
         time: Some(t),
         ..egui::RawInput::default()
     };
-    let out = ctx.run_ui(input, |ui| c.ui(ui));
+    let mut out = ctx.run_ui(input, |ui| c.ui(ui));
+    out.textures_delta.clear();
     // Tessellation is part of the CPU cost of a frame (the GPU upload is not).
     let prims = ctx.tessellate(out.shapes, out.pixels_per_point);
     std::hint::black_box(prims);

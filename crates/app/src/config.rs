@@ -184,7 +184,8 @@ pub struct GpsSpec {
 }
 
 /// The forms `--gps` takes, for messages.
-pub const GPS_SPEC_FORMS: &str = "gpsd://HOST:PORT | serial:PATH[@BAUD] | replay:FILE[@SPEED] | sim[:ROUTE.gpx]";
+pub const GPS_SPEC_FORMS: &str =
+    "gpsd://HOST:PORT | serial:PATH[@BAUD] | replay:FILE[@SPEED] | sim[:ROUTE.gpx]";
 /// The forms `--vest` takes, for messages.
 pub const VEST_SPEC_FORMS: &str = "emulated | serial:PATH";
 
@@ -228,7 +229,10 @@ pub fn parse_gps_spec(spec: &str) -> Result<GpsSpec, String> {
         if file.is_empty() {
             return Err(bad("missing file"));
         }
-        return Ok(GpsSpec { source: GpsSourceConfig::Replay { path: PathBuf::from(file), speed }, route: None });
+        return Ok(GpsSpec {
+            source: GpsSourceConfig::Replay { path: PathBuf::from(file), speed },
+            route: None,
+        });
     }
     if spec == "sim" {
         return Ok(GpsSpec { source: GpsSourceConfig::Simulator, route: None });
@@ -264,7 +268,10 @@ mod tests {
             g("gpsd://127.0.0.1:2947").unwrap(),
             (GpsSourceConfig::Gpsd { host: "127.0.0.1".into(), port: 2947 }, None)
         );
-        assert_eq!(g("gpsd://[::1]:3000").unwrap().0, GpsSourceConfig::Gpsd { host: "::1".into(), port: 3000 });
+        assert_eq!(
+            g("gpsd://[::1]:3000").unwrap().0,
+            GpsSourceConfig::Gpsd { host: "::1".into(), port: 3000 }
+        );
         assert_eq!(
             g("serial:/dev/rfcomm0@4800").unwrap().0,
             GpsSourceConfig::Serial { port: "/dev/rfcomm0".into(), baud: Some(4800) }
@@ -283,7 +290,16 @@ mod tests {
         );
         assert_eq!(g("sim").unwrap(), (GpsSourceConfig::Simulator, None));
         assert_eq!(g("sim:r.gpx").unwrap(), (GpsSourceConfig::Simulator, Some("r.gpx".into())));
-        for bad in ["gpsd://host", "gpsd://:1", "gpsd://h:0", "serial:", "serial:/dev/x@7", "replay:", "sim:", "tcp:x"] {
+        for bad in [
+            "gpsd://host",
+            "gpsd://:1",
+            "gpsd://h:0",
+            "serial:",
+            "serial:/dev/x@7",
+            "replay:",
+            "sim:",
+            "tcp:x",
+        ] {
             let e = parse_gps_spec(bad).unwrap_err();
             assert!(e.contains(GPS_SPEC_FORMS), "{e}");
         }

@@ -36,8 +36,8 @@ use crate::devices::{DeviceFactory, GpsWorker};
 use crate::fieldtest_panel::{FieldTestAction, FieldTestPanel};
 use crate::guidance::{GuidanceInput, GuidanceSettings, GuidanceStatus};
 use crate::map_panel::MapView;
-use vestnav_device::session_log::{LogEntry, LogSender, SessionLog};
 use crate::sim_panel::SimPanel;
+use vestnav_device::session_log::{LogEntry, LogSender, SessionLog};
 
 /// Time the UI may spend per frame draining worker events.
 const DRAIN_BUDGET: Duration = Duration::from_millis(2);
@@ -269,7 +269,8 @@ impl Console {
 
         let (guidance_ui, guidance_rx) = Outbox::channel(UI_CHANNEL, Overflow::DropNewest, waker.clone());
         let (guidance_tx, guidance_in_rx) = sync_channel(GUIDANCE_CHANNEL);
-        if let Err(e) = crate::guidance::spawn(guidance_in_rx, guidance_settings(&cfg), guidance_ui, log_tx.clone())
+        if let Err(e) =
+            crate::guidance::spawn(guidance_in_rx, guidance_settings(&cfg), guidance_ui, log_tx.clone())
         {
             status = format!("guidance worker failed to start: {e}");
         }
@@ -433,7 +434,8 @@ impl Console {
                 let bound = self.liveness.map(|l| (l.ui, l.guidance));
                 self.ui_beat = bound.map(|(ui, _)| handle.heartbeat(Watched::Ui, ui));
                 let g_bound = bound.map_or(Duration::ZERO, |(_, g)| g);
-                if self.guidance_tx.try_send(GuidanceInput::VestLink(Some(handle.clone()), g_bound)).is_err() {
+                if self.guidance_tx.try_send(GuidanceInput::VestLink(Some(handle.clone()), g_bound)).is_err()
+                {
                     self.status = "guidance worker busy: it does not know the vest yet".into();
                 }
                 self.vest.state = Some(LinkState::Connecting { attempt: 1 });
@@ -588,7 +590,9 @@ impl Console {
             GpsEvent::State(s) => self.gps.state = Some(s),
             GpsEvent::Fix(f) => fixes.push(*f),
             GpsEvent::Stats(s) => self.gps.stats = Some(s),
-            GpsEvent::Mark(m) => self.gps.notice = Some(format!("mark {} {} in the input", m.number, m.label)),
+            GpsEvent::Mark(m) => {
+                self.gps.notice = Some(format!("mark {} {} in the input", m.number, m.label))
+            }
             GpsEvent::Notice(n) => self.gps.notice = Some(n),
         });
         for f in fixes {
@@ -598,7 +602,8 @@ impl Console {
                 self.gps.fixes += 1;
                 self.gps.alarm_silenced = false;
                 self.map.push_track(lat, lon);
-                let t_s = f.received_at.map_or(0.0, |t| t.saturating_duration_since(self.epoch).as_secs_f64());
+                let t_s =
+                    f.received_at.map_or(0.0, |t| t.saturating_duration_since(self.epoch).as_secs_f64());
                 self.field_panel.push_position(t_s, lat, lon, f.speed_m_s);
                 self.gps.last_position = Some(f.clone());
             }
@@ -657,7 +662,8 @@ impl Console {
                 self.vest.status = Some((st, now));
             }
             VestEvent::Transport(e) => {
-                self.vest.last_reply = Some(VestReply { text: format!("transport: {e}"), refused: true, at: now });
+                self.vest.last_reply =
+                    Some(VestReply { text: format!("transport: {e}"), refused: true, at: now });
             }
             VestEvent::Halted { reason } => {
                 self.cfg.guidance_auto = false;
@@ -827,7 +833,9 @@ impl Console {
     fn guidance_ui(&mut self, ui: &mut egui::Ui) {
         let mut changed = false;
         if let Some(why) = self.vest.halted.clone() {
-            ui.label(RichText::new(format!("Automatic cues halted: {why}")).color(Color32::from_rgb(230, 40, 40)));
+            ui.label(
+                RichText::new(format!("Automatic cues halted: {why}")).color(Color32::from_rgb(230, 40, 40)),
+            );
             if ui.button("Resume automatic cues").clicked() {
                 self.resume_guidance();
             }
@@ -868,7 +876,11 @@ impl Console {
             }
             Some(st) => {
                 if let Some(hold) = &st.hold {
-                    ui.label(RichText::new(format!("On hold: {hold}")).color(Color32::from_rgb(230, 150, 0)).strong());
+                    ui.label(
+                        RichText::new(format!("On hold: {hold}"))
+                            .color(Color32::from_rgb(230, 150, 0))
+                            .strong(),
+                    );
                 }
                 let cue = st.cue.map_or("none", Cue::name);
                 let sent = if st.sent { "sent" } else { "not sent now" };
@@ -950,7 +962,9 @@ fn gps_log_entry(ev: &GpsEvent) -> Option<LogEntry> {
             course_deg: f.course_deg,
             gps_utc: f.time.map(|t| t.to_rfc3339_opts(chrono::SecondsFormat::Millis, true)),
         }),
-        GpsEvent::State(s) => Some(LogEntry::Note { text: format!("gps {}", crate::gps_panel::state_label(Some(s))) }),
+        GpsEvent::State(s) => {
+            Some(LogEntry::Note { text: format!("gps {}", crate::gps_panel::state_label(Some(s))) })
+        }
         GpsEvent::Notice(n) => Some(LogEntry::Note { text: format!("gps: {n}") }),
         _ => None,
     }

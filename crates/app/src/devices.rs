@@ -37,6 +37,9 @@ pub trait DeviceFactory {
     ) -> Result<Box<dyn GpsWorker>, String>;
 
     /// Starts the vest worker for `source`, delivering every event to every outbox.
-    fn open_vest(&self, source: &VestSourceConfig, outputs: Vec<Outbox<VestEvent>>)
-    -> Result<VestHandle, String>;
+    fn open_vest(
+        &self,
+        source: &VestSourceConfig,
+        outputs: Vec<Outbox<VestEvent>>,
+    ) -> Result<VestHandle, String>;
 }

@@ -146,7 +146,11 @@ pub fn engine_config(s: &GuidanceSettings) -> (GuidanceConfig, RouteConfig) {
 pub fn nav_input(fix: &Fix, now: Instant) -> NavInput {
     let age_s = fix.age(now).map_or(f64::INFINITY, |a| a.as_secs_f64());
     NavInput {
-        position: fix.has_position().then(|| fix.lat_deg.zip(fix.lon_deg)).flatten().map(|(la, lo)| LatLon::new(la, lo)),
+        position: fix
+            .has_position()
+            .then(|| fix.lat_deg.zip(fix.lon_deg))
+            .flatten()
+            .map(|(la, lo)| LatLon::new(la, lo)),
         fix_age_s: age_s,
         speed_m_s: fix.speed_m_s,
         cog_deg: fix.course_deg,
@@ -371,6 +375,13 @@ impl GuidanceWorker {
                     }
                 }
             }
+        }
+        if d.cue.is_some()
+            && !sent
+            && let Some(g) = &mut self.engine
+        {
+            // It never reached the wearer: the rate limiter must not count it as played.
+            g.not_played();
         }
         self.ui.try_send(status(&d, reason, sent, self.hold_reason()));
     }

@@ -12,8 +12,8 @@ use egui::{Color32, Pos2, RichText, Stroke, vec2};
 use walkers::{HttpOptions, HttpTiles, MapMemory, Position, Projector, TileId, TilePiece, Tiles, lat_lon};
 
 use crate::config::Config;
-use vestnav_device::gps::Fix;
 use crate::route::{Waypoint, decimation_stride, distance_bearing, enu_from_wgs84};
+use vestnav_device::gps::Fix;
 
 /// Track points drawn at most per frame (older points are strided, the newest [`TRACK_TAIL`] drawn in full).
 pub const TRACK_DRAW_MAX: usize = 2500;

@@ -12,10 +12,10 @@ use vestnav_app::config::{Config, GpsSourceConfig, VestSourceConfig};
 use vestnav_app::console::{Console, ConsoleOptions, GpsAlarm};
 use vestnav_app::devices::{DeviceFactory, GpsWorker};
 use vestnav_app::route::Waypoint;
-use vestnav_device::session_log::LogEntry;
 use vestnav_core::vest::TactorMask;
 use vestnav_device::gps::{ErrorEstimate, ErrorSource, Fix, FixMode, GpsEvent, SourceState};
 use vestnav_device::outbox::Outbox;
+use vestnav_device::session_log::LogEntry;
 use vestnav_device::wtcu::codec::{V1Codec, WireCodec};
 use vestnav_device::wtcu::engine::EngineConfig;
 use vestnav_device::wtcu::worker::{EmulatedPort, Transport, WorkerSettings};
@@ -91,7 +91,8 @@ impl DeviceFactory for Fake {
         let sent = self.sent.clone();
         let connector = Box::new(move || {
             let port = EmulatedPort::new(EngineConfig::default(), Duration::from_millis(2));
-            Ok(Box::new(RecordingUnit { port, codec: V1Codec::default(), sent: sent.clone() }) as Box<dyn Transport>)
+            Ok(Box::new(RecordingUnit { port, codec: V1Codec::default(), sent: sent.clone() })
+                as Box<dyn Transport>)
         });
         VestHandle::spawn_with(connector, WorkerSettings::default(), out).map_err(|e| e.to_string())
     }
@@ -171,7 +172,10 @@ fn multi_select_fires_several() {
     assert_eq!(h.state().vest.selected, TactorMask::from_indices([0, 3, 12]));
     h.get_by_label("Fire selected (3)").click();
     settle(&mut h, |_| !fake.sent().is_empty());
-    assert_eq!(fake.sent(), vec![Request::Fire { mask: TactorMask::from_indices([0, 3, 12]), duration_ms: 500 }]);
+    assert_eq!(
+        fake.sent(),
+        vec![Request::Fire { mask: TactorMask::from_indices([0, 3, 12]), duration_ms: 500 }]
+    );
 }
 
 #[test]
@@ -269,9 +273,7 @@ fn emulated_vest_reports_the_clicked_tactor_on_then_stop_all_clears_it() {
             .any(|r| matches!(&r.entry, LogEntry::Command { command: VestCommand::Fire { .. }, .. }))
     );
     assert!(
-        records
-            .iter()
-            .any(|r| matches!(&r.entry, LogEntry::Command { command: VestCommand::StopAll, .. }))
+        records.iter().any(|r| matches!(&r.entry, LogEntry::Command { command: VestCommand::StopAll, .. }))
     );
     assert!(records.iter().any(|r| matches!(&r.entry, LogEntry::Ack { .. })));
     assert!(records.iter().any(|r| matches!(&r.entry, LogEntry::Fix { .. })));

@@ -598,8 +598,8 @@ pub enum CsvError {
     /// Only a time column, no trial.
     #[error("no trial column besides the time column")]
     NoTrials,
-    /// The sample rate given for a file without time is not usable.
-    #[error("sample rate must be positive, got {0} Hz")]
+    /// The sample rate (given for a file without time, or from its time column) is not usable.
+    #[error("sample rate must be positive and finite, got {0} Hz")]
     BadSampleRate(f64),
 }
 
@@ -706,7 +706,12 @@ pub fn parse_csv(text: &str, time: TimeColumn, sample_rate_hz: f64) -> Result<Tr
             _ => 1.0,
         };
         let step = uniform_steps(&rows, &data_lines, unit)?;
-        1.0 / step
+        // A subnormal step passes as uniform but has no usable reciprocal.
+        let rate = 1.0 / step;
+        if !rate.is_finite() {
+            return Err(CsvError::BadSampleRate(rate));
+        }
+        rate
     } else {
         if !(sample_rate_hz > 0.0 && sample_rate_hz.is_finite()) {
             return Err(CsvError::BadSampleRate(sample_rate_hz));

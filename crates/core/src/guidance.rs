@@ -626,6 +626,16 @@ pub struct Guidance {
     pending_event_cue: Option<Cue>,
     last_fix_time_s: Option<f64>,
     frozen: Option<(LatLon, f64)>,
+    /// The rate limiter as it was before the cue of the last update was counted as played.
+    undo: Option<RateState>,
+}
+
+/// What the rate limiter remembers, saved so a cue that never reached the wearer can be taken back.
+#[derive(Debug, Clone, Copy)]
+struct RateState {
+    busy_until_s: f64,
+    last_cue: Option<(Cue, f64)>,
+    pending_event_cue: Option<Cue>,
 }
 
 impl Guidance {
@@ -649,6 +659,27 @@ impl Guidance {
             pending_event_cue: None,
             last_fix_time_s: None,
             frozen: None,
+            undo: None,
+        }
+    }
+
+    fn rate_state(&self) -> RateState {
+        RateState {
+            busy_until_s: self.busy_until_s,
+            last_cue: self.last_cue,
+            pending_event_cue: self.pending_event_cue,
+        }
+    }
+
+    /// The cue of the last [`Guidance::update`] did not reach the wearer (no vest, the vest refused it,
+    /// automatic cues off or halted): the rate limiter forgets it, so it is not counted as played — the same
+    /// cue may go at the next update instead of after its repeat interval, and an arrival announcement stays
+    /// pending.
+    pub fn not_played(&mut self) {
+        if let Some(s) = self.undo.take() {
+            self.busy_until_s = s.busy_until_s;
+            self.last_cue = s.last_cue;
+            self.pending_event_cue = s.pending_event_cue;
         }
     }
 
@@ -781,6 +812,8 @@ impl Guidance {
     fn emit(&mut self, d: &mut Decision, cue: Cue, now_s: f64) {
         d.wanted = Some(cue);
         if self.allowed(cue, now_s) {
+            let before = self.rate_state();
+            self.undo.get_or_insert(before);
             let pattern = cue.pattern(self.config.on_ms);
             self.busy_until_s = now_s + f64::from(pattern.total_ms()) / 1000.0;
             self.last_cue = Some((cue, self.busy_until_s));
@@ -791,6 +824,7 @@ impl Guidance {
 
     /// One guidance step at time `now_s` [s]. See the module doc for the order of the rules.
     pub fn update(&mut self, input: &NavInput, now_s: f64) -> Decision {
+        self.undo = None;
         if self.halted {
             return self.blank(NavState::Halted, "STOP ALL in force (resume to guide)".to_owned());
         }
@@ -906,6 +940,7 @@ impl Guidance {
         }
         // Announcements override the per-cue repeat interval, but never cut a playing pattern.
         if now_s >= self.busy_until_s + self.config.gap_s {
+            self.undo = Some(self.rate_state());
             self.last_cue = None;
             self.emit(d, cue, now_s);
             self.pending_event_cue = None;
@@ -956,6 +991,34 @@ mod tests {
 
     fn at(bearing_deg: f64, distance_m: f64) -> LatLon {
         Earth::Wgs84.direct(O, bearing_deg, distance_m)
+    }
+
+    #[test]
+    fn a_cue_that_never_reached_the_wearer_is_not_counted_as_played() {
+        // 50 m south of the first waypoint, walking east: it is 90° to the left.
+        let mut g = Guidance::new(
+            route_line(3, 100.0, 0.0, RouteConfig::default()),
+            GuidanceConfig::default(),
+            StrategyKind::BearingOnly,
+        );
+        let p = at(180.0, 50.0);
+        let d = g.update(&mv(p, 90.0, 0.0), 0.0);
+        assert_eq!(d.cue, Some(Cue::TurnLeft));
+        // Played: the pattern is running, nothing new until it ends and the repeat interval passes.
+        assert_eq!(g.update(&mv(p, 90.0, 0.1), 0.1).cue, None);
+        // Not played (say the vest refused it): the same cue goes at the next update.
+        let mut g2 = Guidance::new(
+            route_line(3, 100.0, 0.0, RouteConfig::default()),
+            GuidanceConfig::default(),
+            StrategyKind::BearingOnly,
+        );
+        assert_eq!(g2.update(&mv(p, 90.0, 0.0), 0.0).cue, Some(Cue::TurnLeft));
+        g2.not_played();
+        assert_eq!(g2.update(&mv(p, 90.0, 0.1), 0.1).cue, Some(Cue::TurnLeft));
+        // Taking back is one-shot: an update that decided nothing has nothing to take back.
+        assert_eq!(g2.update(&mv(p, 90.0, 0.2), 0.2).cue, None);
+        g2.not_played();
+        assert_eq!(g2.update(&mv(p, 90.0, 0.3), 0.3).cue, None);
     }
 
     #[test]

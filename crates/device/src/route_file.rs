@@ -246,8 +246,48 @@ pub fn parse_gpx(text: &str) -> Result<RouteFile, GpxError> {
     parse_gpx_bytes(text.as_bytes())
 }
 
+/// Deepest element nesting accepted. GPX 1.1 itself nests six levels (`gpx/trk/trkseg/trkpt/extensions/…`);
+/// extensions add a few more. The XML parser behind `gpx` takes time quadratic in the depth, so a small
+/// file of deeply nested junk would stall the reader: such files are refused before parsing.
+pub const MAX_GPX_DEPTH: usize = 64;
+
+/// The deepest element nesting of `bytes`, stopping as soon as it exceeds `limit`: a linear scan of the
+/// tags (`<a>` opens, `</a>` closes, `<a/>`, `<?…?>` and `<!…>` do neither).
+fn nesting_depth(bytes: &[u8], limit: usize) -> usize {
+    let (mut depth, mut deepest) = (0usize, 0usize);
+    let mut i = 0;
+    while let Some(off) = bytes.get(i..).and_then(|b| b.iter().position(|&c| c == b'<')) {
+        let start = i + off;
+        let end = bytes.get(start..).and_then(|b| b.iter().position(|&c| c == b'>')).map(|e| start + e);
+        let next = bytes.get(start + 1).copied();
+        match next {
+            Some(b'/') => depth = depth.saturating_sub(1),
+            Some(b'?' | b'!') => {}
+            _ => {
+                let self_closing = end.is_some_and(|e| e > start + 1 && bytes.get(e - 1) == Some(&b'/'));
+                if !self_closing {
+                    depth += 1;
+                    deepest = deepest.max(depth);
+                    if deepest > limit {
+                        return deepest;
+                    }
+                }
+            }
+        }
+        let Some(e) = end else { break };
+        i = e + 1;
+    }
+    deepest
+}
+
 /// Parses GPX bytes (see the module doc).
 pub fn parse_gpx_bytes(bytes: &[u8]) -> Result<RouteFile, GpxError> {
+    let depth = nesting_depth(bytes, MAX_GPX_DEPTH);
+    if depth > MAX_GPX_DEPTH {
+        return Err(GpxError::Syntax(format!(
+            "elements nested more than {MAX_GPX_DEPTH} deep: not a GPX file this console reads"
+        )));
+    }
     let g = match gpx::read(bytes) {
         Ok(g) => g,
         // The parser refuses out-of-range coordinates without saying which point: find it ourselves.
@@ -347,7 +387,12 @@ fn find_bad_point(text: &str) -> Option<GpxError> {
         };
         let number = |attr: &str| -> Result<f64, GpxError> {
             let v = attribute(tag, attr).ok_or_else(|| bad(format!("has no {attr} attribute")))?;
-            v.trim().parse::<f64>().map_err(|_| bad(format!("{attr} '{v}' is not a number")))
+            v.trim().parse::<f64>().map_err(|_| {
+                // Quote at most a few dozen characters: the value itself may be megabytes long.
+                let shown: String = v.chars().take(40).collect();
+                let more = if v.chars().count() > 40 { "..." } else { "" };
+                bad(format!("{attr} '{shown}{more}' is not a number"))
+            })
         };
         let problem = match (number("lat"), number("lon")) {
             (Err(e), _) | (_, Err(e)) => return Some(e),

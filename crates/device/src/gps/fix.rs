@@ -374,7 +374,9 @@ impl Fix {
         let n = &mut check.implausible_values;
         let lat_bad = self.lat_deg.is_some_and(|x| !(x.is_finite() && (-90.0..=90.0).contains(&x)));
         let lon_bad = self.lon_deg.is_some_and(|x| !(x.is_finite() && (-180.0..=180.0).contains(&x)));
-        if lat_bad || lon_bad {
+        // One coordinate without the other is not a position, whatever the mode claims.
+        let half = self.lat_deg.is_some() != self.lon_deg.is_some();
+        if lat_bad || lon_bad || half {
             self.lat_deg = None;
             self.lon_deg = None;
             self.error = None;

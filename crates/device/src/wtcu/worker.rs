@@ -24,17 +24,17 @@ use std::io::{self, Read, Write};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::mpsc::{Receiver, SyncSender, TryRecvError, TrySendError};
-use std::thread::Thread;
 use std::thread::JoinHandle;
+use std::thread::Thread;
 use std::time::{Duration, Instant};
 
 use vestnav_core::vest::{Pattern, TactorMask};
 
 use super::emulator::is_timeout;
-use crate::outbox::Outbox;
 use super::engine::{Engine, EngineConfig};
 use super::link::{Backoff, CommandError, Link, LinkConfig, LinkEvent, LinkState};
 use super::message::{CommandKind, DeviceInfo, UnitStatus};
+use crate::outbox::Outbox;
 
 /// A byte transport the worker can own: a serial port, a PTY, an in-memory pipe. Reads must time out
 /// (`TimedOut`/`WouldBlock`) after a few ms so the worker can serve its timers and commands.
@@ -326,11 +326,14 @@ impl VestStopper {
     }
 }
 
-/// The beat of one watched thread (see [`Watched`]). The first beat arms the check; dropping or
-/// [`Heartbeat::release`] disarms it (a thread that ends cleanly is not a stalled one).
+/// The beat of one watched thread (see [`Watched`]). The second beat arms the check — the first only says
+/// the thread is there, so one-time start-up work between the two (the UI's first frame builds its font
+/// atlas and compiles its shaders) is not taken for a stall; dropping or [`Heartbeat::release`] disarms it
+/// (a thread that ends cleanly is not a stalled one).
 pub struct Heartbeat {
     shared: Arc<Shared>,
     who: Watched,
+    started: AtomicBool,
 }
 
 impl std::fmt::Debug for Heartbeat {
@@ -340,10 +343,12 @@ impl std::fmt::Debug for Heartbeat {
 }
 
 impl Heartbeat {
-    /// "Still alive"; arms the check.
+    /// "Still alive"; from the second beat on, the check is armed.
     pub fn beat(&self) {
-        let slot = &self.shared.watches[self.who.index()];
-        slot.last_us.store(self.shared.now_us(), Ordering::SeqCst);
+        if self.started.swap(true, Ordering::SeqCst) {
+            let slot = &self.shared.watches[self.who.index()];
+            slot.last_us.store(self.shared.now_us(), Ordering::SeqCst);
+        }
     }
 
     /// Disarms the check.
@@ -478,7 +483,7 @@ impl VestHandle {
     pub fn heartbeat(&self, who: Watched, bound: Duration) -> Heartbeat {
         let slot = &self.shared.watches[who.index()];
         slot.bound_us.store(u64::try_from(bound.as_micros()).unwrap_or(u64::MAX), Ordering::SeqCst);
-        Heartbeat { shared: self.shared.clone(), who }
+        Heartbeat { shared: self.shared.clone(), who, started: AtomicBool::new(false) }
     }
 
     /// Whether the worker still runs.
@@ -583,7 +588,9 @@ impl Worker {
             if refused {
                 self.wake();
             }
-            std::thread::park_timeout(self.settings.io_poll.min(until.saturating_duration_since(Instant::now())));
+            std::thread::park_timeout(
+                self.settings.io_poll.min(until.saturating_duration_since(Instant::now())),
+            );
         }
     }
 
@@ -889,13 +896,18 @@ mod tests {
 
     fn emulated() -> (VestHandle, Receiver<VestEvent>) {
         let connector: Connector = Box::new(|| {
-            Ok(Box::new(EmulatedPort::new(EngineConfig::default(), Duration::from_millis(2))) as Box<dyn Transport>)
+            Ok(Box::new(EmulatedPort::new(EngineConfig::default(), Duration::from_millis(2)))
+                as Box<dyn Transport>)
         });
         VestHandle::spawn_with_receiver(connector, WorkerSettings::default()).unwrap()
     }
 
     /// Waits for the first event matching `f`, collecting everything seen.
-    fn wait(rx: &Receiver<VestEvent>, seen: &mut Vec<VestEvent>, f: impl Fn(&VestEvent) -> bool) -> Option<Instant> {
+    fn wait(
+        rx: &Receiver<VestEvent>,
+        seen: &mut Vec<VestEvent>,
+        f: impl Fn(&VestEvent) -> bool,
+    ) -> Option<Instant> {
         let end = Instant::now() + Duration::from_secs(3);
         while Instant::now() < end {
             if let Ok(ev) = rx.recv_timeout(Duration::from_millis(10)) {
@@ -917,7 +929,10 @@ mod tests {
     fn long_pattern() -> Pattern {
         Pattern {
             name: "long".into(),
-            frames: vec![Frame { mask: TactorMask(0x000F), duration_ms: 1500 }, Frame { mask: TactorMask::NONE, duration_ms: 500 }],
+            frames: vec![
+                Frame { mask: TactorMask(0x000F), duration_ms: 1500 },
+                Frame { mask: TactorMask::NONE, duration_ms: 500 },
+            ],
             repeats: 3,
         }
     }
@@ -936,8 +951,9 @@ mod tests {
         let t0 = Instant::now();
         vest.stop_all();
         let mut seen = Vec::new();
-        let acked = wait(&rx, &mut seen, |e| matches!(e, VestEvent::Acked { kind: CommandKind::StopAll, .. }))
-            .expect("STOP ALL acknowledged");
+        let acked =
+            wait(&rx, &mut seen, |e| matches!(e, VestEvent::Acked { kind: CommandKind::StopAll, .. }))
+                .expect("STOP ALL acknowledged");
         assert!(acked - t0 < Duration::from_millis(50), "{:?}", acked - t0);
         // Everything queued before the stop is refused, never played after it.
         std::thread::sleep(Duration::from_millis(100));
@@ -948,7 +964,9 @@ mod tests {
             .filter(|e| matches!(e, VestEvent::Acked { kind: CommandKind::Play, .. }))
             .count();
         assert_eq!(plays_after_stop, 0, "{seen:?}");
-        assert!(seen.iter().any(|e| matches!(e, VestEvent::Rejected { reason, .. } if reason.contains("cancelled by STOP ALL"))));
+        assert!(seen.iter().any(
+            |e| matches!(e, VestEvent::Rejected { reason, .. } if reason.contains("cancelled by STOP ALL"))
+        ));
     }
 
     #[test]
@@ -975,17 +993,26 @@ mod tests {
         let (vest, rx) = emulated();
         ready(&rx);
         let beat = vest.heartbeat(Watched::Guidance, Duration::from_millis(100));
+        // The first beat only announces the thread: a long pause after it is start-up, not a stall.
+        beat.beat();
+        std::thread::sleep(Duration::from_millis(250));
+        assert!(!vest.is_halted(), "armed by the first beat");
         beat.beat();
         assert_eq!(vest.send(VestCommand::Play(long_pattern()), CommandOrigin::Guidance), Ok(()));
         let mut seen = Vec::new();
-        assert!(wait(&rx, &mut seen, |e| matches!(e, VestEvent::TactorsOn(Some(m)) if !m.is_empty())).is_some());
+        assert!(
+            wait(&rx, &mut seen, |e| matches!(e, VestEvent::TactorsOn(Some(m)) if !m.is_empty())).is_some()
+        );
         // The guidance thread stops beating: the worker stops the vest by itself within the bound.
         let stalled = Instant::now();
-        let stopped = wait(&rx, &mut seen, |e| matches!(e, VestEvent::Acked { kind: CommandKind::StopAll, .. }))
-            .expect("the worker stopped the vest");
+        let stopped =
+            wait(&rx, &mut seen, |e| matches!(e, VestEvent::Acked { kind: CommandKind::StopAll, .. }))
+                .expect("the worker stopped the vest");
         let after = stopped - stalled;
         assert!(after >= Duration::from_millis(90) && after < Duration::from_millis(300), "{after:?}");
-        assert!(seen.iter().any(|e| matches!(e, VestEvent::Halted { reason } if reason.contains("guidance"))));
+        assert!(
+            seen.iter().any(|e| matches!(e, VestEvent::Halted { reason } if reason.contains("guidance")))
+        );
         assert!(matches!(
             vest.send(VestCommand::Play(long_pattern()), CommandOrigin::Guidance),
             Err(VestSendError::Halted(_))
