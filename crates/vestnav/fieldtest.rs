@@ -242,6 +242,9 @@ fn iso_date(utc: &str) -> Option<(i32, u8, u8)> {
     Some((d.year(), u8::try_from(d.month()).ok()?, u8::try_from(d.day()).ok()?))
 }
 
+/// Invalid fixes named one by one in the warnings; the rest are only counted.
+const MAX_NAMED_INVALID: usize = 10;
+
 fn valid_pos(lat_deg: f64, lon_deg: f64) -> Result<LatLon, String> {
     LatLon::new(lat_deg, lon_deg)
         .validated()
@@ -251,7 +254,9 @@ fn valid_pos(lat_deg: f64, lon_deg: f64) -> Result<LatLon, String> {
 /// Reads a console session log: its `fix` records become the track, its `mark` records the marks (times =
 /// `t_s`, seconds since the session started). A malformed line is an error naming its line number, except a
 /// last line cut off without its newline after valid records (the console stopped mid-write), which is
-/// skipped with a warning; unknown record kinds are ignored.
+/// skipped with a warning; a fix whose position is out of range or not finite is skipped, counted in
+/// `rejected_sentences` and named in the warnings (one bad fix never poisons a log); unknown record kinds are
+/// ignored.
 fn load_session(path: &Path) -> anyhow::Result<Log> {
     let file = std::fs::File::open(path).with_context(|| format!("opening {}", path.display()))?;
     let mut reader = std::io::BufReader::new(file);
@@ -267,6 +272,7 @@ fn load_session(path: &Path) -> anyhow::Result<Log> {
     let mut line_no = 0usize;
     let mut records = 0usize;
     let mut last_t: Option<f64> = None;
+    let mut invalid_fixes = 0usize;
     loop {
         line.clear();
         let n = (&mut reader)
@@ -310,18 +316,32 @@ fn load_session(path: &Path) -> anyhow::Result<Log> {
             );
         }
         last_t = Some(last_t.map_or(rec.t_s, |p| p.max(rec.t_s)));
-        let at = |e: String| anyhow::anyhow!("{}:{line_no}: {e}", path.display());
         match rec.entry {
-            LogEntry::Fix { lat_deg, lon_deg, .. } => {
-                let pos = valid_pos(lat_deg, lon_deg).map_err(at)?;
-                if log.date.is_none() {
-                    log.date = iso_date(&rec.utc);
+            LogEntry::Fix { lat_deg, lon_deg, .. } => match valid_pos(lat_deg, lon_deg) {
+                Ok(pos) => {
+                    if log.date.is_none() {
+                        log.date = iso_date(&rec.utc);
+                    }
+                    log.fixes.push(TimedFix { t_s: rec.t_s, pos });
                 }
-                log.fixes.push(TimedFix { t_s: rec.t_s, pos });
-            }
+                // One bad fix never poisons a log: it is skipped, counted and named.
+                Err(e) => {
+                    log.rejected += 1;
+                    invalid_fixes += 1;
+                    if invalid_fixes <= MAX_NAMED_INVALID {
+                        log.warnings.push(format!("line {line_no}: fix skipped: {e}"));
+                    }
+                }
+            },
             LogEntry::Mark { label, lat_deg, lon_deg } => {
                 let pos = match (lat_deg, lon_deg) {
-                    (Some(la), Some(lo)) => Some(valid_pos(la, lo).map_err(at)?),
+                    (Some(la), Some(lo)) => match valid_pos(la, lo) {
+                        Ok(p) => Some(p),
+                        Err(e) => {
+                            log.warnings.push(format!("line {line_no}: mark kept without its position: {e}"));
+                            None
+                        }
+                    },
                     _ => None,
                 };
                 let label =
@@ -330,6 +350,11 @@ fn load_session(path: &Path) -> anyhow::Result<Log> {
             }
             _ => {}
         }
+    }
+    if invalid_fixes > MAX_NAMED_INVALID {
+        log.warnings.push(format!(
+            "{invalid_fixes} fixes with an invalid position skipped in all (the first {MAX_NAMED_INVALID} named above)"
+        ));
     }
     // Records from different threads can be milliseconds out of order: the analysis wants time order.
     log.fixes.sort_by(|a, b| a.t_s.total_cmp(&b.t_s));

@@ -591,7 +591,7 @@ impl Console {
             GpsEvent::Fix(f) => fixes.push(*f),
             GpsEvent::Stats(s) => self.gps.stats = Some(s),
             GpsEvent::Mark(m) => {
-                self.gps.notice = Some(format!("mark {} {} in the input", m.number, m.label))
+                self.gps.notice = Some(format!("mark {} {} in the input", m.number, m.label));
             }
             GpsEvent::Notice(n) => self.gps.notice = Some(n),
         });
