@@ -76,7 +76,8 @@ pub fn run(args: &VestArgs) -> anyhow::Result<()> {
 
 #[cfg(unix)]
 fn run_pty(engine: &mut Engine, control: &Arc<EmulatorControl>, args: &VestArgs) -> anyhow::Result<()> {
-    let Pty { mut master, path, slave } = Pty::open().context("opening a pseudo-terminal")?;
+    let Pty { mut master, path, slave } = Pty::open_with_timeout(vestnav_device::wtcu::emulator::SERVE_POLL)
+        .context("opening a pseudo-terminal")?;
     let mut out = io::stdout();
     writeln!(out, "WTCU emulator on {path}")?;
     writeln!(out, "open it from the console like a Bluetooth serial port; Ctrl-C (or EOF) ends")?;

@@ -191,7 +191,8 @@ fn nmea_fix_to_vest_play_latency_p50_p99() {
     let test_start = Instant::now();
 
     // The unit: the WTCU engine served on the master of the vest PTY, behind the tap.
-    let VestPty { mut master, path: vest_path, slave } = VestPty::open().unwrap();
+    let VestPty { mut master, path: vest_path, slave } =
+        VestPty::open_with_timeout(vestnav_device::wtcu::emulator::SERVE_POLL).unwrap();
     let control = Arc::new(EmulatorControl::default());
     let counts = Arc::new(UnitCounts::default());
     let (play_tx, play_rx) = channel();

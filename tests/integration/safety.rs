@@ -20,7 +20,7 @@ use vestnav_app::config::{Config, GpsSourceConfig, VestSourceConfig};
 use vestnav_app::console::{Console, ConsoleOptions, Liveness};
 use vestnav_app::hardware::Hardware;
 use vestnav_device::wtcu::CommandKind;
-use vestnav_device::wtcu::emulator::Pty;
+use vestnav_device::wtcu::emulator::{Pty, SERVE_POLL};
 use vestnav_device::wtcu::engine::{Engine, EngineConfig, EngineEvent};
 
 /// A WTCU on the master of a PTY pair, logging what it accepted and when.
@@ -33,7 +33,7 @@ struct Unit {
 
 impl Unit {
     fn spawn() -> Self {
-        let Pty { mut master, path, slave } = Pty::open().unwrap();
+        let Pty { mut master, path, slave } = Pty::open_with_timeout(SERVE_POLL).unwrap();
         let log = Arc::new(Mutex::new(Vec::new()));
         let stop = Arc::new(AtomicBool::new(false));
         let (l, s) = (log.clone(), stop.clone());
@@ -503,4 +503,57 @@ impl Drop for Xvfb {
     fn drop(&mut self) {
         self.stop();
     }
+}
+
+/// `vestnav ... | head`: the reader goes away; every CLI command that streams output ends quietly with
+/// the shell's broken-pipe status, never a panic.
+#[test]
+fn broken_pipes_end_cli_commands_quietly() {
+    let logs = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/gpsd-logs");
+    let mut big = Vec::new();
+    for _ in 0..8 {
+        for e in std::fs::read_dir(&logs).unwrap().flatten() {
+            if e.path().extension().is_some_and(|x| x == "log") {
+                big.extend(std::fs::read(e.path()).unwrap());
+            }
+        }
+    }
+    let nmea = std::env::temp_dir().join(format!("vestnav-pipe-{}.nmea", std::process::id()));
+    std::fs::write(&nmea, &big).unwrap();
+    let session = std::env::temp_dir().join(format!("vestnav-pipe-{}.jsonl", std::process::id()));
+    let lines: Vec<String> = (0..4000)
+        .map(|i| {
+            format!(
+                "{{\"t_s\":{i}.0,\"utc\":\"2026-06-15T15:00:00.000Z\",\"kind\":\"fix\",\"lat_deg\":{},\
+                 \"lon_deg\":-71.0936,\"error_m\":null,\"speed_m_s\":null,\"course_deg\":null,\"gps_utc\":null}}",
+                42.3581 + 1e-6 * f64::from(i % 7)
+            )
+        })
+        .collect();
+    std::fs::write(&session, lines.join("\n") + "\n").unwrap();
+    let (n, s) = (nmea.to_str().unwrap(), session.to_str().unwrap());
+    for args in [
+        vec!["nmea", "decode", n, "--json"],
+        vec!["nmea", "decode", n],
+        vec!["fieldtest", "drift", s, "--json"],
+        vec!["fieldtest", "cones", s, "--json"],
+    ] {
+        let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_vestnav"))
+            .args(&args)
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        let mut first = [0u8; 16];
+        let mut out = child.stdout.take().unwrap();
+        let _ = out.read(&mut first);
+        drop(out);
+        let done = child.wait_with_output().unwrap();
+        let err = String::from_utf8_lossy(&done.stderr);
+        assert!(!err.contains("panicked"), "{args:?}: {err}");
+        assert!(!err.contains("Broken pipe"), "{args:?}: {err}");
+        assert!(matches!(done.status.code(), Some(0 | 141)), "{args:?}: {:?} {err}", done.status);
+    }
+    let _ = std::fs::remove_file(nmea);
+    let _ = std::fs::remove_file(session);
 }

@@ -7,8 +7,10 @@
 //! - [`serial`]: serial-port discovery and opening (Bluetooth SPP ports are serial ports);
 //! - [`session_log`]: the console's session log (JSON Lines): records, writer, reader;
 //! - [`route_file`]: routes in GPX (waypoints, routes, tracks) read and written;
+//! - [`backoff`]: the one exponential reconnect backoff of the workers;
 //! - [`outbox`]: how workers hand events to their consumers (bounded, never blocking a stop).
 
+pub mod backoff;
 pub mod gps;
 pub mod outbox;
 pub mod route_file;

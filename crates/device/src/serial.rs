@@ -113,26 +113,34 @@ pub fn open(port: &str, baud: u32, read_timeout: Duration) -> Result<Box<dyn Ser
         .map_err(|source| SerialError::Port { port: port.to_owned(), source })
 }
 
-/// A pseudo-terminal pair for the emulators: we write to (and read from) the master; other processes
-/// open [`Pty::path`] exactly like a hardware serial port.
+/// A pseudo-terminal pair, the one PTY wrapper of vestnav (the emulators, the tests): we read and write the
+/// master; other processes open [`Pty::path`] exactly like a hardware serial port.
 #[cfg(unix)]
 #[derive(Debug)]
 pub struct Pty {
-    master: serialport::TTYPort,
-    // Held open so the slave side stays valid (and writes do not fail) until someone opens the path.
-    _slave: serialport::TTYPort,
-    path: String,
+    /// Our side; its reads time out (see [`Pty::open_with_timeout`]).
+    pub master: serialport::TTYPort,
+    /// The slave's path (`/dev/pts/N`): what another process opens.
+    pub path: String,
+    /// Our own handle on the slave, kept open so the slave stays valid (and writes do not fail) until
+    /// someone opens the path, and so consoles may come and go without the master seeing a hang-up. Drop
+    /// it with the master to make the port vanish.
+    pub slave: serialport::TTYPort,
 }
 
 #[cfg(unix)]
 impl Pty {
-    /// Opens a new PTY pair (`serialport::TTYPort::pair`).
-    pub fn open() -> Result<Self, SerialError> {
-        let (mut master, slave) = serialport::TTYPort::pair()
-            .map_err(|source| SerialError::Port { port: "(new pty)".to_owned(), source })?;
-        let path = slave.name().unwrap_or_default();
-        let _ = master.set_timeout(Duration::from_millis(100));
-        Ok(Self { master, _slave: slave, path })
+    /// Opens a new PTY pair (`serialport::TTYPort::pair`) whose master reads time out after 100 ms.
+    pub fn open() -> std::io::Result<Self> {
+        Self::open_with_timeout(Duration::from_millis(100))
+    }
+
+    /// Opens a new PTY pair whose master reads time out after `read_timeout`.
+    pub fn open_with_timeout(read_timeout: Duration) -> std::io::Result<Self> {
+        let (mut master, slave) = serialport::TTYPort::pair().map_err(std::io::Error::other)?;
+        master.set_timeout(read_timeout).map_err(std::io::Error::other)?;
+        let path = slave.name().ok_or_else(|| std::io::Error::other("PTY without a name"))?;
+        Ok(Self { master, path, slave })
     }
 
     /// The slave's path (`/dev/pts/N`): what another process opens.

@@ -223,9 +223,14 @@ impl Worker {
     }
 }
 
-/// Reconnection delay for attempt `n` (1-based): 0.5 s doubling, capped at 8 s.
+/// The sources' reconnect backoff: 0.5 s doubling, capped at 8 s (a GPS coming back into Bluetooth range,
+/// a restarted gpsd).
+pub const RECONNECT: crate::backoff::Backoff =
+    crate::backoff::Backoff::new(Duration::from_millis(500), Duration::from_secs(8));
+
+/// Reconnection delay for attempt `n` (1-based): [`RECONNECT`]'s delay before that retry.
 pub fn backoff(attempt: u32) -> Duration {
-    Duration::from_millis(500u64.saturating_mul(1u64 << attempt.saturating_sub(1).min(4)))
+    RECONNECT.delay_for_retry(attempt)
 }
 
 impl GpsSource {

@@ -170,30 +170,10 @@ pub fn describe(event: &EngineEvent) -> String {
     }
 }
 
-/// A pseudo-terminal to serve a unit on (Unix only).
+/// The one PTY wrapper (`crate::serial::Pty`); a unit is served on a master opened with
+/// `Pty::open_with_timeout(SERVE_POLL)`.
 #[cfg(unix)]
-#[derive(Debug)]
-pub struct Pty {
-    /// The side the unit reads and writes; reads time out after [`SERVE_POLL`].
-    pub master: serialport::TTYPort,
-    /// The slave path consoles open (`/dev/pts/N`).
-    pub path: String,
-    /// Our own handle on the slave, kept open so consoles may come and go without the master seeing a
-    /// hang-up. Drop it (with the master) to make the port vanish.
-    pub slave: serialport::TTYPort,
-}
-
-#[cfg(unix)]
-impl Pty {
-    /// Opens a raw PTY pair (`serialport::TTYPort::pair`).
-    pub fn open() -> io::Result<Self> {
-        use serialport::SerialPort;
-        let (mut master, slave) = serialport::TTYPort::pair().map_err(io::Error::other)?;
-        master.set_timeout(SERVE_POLL).map_err(io::Error::other)?;
-        let path = slave.name().ok_or_else(|| io::Error::other("PTY without a name"))?;
-        Ok(Self { master, path, slave })
-    }
-}
+pub use crate::serial::Pty;
 
 /// An emulated unit on its own thread behind a pseudo-terminal (Unix only).
 #[derive(Debug)]
@@ -209,7 +189,7 @@ impl PtyEmulator {
     /// [`Self::path`]. The emulator keeps its own handle on the slave so consoles may come and go.
     #[cfg(unix)]
     pub fn spawn(config: EngineConfig) -> io::Result<Self> {
-        let Pty { mut master, path, slave } = Pty::open()?;
+        let Pty { mut master, path, slave } = Pty::open_with_timeout(SERVE_POLL)?;
         let view = Arc::new(Mutex::new(EmulatorView::default()));
         let control = Arc::new(EmulatorControl::default());
         let (v, c) = (view.clone(), control.clone());

@@ -710,45 +710,7 @@ fn unreachable_hello() -> Outgoing {
     Outgoing { seq: 0, request: Request::Hello, bytes: Vec::new() }
 }
 
-/// Exponential reconnect backoff, pure (no clock, no randomness): `delay_n = min(initial * 2^n, max)` for the
-/// n-th consecutive failure (n from 0). One console per vest, so no jitter is needed against herds.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Backoff {
-    initial: Duration,
-    max: Duration,
-    failures: u32,
-}
-
-impl Default for Backoff {
-    /// 250 ms doubling up to 5 s: a vest walking back into Bluetooth range reconnects within seconds.
-    fn default() -> Self {
-        Self::new(Duration::from_millis(250), Duration::from_secs(5))
-    }
-}
-
-impl Backoff {
-    /// A backoff from `initial` doubling up to `max`.
-    pub fn new(initial: Duration, max: Duration) -> Self {
-        Self { initial, max, failures: 0 }
-    }
-
-    /// The delay before the next attempt; counts one more failure.
-    pub fn next_delay(&mut self) -> Duration {
-        let factor = 1u32 << self.failures.min(20);
-        self.failures = self.failures.saturating_add(1);
-        self.initial.saturating_mul(factor).min(self.max)
-    }
-
-    /// A connection succeeded: start from `initial` again.
-    pub fn reset(&mut self) {
-        self.failures = 0;
-    }
-
-    /// Consecutive failures so far.
-    pub fn failures(&self) -> u32 {
-        self.failures
-    }
-}
+pub use crate::backoff::Backoff;
 
 #[cfg(test)]
 mod tests {
