@@ -380,7 +380,8 @@ fn session_log_with_an_invalid_fix_is_analysed_without_it() {
     let v = json(&["fieldtest", "drift", path.to_str().unwrap(), "--json"]);
     assert_eq!(v["fixes"], 3, "{v}");
     let warnings = v["warnings"].as_array().unwrap();
-    assert!(warnings.iter().any(|w| w.as_str().unwrap().contains("line 2: fix skipped")), "{v}");
+    assert!(warnings.iter().any(|w| w.as_str().unwrap().contains("fix skipped: position 9999")), "{v}");
+    assert_eq!(v["rejected_sentences"], 1, "{v}");
     let _ = std::fs::remove_file(path);
 }
 
@@ -436,7 +437,12 @@ fn drift_reads_a_session_log_written_by_the_console_writer() {
             },
         });
     }
-    tx.log(LogEntry::Mark { label: "left on the post".into(), lat_deg: None, lon_deg: None });
+    let utc = vestnav_device::session_log::utc_stamp(chrono::Utc::now());
+    tx.send(vestnav_device::session_log::LogRecord {
+        t_s: 36.0,
+        utc,
+        entry: LogEntry::Mark { label: "left on the post".into(), lat_deg: None, lon_deg: None },
+    });
     drop(tx);
     assert_eq!(log.close().unwrap().written, 37);
     let v = json(&["fieldtest", "drift", path.to_str().unwrap(), "--json"]);

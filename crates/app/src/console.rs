@@ -160,23 +160,54 @@ impl Default for Liveness {
     }
 }
 
-/// Where the exit paths (signal handler, window close) find the vest to stop. The console keeps the
-/// stopper of its current vest here; the lock is only ever held to swap or clone it.
+/// Where the exit paths (signal handler, window close) find the vest to stop and the window to close. The
+/// console keeps the stopper of its current vest here; the locks are only ever held to swap or clone.
 #[derive(Debug, Clone, Default)]
-pub struct ExitGuard(Arc<Mutex<Option<VestStopper>>>);
+pub struct ExitGuard(Arc<ExitInner>);
+
+#[derive(Debug, Default)]
+struct ExitInner {
+    stopper: Mutex<Option<VestStopper>>,
+    ui: Mutex<Option<egui::Context>>,
+    signal: std::sync::atomic::AtomicI32,
+}
 
 impl ExitGuard {
     fn set(&self, stopper: Option<VestStopper>) {
-        if let Ok(mut g) = self.0.lock() {
+        if let Ok(mut g) = self.0.stopper.lock() {
             *g = stopper;
+        }
+    }
+
+    /// The window's context, so an exit path can ask it to close.
+    pub fn set_ui(&self, ctx: egui::Context) {
+        if let Ok(mut g) = self.0.ui.lock() {
+            *g = Some(ctx);
         }
     }
 
     /// STOP ALL to the current vest and end its worker, waiting at most `wait` for the acknowledgement;
     /// returns whether the unit acknowledged (`false` too when no vest is connected).
     pub fn stop_vest(&self, wait: Duration) -> bool {
-        let stopper = self.0.lock().ok().and_then(|g| g.clone());
+        let stopper = self.0.stopper.lock().ok().and_then(|g| g.clone());
         stopper.is_some_and(|s| s.stop_and_close(wait))
+    }
+
+    /// Records that the process ends because of signal `sig` and asks the window to close; returns whether
+    /// there was a window to ask.
+    pub fn close_for_signal(&self, sig: i32) -> bool {
+        self.0.signal.store(sig, std::sync::atomic::Ordering::SeqCst);
+        let ctx = self.0.ui.lock().ok().and_then(|g| g.clone());
+        ctx.is_some_and(|ctx| {
+            ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+            ctx.request_repaint();
+            true
+        })
+    }
+
+    /// The signal the process is ending for, if any.
+    pub fn signal(&self) -> Option<i32> {
+        Some(self.0.signal.load(std::sync::atomic::Ordering::SeqCst)).filter(|s| *s != 0)
     }
 }
 

@@ -35,8 +35,8 @@ use console::{Console, ConsoleOptions, DeviceOverrides, EXIT_STOP_WAIT, ExitGuar
 /// console starts with the built-in GPS simulator walking the demo route and the emulated vest.
 ///
 /// Every way out stops the vest first: closing the window, and SIGTERM, SIGINT or SIGHUP (a handler
-/// thread sends STOP ALL, waits at most [`EXIT_STOP_WAIT`] for the unit's acknowledgement, then ends the
-/// process).
+/// thread sends STOP ALL, waits at most [`EXIT_STOP_WAIT`] for the unit's acknowledgement, then closes the
+/// window; the process ends with status 128 + the signal's number, as a killed program would).
 pub fn run(devices: DeviceOverrides) -> anyhow::Result<()> {
     let cfg_path = config::default_path();
     let (cfg, cfg_error) =
@@ -52,10 +52,12 @@ pub fn run(devices: DeviceOverrides) -> anyhow::Result<()> {
             .with_min_inner_size([900.0, 600.0]),
         ..eframe::NativeOptions::default()
     };
+    let guard = exit.clone();
     eframe::run_native(
         "vestnav",
         options,
         Box::new(move |cc| {
+            exit.set_ui(cc.egui_ctx.clone());
             let mut console = Console::new(
                 Box::new(hardware::Hardware),
                 ConsoleOptions {
@@ -74,7 +76,12 @@ pub fn run(devices: DeviceOverrides) -> anyhow::Result<()> {
             Ok(Box::new(App(console)))
         }),
     )
-    .map_err(|e| anyhow::anyhow!("cannot open the console window: {e}"))
+    .map_err(|e| anyhow::anyhow!("cannot open the console window: {e}"))?;
+    if let Some(sig) = guard.signal() {
+        // The window has closed and the vest was stopped: end as the signal asked.
+        std::process::exit(128 + sig);
+    }
+    Ok(())
 }
 
 /// Ends the process on SIGTERM, SIGINT or SIGHUP, after stopping the vest.
@@ -84,6 +91,7 @@ fn stop_on_signals(exit: ExitGuard) -> anyhow::Result<()> {
     let mut signals = signal_hook::iterator::Signals::new([SIGTERM, SIGINT, SIGHUP])?;
     std::thread::Builder::new().name("vestnav-signals".into()).spawn(move || {
         if let Some(sig) = signals.forever().next() {
+            // The vest first, whatever the UI thread is doing.
             let acked = exit.stop_vest(EXIT_STOP_WAIT);
             let how = if acked {
                 "acknowledged by the unit"
@@ -91,6 +99,11 @@ fn stop_on_signals(exit: ExitGuard) -> anyhow::Result<()> {
                 "not acknowledged (no vest, or the unit's watchdog stops the tactors)"
             };
             eprintln!("vestnav: signal {sig}: STOP ALL {how}; exiting");
+            // Then a normal window close, so the renderer is torn down on its own thread; if the UI thread
+            // does not get there (stalled, or no window yet), end the process from here.
+            if exit.close_for_signal(sig) {
+                std::thread::sleep(std::time::Duration::from_secs(2));
+            }
             std::process::exit(128 + sig);
         }
     })?;
