@@ -749,9 +749,15 @@ impl Console {
         egui::CentralPanel::default().show(ui, |ui| match self.tab {
             Tab::Map => {
                 let fix = self.gps.last_position.clone();
-                let speed = fix.as_ref().and_then(|f| f.speed_m_s);
                 let walking = self.cfg.walking_speed_m_s;
-                let changed = self.map.ui(ui, fix.as_ref(), speed, walking, &mut self.cfg, &mut self.status);
+                let changed = self.map.ui(
+                    ui,
+                    fix.as_ref(),
+                    self.guidance.as_ref(),
+                    walking,
+                    &mut self.cfg,
+                    &mut self.status,
+                );
                 if changed {
                     self.push_route();
                 }

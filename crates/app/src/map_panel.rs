@@ -12,8 +12,10 @@ use egui::{Color32, Pos2, RichText, Stroke, vec2};
 use walkers::{HttpOptions, HttpTiles, MapMemory, Position, Projector, TileId, TilePiece, Tiles, lat_lon};
 
 use crate::config::Config;
-use crate::route::{Waypoint, decimation_stride, distance_bearing, enu_from_wgs84};
+use crate::route::{Waypoint, decimation_stride, enu_from_wgs84};
 use vestnav_device::gps::Fix;
+
+use crate::guidance::GuidanceStatus;
 
 /// Track points drawn at most per frame (older points are strided, the newest [`TRACK_TAIL`] drawn in full).
 pub const TRACK_DRAW_MAX: usize = 2500;
@@ -150,14 +152,15 @@ impl MapView {
         &mut self,
         ui: &mut egui::Ui,
         fix: Option<&Fix>,
-        speed_m_s: Option<f64>,
+        guidance: Option<&GuidanceStatus>,
         walking_m_s: f64,
         cfg: &mut Config,
         status: &mut String,
     ) -> bool {
         let mut changed = false;
         changed |= self.toolbar(ui, cfg, status);
-        self.next_info(ui, fix, speed_m_s, walking_m_s);
+        let speed_m_s = fix.and_then(|f| f.speed_m_s);
+        self.next_info(ui, fix, guidance, speed_m_s, walking_m_s);
         egui::Panel::right("waypoint-list").default_size(210.0).show(ui, |ui| {
             changed |= self.waypoint_list(ui);
         });
@@ -221,7 +224,16 @@ impl MapView {
         changed
     }
 
-    fn next_info(&self, ui: &mut egui::Ui, fix: Option<&Fix>, speed_m_s: Option<f64>, walking_m_s: f64) {
+    /// The line about the next waypoint. Distance and bearing are core guidance's (the one home of the
+    /// navigation logic), from its latest status for this waypoint; the map only turns them into words.
+    fn next_info(
+        &self,
+        ui: &mut egui::Ui,
+        fix: Option<&Fix>,
+        guidance: Option<&GuidanceStatus>,
+        speed_m_s: Option<f64>,
+        walking_m_s: f64,
+    ) {
         let text = match (fix, self.waypoints.get(self.next)) {
             (_, None) if self.waypoints.is_empty() => {
                 "no waypoints: right-click the map to add one".to_owned()
@@ -230,20 +242,30 @@ impl MapView {
             (None, Some(w)) => {
                 format!("next: {} ({}/{}) · waiting for a fix", w.name, self.next + 1, self.waypoints.len())
             }
-            (Some(f), Some(w)) => {
-                let (lat, lon) = f.lat_deg.zip(f.lon_deg).unwrap_or((f64::NAN, f64::NAN));
-                let (d, b) = distance_bearing(lat, lon, w.lat_deg, w.lon_deg);
-                let v = speed_m_s.filter(|v| *v >= 0.3).unwrap_or(walking_m_s).max(0.1);
-                let ttg = d / v;
-                format!(
-                    "next: {} ({}/{}) · {d:.0} m · bearing {b:.0}° · {:.0} min {:02.0} s to go",
+            (Some(_), Some(w)) => match guidance
+                .filter(|st| st.next == self.next)
+                .and_then(|st| st.distance_m.filter(|d| d.is_finite()).map(|d| (d, st.bearing_deg)))
+            {
+                None => format!(
+                    "next: {} ({}/{}) · waiting for guidance",
                     w.name,
                     self.next + 1,
-                    self.waypoints.len(),
-                    (ttg / 60.0).floor(),
-                    ttg % 60.0
-                )
-            }
+                    self.waypoints.len()
+                ),
+                Some((d, bearing)) => {
+                    let v = speed_m_s.filter(|v| *v >= 0.3).unwrap_or(walking_m_s).max(0.1);
+                    let ttg = d / v;
+                    let b = bearing.map_or_else(|| "—".to_owned(), |b| format!("{b:.0}°"));
+                    format!(
+                        "next: {} ({}/{}) · {d:.0} m · aim bearing {b} · {:.0} min {:02.0} s to go",
+                        w.name,
+                        self.next + 1,
+                        self.waypoints.len(),
+                        (ttg / 60.0).floor(),
+                        ttg % 60.0
+                    )
+                }
+            },
         };
         ui.label(RichText::new(text).strong());
     }

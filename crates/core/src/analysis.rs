@@ -91,6 +91,47 @@ pub struct SpectralPeak {
     pub bin_width_hz: f64,
 }
 
+/// The forward FFT of `buf`, in place: the one FFT of vestnav (rustfft). A planner per call, no state kept
+/// between calls (planning costs about as much as one transform; both are microseconds at our lengths).
+fn fft_in_place(buf: &mut [Complex<f64>]) {
+    if !buf.is_empty() {
+        FftPlanner::new().plan_fft_forward(buf.len()).process(buf);
+    }
+}
+
+/// Single-sided amplitude spectrum of `signal` sampled at `rate_hz`, rectangular window:
+/// `A_k = |X_k| * 2/N` for `k = 0..=N/2` (DC not doubled), at frequencies `k * rate / N`.
+/// Returns `(frequencies_hz, amplitudes)`; empty for an empty signal. For a sine on a bin, `A_k` is its
+/// amplitude exactly.
+pub fn amplitude_spectrum(signal: &[f64], rate_hz: f64) -> (Vec<f64>, Vec<f64>) {
+    let n = signal.len();
+    if n == 0 {
+        return (Vec::new(), Vec::new());
+    }
+    let mut buf: Vec<Complex<f64>> = signal.iter().map(|&v| Complex::new(v, 0.0)).collect();
+    fft_in_place(&mut buf);
+    let half = n / 2;
+    let scale = 2.0 / n as f64;
+    let freqs = (0..=half).map(|k| k as f64 * rate_hz / n as f64).collect();
+    let amps = buf[..=half]
+        .iter()
+        .enumerate()
+        .map(|(k, c)| if k == 0 { c.norm() / n as f64 } else { c.norm() * scale })
+        .collect();
+    (freqs, amps)
+}
+
+/// Frequency of the largest non-DC bin of [`amplitude_spectrum`] (no interpolation: the simulation's
+/// traces are long and clean; measured traces use [`peak_frequency`]); `None` for fewer than 4 samples.
+pub fn spectrum_peak_hz(signal: &[f64], rate_hz: f64) -> Option<f64> {
+    if signal.len() < 4 {
+        return None;
+    }
+    let (f, a) = amplitude_spectrum(signal, rate_hz);
+    let (k, _) = a.iter().enumerate().skip(1).max_by(|x, y| x.1.total_cmp(y.1))?;
+    Some(f[k])
+}
+
 /// Peak frequency of `x` (thesis §3.1) by FFT with sub-bin refinement.
 ///
 /// The mean is removed and a Hann window `w[n] = 0.5 - 0.5 cos(2 pi n / N)` applied (it keeps leakage of the
@@ -114,7 +155,7 @@ pub fn peak_frequency(x: &[f64], sample_rate_hz: f64) -> Result<SpectralPeak, An
             Complex::new((v - mean) * w, 0.0)
         })
         .collect();
-    FftPlanner::new().plan_fft_forward(n).process(&mut buf);
+    fft_in_place(&mut buf);
     let mag: Vec<f64> = buf[..=n / 2].iter().map(|c| c.norm()).collect();
     let (k, peak) = mag
         .iter()
@@ -769,6 +810,18 @@ mod tests {
 
     fn sine(f: f64, fs: f64, n: usize, amp: f64) -> Vec<f64> {
         (0..n).map(|i| amp * (2.0 * PI * f * i as f64 / fs).sin()).collect()
+    }
+
+    #[test]
+    fn spectrum_of_a_sine() {
+        let rate = 1000.0;
+        let x: Vec<f64> =
+            (0..1000).map(|k| 2.5 * (std::f64::consts::TAU * 50.0 * f64::from(k) / rate).sin()).collect();
+        let (f, a) = amplitude_spectrum(&x, rate);
+        assert_relative_eq!(f[50], 50.0);
+        assert_relative_eq!(a[50], 2.5, max_relative = 1e-9);
+        assert_relative_eq!(spectrum_peak_hz(&x, rate).unwrap(), 50.0);
+        assert!(spectrum_peak_hz(&x[..2], rate).is_none());
     }
 
     #[test]

@@ -17,7 +17,7 @@
 //! mechanics by classical Runge–Kutta 4 with steps of 0.26 rad of rotation (300 us at full speed) and
 //! `L/R / 16` during the first 20 `L/R`; `x` and `v` follow from the conserved momentum and centre of mass.
 
-use rustfft::{FftPlanner, num_complex::Complex};
+use crate::analysis::spectrum_peak_hz;
 use serde::{Deserialize, Serialize};
 
 /// Standard gravity used by the thesis [m/s^2].
@@ -1144,45 +1144,6 @@ pub fn simulate_summary(params: &TactorParams, options: &SimOptions) -> Result<S
     Ok(builder.finish(params, options))
 }
 
-/// Forward FFT plan of length `n`. Plans are kept by one process-wide planner: planning a 10 000-point FFT
-/// (its twiddle factors) costs about as much as running it, and every summary runs one of that length.
-fn forward_fft(n: usize) -> std::sync::Arc<dyn rustfft::Fft<f64>> {
-    static PLANNER: std::sync::Mutex<Option<FftPlanner<f64>>> = std::sync::Mutex::new(None);
-    let mut planner = PLANNER.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-    planner.get_or_insert_with(FftPlanner::new).plan_fft_forward(n)
-}
-
-/// Single-sided amplitude spectrum of `signal` sampled at `rate_hz`, rectangular window (rustfft):
-/// `A_k = |X_k| * 2/N` for `k = 0..=N/2` (DC not doubled), at frequencies `k * rate / N`.
-/// Returns `(frequencies_hz, amplitudes)`; empty for an empty signal.
-pub fn amplitude_spectrum(signal: &[f64], rate_hz: f64) -> (Vec<f64>, Vec<f64>) {
-    let n = signal.len();
-    if n == 0 {
-        return (Vec::new(), Vec::new());
-    }
-    let mut buf: Vec<Complex<f64>> = signal.iter().map(|&v| Complex::new(v, 0.0)).collect();
-    forward_fft(n).process(&mut buf);
-    let half = n / 2;
-    let scale = 2.0 / n as f64;
-    let freqs = (0..=half).map(|k| k as f64 * rate_hz / n as f64).collect();
-    let amps = buf[..=half]
-        .iter()
-        .enumerate()
-        .map(|(k, c)| if k == 0 { c.norm() / n as f64 } else { c.norm() * scale })
-        .collect();
-    (freqs, amps)
-}
-
-/// Frequency of the largest non-DC bin of [`amplitude_spectrum`]; `None` for fewer than 4 samples.
-pub fn spectrum_peak_hz(signal: &[f64], rate_hz: f64) -> Option<f64> {
-    if signal.len() < 4 {
-        return None;
-    }
-    let (f, a) = amplitude_spectrum(signal, rate_hz);
-    let (k, _) = a.iter().enumerate().skip(1).max_by(|x, y| x.1.total_cmp(y.1))?;
-    Some(f[k])
-}
-
 /// Time of sample index `n + frac`.
 fn time_at(index: usize, frac: f64, dt_s: f64) -> f64 {
     (index as f64 + frac) * dt_s
@@ -1405,18 +1366,6 @@ mod tests {
         assert_relative_eq!(a.force_amplitude_n, b.force_amplitude_n, max_relative = 0.05);
         assert!(b.accel_peak_m_s2 < a.accel_peak_m_s2);
         assert_relative_eq!(b.x_amplitude_m, 0.55 * 2.57 / 4.95 * 1e-3, max_relative = 1e-4);
-    }
-
-    #[test]
-    fn spectrum_of_a_sine() {
-        let rate = 1000.0;
-        let x: Vec<f64> =
-            (0..1000).map(|k| 2.5 * (std::f64::consts::TAU * 50.0 * f64::from(k) / rate).sin()).collect();
-        let (f, a) = amplitude_spectrum(&x, rate);
-        assert_relative_eq!(f[50], 50.0);
-        assert_relative_eq!(a[50], 2.5, max_relative = 1e-9);
-        assert_relative_eq!(spectrum_peak_hz(&x, rate).unwrap(), 50.0);
-        assert!(spectrum_peak_hz(&x[..2], rate).is_none());
     }
 
     #[test]

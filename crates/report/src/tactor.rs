@@ -2,10 +2,10 @@
 //! schemas of `sim tactor` and `sim damping-for`.
 
 use serde::{Deserialize, Serialize};
+use vestnav_core::analysis::amplitude_spectrum;
 use vestnav_core::sweep::Calibration;
 use vestnav_core::tactor::{
-    BodyMass, Preset, SimOptions, Summary, TactorError, TactorParams, TactorRun, amplitude_spectrum,
-    simulate_with_step_angle,
+    BodyMass, Preset, SimOptions, Summary, TactorError, TactorParams, TactorRun, simulate_with_step_angle,
 };
 use vestnav_plot::{Chart, Color, Figure, Scale, Series, decimate_minmax};
 
