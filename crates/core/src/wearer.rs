@@ -140,7 +140,7 @@ impl SimConfig {
     }
 }
 
-/// Outcome of one simulated walk.
+/// Outcome of one simulated walk. Serialised (as one run of `nav simulate --json`) without its paths.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct SimResult {
     /// Strategy name.
@@ -169,11 +169,14 @@ pub struct SimResult {
     pub waypoints_reached: usize,
     /// Waypoints missed: passed abeam, or not reached before the timeout.
     pub waypoints_missed: usize,
-    /// True path, east/north about the first waypoint [m], one point per fix.
+    /// True path, east/north about the first waypoint [m], one point per fix (for figures; not in JSON).
+    #[serde(skip)]
     pub path_true_en_m: Vec<DVec2>,
-    /// Reported fixes, east/north about the first waypoint [m].
+    /// Reported fixes, east/north about the first waypoint [m] (for figures; not in JSON).
+    #[serde(skip)]
     pub path_fix_en_m: Vec<DVec2>,
-    /// Waypoints, east/north about the first waypoint [m].
+    /// Waypoints, east/north about the first waypoint [m] (for figures; not in JSON).
+    #[serde(skip)]
     pub waypoints_en_m: Vec<DVec2>,
 }
 

@@ -1,66 +1,16 @@
 //! Closed-loop guidance simulation: the JSON schema of `vestnav nav simulate --json` and its figure.
 
-use std::collections::BTreeMap;
-
 use serde::{Deserialize, Serialize};
 use vestnav_core::wearer::{SimResult, SimSummary};
 use vestnav_plot::{Chart, Color, Figure, Marker, Series};
-
-/// One run's numbers (a [`SimResult`] without its paths).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct RunReport {
-    /// Random seed of the run.
-    pub seed: u64,
-    /// Whether the wearer reached the last waypoint in time.
-    pub finished: bool,
-    /// Time taken [s].
-    pub time_s: f64,
-    /// Route length over the pace [s].
-    pub nominal_time_s: f64,
-    /// Distance walked [m].
-    pub walked_m: f64,
-    /// RMS cross-track distance [m].
-    pub cross_track_rmse_m: f64,
-    /// Largest cross-track distance [m].
-    pub max_cross_track_m: f64,
-    /// Cues sent.
-    pub cues: usize,
-    /// Cues per minute.
-    pub cues_per_min: f64,
-    /// Cues sent by name.
-    pub cue_counts: BTreeMap<String, usize>,
-    /// Waypoints reached.
-    pub waypoints_reached: usize,
-    /// Waypoints passed without arriving.
-    pub waypoints_missed: usize,
-}
-
-impl From<&SimResult> for RunReport {
-    fn from(r: &SimResult) -> Self {
-        Self {
-            seed: r.seed,
-            finished: r.finished,
-            time_s: r.time_s,
-            nominal_time_s: r.nominal_time_s,
-            walked_m: r.walked_m,
-            cross_track_rmse_m: r.cross_track_rmse_m,
-            max_cross_track_m: r.max_cross_track_m,
-            cues: r.cues,
-            cues_per_min: r.cues_per_min,
-            cue_counts: r.cue_counts.clone(),
-            waypoints_reached: r.waypoints_reached,
-            waypoints_missed: r.waypoints_missed,
-        }
-    }
-}
 
 /// One strategy's summary and runs.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct StrategyReport {
     /// Means and spreads over the runs.
     pub summary: SimSummary,
-    /// Every run.
-    pub runs: Vec<RunReport>,
+    /// Every run (core's result, serialised without its paths).
+    pub runs: Vec<SimResult>,
 }
 
 /// JSON of `vestnav nav simulate --json`.
@@ -87,13 +37,8 @@ impl NavReport {
         seed: u64,
         all: &[(SimSummary, Vec<SimResult>)],
     ) -> Self {
-        let strategies = all
-            .iter()
-            .map(|(s, rs)| StrategyReport {
-                summary: s.clone(),
-                runs: rs.iter().map(RunReport::from).collect(),
-            })
-            .collect();
+        let strategies =
+            all.iter().map(|(s, rs)| StrategyReport { summary: s.clone(), runs: rs.clone() }).collect();
         Self { route, waypoints, runs, seed, strategies }
     }
 }
