@@ -811,8 +811,9 @@ impl Console {
 
     fn handle_keys(&mut self, ui: &egui::Ui) {
         let typing = ui.ctx().text_edit_focused();
-        let (esc, space) = ui.input(|i| (i.key_pressed(egui::Key::Escape), i.key_pressed(egui::Key::Space)));
-        if esc || (space && !typing) {
+        // STOP ALL has its own key; Esc is left to close menus and pop-ups, as everywhere else.
+        let space = ui.input(|i| i.key_pressed(egui::Key::Space));
+        if space && !typing {
             self.stop_all();
         }
         let m = ui.input(|i| i.key_pressed(egui::Key::M));
@@ -830,7 +831,7 @@ impl Console {
                 .min_size(egui::vec2(120.0, 30.0));
             if ui
                 .add(stop)
-                .on_hover_text("Every tactor off, automatic guidance halted (keys: Esc or Space)")
+                .on_hover_text("Every tactor off, automatic guidance halted (key: Space)")
                 .clicked()
             {
                 self.stop_all();

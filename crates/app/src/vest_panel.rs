@@ -19,13 +19,23 @@ pub fn show(c: &mut Console, ui: &mut egui::Ui) {
     ui.horizontal(|ui| {
         ui.checkbox(&mut c.vest.select_mode, "Multi-select");
         let n = c.vest.selected.count();
-        if ui.add_enabled(n > 0, egui::Button::new(format!("Fire selected ({n})"))).clicked() {
+        if ui
+            .add_enabled(n > 0 && c.vest.is_live(), egui::Button::new(format!("Fire selected ({n})")))
+            .clicked()
+        {
             c.send_manual(VestCommand::Fire { mask: c.vest.selected, duration_ms: c.cfg.on_ms }, None);
         }
         if ui.add_enabled(n > 0, egui::Button::new("Clear")).clicked() {
             c.vest.selected = TactorMask::NONE;
         }
     });
+    if !c.vest.is_live() {
+        ui.label(
+            RichText::new(format!("Vest not live ({}): tactors cannot be fired", c.vest.label()))
+                .color(Color32::from_rgb(230, 60, 40))
+                .strong(),
+        );
+    }
     grid_ui(c, ui);
     ui.label(format!(
         "on now (as the unit reports): {}",
@@ -130,7 +140,10 @@ fn grid_ui(c: &mut Console, ui: &mut egui::Ui) {
                     ui.visuals().text_color()
                 });
                 let b = egui::Button::new(text).fill(fill).min_size(vec2(52.0, 40.0));
-                let resp = ui.add(b).on_hover_text(format!("tactor {i}: row {row}, column {col}"));
+                // Firing needs a live unit; selecting does not.
+                let live = c.vest.is_live() || c.vest.select_mode || ctrl;
+                let resp =
+                    ui.add_enabled(live, b).on_hover_text(format!("tactor {i}: row {row}, column {col}"));
                 if resp.clicked() {
                     if c.vest.select_mode || ctrl {
                         c.vest.selected = TactorMask(c.vest.selected.0 ^ (1 << i));
@@ -152,7 +165,11 @@ fn patterns_ui(c: &mut Console, ui: &mut egui::Ui) {
     ui.label("Patterns");
     ui.horizontal_wrapped(|ui| {
         for cue in Cue::ALL {
-            if ui.button(cue.name()).on_hover_text(describe(&cue.pattern(c.cfg.on_ms))).clicked() {
+            if ui
+                .add_enabled(c.vest.is_live(), egui::Button::new(cue.name()))
+                .on_hover_text(describe(&cue.pattern(c.cfg.on_ms)))
+                .clicked()
+            {
                 c.send_manual(VestCommand::Play(cue.pattern(c.cfg.on_ms)), Some(cue));
             }
         }
@@ -161,7 +178,11 @@ fn patterns_ui(c: &mut Console, ui: &mut egui::Ui) {
     let mut play = None;
     for (k, p) in c.cfg.user_patterns.iter().enumerate() {
         ui.horizontal(|ui| {
-            if ui.button(format!("Play {}", p.name)).on_hover_text(describe(p)).clicked() {
+            if ui
+                .add_enabled(c.vest.is_live(), egui::Button::new(format!("Play {}", p.name)))
+                .on_hover_text(describe(p))
+                .clicked()
+            {
                 play = Some(p.clone());
             }
             if ui.small_button("Del").on_hover_text("Delete this pattern").clicked() {

@@ -152,10 +152,40 @@ fn stop_all_button_and_key() {
     let mut h = harness(&fake);
     h.get_by_label("STOP ALL").click();
     settle(&mut h, |_| fake.sent().len() == 1);
-    h.key_press(egui::Key::Escape);
+    h.key_press(egui::Key::Space);
     settle(&mut h, |_| fake.sent().len() == 2);
     assert_eq!(fake.sent(), vec![Request::StopAll, Request::StopAll]);
     assert!(!h.state().cfg.guidance_auto);
+}
+
+#[test]
+fn escape_closes_a_menu_without_stopping_the_vest() {
+    let fake = Fake::default();
+    let mut h = harness(&fake);
+    h.state_mut().cfg.guidance_auto = true;
+    h.run_steps(2);
+    h.get_by_label("GPS source").click();
+    h.run_steps(2);
+    assert!(h.query_by_label("NMEA file replay").is_some(), "the combo box is open");
+    h.key_press(egui::Key::Escape);
+    h.run_steps(3);
+    assert!(h.query_by_label("NMEA file replay").is_none(), "Esc closed it");
+    std::thread::sleep(Duration::from_millis(50));
+    assert!(fake.sent().is_empty(), "{:?}", fake.sent());
+    assert!(h.state().cfg.guidance_auto, "automatic guidance untouched");
+}
+
+#[test]
+fn the_grid_is_disabled_while_the_vest_is_not_live() {
+    let fake = Fake::default();
+    let mut h = harness(&fake);
+    h.get_by_label("Disconnect vest").click();
+    settle(&mut h, |c| !c.vest.is_live());
+    h.run_steps(1);
+    assert!(h.query_by_label_contains("tactors cannot be fired").is_some());
+    h.get_by_label("T5").click();
+    h.run_steps(2);
+    assert!(fake.sent().iter().all(|r| *r == Request::StopAll), "{:?}", fake.sent());
 }
 
 #[test]
