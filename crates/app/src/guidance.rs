@@ -273,7 +273,11 @@ impl GuidanceWorker {
                     b.beat();
                 }
                 self.halted = v.as_ref().filter(|h| h.is_halted()).map(|_| "STOP ALL".to_owned());
-                self.vest_state = None;
+                // The new worker's state events can arrive before this message (they come straight from
+                // it): keep the latest, forget it only when the vest goes away.
+                if v.is_none() {
+                    self.vest_state = None;
+                }
                 self.vest = v;
             }
         }
@@ -401,5 +405,55 @@ fn status(d: &Decision, reason: String, sent: bool, hold: Option<String>) -> Gui
         heading_source: d.heading_source.name(),
         state: state_name(d.state),
         finished: d.state == NavState::Finished,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::mpsc::sync_channel;
+    use vestnav_device::gps::{Fix, FixMode};
+    use vestnav_device::outbox::Overflow;
+    use vestnav_device::wtcu::VestConfig;
+    use vestnav_device::wtcu::engine::EngineConfig;
+
+    /// The vest worker's events reach guidance straight from the worker, so its `Ready` can arrive before
+    /// the console's message naming the new vest: guidance must still guide.
+    #[test]
+    fn a_vest_ready_before_it_is_named_still_gets_cues() {
+        let (in_tx, in_rx) = sync_channel(16);
+        let (ui, ui_rx) = Outbox::channel(64, Overflow::DropNewest, None);
+        let settings = GuidanceSettings {
+            auto: true,
+            arrival_radius_m: 8.0,
+            cue_interval_s: 3.0,
+            manual_hold_s: 10.0,
+            stale_after_s: 3.0,
+            on_ms: 500,
+            loop_route: false,
+            strategy: StrategyKind::BearingOnly,
+        };
+        let _t = spawn(in_rx, settings, ui, None).unwrap();
+        let vest =
+            Arc::new(VestHandle::spawn(VestConfig::Emulated(EngineConfig::default()), Vec::new()).unwrap());
+        in_tx.send(GuidanceInput::Vest(VestEvent::State(LinkState::Ready))).unwrap();
+        in_tx.send(GuidanceInput::VestLink(Some(vest), Duration::ZERO)).unwrap();
+        // One waypoint 100 m due north; the wearer walks due east: a turn is wanted at once.
+        let wp = Waypoint { name: "N".into(), lat_deg: 42.0009, lon_deg: -71.0 };
+        in_tx.send(GuidanceInput::Route { waypoints: vec![wp], next: 0 }).unwrap();
+        let fix = Fix {
+            lat_deg: Some(42.0),
+            lon_deg: Some(-71.0),
+            mode: Some(FixMode::Fix3D),
+            speed_m_s: Some(1.4),
+            course_deg: Some(90.0),
+            received_at: Some(Instant::now()),
+            ..Fix::default()
+        };
+        in_tx.send(GuidanceInput::Gps(GpsEvent::Fix(Box::new(fix)))).unwrap();
+        let st = ui_rx.recv_timeout(Duration::from_secs(2)).unwrap();
+        assert_eq!(st.cue, Some(Cue::TurnLeft), "{st:?}");
+        assert!(st.sent, "{st:?}");
+        assert_eq!(st.hold, None);
     }
 }
