@@ -396,11 +396,6 @@ impl Console {
         self.vest_link.is_some()
     }
 
-    /// The running vest worker, if any.
-    pub fn vest_handle(&self) -> Option<&Arc<VestHandle>> {
-        self.vest_link.as_ref()
-    }
-
     /// (Re)connects the GPS to the configured source.
     pub fn connect_gps(&mut self) {
         self.disconnect_gps();
@@ -559,6 +554,7 @@ impl Console {
     /// The operator's deliberate resume of automatic cues.
     pub fn resume_guidance(&mut self) {
         self.cfg.guidance_auto = true;
+        self.cfg_saved.guidance_auto = true;
         if let Some(link) = &self.vest_link {
             link.resume_guidance();
         }
@@ -775,12 +771,14 @@ impl Console {
             }
         });
 
+        // Every settings change of the frame reaches guidance here, once.
         if self.cfg != self.cfg_saved {
             if self.cfg.guidance_auto && !self.cfg_saved.guidance_auto {
-                // Switching automatic cues back on is the operator's deliberate resume.
+                // Ticking automatic cues back on is the operator's deliberate resume (it pushes the settings).
                 self.resume_guidance();
+            } else {
+                self.push_settings();
             }
-            self.push_settings();
             self.save_config();
         }
         // Fix ages and alarms change with time even when no event arrives; the frame is also the UI's
@@ -869,7 +867,6 @@ impl Console {
     }
 
     fn guidance_ui(&mut self, ui: &mut egui::Ui) {
-        let mut changed = false;
         if let Some(why) = self.vest.halted.clone() {
             ui.label(
                 RichText::new(format!("Automatic cues halted: {why}")).color(Color32::from_rgb(230, 40, 40)),
@@ -878,36 +875,22 @@ impl Console {
                 self.resume_guidance();
             }
         }
+        // The controls edit `cfg`; the end of the frame hands every change to guidance, once (ticking
+        // automatic cues on is the resume).
         ui.horizontal(|ui| {
-            changed |= ui.checkbox(&mut self.cfg.guidance_auto, "Automatic cues").changed();
-            changed |= ui.checkbox(&mut self.cfg.loop_route, "Loop route").changed();
+            ui.checkbox(&mut self.cfg.guidance_auto, "Automatic cues");
+            ui.checkbox(&mut self.cfg.loop_route, "Loop route");
         });
         egui::ComboBox::from_label("Strategy").selected_text(self.cfg.strategy.clone()).show_ui(ui, |ui| {
             for k in StrategyKind::ALL {
-                changed |=
-                    ui.selectable_value(&mut self.cfg.strategy, k.name().to_owned(), k.name()).changed();
+                ui.selectable_value(&mut self.cfg.strategy, k.name().to_owned(), k.name());
             }
         });
-        changed |= ui
-            .add(
-                egui::Slider::new(&mut self.cfg.arrival_radius_m, 2.0..=50.0)
-                    .suffix(" m")
-                    .text("Arrival radius"),
-            )
-            .changed();
-        changed |= ui
-            .add(
-                egui::Slider::new(&mut self.cfg.cue_interval_s, 1.0..=30.0).suffix(" s").text("Cue interval"),
-            )
-            .changed();
-        changed |= ui
-            .add(egui::Slider::new(&mut self.cfg.manual_hold_s, 0.0..=60.0).suffix(" s").text("Manual hold"))
-            .changed();
-        // Switching automatic cues back on is handled at the end of the frame (it is the resume).
-        let resuming = self.cfg.guidance_auto && !self.cfg_saved.guidance_auto;
-        if changed && !resuming {
-            self.push_settings();
-        }
+        ui.add(
+            egui::Slider::new(&mut self.cfg.arrival_radius_m, 2.0..=50.0).suffix(" m").text("Arrival radius"),
+        );
+        ui.add(egui::Slider::new(&mut self.cfg.cue_interval_s, 1.0..=30.0).suffix(" s").text("Cue interval"));
+        ui.add(egui::Slider::new(&mut self.cfg.manual_hold_s, 0.0..=60.0).suffix(" s").text("Manual hold"));
         match &self.guidance {
             None => {
                 ui.label("waiting for the first fix");

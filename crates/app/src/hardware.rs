@@ -93,6 +93,7 @@ pub fn device_config(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use vestnav_core::geo::{Earth, LatLon};
     use vestnav_device::outbox::Overflow;
 
     #[test]
@@ -126,7 +127,8 @@ mod tests {
         // simulated receiver error (~3 m).
         let f = &fixes[59];
         let (lat, lon) = (f.lat_deg.unwrap(), f.lon_deg.unwrap());
-        let (d, b) = crate::route::distance_bearing(route[0].lat_deg, route[0].lon_deg, lat, lon);
+        let (start, here) = (LatLon::new(route[0].lat_deg, route[0].lon_deg), LatLon::new(lat, lon));
+        let (d, b) = (Earth::Wgs84.distance_m(start, here), Earth::Wgs84.initial_bearing_deg(start, here));
         assert!((d - 84.0).abs() < 12.0, "{d}");
         assert!((b - 50.9).abs() < 15.0, "{b}");
         assert!(fixes.iter().all(vestnav_device::gps::Fix::has_position));

@@ -1,31 +1,20 @@
 //! Waypoints and the wearer's track on the map: geometry for drawing, and the console's use of the GPX
 //! files read and written by `vestnav_device::route_file` (the one home of the format).
 //!
-//! Distances and bearings are WGS-84 geodesics (geographiclib, Karney 2013), the default of the guidance
-//! issue; the thesis's spherical formula is not used in the console.
+//! Distances and bearings to waypoints are core guidance's (WGS-84 geodesics, `vestnav_core::geo`); this
+//! module only projects points onto the map's local plane.
 
 use std::path::Path;
 
-use geographiclib_rs::{Geodesic, InverseGeodesic};
 use vestnav_device::route_file::{self, RouteFile, Track, TrackPoint};
 
 pub use vestnav_device::route_file::{DEMO_GPX, Waypoint};
-
-/// Geodesic distance [m] and initial bearing [deg, 0..360 clockwise from true north] from point 1 to 2.
-///
-/// Solves the inverse geodesic problem on the WGS-84 ellipsoid (Karney, "Algorithms for geodesics", 2013).
-pub fn distance_bearing(lat1_deg: f64, lon1_deg: f64, lat2_deg: f64, lon2_deg: f64) -> (f64, f64) {
-    let g = Geodesic::wgs84();
-    let (s12_m, azi1_deg, _azi2, _a12): (f64, f64, f64, f64) =
-        g.inverse(lat1_deg, lon1_deg, lat2_deg, lon2_deg);
-    (s12_m, azi1_deg.rem_euclid(360.0))
-}
 
 /// East/north offset [m] of a point from an origin, on the local tangent plane.
 ///
 /// Equirectangular approximation: `east = R_N cos(lat0) dlon`, `north = R_M dlat` with the WGS-84 radii of
 /// curvature `R_M = a(1-e^2)/(1-e^2 sin^2 lat0)^1.5`, `R_N = a/(1-e^2 sin^2 lat0)^0.5`; good to well under a
-/// centimetre over the few hundred metres of a walk (used only for drawing and cross-track display).
+/// centimetre over the few hundred metres of a walk (used only for drawing).
 pub fn enu_from_wgs84(lat0_deg: f64, lon0_deg: f64, lat_deg: f64, lon_deg: f64) -> (f64, f64) {
     const A_M: f64 = 6_378_137.0;
     const E2: f64 = 6.694_379_990_14e-3;
@@ -36,20 +25,6 @@ pub fn enu_from_wgs84(lat0_deg: f64, lon0_deg: f64, lat_deg: f64, lon_deg: f64) 
     let east_m = r_n * phi.cos() * (lon_deg - lon0_deg).to_radians();
     let north_m = r_m * (lat_deg - lat0_deg).to_radians();
     (east_m, north_m)
-}
-
-/// Signed cross-track distance [m] of point `p` from the leg `a -> b` (positive = right of the leg).
-///
-/// On the local plane around `a`: `xtd = (d x p) / |d|` with `d = b - a` (2-D cross product, east/north).
-pub fn cross_track_m(a: (f64, f64), b: (f64, f64), p: (f64, f64)) -> f64 {
-    let (bx, by) = enu_from_wgs84(a.0, a.1, b.0, b.1);
-    let (px, py) = enu_from_wgs84(a.0, a.1, p.0, p.1);
-    let len = bx.hypot(by);
-    if len < 1e-9 {
-        return 0.0;
-    }
-    // d x p in an east-north frame is positive when p is left (counter-clockwise) of d.
-    -(bx * py - by * px) / len
 }
 
 /// What the console takes from a GPX file: the route to guide along (its first route, else its
@@ -119,34 +94,13 @@ pub fn decimation_stride(n: usize, max_points: usize) -> usize {
 mod tests {
     use super::*;
     use approx::assert_relative_eq;
-
-    #[test]
-    fn geodesic_matches_published_values() {
-        // One degree of latitude at the equator on WGS-84 is 110 574.389 m (Karney's GeodSolve).
-        let (d, b) = distance_bearing(0.0, 0.0, 1.0, 0.0);
-        assert_relative_eq!(d, 110_574.389, max_relative = 1e-8);
-        assert_relative_eq!(b, 0.0, epsilon = 1e-9);
-        let (_, b) = distance_bearing(0.0, 0.0, 0.0, -1.0);
-        assert_relative_eq!(b, 270.0, max_relative = 1e-12);
-    }
+    use vestnav_core::geo::{Earth, LatLon};
 
     #[test]
     fn local_plane_agrees_with_the_geodesic_over_a_walk() {
         let (e, n) = enu_from_wgs84(42.3562, -71.1, 42.3584, -71.1008);
-        let (d, _) = distance_bearing(42.3562, -71.1, 42.3584, -71.1008);
+        let d = Earth::Wgs84.distance_m(LatLon::new(42.3562, -71.1), LatLon::new(42.3584, -71.1008));
         assert_relative_eq!(e.hypot(n), d, max_relative = 1e-4);
-    }
-
-    #[test]
-    fn cross_track_sign() {
-        // Leg due north; a point to the east is on the right.
-        let a = (42.0, -71.0);
-        let b = (42.001, -71.0);
-        let right = cross_track_m(a, b, (42.0005, -70.9999));
-        assert!(right > 0.0);
-        let (e, _) = enu_from_wgs84(42.0, -71.0, 42.0, -70.9999);
-        assert_relative_eq!(right, e, max_relative = 1e-6);
-        assert!(cross_track_m(a, b, (42.0005, -71.0001)) < 0.0);
     }
 
     #[test]

@@ -327,6 +327,15 @@ mod tests {
     }
 
     #[test]
+    fn one_degree_of_latitude_at_the_equator_matches_geodsolve() {
+        // One degree of latitude at the equator on WGS-84 is 110 574.389 m (Karney's GeodSolve).
+        let (o, n, w) = (LatLon::new(0.0, 0.0), LatLon::new(1.0, 0.0), LatLon::new(0.0, -1.0));
+        assert_relative_eq!(Earth::Wgs84.distance_m(o, n), 110_574.389, max_relative = 1e-8);
+        assert_relative_eq!(Earth::Wgs84.initial_bearing_deg(o, n), 0.0, epsilon = 1e-9);
+        assert_relative_eq!(Earth::Wgs84.initial_bearing_deg(o, w), 270.0, max_relative = 1e-12);
+    }
+
+    #[test]
     fn haversine_closed_forms() {
         let r = THESIS_EARTH_RADIUS_M;
         // One degree along a meridian is R * pi / 180.

@@ -3,7 +3,7 @@
 //! palette and its viridis colour map).
 
 use egui_plot::{Legend, Line, LineStyle, MarkerShape, Plot, PlotPoint, Points, Text, VLine};
-use vestnav_plot::{Chart, Color, Figure, Heatmap, Marker, Panel, Scale, SeriesKind, viridis};
+use vestnav_plot::{Chart, Color, Figure, Heatmap, Marker, Panel, Scale, Series, SeriesKind, viridis};
 
 fn color32(c: Color) -> egui::Color32 {
     egui::Color32::from_rgba_unmultiplied(c.r, c.g, c.b, c.a)
@@ -49,6 +49,12 @@ fn marker_shape(m: Marker) -> MarkerShape {
         Marker::Cross => MarkerShape::Cross,
         Marker::None | Marker::Circle => MarkerShape::Circle,
     }
+}
+
+/// A series' finite points as markers (line series with markers and scatter series alike).
+fn markers(s: &Series, points: Vec<[f64; 2]>, color: egui::Color32) -> Points<'static> {
+    let finite: Vec<[f64; 2]> = points.into_iter().filter(|p| p[0].is_finite() && p[1].is_finite()).collect();
+    Points::new(s.label.clone(), finite).shape(marker_shape(s.marker)).radius(2.5).color(color)
 }
 
 /// Draws a chart (pan/zoom; double-click resets).
@@ -102,26 +108,10 @@ fn show_chart(ui: &mut egui::Ui, c: &Chart, id_salt: &str, height: f32) {
                         plot_ui.line(line);
                     }
                     if s.marker != Marker::None {
-                        let finite: Vec<[f64; 2]> =
-                            points.into_iter().filter(|p| p[0].is_finite() && p[1].is_finite()).collect();
-                        plot_ui.points(
-                            Points::new(s.label.clone(), finite)
-                                .shape(marker_shape(s.marker))
-                                .radius(2.5)
-                                .color(color),
-                        );
+                        plot_ui.points(markers(s, points, color));
                     }
                 }
-                SeriesKind::Scatter => {
-                    let finite: Vec<[f64; 2]> =
-                        points.into_iter().filter(|p| p[0].is_finite() && p[1].is_finite()).collect();
-                    plot_ui.points(
-                        Points::new(s.label.clone(), finite)
-                            .shape(marker_shape(s.marker))
-                            .radius(2.5)
-                            .color(color),
-                    );
-                }
+                SeriesKind::Scatter => plot_ui.points(markers(s, points, color)),
             }
         }
         for l in &c.hlines {
