@@ -18,12 +18,15 @@ use clap::Args;
 use vestnav_core::vest::{GRID, TactorMask};
 #[cfg(unix)]
 use vestnav_device::wtcu::emulator::Pty;
-use vestnav_device::wtcu::emulator::{EmulatorControl, SERVE_POLL, ServeEnd, describe, serve};
+use vestnav_device::wtcu::emulator::{
+    CompassSetup, EmulatorControl, SERVE_POLL, ServeEnd, WearerMotion, describe, serve,
+};
 use vestnav_device::wtcu::engine::{Engine, EngineConfig, EngineEvent, battery_pct_from_mv};
 use vestnav_device::wtcu::limits::Limits;
 use vestnav_device::wtcu::message::CommandKind;
 
 /// Arguments of `vestnav emulate vest`.
+#[allow(clippy::struct_excessive_bools)] // independent command-line switches, not a state machine
 #[derive(Debug, Args)]
 pub struct VestArgs {
     /// Serve the protocol on a new pseudo-terminal and print the path to open (the default).
@@ -44,6 +47,24 @@ pub struct VestArgs {
     /// Most tactors on at once (the current budget divided by 70 mA per tactor).
     #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u8).range(1..=16))]
     pub max_simultaneous: u8,
+    /// Newest protocol version the unit speaks: 2 (heading) or 1 (an old unit: no compass).
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u8).range(1..=2))]
+    pub protocol: u8,
+    /// Emulate a v2 unit without a magnetometer (`HEADING_START` is refused).
+    #[arg(long)]
+    pub no_compass: bool,
+    /// The wearer's true heading while standing still [deg].
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    pub heading_deg: f64,
+    /// Make the wearer turn in place at this rate [deg/s] (a calibration rotation); 0 = stand still.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    pub turn_deg_s: f64,
+    /// A parked car this far east of the wearer [m] (disturbs the compass within a few metres).
+    #[arg(long)]
+    pub steel_east_m: Option<f64>,
+    /// An ideal magnetometer (no hard/soft iron, no noise) instead of a typical uncalibrated one.
+    #[arg(long)]
+    pub ideal_compass: bool,
 }
 
 impl VestArgs {
@@ -53,6 +74,17 @@ impl VestArgs {
             watchdog_ms: self.watchdog_ms,
             intensity: !self.no_intensity,
             battery_mv: self.battery_mv,
+            protocol_version: self.protocol,
+            compass: (!self.no_compass).then_some(CompassSetup {
+                motion: if self.turn_deg_s == 0.0 {
+                    WearerMotion::Still { heading_deg: self.heading_deg }
+                } else {
+                    WearerMotion::Turning { start_deg: self.heading_deg, rate_deg_s: self.turn_deg_s }
+                },
+                steel_east_m: self.steel_east_m,
+                ideal: self.ideal_compass,
+                seed: 1,
+            }),
             ..EngineConfig::default()
         }
     }

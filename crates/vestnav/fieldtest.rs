@@ -10,7 +10,7 @@
 //! the console recorded at the key press, or the latest fix at or before it when the record has none. The
 //! format is chosen by `--format`, by default from the content (first non-blank byte `{` = session log).
 
-use std::io::{BufRead as _, Read as _};
+use std::io::Read as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context as _;
@@ -19,7 +19,7 @@ use clap::{Args, ValueEnum};
 use vestnav_core::fieldtest::{ConeConfig, ConeMark, TimedFix, cones, drift, position_at};
 use vestnav_core::geo::{Earth, LatLon, declination_deg, true_from_magnetic_deg};
 use vestnav_device::gps::{Fix, decode_reader_with_marks};
-use vestnav_device::session_log::{LogEntry, LogRecord};
+use vestnav_device::session_log::{LogEntry, ReadMode, read_log_with};
 use vestnav_report::fieldtest::{ConesReport, DriftReport, Source};
 use vestnav_report::to_json;
 
@@ -156,11 +156,6 @@ fn unwrap_tod(tod_s: f64, prev: Option<f64>) -> f64 {
 
 /// Bytes looked at to recognise the format.
 const SNIFF_BYTES: u64 = 64 * 1024;
-/// Longest session-log line accepted (the console writes lines of a few hundred bytes).
-const MAX_LINE_BYTES: u64 = 1024 * 1024;
-/// A session time going back by more than this [s] means several sessions in one file (records stamped on
-/// different threads may be a few milliseconds out of order).
-const MAX_TIME_BACKSTEP_S: f64 = 1.0;
 
 /// Reads the log at `path` in `format` (`Auto`: decided from the first non-blank byte).
 fn load(path: &Path, format: LogFormat) -> anyhow::Result<Log> {
@@ -218,143 +213,54 @@ fn load_nmea(path: &Path) -> anyhow::Result<Log> {
     Ok(Log { format: LogFormat::Nmea, fixes, marks, date, rejected: stats.rejected(), warnings: Vec::new() })
 }
 
-/// One session-log line: a `fix` or `mark` record, `None` for the other kinds (commands, acks, notes), which
-/// the field tests do not use. The error says what is wrong with the line.
-fn parse_session_line(text: &[u8]) -> Result<Option<LogRecord>, String> {
-    let v: serde_json::Value = serde_json::from_slice(text).map_err(|e| format!("not JSON ({e})"))?;
-    let Some(kind) = v.get("kind").and_then(serde_json::Value::as_str) else {
-        return Err("no \"kind\" field: not a session-log record".into());
-    };
-    if !matches!(kind, "fix" | "mark") {
-        return Ok(None);
-    }
-    let kind = kind.to_owned();
-    let rec: LogRecord = serde_json::from_value(v).map_err(|e| format!("bad {kind} record ({e})"))?;
-    if !rec.t_s.is_finite() {
-        return Err(format!("bad {kind} record (t_s is not a finite number)"));
-    }
-    Ok(Some(rec))
-}
-
 /// `YYYY-MM-DD` at the start of an ISO-8601 time.
 fn iso_date(utc: &str) -> Option<(i32, u8, u8)> {
     let d = chrono::NaiveDate::parse_from_str(utc.get(..10)?, "%Y-%m-%d").ok()?;
     Some((d.year(), u8::try_from(d.month()).ok()?, u8::try_from(d.day()).ok()?))
 }
 
-/// Invalid fixes named one by one in the warnings; the rest are only counted.
-const MAX_NAMED_INVALID: usize = 10;
-
-fn valid_pos(lat_deg: f64, lon_deg: f64) -> Result<LatLon, String> {
-    LatLon::new(lat_deg, lon_deg)
-        .validated()
-        .map_err(|e| format!("position {lat_deg}, {lon_deg} out of range ({e})"))
-}
-
-/// Reads a console session log: its `fix` records become the track, its `mark` records the marks (times =
-/// `t_s`, seconds since the session started). A malformed line is an error naming its line number, except a
-/// last line cut off without its newline after valid records (the console stopped mid-write), which is
-/// skipped with a warning; a fix whose position is out of range or not finite is skipped, counted in
-/// `rejected_sentences` and named in the warnings (one bad fix never poisons a log); unknown record kinds are
-/// ignored.
+/// Reads a console session log with `vestnav_device::session_log`'s strict reader: its `fix` records become
+/// the track, its `mark` records the marks (times = `t_s`, seconds since the session started). A malformed
+/// line, an overlong line or session time going back is an error naming the line; a last line cut off
+/// without its newline (the console stopped mid-write), a fix whose numbers are invalid and records of
+/// unknown kinds are skipped, counted in `rejected_sentences` and named in the warnings (one bad fix never
+/// poisons a log).
 fn load_session(path: &Path) -> anyhow::Result<Log> {
-    let file = std::fs::File::open(path).with_context(|| format!("opening {}", path.display()))?;
-    let mut reader = std::io::BufReader::new(file);
+    let (records, stats) = read_log_with(path, ReadMode::Strict)?;
     let mut log = Log {
         format: LogFormat::Session,
         fixes: Vec::new(),
         marks: Vec::new(),
         date: None,
-        rejected: 0,
-        warnings: Vec::new(),
+        rejected: stats.skipped() as u64,
+        warnings: stats.examples.iter().map(|(line, why)| format!("line {line}: {why}")).collect(),
     };
-    let mut line = Vec::new();
-    let mut line_no = 0usize;
-    let mut records = 0usize;
-    let mut last_t: Option<f64> = None;
-    let mut invalid_fixes = 0usize;
-    loop {
-        line.clear();
-        let n = (&mut reader)
-            .take(MAX_LINE_BYTES + 1)
-            .read_until(b'\n', &mut line)
-            .with_context(|| format!("reading {}", path.display()))?;
-        if n == 0 {
-            break;
-        }
-        line_no += 1;
-        let terminated = line.last() == Some(&b'\n');
-        if !terminated && line.len() as u64 > MAX_LINE_BYTES {
-            anyhow::bail!("{}:{line_no}: line longer than 1 MiB: not a session log", path.display());
-        }
-        let mut text = line.trim_ascii();
-        if line_no == 1 {
-            text = text.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(text);
-        }
-        if text.is_empty() {
-            continue;
-        }
-        let rec = match parse_session_line(text) {
-            Ok(Some(rec)) => rec,
-            Ok(None) => continue,
-            Err(e) if !terminated && records > 0 => {
-                log.rejected += 1;
-                log.warnings.push(format!("line {line_no} is cut off (the console stopped mid-write?): {e}"));
-                continue;
-            }
-            Err(e) => anyhow::bail!("{}:{line_no}: {e}", path.display()),
-        };
-        records += 1;
-        if let Some(p) = last_t
-            && rec.t_s < p - MAX_TIME_BACKSTEP_S
-        {
-            anyhow::bail!(
-                "{}:{line_no}: session time goes back from {p:.3} s to {:.3} s: several sessions appended \
-                 in one file? Split it at this line",
-                path.display(),
-                rec.t_s
-            );
-        }
-        last_t = Some(last_t.map_or(rec.t_s, |p| p.max(rec.t_s)));
+    if stats.skipped() + stats.invalid_mark_positions > stats.examples.len() {
+        log.warnings.push(format!(
+            "{} lines skipped and {} mark positions removed in all (the first {} named above)",
+            stats.skipped(),
+            stats.invalid_mark_positions,
+            stats.examples.len()
+        ));
+    }
+    for rec in records {
         match rec.entry {
-            LogEntry::Fix { lat_deg, lon_deg, .. } => match valid_pos(lat_deg, lon_deg) {
-                Ok(pos) => {
-                    if log.date.is_none() {
-                        log.date = iso_date(&rec.utc);
-                    }
-                    log.fixes.push(TimedFix { t_s: rec.t_s, pos });
+            LogEntry::Fix { lat_deg, lon_deg, .. } => {
+                // The reader has checked the position's range (`check_fix`).
+                let pos = LatLon::new(lat_deg, lon_deg);
+                if log.date.is_none() {
+                    log.date = iso_date(&rec.utc);
                 }
-                // One bad fix never poisons a log: it is skipped, counted and named.
-                Err(e) => {
-                    log.rejected += 1;
-                    invalid_fixes += 1;
-                    if invalid_fixes <= MAX_NAMED_INVALID {
-                        log.warnings.push(format!("line {line_no}: fix skipped: {e}"));
-                    }
-                }
-            },
+                log.fixes.push(TimedFix { t_s: rec.t_s, pos });
+            }
             LogEntry::Mark { label, lat_deg, lon_deg } => {
-                let pos = match (lat_deg, lon_deg) {
-                    (Some(la), Some(lo)) => match valid_pos(la, lo) {
-                        Ok(p) => Some(p),
-                        Err(e) => {
-                            log.warnings.push(format!("line {line_no}: mark kept without its position: {e}"));
-                            None
-                        }
-                    },
-                    _ => None,
-                };
+                let pos = lat_deg.zip(lon_deg).map(|(la, lo)| LatLon::new(la, lo));
                 let label =
                     if label.trim().is_empty() { format!("mark {}", log.marks.len() + 1) } else { label };
                 log.marks.push(LogMark { t_s: Some(rec.t_s), label, pos });
             }
             _ => {}
         }
-    }
-    if invalid_fixes > MAX_NAMED_INVALID {
-        log.warnings.push(format!(
-            "{invalid_fixes} fixes with an invalid position skipped in all (the first {MAX_NAMED_INVALID} named above)"
-        ));
     }
     // Records from different threads can be milliseconds out of order: the analysis wants time order.
     log.fixes.sort_by(|a, b| a.t_s.total_cmp(&b.t_s));

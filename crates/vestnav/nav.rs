@@ -6,8 +6,8 @@ use anyhow::Context as _;
 use clap::{Args, ValueEnum};
 use vestnav_core::geo::LatLon;
 use vestnav_core::gnss_sim::GnssErrorModel;
-use vestnav_core::guidance::{StrategyKind, Waypoint};
-use vestnav_core::wearer::{SimConfig, SimResult, SimSummary, simulate_many};
+use vestnav_core::guidance::{HeadingMode, StrategyKind, Waypoint};
+use vestnav_core::wearer::{HeadingSim, SimConfig, SimResult, SimSummary, simulate_many};
 use vestnav_report::nav::{NavReport, nav_figure};
 use vestnav_report::to_json;
 
@@ -33,6 +33,27 @@ pub enum GnssArg {
     Perfect,
 }
 
+/// Heading source of the simulated wearer's guidance on the command line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum HeadingArg {
+    /// The vest's compass only (turn-in-place cues while standing).
+    Compass,
+    /// COG when moving fast enough, else true heading, else compass (the rule before the compass).
+    Cog,
+    /// Compass when fresh and good, else true heading, else COG; COG while the compass seems disturbed.
+    Auto,
+}
+
+impl HeadingArg {
+    fn mode(self) -> HeadingMode {
+        match self {
+            Self::Compass => HeadingMode::Compass,
+            Self::Cog => HeadingMode::Cog,
+            Self::Auto => HeadingMode::Auto,
+        }
+    }
+}
+
 /// Arguments of `vestnav nav simulate`.
 #[derive(Debug, Args)]
 pub struct SimulateArgs {
@@ -51,6 +72,11 @@ pub struct SimulateArgs {
     /// Walking pace [m/s].
     #[arg(long, default_value_t = 1.4)]
     pub pace_m_s: f64,
+    /// Simulate the wearer's heading: start standing at a random heading, a compass with steel near the
+    /// route, guidance steering by this source. Several, comma-separated, are compared (e.g.
+    /// `compass,cog,auto`). Without it: the wearer walks from the start and guidance uses COG.
+    #[arg(long, value_enum, value_delimiter = ',')]
+    pub heading: Vec<HeadingArg>,
     /// GPS error model.
     #[arg(long, value_enum, default_value = "sirf3")]
     pub gnss: GnssArg,
@@ -92,7 +118,7 @@ fn strategies(arg: StrategyArg) -> Vec<StrategyKind> {
 }
 
 /// Builds the simulation settings from the arguments.
-fn config(args: &SimulateArgs, kind: StrategyKind) -> anyhow::Result<SimConfig> {
+fn config(args: &SimulateArgs, kind: StrategyKind, heading: Option<HeadingArg>) -> anyhow::Result<SimConfig> {
     let positive = |x: f64| x.is_finite() && x > 0.0;
     if !positive(args.pace_m_s) || args.pace_m_s > 10.0 {
         anyhow::bail!("--pace-m-s must be in (0, 10]");
@@ -114,6 +140,7 @@ fn config(args: &SimulateArgs, kind: StrategyKind) -> anyhow::Result<SimConfig> 
     c.route.rearm_radius_m = 1.5 * args.arrival_radius_m;
     c.route.pass_radius_m = 2.0 * args.arrival_radius_m;
     c.guidance.lookahead_m = args.lookahead_m;
+    c.heading = heading.map(|h| HeadingSim::new(h.mode()));
     Ok(c)
 }
 
@@ -125,14 +152,19 @@ pub fn run_simulate(args: &SimulateArgs) -> anyhow::Result<()> {
     }
     let waypoints = load_route(&args.route)?;
     let mut all: Vec<(SimSummary, Vec<SimResult>)> = Vec::new();
+    let headings: Vec<Option<HeadingArg>> =
+        if args.heading.is_empty() { vec![None] } else { args.heading.iter().copied().map(Some).collect() };
     for kind in strategies(args.strategy) {
-        let cfg = config(args, kind)?;
-        let (runs, summary) = simulate_many(&waypoints, &cfg, args.runs, args.seed)?;
-        all.push((summary, runs));
+        for &heading in &headings {
+            let cfg = config(args, kind, heading)?;
+            let (runs, summary) = simulate_many(&waypoints, &cfg, args.runs, args.seed)?;
+            all.push((summary, runs));
+        }
     }
     if args.json {
-        let report =
+        let mut report =
             NavReport::new(args.route.display().to_string(), waypoints.len(), args.runs, args.seed, &all);
+        report.pace_m_s = Some(args.pace_m_s);
         print!("{}", to_json(&report)?);
     } else {
         println!(
@@ -145,14 +177,33 @@ pub fn run_simulate(args: &SimulateArgs) -> anyhow::Result<()> {
             args.gnss
         );
         println!(
-            "{:<9} {:>8} {:>16} {:>16} {:>14} {:>10}",
-            "strategy", "finished", "xtrack RMSE [m]", "time [s]", "cues/min", "missed"
+            "{:<9} {:<8} {:>8} {:>18} {:>16} {:>16} {:>14} {:>10}",
+            "strategy",
+            "heading",
+            "finished",
+            "face wp [s]",
+            "xtrack RMSE [m]",
+            "time [s]",
+            "cues/min",
+            "missed"
         );
         for (s, _) in &all {
+            let face = if s.faced_rate > 0.0 {
+                format!(
+                    "{:>5.1} ± {:<4.1} {:>3.0}%",
+                    s.time_to_face_s.mean,
+                    s.time_to_face_s.sd,
+                    100.0 * s.faced_rate
+                )
+            } else {
+                "never".to_owned()
+            };
             println!(
-                "{:<9} {:>7.0}% {:>7.2} ± {:<6.2} {:>7.0} ± {:<6.0} {:>6.1} ± {:<5.1} {:>4.2} ± {:.2}",
+                "{:<9} {:<8} {:>7.0}% {:>18} {:>7.2} ± {:<6.2} {:>7.0} ± {:<6.0} {:>6.1} ± {:<5.1} {:>4.2} ± {:.2}",
                 s.strategy,
+                s.heading_mode.as_deref().unwrap_or("-"),
                 100.0 * s.finish_rate,
+                face,
                 s.cross_track_rmse_m.mean,
                 s.cross_track_rmse_m.sd,
                 s.time_s.mean,

@@ -183,7 +183,9 @@ fn decode_stream(mut reader: impl Read, out: &mut impl Write, json: bool) -> any
             match ev {
                 GpsEvent::Fix(f) => write_fix(out, &f, json)?,
                 GpsEvent::Mark(m) => write_mark(out, &m, json)?,
-                GpsEvent::Stats(_) | GpsEvent::State(_) | GpsEvent::Notice(_) => {}
+                // `nmea decode` prints one line per epoch; HDG compass readings (GpsEvent::Attitude) are
+                // counted in the stats but not printed.
+                GpsEvent::Attitude(_) | GpsEvent::Stats(_) | GpsEvent::State(_) | GpsEvent::Notice(_) => {}
             }
         }
     }

@@ -7,7 +7,9 @@ use std::io::Cursor;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use vestnav_core::vest::{Frame, Pattern, TactorMask};
-use vestnav_device::session_log::{LogEntry, LogRecord, MAX_LINE_BYTES, check_fix, read_log, read_log_from};
+use vestnav_device::session_log::{
+    LogEntry, LogRecord, MAX_LINE_BYTES, ReadMode, check_fix, read_log, read_log_from,
+};
 use vestnav_device::wtcu::{CommandOrigin, VestCommand};
 
 use crate::harness::{self, Counts, Known, Rng, add, bump};
@@ -108,12 +110,15 @@ fn expected(input: &[u8]) -> (usize, usize, usize, usize) {
     if parts.last().is_some_and(|p| p.is_empty()) {
         parts.pop();
     }
-    for p in parts {
+    for (i, p) in parts.into_iter().enumerate() {
         lines += 1;
         if p.len() > MAX_LINE_BYTES {
             long += 1;
             continue;
         }
+        // A byte-order mark opening the file is not part of the first record.
+        let trimmed = p.trim_ascii();
+        let p = if i == 0 { trimmed.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(trimmed) } else { trimmed };
         if p.iter().all(u8::is_ascii_whitespace) {
             continue;
         }
@@ -134,7 +139,13 @@ fn expected(input: &[u8]) -> (usize, usize, usize, usize) {
 
 fn check(input: &[u8], counts: &mut Counts) -> Result<(), String> {
     let (records, stats) =
-        read_log_from(Cursor::new(input)).map_err(|(l, e)| format!("io error at {l}: {e}"))?;
+        read_log_from(Cursor::new(input), ReadMode::Lenient).map_err(|e| format!("reader error: {e:?}"))?;
+    // The strict reader refuses more but never keeps anything else: when it accepts, it keeps the same.
+    if let Ok((strict, _)) = read_log_from(Cursor::new(input), ReadMode::Strict)
+        && strict != records
+    {
+        return Err(format!("strict kept {} records, lenient {}", strict.len(), records.len()));
+    }
     let (lines, long, kept, invalid) = expected(input);
     if (stats.lines, stats.long_lines, records.len(), stats.invalid_fix_count())
         != (lines, long, kept, invalid)

@@ -1,6 +1,6 @@
 //! Target 3: the WTCU protocol, both sides.
 //!
-//! - `wtcu-codec`: `V1Codec::decode_requests` / `decode_replies` on streams of valid frames, frames with a
+//! - `wtcu-codec`: `FrameCodec::decode_requests` / `decode_replies` on streams of valid frames, frames with a
 //!   valid CRC around hostile headers and payloads, mutated frames, garbage and overlong runs;
 //! - `wtcu-engine`: the unit side (`Engine::handle_bytes`) driven by a fuzzed script of requests, garbage and
 //!   clock steps (a simulated clock that honours `poll_timeout`), checking the safety limits on what the
@@ -16,7 +16,7 @@ use std::time::{Duration, Instant};
 
 use proptest::prelude::*;
 use vestnav_core::vest::{Frame, Pattern, TACTOR_COUNT, TactorMask};
-use vestnav_device::wtcu::codec::{CRC16, MAX_ENCODED, V1Codec, WireCodec, cobs_encode};
+use vestnav_device::wtcu::codec::{CRC16, FrameCodec, MAX_ENCODED, WireCodec, cobs_encode};
 use vestnav_device::wtcu::engine::{Engine, EngineConfig};
 use vestnav_device::wtcu::limits::Limits;
 use vestnav_device::wtcu::link::{Link, LinkConfig, LinkState};
@@ -156,7 +156,7 @@ fn raw_frame(c: &mut Choices) -> Vec<u8> {
 
 /// One piece of a byte stream to a decoder.
 fn stream_item(c: &mut Choices, to_unit: bool) -> Vec<u8> {
-    let codec = V1Codec::new();
+    let codec = FrameCodec::with_max_version(1);
     match c.below(10) {
         0..=2 if to_unit => {
             let seq = c.u8();
@@ -199,7 +199,7 @@ fn codec_check(input: &[u8], counts: &mut Counts) -> Result<(), String> {
     let zeros = input.split(|&b| b == 0).count() - 1;
     let bound = zeros + input.len() / MAX_ENCODED + 1;
     let mut rng = Rng::new(input.len() as u64 ^ 0x55);
-    let (mut req_codec, mut rep_codec) = (V1Codec::new(), V1Codec::new());
+    let (mut req_codec, mut rep_codec) = (FrameCodec::new(), FrameCodec::new());
     let (mut requests, mut replies) = (Vec::new(), Vec::new());
     let mut rest = input;
     while !rest.is_empty() {
@@ -211,20 +211,23 @@ fn codec_check(input: &[u8], counts: &mut Counts) -> Result<(), String> {
     if requests.len() > bound || replies.len() > bound {
         return Err(format!("decode results unbounded: {} / {} for {bound}", requests.len(), replies.len()));
     }
-    let codec = V1Codec::new();
+    // Re-encoded in the version each frame came in.
+    let mut codec = FrameCodec::new();
     for p in requests.iter().flatten() {
+        codec.set_version(p.version);
         let again =
             codec.encode_request(p.seq, &p.message).map_err(|e| format!("decoded request re-encode: {e}"))?;
         let mut out = Vec::new();
-        V1Codec::new().decode_requests(&again, &mut out);
+        FrameCodec::new().decode_requests(&again, &mut out);
         if out != vec![Ok(p.clone())] {
             return Err(format!("request does not round trip: {p:?} -> {out:?}"));
         }
     }
     for p in replies.iter().flatten() {
+        codec.set_version(p.version);
         let again = codec.encode_reply(p.seq, &p.message);
         let mut out = Vec::new();
-        V1Codec::new().decode_replies(&again, &mut out);
+        FrameCodec::new().decode_replies(&again, &mut out);
         if out != vec![Ok(p.clone())] {
             return Err(format!("reply does not round trip: {p:?} -> {out:?}"));
         }
@@ -265,7 +268,7 @@ struct Unit {
     config: EngineConfig,
     /// What the unit drove, as (from, mask) steps.
     timeline: Vec<(Instant, TactorMask)>,
-    tap: V1Codec,
+    tap: FrameCodec,
     to_console: Vec<u8>,
 }
 
@@ -275,7 +278,7 @@ impl Unit {
             engine: Engine::new(config),
             config,
             timeline: vec![(t0, TactorMask::NONE)],
-            tap: V1Codec::new(),
+            tap: FrameCodec::new(),
             to_console: Vec::new(),
         }
     }
@@ -419,7 +422,7 @@ fn engine_check(input: &[u8], counts: &mut Counts) -> Result<(), String> {
     let t0 = Instant::now();
     let mut t = t0;
     let mut unit = Unit::new(engine_config(&mut c), t0);
-    let codec = V1Codec::new();
+    let codec = FrameCodec::with_max_version(1);
     let mut steps = 0;
     while !c.is_empty() && steps < 400 {
         steps += 1;
@@ -505,8 +508,8 @@ fn link_check(input: &[u8], counts: &mut Counts) -> Result<(), String> {
     let config = LinkConfig::default();
     let mut link = Link::new(config);
     let mut unit = Unit::new(engine_config(&mut c), t0);
-    let codec = V1Codec::new();
-    let mut tap = V1Codec::new();
+    let codec = FrameCodec::with_max_version(1);
+    let mut tap = FrameCodec::new();
     let mut to_unit: Vec<u8> = Vec::new();
     let mut last_seq = 0u8;
     let mut sent_frames = 0u64;
@@ -524,7 +527,7 @@ fn link_check(input: &[u8], counts: &mut Counts) -> Result<(), String> {
             tap.decode_requests(&frame, &mut out);
             for r in &out {
                 match r {
-                    Ok(Packet { seq, message }) => {
+                    Ok(Packet { seq, message, .. }) => {
                         last_seq = *seq;
                         if matches!(message, Request::Fire { mask, .. } if !mask.is_empty())
                             || matches!(message, Request::Play { .. })
@@ -661,17 +664,17 @@ proptest! {
     #[test]
     fn arbitrary_messages_round_trip(seq in any::<u8>(), choices in prop::collection::vec(any::<u8>(), 0..300)) {
         let mut c = Choices::new(&choices);
-        let codec = V1Codec::new();
+        let codec = FrameCodec::with_max_version(1);
         let req = request(&mut c);
         if let Ok(bytes) = codec.encode_request(seq, &req) {
             let mut out = Vec::new();
-            V1Codec::new().decode_requests(&bytes, &mut out);
-            prop_assert_eq!(out, vec![Ok(Packet { seq, message: req })]);
+            FrameCodec::new().decode_requests(&bytes, &mut out);
+            prop_assert_eq!(out, vec![Ok(Packet { version: 1, seq, message: req })]);
         }
         let rep = reply(&mut c);
         let bytes = codec.encode_reply(seq, &rep);
         let mut out = Vec::new();
-        V1Codec::new().decode_replies(&bytes, &mut out);
-        prop_assert_eq!(out, vec![Ok(Packet { seq, message: rep })]);
+        FrameCodec::new().decode_replies(&bytes, &mut out);
+        prop_assert_eq!(out, vec![Ok(Packet { version: 1, seq, message: rep })]);
     }
 }

@@ -9,7 +9,7 @@
 //!   runs `Guidance::update` (pursuit) and hands the decided cue to the vest worker;
 //! - the vest worker on the slave of a second PTY pair, with the WTCU engine served on its master
 //!   (`emulator::serve`, so the handshake, ACKs and heartbeats are the real ones). A tap between the master
-//!   and the engine timestamps every read and decodes the console's bytes with its own `V1Codec`.
+//!   and the engine timestamps every read and decodes the console's bytes with its own `FrameCodec`.
 //!
 //! Each measured epoch moves the walker 1.4 m up a northbound leg and flips its course over ground between
 //! 90° and 270°, so the bearing error flips between -90° and +90° and every epoch asks for a new cue
@@ -39,7 +39,7 @@ use vestnav_device::gps::SourceState;
 use vestnav_device::gps::nmea_out::{EpochOut, SimSatellite, epoch_sentences};
 use vestnav_device::serial::Pty as GpsPty;
 use vestnav_device::wtcu::LinkState;
-use vestnav_device::wtcu::codec::{DecodeError, V1Codec, WireCodec};
+use vestnav_device::wtcu::codec::{DecodeError, FrameCodec, WireCodec};
 use vestnav_device::wtcu::emulator::{EmulatorControl, Pty as VestPty, serve};
 use vestnav_device::wtcu::engine::{Engine, EngineConfig, EngineEvent};
 use vestnav_device::wtcu::message::{CommandKind, Packet, Request};
@@ -88,7 +88,7 @@ struct UnitCounts {
 /// Reads the vest PTY's master for the engine, timestamping and decoding the console's bytes on the way.
 struct Tap<'a, P: Read + Write> {
     port: &'a mut P,
-    codec: V1Codec,
+    codec: FrameCodec,
     decoded: Vec<Result<Packet<Request>, DecodeError>>,
     last_play_seq: Option<u8>,
     plays: Sender<UnitPlay>,
@@ -205,7 +205,7 @@ fn nmea_fix_to_vest_play_latency_p50_p99() {
                 let mut engine = Engine::new(EngineConfig::default());
                 let mut tap = Tap {
                     port: &mut master,
-                    codec: V1Codec::new(),
+                    codec: FrameCodec::new(),
                     decoded: Vec::new(),
                     last_play_seq: None,
                     plays: play_tx,

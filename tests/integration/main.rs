@@ -10,3 +10,5 @@ mod safety;
 mod sim_tactor;
 mod sim_wave;
 mod wtcu;
+mod wtcu_pair;
+mod wtcu_v2;

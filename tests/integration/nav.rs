@@ -490,3 +490,73 @@ fn fieldtest_json_is_the_report_schema_of_its_track() {
     }
     let _ = std::fs::remove_file(path);
 }
+
+/// The demo route's points, read straight from the GPX text (`lat="…" lon="…"`), independently of the
+/// route loader.
+fn demo_route_points() -> Vec<LatLon> {
+    let text = std::fs::read_to_string(root().join("assets/routes/demo.gpx")).unwrap();
+    let attr = |tag: &str, name: &str| -> f64 {
+        let start = tag.find(&format!("{name}=\"")).unwrap() + name.len() + 2;
+        tag[start..].split('"').next().unwrap().parse().unwrap()
+    };
+    text.split("<rtept").skip(1).map(|tag| LatLon::new(attr(tag, "lat"), attr(tag, "lon"))).collect()
+}
+
+#[test]
+fn slow_walker_with_the_compass_finishes_the_demo_route_where_cog_alone_cannot() {
+    let route = root().join("assets/routes/demo.gpx");
+    let sim = |pace: &str, heading: &str| {
+        json(&[
+            "nav",
+            "simulate",
+            "--route",
+            route.to_str().unwrap(),
+            "--heading",
+            heading,
+            "--pace-m-s",
+            pace,
+            "--gnss",
+            "sirf3-no-static",
+            "--runs",
+            "3",
+            "--seed",
+            "7",
+            "--json",
+        ])
+    };
+    let pts = demo_route_points();
+    let length_m: f64 = pts.windows(2).map(|w| Earth::Wgs84.distance_m(w[0], w[1])).sum();
+    let slow = sim("0.5", "compass,cog");
+    assert_relative_eq!(slow["pace_m_s"].as_f64().unwrap(), 0.5);
+    let entries = slow["strategies"].as_array().unwrap();
+    assert_eq!(entries.len(), 2);
+    let (compass, cog) = (&entries[0], &entries[1]);
+    assert_eq!(compass["summary"]["heading_mode"], "compass");
+    assert_eq!(cog["summary"]["heading_mode"], "cog");
+    for run in compass["runs"].as_array().unwrap() {
+        assert_eq!(run["finished"], true, "{run}");
+        assert_eq!(run["waypoints_missed"], 0, "{run}");
+        assert_eq!(run["waypoints_reached"].as_u64().unwrap() as usize, pts.len(), "{run}");
+        // No faster than walking the route at 0.5 m/s, less an arrival radius at each end.
+        let t = run["time_s"].as_f64().unwrap();
+        assert!(t > (length_m - 2.0 * 8.0) / 0.5, "{t} s for {length_m} m: {run}");
+        // It came to face the first waypoint, before finishing; COG was never used.
+        let face = run["time_to_face_s"].as_f64().unwrap();
+        assert!((0.0..t).contains(&face), "{run}");
+        let sources = run["heading_source_s"].as_object().unwrap();
+        assert!(!sources.contains_key("COG"), "{run}");
+        assert!(sources["compass"].as_f64().unwrap() > 0.9 * t, "{run}");
+    }
+    // COG alone below the 0.8 m/s COG threshold: never a heading, never finished.
+    assert_relative_eq!(cog["summary"]["finish_rate"].as_f64().unwrap(), 0.0);
+    for run in cog["runs"].as_array().unwrap() {
+        let sources = run["heading_source_s"].as_object().unwrap();
+        assert_eq!(sources.keys().collect::<Vec<_>>(), vec!["none"], "{run}");
+        assert!(run["waypoints_missed"].as_u64().unwrap() > 0, "{run}");
+    }
+    // The issue's goal: tracking at 0.5 m/s with the compass within 1.5x of a normal 1.4 m/s walk.
+    let fast = sim("1.4", "compass");
+    let rmse = |v: &serde_json::Value| v["summary"]["cross_track_rmse_m"]["mean"].as_f64().unwrap();
+    let (slow_rmse, fast_rmse) = (rmse(compass), rmse(&fast["strategies"][0]));
+    assert!(slow_rmse <= 1.5 * fast_rmse, "0.5 m/s: {slow_rmse} m, 1.4 m/s: {fast_rmse} m");
+}

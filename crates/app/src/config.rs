@@ -90,6 +90,10 @@ pub struct Config {
     pub user_patterns: Vec<Pattern>,
     /// Directory of session logs; `None` = the platform data directory.
     pub log_dir: Option<PathBuf>,
+    /// Which heading steers guidance: auto (a fresh, good compass, else COG), compass only, or COG only.
+    pub heading_mode: vestnav_core::guidance::HeadingMode,
+    /// Compass calibrations by unit (its port, or "emulated"), sent to the unit when it connects.
+    pub compass_calibrations: std::collections::BTreeMap<String, vestnav_core::compass::Calibration>,
 }
 
 impl Default for Config {
@@ -112,6 +116,8 @@ impl Default for Config {
             lost_after_s: 10.0,
             user_patterns: Vec::new(),
             log_dir: None,
+            heading_mode: vestnav_core::guidance::HeadingMode::Auto,
+            compass_calibrations: std::collections::BTreeMap::new(),
         }
     }
 }

@@ -21,10 +21,10 @@ use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use egui::{Color32, RichText};
 use vestnav_core::guidance::StrategyKind;
 use vestnav_core::vest::{Cue, TactorMask};
 use vestnav_device::gps::{DecodeStats, Fix, GpsEvent, SourceState};
+use vestnav_device::heading::Attitude;
 use vestnav_device::outbox::{Outbox, Overflow, Waker, drain_within};
 use vestnav_device::wtcu::worker::{Heartbeat, VestStopper, Watched};
 use vestnav_device::wtcu::{
@@ -33,11 +33,13 @@ use vestnav_device::wtcu::{
 
 use crate::config::{Config, GpsSourceConfig, GpsSpec, VestSourceConfig};
 use crate::devices::{DeviceFactory, GpsWorker};
-use crate::fieldtest_panel::{FieldTestAction, FieldTestPanel};
+use crate::fieldtest_panel::FieldTestPanel;
 use crate::guidance::{GuidanceInput, GuidanceSettings, GuidanceStatus};
 use crate::map_panel::MapView;
 use crate::sim_panel::SimPanel;
 use vestnav_device::session_log::{LogEntry, LogSender, SessionLog};
+
+mod frame;
 
 /// Time the UI may spend per frame draining worker events.
 const DRAIN_BUDGET: Duration = Duration::from_millis(2);
@@ -76,6 +78,8 @@ pub struct GpsView {
     pub notice: Option<String>,
     /// The decoder's latest counts of accepted and rejected input.
     pub stats: Option<DecodeStats>,
+    /// Latest heading reading from the GPS input (an NMEA compass's HDG, gpsd's ATT).
+    pub attitude: Option<Attitude>,
     /// When the operator silenced the alarm (it re-arms on the next good fix).
     pub alarm_silenced: bool,
     /// Editor state of the source picker.
@@ -123,6 +127,8 @@ pub struct VestView {
     pub last_reply: Option<VestReply>,
     /// Why automatic cues are latched off, when they are (STOP ALL, a stalled thread).
     pub halted: Option<String>,
+    /// Latest reading of the unit's heading stream (protocol v2), timed by its arrival.
+    pub heading: Option<Attitude>,
     /// Tactors selected for a multi-fire.
     pub selected: TactorMask,
     /// Multi-select mode: clicks select instead of firing.
@@ -253,6 +259,8 @@ pub struct Console {
     route_pending: bool,
     gps_worker: Option<Box<dyn GpsWorker>>,
     vest_link: Option<Arc<VestHandle>>,
+    /// The compass calibration wizard.
+    pub compass_wizard: crate::compass_panel::Wizard,
     ui_beat: Option<Heartbeat>,
     exit: ExitGuard,
     log: Option<SessionLog>,
@@ -365,6 +373,7 @@ impl Console {
             route_pending: true,
             gps_worker: None,
             vest_link: None,
+            compass_wizard: crate::compass_panel::Wizard::default(),
             ui_beat: None,
             exit,
             log,
@@ -402,7 +411,9 @@ impl Console {
         let mut outputs = vec![self.gps_ui.clone()];
         let guidance = Outbox::mapped(
             self.guidance_tx.clone(),
-            |ev: GpsEvent| matches!(ev, GpsEvent::Fix(_)).then_some(GuidanceInput::Gps(ev)),
+            |ev: GpsEvent| {
+                matches!(ev, GpsEvent::Fix(_) | GpsEvent::Attitude(_)).then_some(GuidanceInput::Gps(ev))
+            },
             None,
         );
         outputs.push(guidance);
@@ -439,8 +450,14 @@ impl Console {
         outputs.push(Outbox::mapped(
             self.guidance_tx.clone(),
             |ev: VestEvent| {
-                matches!(ev, VestEvent::State(_) | VestEvent::Halted { .. } | VestEvent::Resumed)
-                    .then_some(GuidanceInput::Vest(ev))
+                matches!(
+                    ev,
+                    VestEvent::State(_)
+                        | VestEvent::Halted { .. }
+                        | VestEvent::Resumed
+                        | VestEvent::Heading(_)
+                )
+                .then_some(GuidanceInput::Vest(ev))
             },
             None,
         ));
@@ -502,6 +519,12 @@ impl Console {
             return;
         }
         let _ = self.guidance_tx.try_send(GuidanceInput::ManualOverride(cue));
+        self.send_device(command);
+    }
+
+    /// Sends a command as the operator's and logs it, without holding automatic guidance off (what
+    /// [`Self::send_manual`] adds): the heading stream and calibration commands go this way.
+    pub fn send_device(&mut self, command: VestCommand) {
         let Some(link) = &self.vest_link else {
             self.refused(format!("{} not sent: no vest connected", command.describe()));
             return;
@@ -621,6 +644,7 @@ impl Console {
                 self.gps.notice = Some(format!("mark {} {} in the input", m.number, m.label));
             }
             GpsEvent::Notice(n) => self.gps.notice = Some(n),
+            GpsEvent::Attitude(a) => self.gps.attitude = Some(a),
         });
         for f in fixes {
             if f.has_position()
@@ -664,10 +688,15 @@ impl Console {
                 }
                 if matches!(s, LinkState::Lost { .. } | LinkState::Disconnected) {
                     self.vest.device = None;
+                    self.vest.heading = None;
                 }
                 self.vest.state = Some(s);
             }
-            VestEvent::Identified(info) => self.vest.device = Some(info),
+            VestEvent::Identified(info) => {
+                self.vest.device = Some(info);
+                self.vest.heading = None;
+                crate::compass_panel::on_identified(self);
+            }
             VestEvent::TactorsOn(m) => self.vest.tactors_on = m,
             VestEvent::Acked { seq, kind } => {
                 self.vest.last_reply =
@@ -698,6 +727,10 @@ impl Console {
                 self.vest.halted = Some(reason);
             }
             VestEvent::Resumed => self.vest.halted = None,
+            VestEvent::Heading(a) => {
+                self.compass_wizard.push(&a);
+                self.vest.heading = Some(a);
+            }
         }
     }
 
@@ -708,82 +741,6 @@ impl Console {
             b.beat();
         }
         self.pump();
-    }
-
-    /// Draws one frame (also the entry point of the kittest tests).
-    #[allow(clippy::too_many_lines)] // the frame's layout in one place: panels in the order they are drawn
-    pub fn ui(&mut self, ui: &mut egui::Ui) {
-        self.tick();
-        let now = Instant::now();
-        let anim_s = ui.input(|i| i.time);
-        self.handle_keys(ui);
-
-        egui::Panel::top("vestnav-top").show(ui, |ui| self.top_bar(ui, now));
-        egui::Panel::bottom("vestnav-status").show(ui, |ui| {
-            ui.horizontal(|ui| {
-                ui.label(RichText::new(&self.status).small());
-                if let Some(p) = self.log_path() {
-                    ui.with_layout(egui::Layout::right_to_left(egui::Align::Center), |ui| {
-                        ui.label(RichText::new(format!("log: {}", p.display())).small().weak());
-                    });
-                }
-            });
-        });
-        egui::Panel::left("vestnav-side").default_size(360.0).min_size(300.0).show(ui, |ui| {
-            egui::ScrollArea::vertical().show(ui, |ui| {
-                egui::CollapsingHeader::new("GPS").default_open(true).show(ui, |ui| {
-                    crate::gps_panel::show(self, ui, now, anim_s);
-                });
-                egui::CollapsingHeader::new("Vest").default_open(true).show(ui, |ui| {
-                    crate::vest_panel::show(self, ui);
-                });
-                egui::CollapsingHeader::new("Guidance").default_open(true).show(ui, |ui| {
-                    self.guidance_ui(ui);
-                });
-            });
-        });
-        egui::CentralPanel::default().show(ui, |ui| match self.tab {
-            Tab::Map => {
-                let fix = self.gps.last_position.clone();
-                let walking = self.cfg.walking_speed_m_s;
-                let changed = self.map.ui(
-                    ui,
-                    fix.as_ref(),
-                    self.guidance.as_ref(),
-                    walking,
-                    &mut self.cfg,
-                    &mut self.status,
-                );
-                if changed {
-                    self.push_route();
-                }
-            }
-            Tab::Simulation => self.sim_panel.ui(ui),
-            Tab::FieldTests => {
-                if let Some(FieldTestAction::Mark { label }) = self.field_panel.ui(ui) {
-                    self.mark(&label);
-                }
-            }
-            Tab::SessionLog => {
-                let dir = self.log_dir();
-                let current = self.log.as_ref().map(|l| l.path().to_path_buf());
-                self.log_viewer.ui(ui, &dir, current.as_deref(), &mut self.map);
-            }
-        });
-
-        // Every settings change of the frame reaches guidance here, once.
-        if self.cfg != self.cfg_saved {
-            if self.cfg.guidance_auto && !self.cfg_saved.guidance_auto {
-                // Ticking automatic cues back on is the operator's deliberate resume (it pushes the settings).
-                self.resume_guidance();
-            } else {
-                self.push_settings();
-            }
-            self.save_config();
-        }
-        // Fix ages and alarms change with time even when no event arrives; the frame is also the UI's
-        // heartbeat.
-        ui.ctx().request_repaint_after(Duration::from_millis(250));
     }
 
     fn log_dir(&self) -> PathBuf {
@@ -806,156 +763,11 @@ impl Console {
             self.status = format!("cannot save settings to {}: {e}", p.display());
         }
     }
-
-    fn handle_keys(&mut self, ui: &egui::Ui) {
-        let typing = ui.ctx().text_edit_focused();
-        // STOP ALL has its own key; Esc is left to close menus and pop-ups, as everywhere else.
-        let space = ui.input(|i| i.key_pressed(egui::Key::Space));
-        if space && !typing {
-            self.stop_all();
-        }
-        let m = ui.input(|i| i.key_pressed(egui::Key::M));
-        if m && !typing && self.tab != Tab::FieldTests {
-            let n = self.map.marks + 1;
-            self.map.marks = n;
-            self.mark(&format!("mark {n}"));
-        }
-    }
-
-    fn top_bar(&mut self, ui: &mut egui::Ui, now: Instant) {
-        ui.horizontal(|ui| {
-            let stop = egui::Button::new(RichText::new("STOP ALL").strong().size(18.0).color(Color32::WHITE))
-                .fill(Color32::from_rgb(200, 30, 30))
-                .min_size(egui::vec2(120.0, 30.0));
-            if ui
-                .add(stop)
-                .on_hover_text("Every tactor off, automatic guidance halted (key: Space)")
-                .clicked()
-            {
-                self.stop_all();
-            }
-            ui.separator();
-            let alarm = self.gps_alarm(now);
-            let (gps_text, gps_color) = match &alarm {
-                Some(GpsAlarm::Lost { .. }) => ("GPS: FIX LOST".to_owned(), Color32::from_rgb(230, 40, 40)),
-                Some(GpsAlarm::Stale { .. }) => ("GPS: STALE".to_owned(), Color32::from_rgb(230, 150, 0)),
-                None => (
-                    format!("GPS: {}", crate::gps_panel::state_label(self.gps.state.as_ref())),
-                    gps_color(self.gps.state.as_ref()),
-                ),
-            };
-            ui.label(RichText::new(gps_text).color(gps_color).strong());
-            ui.separator();
-            ui.label(
-                RichText::new(format!("Vest: {}", self.vest.label()))
-                    .color(vest_color(self.vest.state.as_ref()))
-                    .strong(),
-            );
-            ui.separator();
-            let (g, color) = match (&self.vest.halted, self.cfg.guidance_auto) {
-                (Some(_), _) => ("Guidance: HALTED", Color32::from_rgb(230, 40, 40)),
-                (None, true) => ("Guidance: AUTO", ui.visuals().text_color()),
-                (None, false) => ("Guidance: manual", ui.visuals().text_color()),
-            };
-            ui.label(RichText::new(g).color(color).strong());
-            ui.separator();
-            ui.selectable_value(&mut self.tab, Tab::Map, "Map");
-            ui.selectable_value(&mut self.tab, Tab::Simulation, "Simulation");
-            ui.selectable_value(&mut self.tab, Tab::FieldTests, "Field tests");
-            ui.selectable_value(&mut self.tab, Tab::SessionLog, "Session log");
-        });
-    }
-
-    fn guidance_ui(&mut self, ui: &mut egui::Ui) {
-        if let Some(why) = self.vest.halted.clone() {
-            ui.label(
-                RichText::new(format!("Automatic cues halted: {why}")).color(Color32::from_rgb(230, 40, 40)),
-            );
-            if ui.button("Resume automatic cues").clicked() {
-                self.resume_guidance();
-            }
-        }
-        // The controls edit `cfg`; the end of the frame hands every change to guidance, once (ticking
-        // automatic cues on is the resume).
-        ui.horizontal(|ui| {
-            ui.checkbox(&mut self.cfg.guidance_auto, "Automatic cues");
-            ui.checkbox(&mut self.cfg.loop_route, "Loop route");
-        });
-        egui::ComboBox::from_label("Strategy").selected_text(self.cfg.strategy.clone()).show_ui(ui, |ui| {
-            for k in StrategyKind::ALL {
-                ui.selectable_value(&mut self.cfg.strategy, k.name().to_owned(), k.name());
-            }
-        });
-        ui.add(
-            egui::Slider::new(&mut self.cfg.arrival_radius_m, 2.0..=50.0).suffix(" m").text("Arrival radius"),
-        );
-        ui.add(egui::Slider::new(&mut self.cfg.cue_interval_s, 1.0..=30.0).suffix(" s").text("Cue interval"));
-        ui.add(egui::Slider::new(&mut self.cfg.manual_hold_s, 0.0..=60.0).suffix(" s").text("Manual hold"));
-        match &self.guidance {
-            None => {
-                ui.label("waiting for the first fix");
-            }
-            Some(st) => {
-                if let Some(hold) = &st.hold {
-                    ui.label(
-                        RichText::new(format!("On hold: {hold}"))
-                            .color(Color32::from_rgb(230, 150, 0))
-                            .strong(),
-                    );
-                }
-                let cue = st.cue.map_or("none", Cue::name);
-                let sent = if st.sent { "sent" } else { "not sent now" };
-                ui.label(RichText::new(format!("Cue: {cue} ({sent}) · {}", st.state)).strong());
-                ui.label(&st.reason);
-                let n = |v: Option<f64>, u: &str| v.map_or_else(|| "—".to_owned(), |v| format!("{v:.0}{u}"));
-                ui.label(format!(
-                    "distance {} · bearing error {} · cross-track {} · heading from {}",
-                    n(st.distance_m, " m"),
-                    n(st.bearing_error_deg, "°"),
-                    st.cross_track_m.map_or_else(|| "—".to_owned(), |x| format!("{x:+.1} m")),
-                    st.heading_source
-                ));
-                if st.finished {
-                    ui.label(RichText::new("Route finished").color(Color32::from_rgb(40, 160, 60)));
-                }
-            }
-        }
-        ui.horizontal(|ui| {
-            if ui.button("< Previous waypoint").clicked() && self.map.next > 0 {
-                self.map.next -= 1;
-                self.push_route();
-            }
-            if ui.button("Next waypoint >").clicked() && self.map.next < self.map.waypoints.len() {
-                self.map.next += 1;
-                self.push_route();
-            }
-        });
-    }
 }
 
 impl Drop for Console {
     fn drop(&mut self) {
         self.shutdown();
-    }
-}
-
-fn vest_color(s: Option<&LinkState>) -> Color32 {
-    match s {
-        Some(LinkState::Ready) => Color32::from_rgb(40, 170, 60),
-        Some(LinkState::Connecting { .. } | LinkState::Handshaking) => Color32::from_rgb(220, 150, 0),
-        Some(LinkState::Lost { .. }) => Color32::from_rgb(230, 40, 40),
-        Some(LinkState::Disconnected) | None => Color32::GRAY,
-    }
-}
-
-fn gps_color(s: Option<&SourceState>) -> Color32 {
-    match s {
-        Some(SourceState::Live { .. }) => Color32::from_rgb(40, 170, 60),
-        Some(SourceState::Connecting { .. } | SourceState::Stale | SourceState::Reconnecting { .. }) => {
-            Color32::from_rgb(220, 150, 0)
-        }
-        Some(SourceState::Lost { .. }) => Color32::from_rgb(230, 40, 40),
-        Some(SourceState::Finished | SourceState::Stopped) | None => Color32::GRAY,
     }
 }
 
@@ -969,6 +781,7 @@ fn guidance_settings(cfg: &Config) -> GuidanceSettings {
         on_ms: cfg.on_ms,
         loop_route: cfg.loop_route,
         strategy: StrategyKind::from_name(&cfg.strategy).unwrap_or(StrategyKind::Pursuit),
+        heading_mode: cfg.heading_mode,
     }
 }
 
@@ -987,6 +800,7 @@ fn gps_log_entry(ev: &GpsEvent) -> Option<LogEntry> {
             Some(LogEntry::Note { text: format!("gps {}", crate::gps_panel::state_label(Some(s))) })
         }
         GpsEvent::Notice(n) => Some(LogEntry::Note { text: format!("gps: {n}") }),
+        GpsEvent::Attitude(a) => Some(LogEntry::heading(a)),
         _ => None,
     }
 }
@@ -1009,6 +823,7 @@ fn vest_log_entry(ev: &VestEvent) -> Option<LogEntry> {
                 info.protocol_version, info.firmware, info.tactor_count, info.watchdog_ms
             ),
         },
+        VestEvent::Heading(a) => LogEntry::heading(a),
         VestEvent::TactorsOn(None) | VestEvent::Status(_) => return None,
     })
 }

@@ -6,6 +6,7 @@ use std::time::Instant;
 
 use egui::{Color32, RichText, Stroke, vec2};
 use vestnav_device::gps::{Fix, FixMode, Satellite, SourceState};
+use vestnav_device::heading::{Attitude, HeadingOrigin, HeadingReference};
 use vestnav_device::serial::{PortInfo, PortKind};
 
 use crate::config::GpsSourceConfig;
@@ -171,6 +172,13 @@ pub fn show(c: &mut Console, ui: &mut egui::Ui, now: Instant, anim_s: f64) {
         ui.ctx().request_repaint_after(std::time::Duration::from_millis(250));
     }
 
+    if let Some(a) = &c.gps.attitude {
+        let (text, stale) = attitude_line(a, now, c.cfg.stale_after_s);
+        // Stale like a stale fix: the same limit and the same orange.
+        let color = if stale { Color32::from_rgb(220, 140, 0) } else { ui.visuals().text_color() };
+        ui.label(RichText::new(text).color(color));
+    }
+
     let Some(fix) = c.gps.fix.clone() else {
         ui.label("no fix yet");
         return;
@@ -273,6 +281,29 @@ fn picker_ui(c: &mut Console, ui: &mut egui::Ui) {
             });
         }
     }
+}
+
+/// The GPS input's latest heading reading (HDG compass or gpsd ATT) as one line, and whether it is stale
+/// (older than `stale_after_s`, the limit a fix goes stale at).
+pub fn attitude_line(a: &Attitude, now: Instant, stale_after_s: f64) -> (String, bool) {
+    let reference = match a.reference {
+        HeadingReference::Magnetic => "magnetic",
+        HeadingReference::True => "true",
+    };
+    let origin = match a.origin {
+        HeadingOrigin::Nmea => "NMEA HDG",
+        HeadingOrigin::Gpsd => "gpsd ATT",
+        HeadingOrigin::Vest => "vest",
+    };
+    let pitch = a.pitch_deg.map(|p| format!(" · pitch {p:.1}°")).unwrap_or_default();
+    let roll = a.roll_deg.map(|r| format!(" · roll {r:.1}°")).unwrap_or_default();
+    let age_s = a.age(now).as_secs_f64();
+    let stale = age_s > stale_after_s;
+    let mark = if stale { " · STALE" } else { "" };
+    (
+        format!("Heading {:.1}° {reference} ({origin}){pitch}{roll} · {age_s:.1} s ago{mark}", a.heading_deg),
+        stale,
+    )
 }
 
 fn fix_grid(ui: &mut egui::Ui, f: &Fix, age_s: Option<f64>, fixes: u64) {
@@ -409,6 +440,33 @@ mod tests {
         // 42.3562° = 42° 21' 22.32"
         assert_eq!(dms(42.3562, 'N', 'S'), "42° 21' 22.32\" N");
         assert_eq!(dms(-71.1, 'E', 'W'), "71° 06' 00.00\" W");
+    }
+
+    /// The GPS-side heading line: reference, origin, pitch/roll when given, age, stale past the fix limit.
+    #[test]
+    fn attitude_line_shows_reference_origin_and_staleness() {
+        let t0 = Instant::now();
+        let mut a = Attitude {
+            heading_deg: 229.8,
+            reference: HeadingReference::Magnetic,
+            pitch_deg: None,
+            roll_deg: None,
+            quality_pct: None,
+            field_ut: None,
+            raw_mag_ut: None,
+            origin: HeadingOrigin::Nmea,
+            received_at: t0,
+        };
+        let (text, stale) = attitude_line(&a, t0 + std::time::Duration::from_millis(500), 3.0);
+        assert_eq!(text, "Heading 229.8° magnetic (NMEA HDG) · 0.5 s ago");
+        assert!(!stale);
+        a.reference = HeadingReference::True;
+        a.origin = HeadingOrigin::Gpsd;
+        a.pitch_deg = Some(2.77);
+        a.roll_deg = Some(0.0);
+        let (text, stale) = attitude_line(&a, t0 + std::time::Duration::from_secs(4), 3.0);
+        assert_eq!(text, "Heading 229.8° true (gpsd ATT) · pitch 2.8° · roll 0.0° · 4.0 s ago · STALE");
+        assert!(stale);
     }
 
     #[test]

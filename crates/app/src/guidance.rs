@@ -17,19 +17,25 @@ use std::sync::Arc;
 use std::sync::mpsc::{Receiver, RecvTimeoutError};
 use std::time::{Duration, Instant};
 
+use chrono::Datelike as _;
 use vestnav_core::geo::LatLon;
 use vestnav_core::guidance::{
-    Decision, Guidance, GuidanceConfig, NavInput, NavState, Route, RouteConfig, StrategyKind,
-    Waypoint as CoreWaypoint,
+    CompassReading, Decision, Guidance, GuidanceConfig, HeadingMode, NavInput, NavState, Route, RouteConfig,
+    StrategyKind, Waypoint as CoreWaypoint,
 };
 use vestnav_core::vest::Cue;
 use vestnav_device::gps::{Fix, GpsEvent};
+use vestnav_device::heading::{Attitude, HeadingReference};
 use vestnav_device::outbox::Outbox;
 use vestnav_device::wtcu::worker::{Heartbeat, VestSendError, Watched};
 use vestnav_device::wtcu::{CommandOrigin, LinkState, VestCommand, VestEvent, VestHandle};
 
 use crate::route::Waypoint;
 use vestnav_device::session_log::{LogEntry, LogSender};
+
+/// A true heading from gpsd's ATT older than this is not used (the compass's own age limit is guidance's
+/// `compass_max_age_s`).
+const COMPASS_MAX_AGE: Duration = Duration::from_secs(1);
 
 /// How often the worker re-evaluates without a new fix (and beats its heartbeat).
 pub const TICK: Duration = Duration::from_millis(250);
@@ -53,6 +59,8 @@ pub struct GuidanceSettings {
     pub loop_route: bool,
     /// The strategy.
     pub strategy: StrategyKind,
+    /// Which heading steers: auto (a fresh, good compass, else COG), compass only, or COG only.
+    pub heading_mode: HeadingMode,
 }
 
 /// Messages to the guidance worker.
@@ -103,8 +111,16 @@ pub struct GuidanceStatus {
     pub bearing_error_deg: Option<f64>,
     /// Cross-track distance from the current leg (positive = right of it) [m].
     pub cross_track_m: Option<f64>,
-    /// Heading source used ("COG", "true heading", "none").
+    /// Heading source used ("COG", "true heading", "compass", "none").
     pub heading_source: &'static str,
+    /// The heading used \[deg, true\], if any (the map's heading arrow).
+    pub heading_deg: Option<f64>,
+    /// The selection rule in words, as the operator should read it.
+    pub heading_rule: String,
+    /// Compass and COG disagree while walking fast: "compass disturbed?".
+    pub compass_disturbed: bool,
+    /// The WMM declination applied to the compass \[deg, east +\], once a position is known.
+    pub declination_deg: Option<f64>,
     /// The engine's state ("guiding", "hold", "manual", "halted", "finished").
     pub state: &'static str,
     /// The route is finished.
@@ -124,6 +140,7 @@ fn state_name(s: NavState) -> &'static str {
 /// The engine's configuration for the operator's settings.
 pub fn engine_config(s: &GuidanceSettings) -> (GuidanceConfig, RouteConfig) {
     let g = GuidanceConfig {
+        heading_mode: s.heading_mode,
         max_fix_age_s: s.stale_after_s,
         on_ms: s.on_ms,
         repeat_s: s.cue_interval_s,
@@ -179,6 +196,8 @@ pub fn spawn(
             vest_state: None,
             halted: None,
             last_fix: None,
+            compass: None,
+            declination: None,
             ui,
             log,
         };
@@ -213,6 +232,10 @@ struct GuidanceWorker {
     /// Why automatic cues are latched off (the vest worker's word), if they are.
     halted: Option<String>,
     last_fix: Option<Fix>,
+    /// Latest magnetic heading reading (the vest's compass, or an NMEA/gpsd compass).
+    compass: Option<Attitude>,
+    /// The WMM declination in force and the place it was computed for.
+    declination: Option<(f64, LatLon)>,
     ui: Outbox<GuidanceStatus>,
     log: Option<LogSender>,
 }
@@ -221,10 +244,12 @@ impl GuidanceWorker {
     fn handle(&mut self, msg: GuidanceInput, now: Instant, now_s: f64) {
         match msg {
             GuidanceInput::Gps(GpsEvent::Fix(fix)) => {
-                let input = nav_input(&fix, now);
+                self.refresh_declination(&fix);
+                let input = self.input(&fix, now);
                 self.last_fix = Some(*fix);
-                self.update(&input, now_s);
+                self.update(&input, now, now_s);
             }
+            GuidanceInput::Gps(GpsEvent::Attitude(a)) => self.take_heading(a),
             GuidanceInput::Gps(_) => {}
             GuidanceInput::Vest(ev) => match ev {
                 VestEvent::State(s) => self.vest_state = Some(s),
@@ -235,6 +260,7 @@ impl GuidanceWorker {
                     }
                 }
                 VestEvent::Resumed => self.halted = None,
+                VestEvent::Heading(a) => self.take_heading(a),
                 _ => {}
             },
             GuidanceInput::Route { waypoints, next } => {
@@ -295,6 +321,7 @@ impl GuidanceWorker {
         self.engine = match Route::new(wps, rcfg) {
             Ok(route) => {
                 let mut g = Guidance::new(route, gcfg, self.settings.strategy);
+                g.set_declination_deg(self.declination.map(|(d, _)| d));
                 for _ in 0..next.min(self.waypoints.len()) {
                     let _ = g.route_mut().skip();
                 }
@@ -315,6 +342,10 @@ impl GuidanceWorker {
                     bearing_error_deg: None,
                     cross_track_m: None,
                     heading_source: "none",
+                    heading_deg: None,
+                    heading_rule: String::new(),
+                    compass_disturbed: false,
+                    declination_deg: None,
                     state: "hold",
                     finished: false,
                 });
@@ -326,8 +357,53 @@ impl GuidanceWorker {
     /// Without new fixes, keep the engine informed of the fix age (stale fix: attention, not a direction).
     fn tick(&mut self, now: Instant, now_s: f64) {
         if let Some(fix) = &self.last_fix {
-            let input = nav_input(fix, now);
-            self.update(&input, now_s);
+            let input = self.input(fix, now);
+            self.update(&input, now, now_s);
+        }
+    }
+
+    /// The engine's input for `fix` at `now`, with a fresh true heading from gpsd's ATT if there is one.
+    fn input(&self, fix: &Fix, now: Instant) -> NavInput {
+        let mut input = nav_input(fix, now);
+        if input.true_heading_deg.is_none()
+            && let Some(a) = self.compass.filter(|a| a.reference == HeadingReference::True)
+            && a.age(now) <= COMPASS_MAX_AGE
+        {
+            input.true_heading_deg = Some(a.heading_deg);
+        }
+        input
+    }
+
+    /// Keeps the newest heading reading (the age is judged at each update from its arrival instant).
+    fn take_heading(&mut self, a: Attitude) {
+        if a.validate().is_ok() {
+            self.compass = Some(a);
+        }
+    }
+
+    /// Applies the WMM declination at the wearer's position once, and again only after moving 20 km.
+    fn refresh_declination(&mut self, fix: &Fix) {
+        let (Some(la), Some(lo)) = (fix.lat_deg, fix.lon_deg) else { return };
+        let p = LatLon::new(la, lo);
+        if self
+            .declination
+            .is_some_and(|(_, at)| vestnav_core::geo::Earth::Wgs84.distance_m(at, p) < 20_000.0)
+        {
+            return;
+        }
+        let date = fix.time.map_or_else(|| chrono::Utc::now().date_naive(), |t| t.date_naive());
+        let Ok(dec) = vestnav_core::geo::declination_deg(
+            p,
+            fix.alt_m.unwrap_or(0.0),
+            date.year(),
+            date.month() as u8,
+            date.day() as u8,
+        ) else {
+            return;
+        };
+        self.declination = Some((dec, p));
+        if let Some(g) = &mut self.engine {
+            g.set_declination_deg(Some(dec));
         }
     }
 
@@ -347,10 +423,17 @@ impl GuidanceWorker {
         }
     }
 
-    fn update(&mut self, input: &NavInput, now_s: f64) {
+    fn update(&mut self, input: &NavInput, now: Instant, now_s: f64) {
         let hold = self.hold_reason();
+        let compass =
+            self.compass.filter(|a| a.reference == HeadingReference::Magnetic).map(|a| CompassReading {
+                magnetic_deg: a.heading_deg,
+                age_s: a.age(now).as_secs_f64(),
+                quality_pct: a.quality_pct,
+            });
+        let declination = self.declination.map(|(d, _)| d);
         let Some(g) = &mut self.engine else { return };
-        let d = g.update(input, now_s);
+        let d = g.update_with_compass(input, compass, now_s);
         let mut sent = false;
         let mut reason = d.reason.clone();
         if let Some(pattern) = d.pattern.clone().filter(|_| d.cue.is_some()) {
@@ -387,7 +470,9 @@ impl GuidanceWorker {
             // It never reached the wearer: the rate limiter must not count it as played.
             g.not_played();
         }
-        self.ui.try_send(status(&d, reason, sent, self.hold_reason()));
+        let mut st = status(&d, reason, sent, self.hold_reason());
+        st.declination_deg = declination;
+        self.ui.try_send(st);
     }
 }
 
@@ -403,6 +488,10 @@ fn status(d: &Decision, reason: String, sent: bool, hold: Option<String>) -> Gui
         bearing_error_deg: d.bearing_error_deg,
         cross_track_m: d.cross_track_m,
         heading_source: d.heading_source.name(),
+        heading_deg: d.heading_deg,
+        heading_rule: d.heading_rule.clone(),
+        compass_disturbed: d.compass_disturbed,
+        declination_deg: None,
         state: state_name(d.state),
         finished: d.state == NavState::Finished,
     }
@@ -432,6 +521,7 @@ mod tests {
             on_ms: 500,
             loop_route: false,
             strategy: StrategyKind::BearingOnly,
+            heading_mode: HeadingMode::Cog,
         };
         let _t = spawn(in_rx, settings, ui, None).unwrap();
         let vest =

@@ -13,6 +13,7 @@
 //! assert!(console.gps_connected());
 //! ```
 
+pub mod compass_panel;
 pub mod config;
 pub mod console;
 pub mod devices;

@@ -5,6 +5,7 @@ use std::path::{Path, PathBuf};
 use egui::RichText;
 
 use crate::map_panel::MapView;
+use vestnav_device::heading::HeadingReference;
 use vestnav_device::session_log::{LogEntry, LogRecord, ReadStats, list_logs, read_log, track};
 
 /// Viewer state.
@@ -71,23 +72,25 @@ impl LogViewer {
             return;
         };
         let track = track(records);
-        let (mut fixes, mut cmds, mut acks, mut marks) = (0, 0, 0, 0);
+        let (mut fixes, mut cmds, mut acks, mut marks, mut headings) = (0, 0, 0, 0, 0);
         for r in records {
             match r.entry {
                 LogEntry::Fix { .. } => fixes += 1,
                 LogEntry::Command { .. } => cmds += 1,
                 LogEntry::Ack { .. } | LogEntry::TactorsOn { .. } => acks += 1,
                 LogEntry::Mark { .. } => marks += 1,
+                LogEntry::Heading { .. } => headings += 1,
                 LogEntry::Note { .. } => {}
             }
         }
         let dur = records.last().map_or(0.0, |r| r.t_s);
         ui.label(format!(
-            "{}: {dur:.0} s, {fixes} fixes, {cmds} commands, {acks} acks, {marks} marks; skipped: {} unreadable \
-             lines, {} over-long lines, {} invalid fixes",
+            "{}: {dur:.0} s, {fixes} fixes, {headings} headings, {cmds} commands, {acks} acks, {marks} marks; skipped: {} unreadable \
+             lines, {} over-long lines, {} records of unknown kinds, {} invalid fixes",
             path.display(),
             stats.bad_lines,
             stats.long_lines,
+            stats.other_kinds,
             stats.invalid_fix_count()
         ));
         ui.horizontal(|ui| {
@@ -111,6 +114,22 @@ impl LogViewer {
         let upto = track.partition_point(|p| p.0 <= self.cursor_s);
         map.replay = Some((track.iter().map(|p| (p.1, p.2)).collect(), upto));
         ui.label(RichText::new("The replayed track is drawn in purple on the Map tab.").weak());
+        // The heading stream at the cursor: the newest heading record at or before it, with its age then.
+        let heading_at = records[..records.partition_point(|r| r.t_s <= self.cursor_s)]
+            .iter()
+            .rev()
+            .find(|r| matches!(r.entry, LogEntry::Heading { .. }));
+        if let Some(r) = heading_at {
+            let age = self.cursor_s - r.t_s;
+            let text = format!("at {:.1} s: {} ({age:.1} s before)", self.cursor_s, summary(&r.entry));
+            if age > 1.0 {
+                ui.label(
+                    RichText::new(format!("{text}: stale then")).color(egui::Color32::from_rgb(230, 150, 20)),
+                );
+            } else {
+                ui.label(text);
+            }
+        }
         // The records around the cursor.
         let i0 = records.partition_point(|r| r.t_s < self.cursor_s);
         egui::ScrollArea::vertical().max_height(ui.available_height()).show(ui, |ui| {
@@ -142,5 +161,13 @@ fn summary(e: &LogEntry) -> String {
         }
         LogEntry::Mark { label, .. } => format!("MARK {label}"),
         LogEntry::Note { text } => text.clone(),
+        LogEntry::Heading { heading_deg, reference, origin, quality_pct, .. } => format!(
+            "heading {heading_deg:.1}° {} ({origin:?}){}",
+            match reference {
+                HeadingReference::Magnetic => "magnetic",
+                HeadingReference::True => "true",
+            },
+            quality_pct.map_or(String::new(), |q| format!(", quality {q} %"))
+        ),
     }
 }

@@ -12,7 +12,8 @@ use egui::{Color32, Pos2, RichText, Stroke, vec2};
 use walkers::{HttpOptions, HttpTiles, MapMemory, Position, Projector, TileId, TilePiece, Tiles, lat_lon};
 
 use crate::config::Config;
-use crate::route::{Waypoint, decimation_stride, enu_from_wgs84};
+use crate::route::{Waypoint, decimation_stride};
+use vestnav_core::geo::{DVec2, Earth, LatLon, LocalFrame};
 use vestnav_device::gps::Fix;
 
 use crate::guidance::GuidanceStatus;
@@ -73,12 +74,6 @@ impl Tiles for CountingTiles<'_> {
     fn tile_size(&self) -> u32 {
         self.inner.tile_size()
     }
-}
-
-/// Inverse of [`enu_from_wgs84`] (same equirectangular model).
-fn wgs84_from_enu(lat0_deg: f64, lon0_deg: f64, east_m: f64, north_m: f64) -> (f64, f64) {
-    let (e1, n1) = enu_from_wgs84(lat0_deg, lon0_deg, lat0_deg + 1e-3, lon0_deg + 1e-3);
-    (lat0_deg + north_m / n1 * 1e-3, lon0_deg + east_m / e1 * 1e-3)
 }
 
 /// A "nice" length (1, 2 or 5 × 10^k metres) of at least `min_m`.
@@ -164,7 +159,7 @@ impl MapView {
         egui::Panel::right("waypoint-list").default_size(210.0).show(ui, |ui| {
             changed |= self.waypoint_list(ui);
         });
-        changed |= self.map_ui(ui, fix, cfg);
+        changed |= self.map_ui(ui, fix, guidance.and_then(|g| g.heading_deg), cfg);
         self.next = self.next.min(self.waypoints.len());
         changed
     }
@@ -341,7 +336,13 @@ impl MapView {
     }
 
     #[allow(clippy::too_many_lines)] // one paint pass over every layer of the map, in order
-    fn map_ui(&mut self, ui: &mut egui::Ui, fix: Option<&Fix>, cfg: &mut Config) -> bool {
+    fn map_ui(
+        &mut self,
+        ui: &mut egui::Ui,
+        fix: Option<&Fix>,
+        heading_deg: Option<f64>,
+        cfg: &mut Config,
+    ) -> bool {
         let mut changed = false;
         if cfg.map_tiles && self.tiles.is_none() {
             let options = HttpOptions {
@@ -521,7 +522,8 @@ impl MapView {
                 }
             }
 
-            // The wearer: accuracy circle, dot, course arrow.
+            // The wearer: accuracy circle, dot, course arrow (blue, COG) and the heading guidance steers by
+            // (orange: the compass, or whatever the heading rule chose; true north up).
             if let (Some(w), Some(f)) = (wearer, fix) {
                 let c = to_pos2(projector.project(w));
                 if let Some(e) = f.error.map(|e| e.horizontal_m).filter(|e| e.is_finite() && *e > 0.0) {
@@ -540,6 +542,11 @@ impl MapView {
                     let a = (course as f32).to_radians();
                     let tip = c + vec2(a.sin(), -a.cos()) * 22.0;
                     painter.arrow(c, tip - c, Stroke::new(3.0, Color32::from_rgb(20, 90, 200)));
+                }
+                if let Some(h) = heading_deg.filter(|h| h.is_finite()) {
+                    let a = (h as f32).to_radians();
+                    let tip = c + vec2(a.sin(), -a.cos()) * 34.0;
+                    painter.arrow(c, tip - c, Stroke::new(2.5, Color32::from_rgb(240, 140, 20)));
                 }
                 painter.circle(c, 7.0, Color32::from_rgb(20, 90, 200), Stroke::new(2.0, Color32::WHITE));
             }
@@ -670,12 +677,13 @@ fn draw_grid(
         return;
     }
     let step_m = nice_length_m(70.0 / px_per_m);
+    let frame = LocalFrame::new(LatLon::new(anchor.0, anchor.1), Earth::Wgs84);
     let corners = [rect.left_top(), rect.right_bottom()].map(|p| {
         let ll = projector.unproject(p.to_vec2());
-        enu_from_wgs84(anchor.0, anchor.1, ll.y(), ll.x())
+        frame.enu_from_wgs84(LatLon::new(ll.y(), ll.x()))
     });
-    let (e0, e1) = (corners[0].0.min(corners[1].0), corners[0].0.max(corners[1].0));
-    let (n0, n1) = (corners[0].1.min(corners[1].1), corners[0].1.max(corners[1].1));
+    let (e0, e1) = (corners[0].x.min(corners[1].x), corners[0].x.max(corners[1].x));
+    let (n0, n1) = (corners[0].y.min(corners[1].y), corners[0].y.max(corners[1].y));
     if ((e1 - e0) / step_m) > 400.0 || ((n1 - n0) / step_m) > 400.0 {
         return;
     }
@@ -684,8 +692,8 @@ fn draw_grid(
     let minor = Stroke::new(1.0, Color32::from_rgba_unmultiplied(base, base, base, alpha));
     let axis = Stroke::new(1.5, Color32::from_rgba_unmultiplied(base, base, base, alpha * 2));
     let to_screen = |e: f64, n: f64| {
-        let (la, lo) = wgs84_from_enu(anchor.0, anchor.1, e, n);
-        to_pos2(projector.project(lat_lon(la, lo)))
+        let p = frame.wgs84_from_enu(DVec2::new(e, n));
+        to_pos2(projector.project(lat_lon(p.lat_deg, p.lon_deg)))
     };
     let mut e = (e0 / step_m).floor() * step_m;
     while e <= e1 {
@@ -712,14 +720,6 @@ mod tests {
         assert_relative_eq!(nice_length_m(70.0), 100.0);
         assert_relative_eq!(nice_length_m(120.0), 200.0);
         assert_relative_eq!(nice_length_m(1.0), 1.0);
-    }
-
-    #[test]
-    fn enu_inverse_round_trips() {
-        let (la, lo) = wgs84_from_enu(42.3, -71.1, 250.0, -130.0);
-        let (e, n) = enu_from_wgs84(42.3, -71.1, la, lo);
-        assert_relative_eq!(e, 250.0, max_relative = 1e-6);
-        assert_relative_eq!(n, -130.0, max_relative = 1e-6);
     }
 
     #[test]

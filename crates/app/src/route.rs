@@ -1,31 +1,14 @@
 //! Waypoints and the wearer's track on the map: geometry for drawing, and the console's use of the GPX
 //! files read and written by `vestnav_device::route_file` (the one home of the format).
 //!
-//! Distances and bearings to waypoints are core guidance's (WGS-84 geodesics, `vestnav_core::geo`); this
-//! module only projects points onto the map's local plane.
+//! Distances and bearings to waypoints are core guidance's (WGS-84 geodesics, `vestnav_core::geo`); the map's
+//! metric grid uses core's `geo::LocalFrame`.
 
 use std::path::Path;
 
 use vestnav_device::route_file::{self, RouteFile, Track, TrackPoint};
 
 pub use vestnav_device::route_file::{DEMO_GPX, Waypoint};
-
-/// East/north offset [m] of a point from an origin, on the local tangent plane.
-///
-/// Equirectangular approximation: `east = R_N cos(lat0) dlon`, `north = R_M dlat` with the WGS-84 radii of
-/// curvature `R_M = a(1-e^2)/(1-e^2 sin^2 lat0)^1.5`, `R_N = a/(1-e^2 sin^2 lat0)^0.5`; good to well under a
-/// centimetre over the few hundred metres of a walk (used only for drawing).
-pub fn enu_from_wgs84(lat0_deg: f64, lon0_deg: f64, lat_deg: f64, lon_deg: f64) -> (f64, f64) {
-    const A_M: f64 = 6_378_137.0;
-    const E2: f64 = 6.694_379_990_14e-3;
-    let phi = lat0_deg.to_radians();
-    let w = 1.0 - E2 * phi.sin().powi(2);
-    let r_m = A_M * (1.0 - E2) / w.powf(1.5);
-    let r_n = A_M / w.sqrt();
-    let east_m = r_n * phi.cos() * (lon_deg - lon0_deg).to_radians();
-    let north_m = r_m * (lat_deg - lat0_deg).to_radians();
-    (east_m, north_m)
-}
 
 /// What the console takes from a GPX file: the route to guide along (its first route, else its
 /// waypoints, else its first track), and every track point for the replayed track.
@@ -93,15 +76,6 @@ pub fn decimation_stride(n: usize, max_points: usize) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use approx::assert_relative_eq;
-    use vestnav_core::geo::{Earth, LatLon};
-
-    #[test]
-    fn local_plane_agrees_with_the_geodesic_over_a_walk() {
-        let (e, n) = enu_from_wgs84(42.3562, -71.1, 42.3584, -71.1008);
-        let d = Earth::Wgs84.distance_m(LatLon::new(42.3562, -71.1), LatLon::new(42.3584, -71.1008));
-        assert_relative_eq!(e.hypot(n), d, max_relative = 1e-4);
-    }
 
     #[test]
     fn demo_route_loads_and_round_trips() {

@@ -56,6 +56,8 @@ pub fn show(c: &mut Console, ui: &mut egui::Ui) {
     }
     ui.separator();
     patterns_ui(c, ui);
+    ui.separator();
+    crate::compass_panel::show(c, ui);
 }
 
 fn connection_ui(c: &mut Console, ui: &mut egui::Ui) {

@@ -16,8 +16,9 @@ use vestnav_core::vest::TactorMask;
 use vestnav_device::gps::{ErrorEstimate, ErrorSource, Fix, FixMode, GpsEvent, SourceState};
 use vestnav_device::outbox::Outbox;
 use vestnav_device::session_log::LogEntry;
-use vestnav_device::wtcu::codec::{V1Codec, WireCodec};
-use vestnav_device::wtcu::engine::EngineConfig;
+use vestnav_device::wtcu::codec::{FrameCodec, WireCodec};
+use vestnav_device::wtcu::emulator::{CompassSetup, SimulatedCompass, WearerMotion};
+use vestnav_device::wtcu::engine::{EngineConfig, HeadingSensor as _};
 use vestnav_device::wtcu::worker::{EmulatedPort, Transport, WorkerSettings};
 use vestnav_device::wtcu::{LinkState, Request, VestCommand, VestEvent, VestHandle};
 
@@ -25,7 +26,7 @@ use vestnav_device::wtcu::{LinkState, Request, VestCommand, VestEvent, VestHandl
 /// unit-side codec): the device side of the real protocol, seen from the vest.
 struct RecordingUnit {
     port: EmulatedPort,
-    codec: V1Codec,
+    codec: FrameCodec,
     sent: Arc<Mutex<Vec<Request>>>,
 }
 
@@ -60,6 +61,9 @@ impl GpsWorker for Idle {
 struct Fake {
     sent: Arc<Mutex<Vec<Request>>>,
     gps: Arc<Mutex<Vec<Outbox<GpsEvent>>>>,
+    /// The emulated unit's magnetometer (none: the unit offers no heading, and the console sends none of
+    /// the v2 heading requests).
+    compass: Option<CompassSetup>,
 }
 
 impl Fake {
@@ -89,9 +93,13 @@ impl DeviceFactory for Fake {
     }
     fn open_vest(&self, _s: &VestSourceConfig, out: Vec<Outbox<VestEvent>>) -> Result<VestHandle, String> {
         let sent = self.sent.clone();
+        let compass = self.compass;
         let connector = Box::new(move || {
-            let port = EmulatedPort::new(EngineConfig::default(), Duration::from_millis(2));
-            Ok(Box::new(RecordingUnit { port, codec: V1Codec::default(), sent: sent.clone() })
+            let port = EmulatedPort::new(
+                EngineConfig { compass, ..EngineConfig::default() },
+                Duration::from_millis(2),
+            );
+            Ok(Box::new(RecordingUnit { port, codec: FrameCodec::new(), sent: sent.clone() })
                 as Box<dyn Transport>)
         });
         VestHandle::spawn_with(connector, WorkerSettings::default(), out).map_err(|e| e.to_string())
@@ -99,7 +107,10 @@ impl DeviceFactory for Fake {
 }
 
 fn harness(fake: &Fake) -> Harness<'static, Console> {
-    let cfg = Config { map_tiles: false, guidance_auto: false, ..Config::default() };
+    harness_with(fake, Config { map_tiles: false, guidance_auto: false, ..Config::default() })
+}
+
+fn harness_with(fake: &Fake, cfg: Config) -> Harness<'static, Console> {
     let console = Console::new(Box::new(fake.clone()), ConsoleOptions { cfg, ..ConsoleOptions::default() });
     let mut h = Harness::builder()
         .with_size(egui::vec2(1400.0, 900.0))
@@ -348,4 +359,55 @@ fn nmea_replay_shows_the_fix_then_the_no_fix_alarm() {
         GpsSourceConfig::Replay { path: file.into(), speed: 10.0 },
         "the chosen source is remembered in the config"
     );
+}
+
+/// The vest's compass steers guidance through the console's own threads: the unit (protocol v2, an ideal
+/// sensor, the wearer standing facing 90° true) streams its magnetic heading, the console loads the
+/// calibration kept for the unit, and guidance, adding the WMM declination at the wearer's position, steers
+/// by 90° true. Truth: the emulated wearer's body heading.
+#[test]
+fn the_vest_compass_reaches_guidance_and_steers_by_true_heading() {
+    let setup = CompassSetup {
+        motion: WearerMotion::Still { heading_deg: 90.0 },
+        steel_east_m: None,
+        ideal: true,
+        seed: 5,
+    };
+    let (raw, _) = SimulatedCompass::new(&setup).sample(Instant::now());
+    let field = raw.iter().map(|v| v * v).sum::<f64>().sqrt();
+    let fake = Fake { compass: Some(setup), ..Fake::default() };
+    let mut cfg = Config {
+        map_tiles: false,
+        guidance_auto: false,
+        heading_mode: vestnav_core::guidance::HeadingMode::Compass,
+        ..Config::default()
+    };
+    cfg.compass_calibrations.insert("emulated".into(), vestnav_core::compass::Calibration::identity(field));
+    let mut h = harness_with(&fake, cfg);
+    // The console asked for the stream and loaded the unit's calibration when it identified itself.
+    settle(&mut h, |_| fake.sent().iter().any(|r| matches!(r, Request::SetCalibration(_))));
+    let sent = fake.sent();
+    assert!(sent.contains(&Request::HeadingStart { rate_hz: 5 }), "{sent:?}");
+    assert!(sent.iter().any(|r| matches!(r, Request::SetCalibration(_))), "{sent:?}");
+    settle(&mut h, |c| c.vest.heading.is_some_and(|a| a.quality_pct == Some(100)));
+    let a = h.state().vest.heading.unwrap();
+    assert_eq!(a.quality_pct, Some(100), "{a:?}");
+    // A standing wearer near the emulated place (same WMM declination): guidance steers by the compass.
+    for _ in 0..40 {
+        fake.gps(&GpsEvent::Fix(Box::new(fix(42.3562, -71.1000, Duration::ZERO))));
+        h.step();
+        if h.state().guidance.as_ref().is_some_and(|g| g.heading_source == "compass") {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let g = h.state().guidance.clone().unwrap();
+    assert_eq!(g.heading_source, "compass", "{g:?}");
+    let heading = g.heading_deg.unwrap();
+    assert!((heading - 90.0).abs() < 0.5, "guidance steers by {heading:.2}° true, the wearer faces 90°");
+    assert!(g.declination_deg.is_some());
+    // The Vest tab shows the reading as the unit reports it, with its true heading.
+    h.get_by_label("Vest").click();
+    h.run_steps(2);
+    h.get_by_label_contains("quality 100 %");
 }

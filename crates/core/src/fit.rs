@@ -1,10 +1,11 @@
-//! Least-squares curve fits shared by the sweep, the measured-data analysis and the two-point simulation.
+//! Least-squares curve fits shared by the sweep, the measured-data analysis and the two-point simulation,
+//! and the one nonlinear least-squares path they all use ([`least_squares`] over a [`Curve`]).
 //!
 //! Goodness of fit is the coefficient of determination computed in the data's own (linear) space,
 //! `R^2 = 1 - SSE/SST`, as MATLAB's curve-fitting tool reports it (the thesis's fits come from there).
 
 use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
-use nalgebra::{Dyn, Matrix, Owned, U2, Vector2};
+use nalgebra::{DMatrix, DVector, Dyn, Owned};
 use serde::{Deserialize, Serialize};
 
 /// Why a fit could not be made.
@@ -112,50 +113,120 @@ pub fn fit_power_law(x: &[f64], y: &[f64]) -> Result<PowerLawFit, FitError> {
     let lx: Vec<f64> = x.iter().map(|v| v.ln()).collect();
     let ly: Vec<f64> = y.iter().map(|v| v.ln()).collect();
     let start = fit_line(&lx, &ly)?;
-    let problem = PowerLawProblem { x, y, p: Vector2::new(start.intercept.exp(), start.slope) };
-    let (solved, report) = LevenbergMarquardt::new().minimize(problem);
-    if !report.termination.was_successful() {
-        return Err(FitError::NoConvergence(format!("{:?}", report.termination)));
-    }
-    let (a, b) = (solved.p[0], solved.p[1]);
+    let [a, b] = least_squares(&PowerLaw, x, y, [start.intercept.exp(), start.slope])?.params;
     let y_hat: Vec<f64> = x.iter().map(|v| a * v.powf(b)).collect();
     Ok(PowerLawFit { coefficient: a, exponent: b, r2: r_squared(y, &y_hat) })
 }
 
-struct PowerLawProblem<'a> {
-    x: &'a [f64],
-    y: &'a [f64],
-    p: Vector2<f64>,
+/// `A x^B` with parameters `[A, B]`.
+struct PowerLaw;
+
+impl Curve<2> for PowerLaw {
+    fn value(&self, [a, b]: &[f64; 2], x: f64) -> Option<f64> {
+        Some(a * x.powf(*b))
+    }
+
+    fn gradient(&self, [a, b]: &[f64; 2], x: f64) -> Option<[f64; 2]> {
+        let xb = x.powf(*b);
+        Some([xb, a * xb * x.ln()])
+    }
 }
 
-impl LeastSquaresProblem<f64, Dyn, U2> for PowerLawProblem<'_> {
-    type ResidualStorage = Owned<f64, Dyn>;
-    type JacobianStorage = Owned<f64, Dyn, U2>;
-    type ParameterStorage = Owned<f64, U2>;
+// -----------------------------------------------------------------------------------------------------------
+// The one nonlinear least-squares path.
 
-    fn set_params(&mut self, p: &Vector2<f64>) {
+/// A curve `y = f(x; p)` with `N` parameters, fitted by [`least_squares`].
+///
+/// Both methods return `None` where `p` is outside the model's domain (for example a negative base under a
+/// fractional power); the solver then treats the step as failed and shrinks its trust region.
+pub trait Curve<const N: usize> {
+    /// `f(x; p)`.
+    fn value(&self, p: &[f64; N], x: f64) -> Option<f64>;
+    /// The partial derivatives `df/dp_k` at `x`.
+    fn gradient(&self, p: &[f64; N], x: f64) -> Option<[f64; N]>;
+}
+
+/// The minimiser [`least_squares`] found.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Solved<const N: usize> {
+    /// The parameters.
+    pub params: [f64; N],
+    /// Sum of squared residuals `sum (f(x_i; p) - y_i)^2` at `params`.
+    pub sse: f64,
+}
+
+/// Minimises `sum (f(x_i; p) - y_i)^2` over `p` by Levenberg–Marquardt (the `levenberg-marquardt` crate, MINPACK's
+/// algorithm), starting from `start`, with the analytic Jacobian of `curve`. Every nonlinear fit in this crate
+/// (power law, inverse damping law, skin attenuation, two-point Gaussian) goes through here.
+pub fn least_squares<C: Curve<N>, const N: usize>(
+    curve: &C,
+    x: &[f64],
+    y: &[f64],
+    start: [f64; N],
+) -> Result<Solved<N>, FitError> {
+    if x.len() != y.len() || x.len() < N {
+        return Err(FitError::TooFewPoints { needed: N, got: x.len().min(y.len()) });
+    }
+    let problem = CurveProblem { curve, x, y, p: DVector::from_column_slice(&start) };
+    let (solved, report) = LevenbergMarquardt::new().minimize(problem);
+    if !report.termination.was_successful() {
+        return Err(FitError::NoConvergence(format!("{:?}", report.termination)));
+    }
+    let mut params = [0.0; N];
+    params.copy_from_slice(solved.p.as_slice());
+    let sse = x
+        .iter()
+        .zip(y)
+        .map(|(x, y)| curve.value(&params, *x).map_or(f64::INFINITY, |v| (v - y).powi(2)))
+        .sum();
+    Ok(Solved { params, sse })
+}
+
+/// Adapts a [`Curve`] and its data to the solver's problem trait.
+struct CurveProblem<'a, C, const N: usize> {
+    curve: &'a C,
+    x: &'a [f64],
+    y: &'a [f64],
+    p: DVector<f64>,
+}
+
+impl<C: Curve<N>, const N: usize> CurveProblem<'_, C, N> {
+    fn params_array(&self) -> [f64; N] {
+        let mut p = [0.0; N];
+        p.copy_from_slice(self.p.as_slice());
+        p
+    }
+}
+
+impl<C: Curve<N>, const N: usize> LeastSquaresProblem<f64, Dyn, Dyn> for CurveProblem<'_, C, N> {
+    type ResidualStorage = Owned<f64, Dyn>;
+    type JacobianStorage = Owned<f64, Dyn, Dyn>;
+    type ParameterStorage = Owned<f64, Dyn>;
+
+    fn set_params(&mut self, p: &DVector<f64>) {
         self.p.copy_from(p);
     }
 
-    fn params(&self) -> Vector2<f64> {
-        self.p
+    fn params(&self) -> DVector<f64> {
+        self.p.clone()
     }
 
-    fn residuals(&self) -> Option<Matrix<f64, Dyn, nalgebra::U1, Self::ResidualStorage>> {
-        let (a, b) = (self.p[0], self.p[1]);
-        Some(nalgebra::DVector::from_iterator(
-            self.x.len(),
-            self.x.iter().zip(self.y).map(|(x, y)| a * x.powf(b) - y),
-        ))
+    fn residuals(&self) -> Option<DVector<f64>> {
+        let p = self.params_array();
+        let mut r = DVector::zeros(self.x.len());
+        for (k, (x, y)) in self.x.iter().zip(self.y).enumerate() {
+            r[k] = self.curve.value(&p, *x)? - y;
+        }
+        Some(r)
     }
 
-    fn jacobian(&self) -> Option<Matrix<f64, Dyn, U2, Self::JacobianStorage>> {
-        let (a, b) = (self.p[0], self.p[1]);
-        let mut j = nalgebra::OMatrix::<f64, Dyn, U2>::zeros(self.x.len());
+    fn jacobian(&self) -> Option<DMatrix<f64>> {
+        let p = self.params_array();
+        let mut j = DMatrix::zeros(self.x.len(), N);
         for (row, x) in self.x.iter().enumerate() {
-            let xb = x.powf(b);
-            j[(row, 0)] = xb;
-            j[(row, 1)] = a * xb * x.ln();
+            for (col, d) in self.curve.gradient(&p, *x)?.into_iter().enumerate() {
+                j[(row, col)] = d;
+            }
         }
         Some(j)
     }
@@ -195,6 +266,56 @@ mod tests {
         assert_relative_eq!(fit.coefficient, 124.7, max_relative = 1e-9);
         assert_relative_eq!(fit.exponent, 0.4839, max_relative = 1e-9);
         assert_relative_eq!(fit.r2, 1.0, epsilon = 1e-12);
+    }
+
+    /// `y = c0 + c1 x` through the generic solver lands on the closed-form OLS line.
+    struct Line;
+
+    impl Curve<2> for Line {
+        fn value(&self, [c0, c1]: &[f64; 2], x: f64) -> Option<f64> {
+            Some(c0 + c1 * x)
+        }
+
+        fn gradient(&self, _: &[f64; 2], x: f64) -> Option<[f64; 2]> {
+            Some([1.0, x])
+        }
+    }
+
+    #[test]
+    fn generic_solver_matches_the_closed_form_line() {
+        let x = [1.0, 2.0, 3.0, 4.0, 5.0];
+        let y = [2.0, 4.0, 5.0, 4.0, 5.0];
+        let s = least_squares(&Line, &x, &y, [0.0, 0.0]).unwrap();
+        // By hand: slope 0.6, intercept 2.2, SSE 2.4.
+        assert_relative_eq!(s.params[0], 2.2, epsilon = 1e-9);
+        assert_relative_eq!(s.params[1], 0.6, epsilon = 1e-9);
+        assert_relative_eq!(s.sse, 2.4, epsilon = 1e-9);
+    }
+
+    /// `exp(-k x)`, defined for `k >= 0` only, to exercise the solver's domain handling.
+    struct Decay;
+
+    impl Curve<1> for Decay {
+        fn value(&self, [k]: &[f64; 1], x: f64) -> Option<f64> {
+            (*k >= 0.0).then(|| (-k * x).exp())
+        }
+
+        fn gradient(&self, [k]: &[f64; 1], x: f64) -> Option<[f64; 1]> {
+            (*k >= 0.0).then(|| [-x * (-k * x).exp()])
+        }
+    }
+
+    #[test]
+    fn generic_solver_recovers_a_decay_rate_and_refuses_too_few_points() {
+        let x: Vec<f64> = (0..20).map(|k| f64::from(k) * 0.1).collect();
+        let y: Vec<f64> = x.iter().map(|x| (-1.7 * x).exp()).collect();
+        let s = least_squares(&Decay, &x, &y, [0.2]).unwrap();
+        assert_relative_eq!(s.params[0], 1.7, max_relative = 1e-9);
+        assert!(s.sse < 1e-20);
+        assert_eq!(
+            least_squares(&Line, &[1.0], &[1.0], [0.0, 0.0]),
+            Err(FitError::TooFewPoints { needed: 2, got: 1 })
+        );
     }
 
     #[test]

@@ -17,7 +17,8 @@
 //! ```
 
 use geographiclib_rs::{DirectGeodesic, Geodesic, InverseGeodesic};
-use glam::DVec2;
+/// The plane vector type of local east/north positions, re-exported so callers need no direct `glam` dependency.
+pub use glam::DVec2;
 use serde::{Deserialize, Serialize};
 use world_magnetic_model::GeomagneticField;
 use world_magnetic_model::time::{Date, Month};
@@ -289,18 +290,41 @@ pub fn leg_offset(earth: Earth, from: LatLon, to: LatLon, p: LatLon) -> LegOffse
 /// ground). A true bearing is `true = magnetic + declination` (see [`true_from_magnetic_deg`]); Boston has a
 /// westerly (negative) declination, the thesis used 15.4° W.
 pub fn declination_deg(p: LatLon, height_m: f64, year: i32, month: u8, day: u8) -> Result<f64, GeoError> {
+    let field = wmm_field(p, height_m, year, month, day)?;
+    Ok(f64::from(field.declination().get::<degree>()))
+}
+
+/// The World Magnetic Model at a place and date (the one place the model is evaluated).
+fn wmm_field(p: LatLon, height_m: f64, year: i32, month: u8, day: u8) -> Result<GeomagneticField, GeoError> {
     let p = p.validated()?;
     let bad = GeoError::BadDate { year, month, day };
     let m = Month::try_from(month).map_err(|_| bad.clone())?;
     let date = Date::from_calendar_date(year, m, day).map_err(|_| bad)?;
-    let field = GeomagneticField::new(
+    GeomagneticField::new(
         Length::new::<meter>(height_m as f32),
         Angle::new::<degree>(p.lat_deg as f32),
         Angle::new::<degree>(wrap_deg_180(p.lon_deg) as f32),
         date,
     )
-    .map_err(|e| GeoError::Wmm(e.to_string()))?;
-    Ok(f64::from(field.declination().get::<degree>()))
+    .map_err(|e| GeoError::Wmm(e.to_string()))
+}
+
+/// The Earth's magnetic field vector at a place and date, north/east/down [µT], from the World Magnetic
+/// Model (same model, validity and errors as [`declination_deg`]).
+///
+/// The WMM gives the components `X` (north), `Y` (east), `Z` (down) in nT, here divided by 1000.
+/// Declination is `atan2(Y, X)`, dip `atan2(Z, sqrt(X^2 + Y^2))`, total intensity `|(X, Y, Z)|` (e.g. ~51 µT
+/// with a dip of ~66° in Boston).
+pub fn magnetic_field_ned_ut(
+    p: LatLon,
+    height_m: f64,
+    year: i32,
+    month: u8,
+    day: u8,
+) -> Result<[f64; 3], GeoError> {
+    use world_magnetic_model::uom::si::magnetic_flux_density::nanotesla;
+    let field = wmm_field(p, height_m, year, month, day)?;
+    Ok([field.x(), field.y(), field.z()].map(|c| f64::from(c.get::<nanotesla>()) / 1000.0))
 }
 
 /// Converts a magnetic (compass) bearing into a true bearing: `true = magnetic + declination`, in [0, 360)

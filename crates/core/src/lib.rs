@@ -10,6 +10,7 @@
 //! - [`vest`]: the 4x4 tactor grid, tactor masks, timed patterns and the named cues.
 //!
 //! And the navigation logic of the console, pure in the same way:
+//! - [`compass`]: magnetometer heading: tilt compensation, hard/soft-iron calibration fit, a sensor model;
 //! - [`geo`]: WGS-84 and thesis-sphere distances, local frames, cross-track, WMM declination;
 //! - [`guidance`]: route, heading source, cue selection, rate limiting, manual overrides, strategies;
 //! - [`gnss_sim`]: a GNSS error model (noise, wandering bias, static-navigation pinning) and a route walker;
@@ -24,6 +25,7 @@
 //! ```
 
 pub mod analysis;
+pub mod compass;
 pub mod fieldtest;
 pub mod fit;
 pub mod geo;

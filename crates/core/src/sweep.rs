@@ -14,11 +14,9 @@
 
 use std::f64::consts::TAU;
 
-use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
-use nalgebra::{DVector, Dyn, Matrix, OMatrix, Owned, U1, U4, Vector4};
 use serde::{Deserialize, Serialize};
 
-use crate::fit::{FitError, LineFit, PowerLawFit, fit_line, fit_power_law};
+use crate::fit::{Curve, FitError, LineFit, PowerLawFit, fit_line, fit_power_law, least_squares};
 use crate::tactor::{SimOptions, Summary, TactorError, TactorParams, simulate_summary};
 
 /// Scale of `b` inside the 4-parameter fit, so the fitted parameters are of order 1..1000.
@@ -278,14 +276,9 @@ pub fn sweep(params: &TactorParams, options: &SweepOptions) -> Result<SweepResul
 /// Fits `b = p1 (f + p2)^p3 + p4` to `(f, b)`, started from the exact inverse.
 fn fit_inverse(f: &[f64], b: &[f64], exact: &ExactInverse) -> Result<InverseFit, SweepError> {
     let s = DAMPING_SCALE_N_M_S;
-    let start = Vector4::new(exact.a_n_m_s_hz / s, 0.0, -1.0, exact.c_n_m_s / s);
+    let start = [exact.a_n_m_s_hz / s, 0.0, -1.0, exact.c_n_m_s / s];
     let bs: Vec<f64> = b.iter().map(|v| v / s).collect();
-    let problem = InverseProblem { f, b: &bs, p: start };
-    let (solved, report) = LevenbergMarquardt::new().minimize(problem);
-    if !report.termination.was_successful() {
-        return Err(FitError::NoConvergence(format!("{:?}", report.termination)).into());
-    }
-    let p = solved.p;
+    let p = least_squares(&InverseLaw, f, &bs, start)?.params;
     let mut fit = InverseFit {
         p1: p[0] * s,
         p2: p[1],
@@ -308,51 +301,22 @@ fn fit_inverse(f: &[f64], b: &[f64], exact: &ExactInverse) -> Result<InverseFit,
     Ok(fit)
 }
 
-struct InverseProblem<'a> {
-    f: &'a [f64],
-    b: &'a [f64],
-    p: Vector4<f64>,
-}
+/// `p1 (f + p2)^p3 + p4`, defined where `f + p2 > 0`.
+struct InverseLaw;
 
-impl LeastSquaresProblem<f64, Dyn, U4> for InverseProblem<'_> {
-    type ResidualStorage = Owned<f64, Dyn>;
-    type JacobianStorage = Owned<f64, Dyn, U4>;
-    type ParameterStorage = Owned<f64, U4>;
-
-    fn set_params(&mut self, p: &Vector4<f64>) {
-        self.p.copy_from(p);
+impl Curve<4> for InverseLaw {
+    fn value(&self, [p1, p2, p3, p4]: &[f64; 4], f: f64) -> Option<f64> {
+        let g = f + p2;
+        (g > 0.0).then(|| p1 * g.powf(*p3) + p4)
     }
 
-    fn params(&self) -> Vector4<f64> {
-        self.p
-    }
-
-    fn residuals(&self) -> Option<Matrix<f64, Dyn, U1, Self::ResidualStorage>> {
-        let [p1, p2, p3, p4] = [self.p[0], self.p[1], self.p[2], self.p[3]];
-        if self.f.iter().any(|f| f + p2 <= 0.0) {
+    fn gradient(&self, [p1, p2, p3, _]: &[f64; 4], f: f64) -> Option<[f64; 4]> {
+        let g = f + p2;
+        if g <= 0.0 {
             return None;
         }
-        Some(DVector::from_iterator(
-            self.f.len(),
-            self.f.iter().zip(self.b).map(|(f, b)| p1 * (f + p2).powf(p3) + p4 - b),
-        ))
-    }
-
-    fn jacobian(&self) -> Option<Matrix<f64, Dyn, U4, Self::JacobianStorage>> {
-        let [p1, p2, p3] = [self.p[0], self.p[1], self.p[2]];
-        let mut j = OMatrix::<f64, Dyn, U4>::zeros(self.f.len());
-        for (row, f) in self.f.iter().enumerate() {
-            let g = f + p2;
-            if g <= 0.0 {
-                return None;
-            }
-            let gp = g.powf(p3);
-            j[(row, 0)] = gp;
-            j[(row, 1)] = p1 * p3 * gp / g;
-            j[(row, 2)] = p1 * gp * g.ln();
-            j[(row, 3)] = 1.0;
-        }
-        Some(j)
+        let gp = g.powf(*p3);
+        Some([gp, p1 * p3 * gp / g, p1 * gp * g.ln(), 1.0])
     }
 }
 

@@ -23,11 +23,9 @@
 //! assert!((fit.center_mm - 5.5).abs() < 1e-3 && (fit.rmse - 0.001727).abs() < 1e-5);
 //! ```
 
-use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
-use nalgebra::{DVector, Dyn, OMatrix, Owned, U3, Vector3};
 use serde::{Deserialize, Serialize};
 
-use crate::fit::FitError;
+use crate::fit::{Curve, FitError, Solved, least_squares};
 
 /// Geometry and amplitudes of the two-point simulation.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -150,86 +148,42 @@ pub fn fit_gaussian(x: &[f64], y: &[f64]) -> Result<GaussianFit, FitError> {
     let (lo, hi) = above_half.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(v), hi.max(v)));
     let w_half = ((hi - lo) / (2.0 * 2f64.ln().sqrt())).max((x_max - x_min) * 1e-3);
     let x_peak = x[i_peak];
-    let starts = [
-        Vector3::new(y_peak, mean, w_moments),
-        Vector3::new(y_peak, x_peak, w_half),
-        Vector3::new(y_peak, x_peak, w_moments),
-    ];
-    let mut best: Option<GaussianProblem> = None;
+    let starts = [[y_peak, mean, w_moments], [y_peak, x_peak, w_half], [y_peak, x_peak, w_moments]];
+    let mut best: Option<Solved<3>> = None;
     let mut last_failure = None;
     for p in starts {
-        let (solved, report) = LevenbergMarquardt::new().minimize(GaussianProblem { x, y, p });
-        if !report.termination.was_successful() {
-            last_failure = Some(format!("{:?}", report.termination));
-            continue;
-        }
-        if best.as_ref().is_none_or(|b| solved.sse() < b.sse()) {
-            best = Some(solved);
+        match least_squares(&Gaussian, x, y, p) {
+            Ok(solved) if best.is_none_or(|b| solved.sse < b.sse) => best = Some(solved),
+            Ok(_) => {}
+            Err(e) => last_failure = Some(e),
         }
     }
-    let Some(best) = best else {
-        return Err(FitError::NoConvergence(last_failure.unwrap_or_default()));
+    let Some(Solved { params: [amplitude, center, width], sse }) = best else {
+        return Err(last_failure.unwrap_or(FitError::NoConvergence(String::new())));
     };
-    let sse = best.sse();
     let n = x.len();
     Ok(GaussianFit {
-        amplitude_m_s2: best.p[0],
-        center_mm: best.p[1],
-        width_mm: best.p[2].abs(),
+        amplitude_m_s2: amplitude,
+        center_mm: center,
+        width_mm: width.abs(),
         rmse: (sse / (n - 3) as f64).sqrt(),
         sse,
         points: n,
     })
 }
 
-struct GaussianProblem<'a> {
-    x: &'a [f64],
-    y: &'a [f64],
-    p: Vector3<f64>,
-}
+/// [`gaussian`] with parameters `[A, mu, w]`.
+struct Gaussian;
 
-impl GaussianProblem<'_> {
-    fn sse(&self) -> f64 {
-        self.x
-            .iter()
-            .zip(self.y)
-            .map(|(x, y)| (gaussian(self.p[0], self.p[1], self.p[2], *x) - y).powi(2))
-            .sum()
-    }
-}
-
-impl LeastSquaresProblem<f64, Dyn, U3> for GaussianProblem<'_> {
-    type ResidualStorage = Owned<f64, Dyn>;
-    type JacobianStorage = Owned<f64, Dyn, U3>;
-    type ParameterStorage = Owned<f64, U3>;
-
-    fn set_params(&mut self, p: &Vector3<f64>) {
-        self.p.copy_from(p);
+impl Curve<3> for Gaussian {
+    fn value(&self, [a, mu, w]: &[f64; 3], x: f64) -> Option<f64> {
+        Some(gaussian(*a, *mu, *w, x))
     }
 
-    fn params(&self) -> Vector3<f64> {
-        self.p
-    }
-
-    fn residuals(&self) -> Option<DVector<f64>> {
-        let (a, mu, w) = (self.p[0], self.p[1], self.p[2]);
-        Some(DVector::from_iterator(
-            self.x.len(),
-            self.x.iter().zip(self.y).map(|(x, y)| gaussian(a, mu, w, *x) - y),
-        ))
-    }
-
-    fn jacobian(&self) -> Option<OMatrix<f64, Dyn, U3>> {
-        let (a, mu, w) = (self.p[0], self.p[1], self.p[2]);
-        let mut j = OMatrix::<f64, Dyn, U3>::zeros(self.x.len());
-        for (row, x) in self.x.iter().enumerate() {
-            let u = (x - mu) / w;
-            let e = (-u * u).exp();
-            j[(row, 0)] = e;
-            j[(row, 1)] = a * e * 2.0 * u / w;
-            j[(row, 2)] = a * e * 2.0 * u * u / w;
-        }
-        Some(j)
+    fn gradient(&self, [a, mu, w]: &[f64; 3], x: f64) -> Option<[f64; 3]> {
+        let u = (x - mu) / w;
+        let e = (-u * u).exp();
+        Some([e, a * e * 2.0 * u / w, a * e * 2.0 * u * u / w])
     }
 }
 

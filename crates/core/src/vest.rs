@@ -229,6 +229,70 @@ pub enum Cue {
     /// Waypoint reached: a short burst of all tactors (waypoint belts, thesis §6), as two halves to stay
     /// inside the current budget.
     Arrived,
+    /// Standing still, turn left on the spot by about this much: a half-height column sweeps right-to-left
+    /// across the lower back, the longer the sweep the larger the turn ([`TurnStep`]).
+    RotateLeft(TurnStep),
+    /// Standing still, turn right on the spot by about this much (mirror of [`Cue::RotateLeft`]).
+    RotateRight(TurnStep),
+}
+
+/// Size of a turn-in-place cue: the thesis's "turn a certain number of degrees" (future work), in four
+/// grades a wearer can tell apart by the length of the sweep (see `docs/guidance.md`, turn-by-degrees).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+pub enum TurnStep {
+    /// About 30° (a bearing error up to 45°): a two-column sweep from the middle to the turn side.
+    Deg30,
+    /// About 60° (45°–75°): a three-column sweep.
+    Deg60,
+    /// About 90° (75°–112.5°): the four-column sweep across the whole back.
+    Deg90,
+    /// 135° or more (beyond 112.5°): the four-column sweep twice.
+    Deg135,
+}
+
+impl TurnStep {
+    /// Every grade, smallest first.
+    pub const ALL: [Self; 4] = [Self::Deg30, Self::Deg60, Self::Deg90, Self::Deg135];
+
+    /// The nominal turn of this grade [deg].
+    pub fn degrees(self) -> f64 {
+        match self {
+            Self::Deg30 => 30.0,
+            Self::Deg60 => 60.0,
+            Self::Deg90 => 90.0,
+            Self::Deg135 => 135.0,
+        }
+    }
+
+    /// The grade whose nominal turn is nearest to `|error_deg|`: boundaries at the midpoints 45°, 75° and
+    /// 112.5° (a tie goes to the smaller turn, so a wearer never overshoots by more than half a grade).
+    /// A non-finite error gives the smallest grade.
+    pub fn for_error_deg(error_deg: f64) -> Self {
+        let e = error_deg.abs();
+        if !e.is_finite() || e <= 45.0 {
+            Self::Deg30
+        } else if e <= 75.0 {
+            Self::Deg60
+        } else if e <= 112.5 {
+            Self::Deg90
+        } else {
+            Self::Deg135
+        }
+    }
+
+    /// Columns swept by the turn-in-place pattern of this grade (two for 30°, up to all four).
+    pub fn columns(self) -> usize {
+        match self {
+            Self::Deg30 => 2,
+            Self::Deg60 => 3,
+            Self::Deg90 | Self::Deg135 => GRID,
+        }
+    }
+
+    /// Times the sweep is played (twice for 135°+, once otherwise).
+    pub fn sweeps(self) -> u8 {
+        if self == Self::Deg135 { 2 } else { 1 }
+    }
 }
 
 impl Cue {
@@ -245,6 +309,31 @@ impl Cue {
         Self::Arrived,
     ];
 
+    /// The graded turn-in-place cues (not in [`Cue::ALL`], the operator's manual buttons): left then right,
+    /// smallest turn first.
+    pub const TURN_IN_PLACE: [Self; 8] = [
+        Self::RotateLeft(TurnStep::Deg30),
+        Self::RotateLeft(TurnStep::Deg60),
+        Self::RotateLeft(TurnStep::Deg90),
+        Self::RotateLeft(TurnStep::Deg135),
+        Self::RotateRight(TurnStep::Deg30),
+        Self::RotateRight(TurnStep::Deg60),
+        Self::RotateRight(TurnStep::Deg90),
+        Self::RotateRight(TurnStep::Deg135),
+    ];
+
+    /// The turn-in-place cue toward a bearing error `error_deg` (positive = aim to the right), graded by
+    /// [`TurnStep::for_error_deg`].
+    pub fn rotate_toward(error_deg: f64) -> Self {
+        let step = TurnStep::for_error_deg(error_deg);
+        if error_deg > 0.0 { Self::RotateRight(step) } else { Self::RotateLeft(step) }
+    }
+
+    /// Whether this is a turn-in-place cue.
+    pub fn is_turn_in_place(self) -> bool {
+        matches!(self, Self::RotateLeft(_) | Self::RotateRight(_))
+    }
+
     /// Human name.
     pub fn name(self) -> &'static str {
         match self {
@@ -257,6 +346,14 @@ impl Cue {
             Self::Stop => "stop",
             Self::Attention => "attention",
             Self::Arrived => "arrived",
+            Self::RotateLeft(TurnStep::Deg30) => "turn in place left 30°",
+            Self::RotateLeft(TurnStep::Deg60) => "turn in place left 60°",
+            Self::RotateLeft(TurnStep::Deg90) => "turn in place left 90°",
+            Self::RotateLeft(TurnStep::Deg135) => "turn in place left 135°+",
+            Self::RotateRight(TurnStep::Deg30) => "turn in place right 30°",
+            Self::RotateRight(TurnStep::Deg60) => "turn in place right 60°",
+            Self::RotateRight(TurnStep::Deg90) => "turn in place right 90°",
+            Self::RotateRight(TurnStep::Deg135) => "turn in place right 135°+",
         }
     }
 
@@ -287,9 +384,28 @@ impl Cue {
                 let bottom = TactorMask::row(2) | TactorMask::row(3);
                 (vec![short(top), short(bottom), short(top), short(bottom)], 1)
             }
+            Self::RotateLeft(step) => rotate_frames(step, false, on_ms),
+            Self::RotateRight(step) => rotate_frames(step, true, on_ms),
         };
         Pattern { name: self.name().to_owned(), frames, repeats }
     }
+}
+
+/// Frames of a turn-in-place cue: the lower half of a column (rows 2 and 3, two tactors) sweeps toward the
+/// turn side over [`TurnStep::columns`] columns, ending at the outer column of that side, `on_ms / 2` per
+/// column; for [`TurnStep::Deg135`] a pause of `on_ms / 2` follows and the whole is played twice.
+fn rotate_frames(step: TurnStep, right: bool, on_ms: u16) -> (Vec<Frame>, u8) {
+    let lower = TactorMask::row(2) | TactorMask::row(3);
+    let n = step.columns();
+    let cols: Vec<usize> = if right { (GRID - n..GRID).collect() } else { (0..n).rev().collect() };
+    let mut frames: Vec<Frame> = cols
+        .into_iter()
+        .map(|c| Frame { mask: TactorMask::column(c) & lower, duration_ms: on_ms / 2 })
+        .collect();
+    if step.sweeps() > 1 {
+        frames.push(Frame { mask: TactorMask::NONE, duration_ms: on_ms / 2 });
+    }
+    (frames, step.sweeps())
 }
 
 #[cfg(test)]
@@ -324,6 +440,108 @@ mod tests {
             assert!(p.longest_on_ms() <= u32::from(DEFAULT_ON_MS), "{cue:?}: {}", p.longest_on_ms());
             assert!(p.total_ms() > 0);
         }
+    }
+
+    /// The device's default limits (crates/device `wtcu::limits::Limits::default()`, restated here because
+    /// core cannot depend on device): 8 tactors at once, 2000 ms continuous on-time, 32 frames, 10 s per
+    /// pattern, 5000 ms on per tactor in any 10 s window.
+    fn within_device_limits(p: &Pattern) -> Result<(), String> {
+        if p.frames.is_empty() || p.frames.len() > 32 || p.repeats == 0 {
+            return Err(format!("{} frames, {} repeats", p.frames.len(), p.repeats));
+        }
+        if p.frames.iter().any(|f| f.duration_ms == 0) {
+            return Err("a 0 ms frame".to_owned());
+        }
+        let most = p.frames.iter().map(|f| f.mask.0.count_ones()).max().unwrap_or(0);
+        if most > 8 {
+            return Err(format!("{most} tactors at once"));
+        }
+        let total: u32 =
+            p.frames.iter().map(|f| u32::from(f.duration_ms)).sum::<u32>() * u32::from(p.repeats);
+        if total > 10_000 {
+            return Err(format!("{total} ms in total"));
+        }
+        for t in 0..TACTOR_COUNT {
+            let longest = expanded_longest_ms(p, t);
+            if longest > 2000 {
+                return Err(format!("tactor {t} on for {longest} ms"));
+            }
+            // The whole pattern is within 10 s, so its total on-time bounds every 10 s window.
+            let on: u32 =
+                p.frames.iter().filter(|f| f.mask.contains(t)).map(|f| u32::from(f.duration_ms)).sum();
+            if on * u32::from(p.repeats) > 5000 {
+                return Err(format!("tactor {t} duty {} ms", on * u32::from(p.repeats)));
+            }
+        }
+        Ok(())
+    }
+
+    #[test]
+    fn turn_in_place_cues_respect_the_device_limits_at_every_on_time() {
+        for cue in Cue::TURN_IN_PLACE.into_iter().chain(Cue::ALL) {
+            for on_ms in [100, DEFAULT_ON_MS, 1000, 2000] {
+                let p = cue.pattern(on_ms);
+                assert_eq!(within_device_limits(&p), Ok(()), "{cue:?} at {on_ms} ms");
+            }
+        }
+    }
+
+    #[test]
+    fn turn_in_place_sweeps_grow_with_the_turn_and_end_on_the_turn_side() {
+        let lower = TactorMask::from_indices([8, 9, 10, 11, 12, 13, 14, 15]);
+        for (right, make) in [(false, Cue::RotateLeft as fn(TurnStep) -> Cue), (true, Cue::RotateRight)] {
+            for (step, columns, sweeps) in [
+                (TurnStep::Deg30, 2, 1),
+                (TurnStep::Deg60, 3, 1),
+                (TurnStep::Deg90, 4, 1),
+                (TurnStep::Deg135, 4, 2),
+            ] {
+                let p = make(step).pattern(DEFAULT_ON_MS);
+                let on: Vec<&Frame> = p.frames.iter().filter(|f| !f.mask.is_empty()).collect();
+                assert_eq!((on.len(), p.repeats), (columns, sweeps), "{step:?}");
+                let cols: Vec<usize> = on
+                    .iter()
+                    .map(|f| {
+                        // One half column: two tactors of one column, both in the lower half.
+                        assert_eq!(f.mask.count(), 2);
+                        assert_eq!(f.mask & lower, f.mask);
+                        let c: Vec<usize> = f.mask.indices().map(|i| i % GRID).collect();
+                        assert_eq!(c[0], c[1]);
+                        c[0]
+                    })
+                    .collect();
+                // Ends on the outer column of the turn side, one column per frame toward it.
+                assert_eq!(*cols.last().unwrap(), if right { 3 } else { 0 }, "{step:?}");
+                for w in cols.windows(2) {
+                    let next = if right { w[0] + 1 } else { w[0].wrapping_sub(1) };
+                    assert_eq!(w[1], next, "{cols:?}");
+                }
+            }
+        }
+        // No turn-in-place cue feels like a walking cue.
+        for a in Cue::TURN_IN_PLACE {
+            for b in Cue::ALL {
+                assert_ne!(a.pattern(DEFAULT_ON_MS).frames, b.pattern(DEFAULT_ON_MS).frames, "{a:?} {b:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn turn_grades_are_the_nearest_nominal_turn() {
+        for e in (0..=1800).map(|i| f64::from(i) / 10.0) {
+            // Independent truth: the grade minimising |e - nominal|, the smaller on a tie.
+            let best = TurnStep::ALL
+                .into_iter()
+                .min_by(|a, b| (e - a.degrees()).abs().total_cmp(&(e - b.degrees()).abs()))
+                .unwrap();
+            assert_eq!(TurnStep::for_error_deg(e), best, "{e}");
+            assert_eq!(TurnStep::for_error_deg(-e), best, "{e}");
+        }
+        assert_eq!(Cue::rotate_toward(-50.0), Cue::RotateLeft(TurnStep::Deg60));
+        assert_eq!(Cue::rotate_toward(170.0), Cue::RotateRight(TurnStep::Deg135));
+        assert_eq!(TurnStep::for_error_deg(f64::NAN), TurnStep::Deg30);
+        let names: std::collections::HashSet<_> = Cue::TURN_IN_PLACE.iter().map(|c| c.name()).collect();
+        assert_eq!(names.len(), 8);
     }
 
     fn frame(mask: u16, duration_ms: u16) -> Frame {

@@ -28,11 +28,9 @@ use std::f64::consts::{PI, TAU};
 
 /// The plane vector type of positions, re-exported so callers need no direct `glam` dependency.
 pub use glam::DVec2;
-use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
-use nalgebra::{DVector, Dyn, Owned, U2, Vector2};
 use serde::{Deserialize, Serialize};
 
-use crate::fit::{FitError, LineFit, fit_line, r_squared};
+use crate::fit::{Curve, FitError, LineFit, fit_line, least_squares, r_squared};
 use crate::vest::{GRID, TACTOR_COUNT, TactorMask};
 
 /// Measured source amplitude on Skinsim, `a0` [m/s^2] (thesis §4.1.3).
@@ -143,16 +141,9 @@ pub fn fit_attenuation(distance_m: &[f64], amplitude_m_s2: &[f64]) -> Result<Att
             value: start.slope,
         });
     }
-    let problem = AttenuationProblem {
-        d: distance_m,
-        a: amplitude_m_s2,
-        p: Vector2::new(start.intercept.exp(), (-1.0 / start.slope).sqrt()),
-    };
-    let (solved, report) = LevenbergMarquardt::new().minimize(problem);
-    if !report.termination.was_successful() {
-        return Err(FitError::NoConvergence(format!("{:?}", report.termination)).into());
-    }
-    let model = GaussianAttenuation { a0_m_s2: solved.p[0], width_m: solved.p[1].abs() };
+    let start = [start.intercept.exp(), (-1.0 / start.slope).sqrt()];
+    let [a0, width] = least_squares(&CentredGaussian, distance_m, amplitude_m_s2, start)?.params;
+    let model = GaussianAttenuation { a0_m_s2: a0, width_m: width.abs() };
     let predicted: Vec<f64> = distance_m.iter().map(|d| model.amplitude_m_s2(*d)).collect();
     Ok(AttenuationFit { model, r2: r_squared(amplitude_m_s2, &predicted) })
 }
@@ -166,42 +157,17 @@ pub struct AttenuationFit {
     pub r2: f64,
 }
 
-struct AttenuationProblem<'a> {
-    d: &'a [f64],
-    a: &'a [f64],
-    p: Vector2<f64>,
-}
+/// `a0 exp(-(d/b)^2)` with parameters `[a0, b]` (the centre held at the tactor).
+struct CentredGaussian;
 
-impl LeastSquaresProblem<f64, Dyn, U2> for AttenuationProblem<'_> {
-    type ResidualStorage = Owned<f64, Dyn>;
-    type JacobianStorage = Owned<f64, Dyn, U2>;
-    type ParameterStorage = Owned<f64, U2>;
-
-    fn set_params(&mut self, p: &Vector2<f64>) {
-        self.p.copy_from(p);
+impl Curve<2> for CentredGaussian {
+    fn value(&self, [a0, b]: &[f64; 2], d: f64) -> Option<f64> {
+        Some(a0 * (-(d / b).powi(2)).exp())
     }
 
-    fn params(&self) -> Vector2<f64> {
-        self.p
-    }
-
-    fn residuals(&self) -> Option<DVector<f64>> {
-        let (a0, b) = (self.p[0], self.p[1]);
-        Some(DVector::from_iterator(
-            self.d.len(),
-            self.d.iter().zip(self.a).map(|(d, a)| a0 * (-(d / b).powi(2)).exp() - a),
-        ))
-    }
-
-    fn jacobian(&self) -> Option<nalgebra::OMatrix<f64, Dyn, U2>> {
-        let (a0, b) = (self.p[0], self.p[1]);
-        let mut j = nalgebra::OMatrix::<f64, Dyn, U2>::zeros(self.d.len());
-        for (row, d) in self.d.iter().enumerate() {
-            let e = (-(d / b).powi(2)).exp();
-            j[(row, 0)] = e;
-            j[(row, 1)] = a0 * e * 2.0 * d * d / (b * b * b);
-        }
-        Some(j)
+    fn gradient(&self, [a0, b]: &[f64; 2], d: f64) -> Option<[f64; 2]> {
+        let e = (-(d / b).powi(2)).exp();
+        Some([e, a0 * e * 2.0 * d * d / (b * b * b)])
     }
 }
 

@@ -14,9 +14,22 @@
 //!    ±`turn_deg` (70°), `TurnAround` 180°, each plus N(0, `turn_noise_deg`²); Stop halts the walker;
 //!    Attention and Arrived change nothing.
 //!
+//! With [`SimConfig::heading`] set ([`HeadingSim`]) the wearer also has a heading of their own to be steered
+//! by: they start **standing** at the first waypoint facing a random direction; guidance picks its heading
+//! source by [`HeadingSim::mode`] from the vest's compass ([`crate::compass::MagnetometerSim`]: calibrated
+//! hard/soft iron, noise, gait tilt, WMM field, steel objects beside the route; read every step) and the
+//! receiver's COG (scattering as `atan(sigma_v / v)` at low speed); the declination is WMM's at the start.
+//! A recognised turn-in-place cue ([`Cue::RotateLeft`]/[`Cue::RotateRight`]) stops the wearer, who turns on
+//! the spot by the cue's grade (plus N(0, `turn_noise_deg`²)) at `rotate_rate_deg_s`; `Forward` or any
+//! walking cue sets them walking; a standing wearer told nothing directional for `idle_walk_s` walks off the
+//! way they face (the only way COG-only guidance gets a heading). Without it (the default) the wearer walks
+//! from the start exactly as described above.
+//!
 //! Metrics: cross-track RMSE of the **true** path to the route polyline (from leaving the first waypoint to
 //! the finish), time to finish, cues per minute, waypoints reached and missed (passed abeam or never
-//! reached), and both paths for plotting.
+//! reached), time to face the first waypoint (true heading within the standing forward cone,
+//! [`crate::guidance::CueThresholds::in_place_cone_deg`], of the true bearing from the true position), time
+//! per heading source and with "compass disturbed?" raised, and both paths for plotting.
 //!
 //! ```
 //! use vestnav_core::geo::LatLon;
@@ -41,10 +54,15 @@ use serde::{Deserialize, Serialize};
 use crate::geo::{LatLon, LocalFrame, bearing_of_enu_deg, normalize_deg, wrap_deg_180};
 use crate::gnss_sim::{GnssErrorModel, GnssErrorState};
 use crate::guidance::{
-    Guidance, GuidanceConfig, NavInput, NavState, Route, RouteConfig, RouteError, RouteEvent, StrategyKind,
-    Waypoint,
+    Guidance, GuidanceConfig, HeadingMode, NavInput, NavState, Route, RouteConfig, RouteError, RouteEvent,
+    StrategyKind, Waypoint,
 };
 use crate::vest::Cue;
+
+mod heading;
+
+use heading::CompassSensor;
+pub use heading::{HeadingSim, SIM_DATE, SteelPlacement};
 
 /// How the simulated person walks and reacts.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -95,6 +113,8 @@ impl WearerModel {
             Cue::TurnLeft => Some(-self.turn_deg),
             Cue::TurnRight => Some(self.turn_deg),
             Cue::TurnAround => Some(180.0),
+            Cue::RotateLeft(step) => Some(-step.degrees()),
+            Cue::RotateRight(step) => Some(step.degrees()),
             Cue::Stop | Cue::Attention | Cue::Arrived => None,
         }
     }
@@ -121,6 +141,10 @@ pub struct SimConfig {
     pub fix_interval_s: f64,
     /// Give up after this many times the nominal walking time, plus 120 s (default 3).
     pub timeout_factor: f64,
+    /// The wearer's own heading, the compass and the heading source selector; `None` (the default): the
+    /// wearer walks from the start and guidance steers by its configured rule (see the module doc).
+    #[serde(default)]
+    pub heading: Option<HeadingSim>,
 }
 
 impl SimConfig {
@@ -136,6 +160,7 @@ impl SimConfig {
             dt_s: 0.1,
             fix_interval_s: 1.0,
             timeout_factor: 3.0,
+            heading: None,
         }
     }
 }
@@ -169,6 +194,19 @@ pub struct SimResult {
     pub waypoints_reached: usize,
     /// Waypoints missed: passed abeam, or not reached before the timeout.
     pub waypoints_missed: usize,
+    /// Heading source selector of the run (`auto`, `compass`, `cog`); `None` without [`SimConfig::heading`].
+    #[serde(default)]
+    pub heading_mode: Option<String>,
+    /// Time until the wearer first faced the first waypoint after the start (true heading within the
+    /// standing forward cone of the true bearing to it) [s]; `None` if never.
+    #[serde(default)]
+    pub time_to_face_s: Option<f64>,
+    /// Time guidance steered by each heading source (`COG`, `compass`, `true heading`, `none`) [s].
+    #[serde(default)]
+    pub heading_source_s: BTreeMap<String, f64>,
+    /// Time with "compass disturbed?" raised [s].
+    #[serde(default)]
+    pub compass_disturbed_s: f64,
     /// True path, east/north about the first waypoint [m], one point per fix (for figures; not in JSON).
     #[serde(skip)]
     pub path_true_en_m: Vec<DVec2>,
@@ -178,6 +216,10 @@ pub struct SimResult {
     /// Waypoints, east/north about the first waypoint [m] (for figures; not in JSON).
     #[serde(skip)]
     pub waypoints_en_m: Vec<DVec2>,
+    /// Steel objects disturbing the compass, east/north about the first waypoint [m] (for figures; not in
+    /// JSON).
+    #[serde(skip)]
+    pub steel_en_m: Vec<DVec2>,
 }
 
 /// Distance from `p` to the polyline through `pts` [m] (planar): min over segments of the distance to the
@@ -333,9 +375,27 @@ fn normal(rng: &mut StdRng) -> f64 {
 #[allow(clippy::too_many_lines)]
 pub fn simulate(waypoints: &[Waypoint], config: &SimConfig, seed: u64) -> Result<SimResult, RouteError> {
     let route = Route::new(waypoints.to_vec(), config.route)?;
-    let mut guidance = Guidance::new(route, config.guidance, config.strategy);
     let frame = LocalFrame::new(waypoints[0].pos, config.guidance.earth);
     let wps_en: Vec<DVec2> = waypoints.iter().map(|w| frame.enu_from_wgs84(w.pos)).collect();
+    let hs = config.heading;
+    let mut guidance_config = config.guidance;
+    let mut compass = match &hs {
+        Some(h) => {
+            let c =
+                CompassSensor::new(h, waypoints[0].pos, &wps_en, seed.wrapping_add(0x00C0_4A55)).map_err(
+                    |source| RouteError::BadWaypoint { index: 0, name: waypoints[0].name.clone(), source },
+                )?;
+            guidance_config.heading_mode = h.mode;
+            // The console sets the declination from WMM at the route start; guidance applies it once.
+            guidance_config.declination_deg = Some(c.declination_deg());
+            Some(c)
+        }
+        None => None,
+    };
+    let mut guidance = Guidance::new(route, guidance_config, config.strategy);
+    // The heading sensors draw from their own generator: without `heading` the walk is the same as ever.
+    let mut sensor_rng = StdRng::seed_from_u64(seed ^ 0xC0FF_EE00_D15E_A5E5);
+    let face_cone_deg = config.guidance.thresholds.in_place_cone_deg();
     // The cross-track metric runs every step: an index keeps a walk linear in the route's length.
     let route_line = PolylineIndex::new(&wps_en);
     let length_m: f64 = wps_en.windows(2).map(|w| (w[1] - w[0]).length()).sum();
@@ -356,10 +416,16 @@ pub fn simulate(waypoints: &[Waypoint], config: &SimConfig, seed: u64) -> Result
     let first_leg = wps_en.get(1).map_or(DVec2::Y, |b| *b - wps_en[0]);
     let spread = w.initial_heading_error_deg.abs();
     let mut heading = normalize_deg(bearing_of_enu_deg(first_leg) + rng.random_range(-spread..=spread));
+    if hs.is_some() {
+        heading = sensor_rng.random_range(0.0..360.0);
+    }
     let mut target_heading = heading;
     let mut pos = wps_en[0];
-    let mut walking = true;
-    let mut pending: Vec<(f64, f64)> = Vec::new(); // (time to act, heading change), in cue order
+    let mut walking = hs.is_none();
+    let mut stopped = false;
+    let mut last_directional_s = 0.0;
+    // (time to act, heading change, on the spot), in cue order.
+    let mut pending: Vec<(f64, f64, bool)> = Vec::new();
     // (time, position, cog, speed); the position is mapped to WGS-84 once per fix, not once per step.
     let mut last_fix: Option<(f64, LatLon, f64, f64)> = None;
     let mut result = SimResult {
@@ -376,9 +442,14 @@ pub fn simulate(waypoints: &[Waypoint], config: &SimConfig, seed: u64) -> Result
         cue_counts: BTreeMap::new(),
         waypoints_reached: 0,
         waypoints_missed: 0,
+        heading_mode: hs.map(|h| h.mode.name().to_owned()),
+        time_to_face_s: None,
+        heading_source_s: BTreeMap::new(),
+        compass_disturbed_s: 0.0,
         path_true_en_m: Vec::new(),
         path_fix_en_m: Vec::new(),
         waypoints_en_m: wps_en.clone(),
+        steel_en_m: compass.as_ref().map_or_else(Vec::new, |c| c.steel_en_m.clone()),
     };
     let (mut xt_sum2, mut xt_n) = (0.0, 0usize);
     let mut left_start = false;
@@ -392,7 +463,12 @@ pub fn simulate(waypoints: &[Waypoint], config: &SimConfig, seed: u64) -> Result
         let speed = if walking { pace } else { 0.0 };
         if step.is_multiple_of(fix_every) {
             let fix_en = gnss.apply(fix_interval_s, pos, speed);
-            let cog = normalize_deg(heading + config.cog_noise_deg * normal(&mut rng));
+            let cog = match &hs {
+                Some(h) => {
+                    heading::cog_deg(&mut sensor_rng, heading, speed, config.cog_noise_deg, h.speed_noise_m_s)
+                }
+                None => normalize_deg(heading + config.cog_noise_deg * normal(&mut rng)),
+            };
             last_fix = Some((t, frame.wgs84_from_enu(fix_en), cog, speed));
             result.path_true_en_m.push(pos);
             result.path_fix_en_m.push(fix_en);
@@ -401,7 +477,25 @@ pub fn simulate(waypoints: &[Waypoint], config: &SimConfig, seed: u64) -> Result
             fix_age_s: t - tf,
             ..NavInput::moving(fix_pos, cog, spd)
         });
-        let decision = guidance.update(&input, t);
+        let decision = match (compass.as_mut(), &hs) {
+            // `cog` is today's vest, without a magnetometer: its rule then has COG or nothing.
+            (_, Some(h)) if h.mode == HeadingMode::Cog => guidance.update_with_compass(&input, None, t),
+            (Some(c), _) => {
+                let reading = c.read(t, pos, heading, speed);
+                guidance.update_with_compass(&input, reading, t)
+            }
+            (None, _) => guidance.update(&input, t),
+        };
+        *result.heading_source_s.entry(decision.heading_source.name().to_owned()).or_default() += dt;
+        if decision.compass_disturbed {
+            result.compass_disturbed_s += dt;
+        }
+        if result.time_to_face_s.is_none()
+            && let Some(first) = wps_en.get(1)
+            && wrap_deg_180(bearing_of_enu_deg(*first - pos) - heading).abs() <= face_cone_deg
+        {
+            result.time_to_face_s = Some(t);
+        }
         match decision.event {
             Some(RouteEvent::Arrived(_)) => {
                 result.waypoints_reached += 1;
@@ -426,9 +520,11 @@ pub fn simulate(waypoints: &[Waypoint], config: &SimConfig, seed: u64) -> Result
                 let act_at = t + f64::from(pattern.total_ms()) / 1000.0 + w.reaction_s;
                 if cue == Cue::Stop {
                     walking = false;
+                    stopped = true;
                 } else if let Some(turn) = w.turn_for(cue) {
                     let noise = if turn == 0.0 { 0.0 } else { w.turn_noise_deg * normal(&mut rng) };
-                    pending.push((act_at, turn + noise));
+                    pending.push((act_at, turn + noise, cue.is_turn_in_place()));
+                    last_directional_s = t;
                 }
             }
         }
@@ -438,15 +534,32 @@ pub fn simulate(waypoints: &[Waypoint], config: &SimConfig, seed: u64) -> Result
             break;
         }
         // Act on each recognised cue when its reaction time has come, in order.
-        while let Some(&(at, change)) = pending.first()
+        while let Some(&(at, change, on_the_spot)) = pending.first()
             && t >= at
         {
             target_heading = normalize_deg(heading + change);
+            if hs.is_some() && !stopped {
+                // A turn-in-place cue stops the wearer; Forward and the walking cues set them walking.
+                walking = !on_the_spot;
+            }
+            last_directional_s = t;
             pending.remove(0);
+        }
+        if let Some(h) = &hs
+            && !walking
+            && !stopped
+            && pending.is_empty()
+            && t - last_directional_s >= h.idle_walk_s
+        {
+            walking = true;
         }
         // Walk: turn toward the target heading at the turn rate, veer, advance.
         let diff = wrap_deg_180(target_heading - heading);
-        let max_turn = w.turn_rate_deg_s * dt;
+        let rate = match &hs {
+            Some(h) if !walking => h.rotate_rate_deg_s,
+            _ => w.turn_rate_deg_s,
+        };
+        let max_turn = rate * dt;
         heading = normalize_deg(heading + diff.clamp(-max_turn, max_turn));
         let veer = w.veer_deg_per_sqrt_s * dt.sqrt() * normal(&mut rng);
         heading = normalize_deg(heading + veer);
@@ -490,6 +603,11 @@ pub struct Spread {
 }
 
 impl Spread {
+    /// The statistics of no values (all zeros).
+    pub fn empty() -> Self {
+        Self::of(&[])
+    }
+
     /// Statistics of `values` (all zeros when empty).
     pub fn of(values: &[f64]) -> Self {
         if values.is_empty() {
@@ -525,6 +643,15 @@ pub struct SimSummary {
     pub cues_per_min: Spread,
     /// Waypoints missed per run.
     pub waypoints_missed: Spread,
+    /// Heading source selector of the runs (`auto`, `compass`, `cog`); `None` without a heading simulation.
+    #[serde(default)]
+    pub heading_mode: Option<String>,
+    /// Fraction of runs in which the wearer came to face the first waypoint.
+    #[serde(default)]
+    pub faced_rate: f64,
+    /// Time to face the first waypoint, over the runs that did [s].
+    #[serde(default = "Spread::empty")]
+    pub time_to_face_s: Spread,
 }
 
 impl SimSummary {
@@ -543,6 +670,13 @@ impl SimSummary {
             time_s: get(|r| r.time_s),
             cues_per_min: get(|r| r.cues_per_min),
             waypoints_missed: get(|r| r.waypoints_missed as f64),
+            heading_mode: results.first().and_then(|r| r.heading_mode.clone()),
+            faced_rate: if results.is_empty() {
+                0.0
+            } else {
+                results.iter().filter(|r| r.time_to_face_s.is_some()).count() as f64 / results.len() as f64
+            },
+            time_to_face_s: Spread::of(&results.iter().filter_map(|r| r.time_to_face_s).collect::<Vec<_>>()),
         }
     }
 }

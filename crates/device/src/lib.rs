@@ -3,6 +3,7 @@
 //! Protocols are sans-IO state machines (fed bytes and the current time, drained of events and bytes to
 //! send); transports are thin `Read + Write` adapters owned by one worker thread each.
 //! - [`gps`]: NMEA 0183 decoding and fix assembly, GPS sources (serial, log replay, gpsd, simulator);
+//! - [`heading`]: one heading/attitude reading from any source (vest magnetometer, NMEA compass, gpsd);
 //! - [`wtcu`]: the Wireless Tactile Control Unit protocol, link, and vest emulator;
 //! - [`serial`]: serial-port discovery and opening (Bluetooth SPP ports are serial ports);
 //! - [`session_log`]: the console's session log (JSON Lines): records, writer, reader;
@@ -12,6 +13,7 @@
 
 pub mod backoff;
 pub mod gps;
+pub mod heading;
 pub mod outbox;
 pub mod route_file;
 pub mod serial;

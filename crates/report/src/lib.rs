@@ -13,7 +13,7 @@
 //! - [`fieldtest`]: the drift (Fig 65) and cone (Figs 67–70) sheets, [`fieldtest::DriftReport`],
 //!   [`fieldtest::ConesReport`];
 //! - [`nav`]: the guidance simulation, [`nav::NavReport`];
-//! - [`series`]: `linspace`, time windows and the per-revolution envelope; [`csv`]: a figure's data as CSV.
+//! - [`series`]: `linspace` and time windows; [`csv`]: a figure's data as CSV.
 //!
 //! ```
 //! use vestnav_core::twopoint::TwoPointSetup;

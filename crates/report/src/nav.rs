@@ -4,7 +4,7 @@ use serde::{Deserialize, Serialize};
 use vestnav_core::wearer::{SimResult, SimSummary};
 use vestnav_plot::{Chart, Color, Figure, Marker, Series};
 
-/// One strategy's summary and runs.
+/// One strategy's (and heading source's) summary and runs.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct StrategyReport {
     /// Means and spreads over the runs.
@@ -24,7 +24,11 @@ pub struct NavReport {
     pub runs: usize,
     /// First seed.
     pub seed: u64,
-    /// One entry per strategy simulated.
+    /// Walking pace of the simulated wearer [m/s] (absent in reports written before it was recorded).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pace_m_s: Option<f64>,
+    /// One entry per strategy simulated, and per heading source when `--heading` named several (each
+    /// summary says its `heading_mode`).
     pub strategies: Vec<StrategyReport>,
 }
 
@@ -39,7 +43,7 @@ impl NavReport {
     ) -> Self {
         let strategies =
             all.iter().map(|(s, rs)| StrategyReport { summary: s.clone(), runs: rs.clone() }).collect();
-        Self { route, waypoints, runs, seed, strategies }
+        Self { route, waypoints, runs, seed, pace_m_s: None, strategies }
     }
 }
 
@@ -54,8 +58,9 @@ pub fn nav_figure(all: &[(SimSummary, Vec<SimResult>)], arrival_radius_m: f64) -
         let Some(r) = runs.first() else { continue };
         let xs = |v: &[vestnav_core::wave::DVec2]| v.iter().map(|p| p.x).collect::<Vec<f64>>();
         let ys = |v: &[vestnav_core::wave::DVec2]| v.iter().map(|p| p.y).collect::<Vec<f64>>();
+        let heading = s.heading_mode.as_deref().map_or(String::new(), |h| format!(" / {h}"));
         let mut chart = Chart::new(format!(
-            "{}: xtrack RMSE {:.1} m, {:.0} s, {:.1} cues/min, {} missed",
+            "{}{heading}: xtrack RMSE {:.1} m, {:.0} s, {:.1} cues/min, {} missed",
             s.strategy, r.cross_track_rmse_m, r.time_s, r.cues_per_min, r.waypoints_missed
         ))
         .x_label("east [m]")
@@ -77,6 +82,13 @@ pub fn nav_figure(all: &[(SimSummary, Vec<SimResult>)], arrival_radius_m: f64) -
                 .width(2.0)
                 .color(Color::rgb(30, 90, 200)),
         );
+        if !r.steel_en_m.is_empty() {
+            chart = chart.series(
+                Series::scatter("steel", xs(&r.steel_en_m), ys(&r.steel_en_m))
+                    .marker(Marker::Square)
+                    .color(Color::rgb(200, 40, 40)),
+            );
+        }
         for (i, w) in r.waypoints_en_m.iter().enumerate() {
             let label = if i == 0 { "arrival radius" } else { "" };
             chart = chart.circle(w.x, w.y, arrival_radius_m, label).annotate(w.x, w.y, format!("{}", i + 1));

@@ -2,14 +2,14 @@
 //! schemas of `sim tactor` and `sim damping-for`.
 
 use serde::{Deserialize, Serialize};
-use vestnav_core::analysis::amplitude_spectrum;
+use vestnav_core::analysis::{amplitude_spectrum, revolution_envelope};
 use vestnav_core::sweep::Calibration;
 use vestnav_core::tactor::{
     BodyMass, Preset, SimOptions, Summary, TactorError, TactorParams, TactorRun, simulate_with_step_angle,
 };
 use vestnav_plot::{Chart, Color, Figure, Scale, Series, decimate_minmax};
 
-use crate::series::{revolution_envelope, time_window};
+use crate::series::time_window;
 
 /// Traces are drawn from rest up to this time by default [s] (the thesis's Figs 28–33 show about 0.5 s).
 pub const DEFAULT_SPAN_S: f64 = 0.5;
@@ -206,7 +206,8 @@ fn envelopes(
     let mut chart = Chart::new(title).x_label("time [s]").y_label(y_label);
     for (k, run) in runs.all().enumerate() {
         let tr = &run.traces;
-        let (t, e) = revolution_envelope(&tr.t_s, &tr.theta_rad, pick(run));
+        let env = revolution_envelope(&tr.t_s, &tr.theta_rad, pick(run));
+        let (t, e) = (env.time_s, env.amplitude);
         let (t, e): (Vec<f64>, Vec<f64>) = t.into_iter().zip(e).filter(|(t, _)| *t <= span_s).unzip();
         let series = Series::line(body_label(run), t, e);
         chart = chart.series(if k == 0 { series.color(MAIN) } else { series.color(OTHER).dashed() });
@@ -292,7 +293,8 @@ pub fn tactor_figure(runs: &TactorRuns, span_s: f64) -> Figure {
 pub fn calibrated_figure(cal: &Calibration, run: &TactorRun) -> Figure {
     let tr = &run.traces;
     let s = &run.summary;
-    let (te, fe) = revolution_envelope(&tr.t_s, &tr.theta_rad, &tr.force_n);
+    let env = revolution_envelope(&tr.t_s, &tr.theta_rad, &tr.force_n);
+    let (te, fe) = (env.time_s, env.amplitude);
     let t_end = s.options.duration_s;
     let fig39 = Chart::new(format!("Fig 39: force amplitude over {t_end} s"))
         .x_label("time [s]")

@@ -1,15 +1,27 @@
-//! gpsd's JSON protocol: TPV and SKY reports to [`Fix`]es (sans-IO; the TCP transport is in [`super::source`]).
+//! gpsd's JSON protocol: TPV and SKY reports to [`Fix`]es, ATT reports to [`Attitude`]s (sans-IO; the TCP
+//! transport is in [`super::source`]).
 //!
 //! We send `?WATCH={"enable":true,"json":true}` and read one JSON object per line. A TPV with a new
 //! `time` completes a fix; the latest SKY supplies DOPs and satellites. gpsd's own `eph` (its DOP model, or
 //! the receiver's GST/PGRME) becomes the error estimate.
+//!
+//! An ATT report (`gpsd_json(5)`: `heading` = degrees from true north, `mheading` = degrees from magnetic
+//! north, `pitch`, `roll`, `mag_st`, ...) becomes one [`Attitude`] with origin [`HeadingOrigin::Gpsd`]:
+//! true when it has `heading` (a dual-antenna receiver's HDT/THS/PSTI, an INS), magnetic when it only has
+//! `mheading` (a compass). True wins because it needs no declination, which the console would otherwise
+//! take from its WMM model. `mag_st` (a status letter whose meaning depends on the compass) and `mag_len`
+//! (no unit given by gpsd) are not mapped to quality or field strength. An ATT without either heading
+//! (IMU data only) is counted as unsupported; a heading that is not a number, or any value that fails
+//! [`Attitude::validate`], makes the report malformed.
 
 use std::time::Instant;
 
 use chrono::{DateTime, Utc};
 
+use super::GpsEvent;
 use super::fix::{Constellation, ErrorEstimate, ErrorSource, Fix, FixMode, Satellite};
 use super::framing::DecodeStats;
+use crate::heading::{Attitude, HeadingOrigin, HeadingReference};
 
 /// The command that starts the JSON stream.
 pub const WATCH: &str = "?WATCH={\"enable\":true,\"json\":true}\n";
@@ -135,15 +147,27 @@ impl GpsdClient {
     }
 
     /// Counts so far: `bytes` and `sentences` (report lines parsed as JSON), `malformed` (lines that are
-    /// not JSON), `epochs` (fixes made), and what [`Fix::validate`] removed from them
-    /// (`invalid_positions`, `implausible_values`).
+    /// not JSON, ATT reports that fail [`Attitude::validate`]), `unsupported` (other classes, ATT without a
+    /// heading), `epochs` (fixes made), and what [`Fix::validate`] removed from them (`invalid_positions`,
+    /// `implausible_values`).
     pub fn stats(&self) -> DecodeStats {
         self.stats
     }
 
     /// Handles one line whose bytes arrived at `now`; returns a fix (already validated, stamped
-    /// `received_at = now`) when a TPV with a new time arrives.
+    /// `received_at = now`) when a TPV with a new time arrives. For callers that want fixes only: an ATT
+    /// report is counted but its [`Attitude`] is dropped (use [`Self::handle_report`] to get it).
     pub fn handle_line(&mut self, line: &str, now: Instant) -> Option<Fix> {
+        match self.handle_report(line, now)? {
+            GpsEvent::Fix(fix) => Some(*fix),
+            _ => None,
+        }
+    }
+
+    /// Handles one line whose bytes arrived at `now`: [`GpsEvent::Fix`] when a TPV with a new time arrives
+    /// (validated, `received_at = now`), [`GpsEvent::Attitude`] for an ATT report with a heading (validated,
+    /// `received_at = now`; see the module doc for true vs magnetic), else nothing.
+    pub fn handle_report(&mut self, line: &str, now: Instant) -> Option<GpsEvent> {
         self.stats.bytes += line.len() as u64;
         let Ok(v) = serde_json::from_str::<serde_json::Value>(line.trim()) else {
             self.ignored_lines += 1;
@@ -160,8 +184,19 @@ impl GpsdClient {
                 let mut fix = self.tpv(&v, now)?;
                 fix.validate().count_into(&mut self.stats);
                 self.stats.epochs += 1;
-                Some(fix)
+                Some(GpsEvent::Fix(Box::new(fix)))
             }
+            Some("ATT") => match att(&v, now) {
+                Ok(Some(a)) => Some(GpsEvent::Attitude(a)),
+                Ok(None) => {
+                    self.stats.unsupported += 1;
+                    None
+                }
+                Err(()) => {
+                    self.stats.malformed += 1;
+                    None
+                }
+            },
             _ => {
                 self.stats.unsupported += 1;
                 None
@@ -248,6 +283,31 @@ impl GpsdClient {
         });
         Some(fix)
     }
+}
+
+/// An optional number of a report: `Ok(None)` when absent or `null`, `Err` when present but not a number.
+fn opt_f64(v: &serde_json::Value, key: &str) -> Result<Option<f64>, ()> {
+    match v.get(key) {
+        None | Some(serde_json::Value::Null) => Ok(None),
+        Some(x) => x.as_f64().map(Some).ok_or(()),
+    }
+}
+
+/// An ATT report to an attitude: `Ok(None)` without a heading, `Err` when a value is not a number or fails
+/// [`Attitude::validate`].
+fn att(v: &serde_json::Value, now: Instant) -> Result<Option<Attitude>, ()> {
+    let (heading_deg, reference) = match (opt_f64(v, "heading")?, opt_f64(v, "mheading")?) {
+        (Some(h), _) => (h, HeadingReference::True),
+        (None, Some(h)) => (h, HeadingReference::Magnetic),
+        (None, None) => return Ok(None),
+    };
+    let a = Attitude {
+        pitch_deg: opt_f64(v, "pitch")?,
+        roll_deg: opt_f64(v, "roll")?,
+        ..super::bare_attitude(heading_deg, reference, HeadingOrigin::Gpsd, now)
+    };
+    a.validate().map_err(|_| ())?;
+    Ok(Some(a))
 }
 
 #[cfg(test)]
@@ -337,6 +397,103 @@ mod tests {
         // hdop, vdop, uSat, altitude, speed, track (normalised), eph.
         assert_eq!(c.stats().implausible_values, 7);
         assert_eq!(c.stats().invalid_positions, 0);
+    }
+
+    fn attitude(c: &mut GpsdClient, line: &str, now: Instant) -> Option<Attitude> {
+        match c.handle_report(line, now) {
+            Some(GpsEvent::Attitude(a)) => Some(a),
+            Some(other) => panic!("{line}: {other:?}"),
+            None => None,
+        }
+    }
+
+    /// gpsd's own ATT reports for the `SkyTraq` PX1172RH (skytraq-PX1172RH_DS.log.chk): one true-north
+    /// attitude per report, with the numbers gpsd printed, next to the unchanged fixes.
+    #[test]
+    fn chk_att_reports_become_attitudes() {
+        let text = std::fs::read_to_string(
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("../../tests/data/gpsd-logs/skytraq-PX1172RH_DS.log.chk"),
+        )
+        .unwrap();
+        let att_lines: Vec<&str> = text.lines().filter(|l| l.starts_with(r#"{"class":"ATT""#)).collect();
+        assert_eq!(att_lines.len(), 11);
+        let mut c = GpsdClient::new();
+        let now = Instant::now();
+        let mut got = Vec::new();
+        let mut fixes = 0;
+        for line in text.lines() {
+            match c.handle_report(line, now) {
+                Some(GpsEvent::Attitude(a)) => got.push(a),
+                Some(GpsEvent::Fix(_)) => fixes += 1,
+                _ => {}
+            }
+        }
+        assert_eq!(got.len(), att_lines.len());
+        assert!(fixes > 0);
+        for (a, line) in got.iter().zip(&att_lines) {
+            // The truth, read from the text by hand-rolled field extraction rather than serde.
+            let field = |k: &str| {
+                let rest = line.split(&format!("\"{k}\":")).nth(1)?;
+                rest.split([',', '}']).next()?.parse::<f64>().ok()
+            };
+            assert!((a.heading_deg - field("heading").unwrap()).abs() < 1e-12, "{line}");
+            assert_eq!(a.pitch_deg, field("pitch"), "{line}");
+            assert_eq!(a.roll_deg, field("roll"), "{line}");
+            assert_eq!(
+                (a.reference, a.origin, a.received_at),
+                (HeadingReference::True, HeadingOrigin::Gpsd, now)
+            );
+        }
+        assert_eq!(got[2].pitch_deg, Some(2.77));
+        assert_eq!(c.stats().rejected(), c.stats().malformed);
+    }
+
+    /// `heading` is true north, `mheading` alone magnetic; no heading at all is not an attitude.
+    #[test]
+    fn att_reference_and_missing_heading() {
+        let mut c = GpsdClient::new();
+        let now = Instant::now();
+        let a =
+            attitude(&mut c, r#"{"class":"ATT","heading":10.5,"mheading":1.0,"mag_st":"N"}"#, now).unwrap();
+        assert_eq!((a.heading_deg, a.reference), (10.5, HeadingReference::True));
+        let a =
+            attitude(&mut c, r#"{"class":"ATT","heading":null,"mheading":359.5,"pitch":-3.0}"#, now).unwrap();
+        assert_eq!(
+            (a.heading_deg, a.reference, a.pitch_deg),
+            (359.5, HeadingReference::Magnetic, Some(-3.0))
+        );
+        assert!(attitude(&mut c, r#"{"class":"ATT","acc_x":1.6,"gyro_z":0.9}"#, now).is_none());
+        assert_eq!(c.stats().unsupported, 1);
+        assert_eq!(c.stats().malformed, 0);
+    }
+
+    /// Hostile ATT reports: out of range, wrong types, not JSON, absurdly nested: no attitude, no panic,
+    /// every one counted as malformed.
+    #[test]
+    fn hostile_att_is_rejected_and_counted() {
+        let mut c = GpsdClient::new();
+        let now = Instant::now();
+        let deep = format!(r#"{{"class":"ATT","heading":{}1{}}}"#, "[".repeat(10_000), "]".repeat(10_000));
+        let bad = [
+            r#"{"class":"ATT","heading":999.0}"#,
+            r#"{"class":"ATT","heading":-0.5}"#,
+            r#"{"class":"ATT","mheading":1e300}"#,
+            r#"{"class":"ATT","heading":"abc"}"#,
+            r#"{"class":"ATT","heading":[12]}"#,
+            r#"{"class":"ATT","heading":10.0,"pitch":95.0}"#,
+            r#"{"class":"ATT","heading":10.0,"roll":-181.0}"#,
+            r#"{"class":"ATT","heading":10.0,"pitch":"up"}"#,
+            r#"{"class":"ATT","heading":NaN}"#,
+            r#"{"class":"ATT","heading":1e400}"#,
+            r#"{"class":"ATT","heading":12"#,
+            &deep,
+        ];
+        for line in bad {
+            assert!(attitude(&mut c, line, now).is_none(), "{line}");
+        }
+        assert_eq!(c.stats().malformed, bad.len() as u64);
+        assert_eq!(c.stats().epochs, 0);
     }
 
     #[test]

@@ -4,10 +4,14 @@
 //! - [`assembly`]: sentences to epochs to [`Fix`]es — the sans-IO [`NmeaDecoder`];
 //! - [`fix`]: the fix type and its plausibility check ([`Fix::validate`], applied to every fix from every
 //!   source);
-//! - [`gpsd`]: gpsd's JSON protocol (TPV/SKY to [`Fix`]) and its bounded line framer;
+//! - [`gpsd`]: gpsd's JSON protocol (TPV/SKY to [`Fix`], ATT to [`Attitude`]) and its bounded line framer;
 //! - [`nmea_out`]: NMEA sentence generation (simulator, emulator);
 //! - [`record`]: the timestamped recording format;
 //! - [`source`]: worker threads for serial, replay, gpsd and simulator sources with one event stream.
+//!
+//! Headings: HDT/THS (a receiver's true heading) stay in their epoch's [`Fix::true_heading_deg`]; an
+//! external compass's HDG and gpsd's ATT reports stand on their own as [`GpsEvent::Attitude`]
+//! (docs/gps.md, "Heading sentences").
 //!
 //! ```
 //! use vestnav_device::gps::decode_reader;
@@ -35,6 +39,8 @@ use std::path::Path;
 use std::time::Instant;
 
 use chrono::{DateTime, NaiveTime, Utc};
+
+use crate::heading::Attitude;
 
 pub use assembly::{DecoderConfig, NmeaDecoder};
 pub use fix::{Constellation, ErrorEstimate, ErrorSource, Fix, FixCheck, FixMode, FixQuality, Satellite};
@@ -69,6 +75,11 @@ pub struct Mark {
 pub enum GpsEvent {
     /// A completed epoch.
     Fix(Box<Fix>),
+    /// A heading reading that is not part of an epoch: an NMEA HDG from an external compass (magnetic,
+    /// [`HeadingOrigin::Nmea`](crate::heading::HeadingOrigin::Nmea)) or a gpsd ATT report
+    /// ([`HeadingOrigin::Gpsd`](crate::heading::HeadingOrigin::Gpsd)). Already checked by
+    /// [`Attitude::validate`].
+    Attitude(Attitude),
     /// An operator mark.
     Mark(Mark),
     /// Running counts of accepted and rejected input (sent periodically by sources and at the end).
@@ -78,6 +89,27 @@ pub enum GpsEvent {
     /// Something the operator should know that is neither a state change nor an error, as one line of
     /// text (e.g. a looped simulator starting its next lap).
     Notice(String),
+}
+
+/// A heading reading of the GPS input with nothing but a heading: no pitch, roll, quality, field or raw
+/// magnetometer values (the one place the GPS layer spells out [`Attitude`]'s fields).
+pub(crate) fn bare_attitude(
+    heading_deg: f64,
+    reference: crate::heading::HeadingReference,
+    origin: crate::heading::HeadingOrigin,
+    received_at: Instant,
+) -> Attitude {
+    Attitude {
+        heading_deg,
+        reference,
+        pitch_deg: None,
+        roll_deg: None,
+        quality_pct: None,
+        field_ut: None,
+        raw_mag_ut: None,
+        origin,
+        received_at,
+    }
 }
 
 /// Errors of the GPS layer.
@@ -131,7 +163,8 @@ fn drain(decoder: &mut NmeaDecoder, fixes: &mut Vec<Fix>, marks: &mut Vec<Mark>)
         match ev {
             GpsEvent::Fix(f) => fixes.push(*f),
             GpsEvent::Mark(m) => marks.push(m),
-            GpsEvent::Stats(_) | GpsEvent::State(_) | GpsEvent::Notice(_) => {}
+            // A whole-file decode is about positions; attitude readings are for live consumers.
+            GpsEvent::Attitude(_) | GpsEvent::Stats(_) | GpsEvent::State(_) | GpsEvent::Notice(_) => {}
         }
     }
 }

@@ -6,7 +6,21 @@
 //! - GSV: the crate refuses the `GN` talker, which mixed-constellation receivers use;
 //! - VTG: the crate ignores the km/h field when the knots field is empty, and the magnetic course;
 //! - THS (true heading and status) and GBS are not in the crate; GBS is recognised and ignored;
+//! - HDG (heading, deviation, variation from a magnetic compass): nmea 0.8 names the type
+//!   (`SentenceType::HDG`) but has no parser for it, so `parse_str` refuses it;
 //! - proprietary sentences: Garmin `$PGRME` (error estimate) and our own `$PVNAV` (marks, timestamps).
+//!
+//! Heading sentences:
+//! - HDT (`heading,T`) and THS (`heading,mode`) carry the receiver's true heading, part of its epoch. THS's
+//!   mode is `A` (autonomous), `E` (estimated, dead reckoning), `M` (manual input), `S` (simulator) or `V`
+//!   (data not valid), NMEA 0183 v3.01 and gpsd's `processTHS`: A/E/M/S give a heading; `V` marks the epoch's
+//!   heading invalid (neither it nor an HDT of the same epoch sets `Fix::true_heading_deg`: the HDT repeats
+//!   the same solution); an empty or unknown mode is malformed.
+//! - HDG (`heading,deviation,E|W,variation,E|W`) is an external magnetic compass: magnetic heading =
+//!   sensor heading + deviation (east positive), normalised to [0, 360). The variation, when sent, is kept
+//!   ([`crate::gps::NmeaDecoder::magnetic_variation_deg`]) but not applied: the console turns magnetic into
+//!   true with its own WMM declination, the same for every magnetic source. A missing heading, a sensor
+//!   heading outside [0, 360], a deviation or variation beyond ±180° or without its E/W letter is malformed.
 
 use chrono::{NaiveDate, NaiveTime, Timelike};
 
@@ -86,8 +100,20 @@ pub(crate) enum Parsed {
         lon_sd_m: Option<f64>,
         alt_sd_m: Option<f64>,
     },
+    /// HDT or THS: true heading of the epoch.
     Heading {
         heading_deg: Option<f64>,
+        /// THS mode `V`: the receiver says this epoch's heading is not valid.
+        invalid: bool,
+        /// From THS (else HDT).
+        ths: bool,
+    },
+    /// HDG: a magnetic compass reading, on its own (not part of an epoch).
+    Hdg {
+        /// Sensor heading + deviation (east positive), in [0, 360) \[deg\].
+        magnetic_deg: f64,
+        /// Magnetic variation, east positive \[deg\], when sent.
+        variation_deg: Option<f64>,
     },
     Pgrme {
         horizontal_m: Option<f64>,
@@ -171,9 +197,8 @@ pub(crate) fn parse(sentence: &str) -> Result<Parsed, Unused> {
         "GNS" => parse_gns(f),
         "GSV" => parse_gsv(talker, f),
         "VTG" => Ok(parse_vtg(f)),
-        "THS" => Ok(Parsed::Heading {
-            heading_deg: if f.get(1).is_some_and(|s| *s == "V") { None } else { num(f.first()) },
-        }),
+        "THS" => parse_ths(f),
+        "HDG" => parse_hdg(f),
         "GBS" | "TXT" | "GRS" | "DTM" => Ok(Parsed::Ignored),
         _ => Err(Unused::Unsupported),
     }
@@ -230,7 +255,7 @@ fn via_crate(sentence: &str, talker: &str) -> Result<Parsed, Unused> {
             alt_sd_m: d.alt_sd.map(f64_of),
         },
         P::ZDA(d) => Parsed::Zda { time: d.utc_time, date: d.utc_date() },
-        P::HDT(d) => Parsed::Heading { heading_deg: d.heading.map(f64_of) },
+        P::HDT(d) => Parsed::Heading { heading_deg: d.heading.map(f64_of), invalid: false, ths: false },
         _ => Parsed::Ignored,
     })
 }
@@ -554,6 +579,55 @@ fn parse_gns(f: &[&str]) -> Result<Parsed, Unused> {
     })
 }
 
+/// THS (true heading and status): `heading,mode`. Modes A/E/M/S give the heading, `V` marks it invalid,
+/// anything else is malformed (see the module doc).
+fn parse_ths(f: &[&str]) -> Result<Parsed, Unused> {
+    let invalid = match f.get(1).copied() {
+        Some("A" | "E" | "M" | "S") => false,
+        Some("V") => true,
+        _ => return Err(Unused::Malformed),
+    };
+    let heading_deg = if invalid { None } else { field_num(f.first())? };
+    Ok(Parsed::Heading { heading_deg, invalid, ths: true })
+}
+
+/// An optional numeric field: `Ok(None)` when empty or absent, `Err` when present but not a finite number.
+fn field_num(s: Option<&&str>) -> Result<Option<f64>, Unused> {
+    match s.map(|s| s.trim()) {
+        None | Some("") => Ok(None),
+        Some(v) => v.parse::<f64>().ok().filter(|x| x.is_finite()).map(Some).ok_or(Unused::Malformed),
+    }
+}
+
+/// A signed angle from a value and its E/W letter (east positive), within ±180°; `Ok(None)` when both
+/// are empty.
+fn east_positive(v: Option<&&str>, hemi: Option<&&str>) -> Result<Option<f64>, Unused> {
+    let Some(x) = field_num(v)? else { return Ok(None) };
+    if !(0.0..=180.0).contains(&x.abs()) {
+        return Err(Unused::Malformed);
+    }
+    match hemi.copied() {
+        Some("E") => Ok(Some(x)),
+        Some("W") => Ok(Some(-x)),
+        _ => Err(Unused::Malformed),
+    }
+}
+
+/// HDG: `heading,deviation,E|W,variation,E|W`. Magnetic heading = sensor heading + deviation (east
+/// positive: NMEA 0183 v3.01 HDG, easterly deviation is added and westerly subtracted; gpsd's NMEA.html
+/// describes the same), wrapped into [0, 360) with `rem_euclid`. Deviation and variation are optional (empty value and letter).
+fn parse_hdg(f: &[&str]) -> Result<Parsed, Unused> {
+    let sensor = field_num(f.first())?.ok_or(Unused::Malformed)?;
+    if !(0.0..=360.0).contains(&sensor) {
+        return Err(Unused::Malformed);
+    }
+    let deviation = east_positive(f.get(1), f.get(2))?.unwrap_or(0.0);
+    let variation_deg = east_positive(f.get(3), f.get(4))?;
+    // rem_euclid of a value just below 0 can round up to 360 itself.
+    let magnetic_deg = Some((sensor + deviation).rem_euclid(360.0)).filter(|a| *a < 360.0).unwrap_or(0.0);
+    Ok(Parsed::Hdg { magnetic_deg, variation_deg })
+}
+
 /// ZDA: `time,day,month,year,zone_h,zone_m` (the zone is ignored: the time is UTC).
 fn parse_zda(f: &[&str]) -> Result<Parsed, Unused> {
     let time = f.first().and_then(|s| parse_time(s));
@@ -739,6 +813,67 @@ mod tests {
         };
         assert_eq!(got, (1..=30).collect::<Vec<u16>>());
         assert_eq!((pdop, vdop), (Some(2.5), Some(2.1)));
+    }
+
+    /// HDG arithmetic: magnetic = sensor + deviation (E positive), wrapped into [0, 360); the variation
+    /// is carried as sent (E positive), never added. Expected values worked out by hand.
+    #[test]
+    fn hdg_deviation_and_variation() {
+        let hdg = |s| match parse(s) {
+            Ok(Parsed::Hdg { magnetic_deg, variation_deg }) => (magnetic_deg, variation_deg),
+            other => panic!("{s}: {other:?}"),
+        };
+        // gpsd's NMEA.html example: 98.3 with no deviation, variation 12.6 W.
+        let (m, v) = hdg("$HCHDG,98.3,0.0,E,12.6,W*57");
+        assert_relative_eq!(m, 98.3, max_relative = 1e-12);
+        assert_relative_eq!(v.unwrap(), -12.6, max_relative = 1e-12);
+        // 359.0 + 2.5 E = 361.5 -> 1.5.
+        let (m, v) = hdg("$HCHDG,359.0,2.5,E,1.3,E*48");
+        assert_relative_eq!(m, 1.5, max_relative = 1e-9);
+        assert_relative_eq!(v.unwrap(), 1.3, max_relative = 1e-12);
+        // 1.0 - 3.0 W = -2.0 -> 358.0; no variation.
+        assert_eq!(hdg("$HCHDG,1.0,3.0,W,,*39").1, None);
+        assert_relative_eq!(hdg("$HCHDG,1.0,3.0,W,,*39").0, 358.0, max_relative = 1e-12);
+        // B&G Zeus 2 (gpsd's bundg_zeus_9.log): no deviation field at all.
+        let (m, v) = hdg("$SDHDG,229.8,,,1.3,E*36");
+        assert_relative_eq!(m, 229.8, max_relative = 1e-12);
+        assert_relative_eq!(v.unwrap(), 1.3, max_relative = 1e-12);
+    }
+
+    #[test]
+    fn hostile_hdg_is_malformed() {
+        for s in [
+            "$HCHDG,999.0,0.0,E,,*20",  // heading beyond a turn
+            "$HCHDG,NaN,,,,*0D",        // not a number
+            "$HCHDG,inf,,,,*0D",        // not finite
+            "$HCHDG,,,,,*6C",           // no heading
+            "$HCHDG*00",                // no fields
+            "$HCHDG,10.0,5.0,,,*58",    // deviation without E/W
+            "$HCHDG,10.0,200.0,E,,*1A", // deviation beyond half a turn
+            "$HCHDG,-5.0,,,,*00",       // negative heading
+            "$HCHDG,10.0,,,1.0,N*00",   // variation with a bad letter
+        ] {
+            assert_eq!(parse(s), Err(Unused::Malformed), "{s}");
+        }
+    }
+
+    /// THS modes: A/E/M/S give the heading, V marks it invalid, anything else is malformed.
+    #[test]
+    fn ths_mode_indicator() {
+        assert_eq!(
+            parse("$GNTHS,244.28,A*11"),
+            Ok(Parsed::Heading { heading_deg: Some(244.28), invalid: false, ths: true })
+        );
+        assert_eq!(
+            parse("$GNTHS,250.0,E*2A"),
+            Ok(Parsed::Heading { heading_deg: Some(250.0), invalid: false, ths: true })
+        );
+        for s in ["$GNTHS,244.28,V*06", "$GNTHS,,V*10"] {
+            assert_eq!(parse(s), Ok(Parsed::Heading { heading_deg: None, invalid: true, ths: true }), "{s}");
+        }
+        for s in ["$GNTHS,12.0,X*03", "$GNTHS,12.0,*5B", "$GNTHS,12.0*00", "$GNTHS,NaN,A*00"] {
+            assert_eq!(parse(s), Err(Unused::Malformed), "{s}");
+        }
     }
 
     #[test]

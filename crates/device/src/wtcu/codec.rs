@@ -1,7 +1,7 @@
 //! Wire codecs: messages to bytes and back. The link and the engine use a codec only through
 //! [`WireCodec`], so another firmware's framing can be added as another implementation.
 //!
-//! [`V1Codec`] is vestnav's own framing (see `docs/wtcu-protocol.md`):
+//! [`FrameCodec`] is vestnav's own framing (protocol versions 1 and 2; the header carries the version) (see `docs/wtcu-protocol.md`):
 //!
 //! ```text
 //! wire:    0x00 | COBS(packet) | 0x00
@@ -17,11 +17,14 @@ use vestnav_core::vest::{Frame, TactorMask};
 
 use super::limits::Limits;
 use super::message::{
-    Capabilities, DeviceInfo, Faults, FirmwareVersion, NakReason, Packet, Reply, Request, UnitStatus,
+    CalibrationWire, Capabilities, DeviceInfo, Faults, FirmwareVersion, HeadingReport, NakReason, Packet,
+    Reply, Request, UnitStatus,
 };
 
-/// Protocol version written in every packet header.
-pub const PROTOCOL_VERSION: u8 = 1;
+/// The newest protocol version this build speaks (written in every header unless a peer negotiated lower).
+pub const PROTOCOL_VERSION: u8 = 2;
+/// The oldest protocol version this build still speaks.
+pub const MIN_PROTOCOL_VERSION: u8 = 1;
 /// Largest payload of one packet (bytes).
 pub const MAX_PAYLOAD: usize = 200;
 /// Largest packet: header (4) + payload + CRC (2).
@@ -29,10 +32,10 @@ pub const MAX_PACKET: usize = 4 + MAX_PAYLOAD + 2;
 /// Largest COBS-encoded packet (one overhead byte per 254 bytes, rounded up).
 pub const MAX_ENCODED: usize = MAX_PACKET + MAX_PACKET / 254 + 1;
 
-/// The CRC used by [`V1Codec`]: CRC-16/IBM-3740 (CCITT-FALSE).
+/// The CRC used by [`FrameCodec`]: CRC-16/IBM-3740 (CCITT-FALSE).
 pub const CRC16: crc::Crc<u16> = crc::Crc::<u16>::new(&crc::CRC_16_IBM_3740);
 
-/// Message type codes of [`V1Codec`].
+/// Message type codes of [`FrameCodec`].
 pub mod msg_type {
     /// Console: open a session.
     pub const HELLO: u8 = 0x01;
@@ -56,6 +59,14 @@ pub mod msg_type {
     pub const NAK: u8 = 0x83;
     /// Unit: answer to `GET_STATUS`.
     pub const STATUS: u8 = 0x84;
+    /// Console (v2): start the heading stream.
+    pub const HEADING_START: u8 = 0x08;
+    /// Console (v2): stop the heading stream.
+    pub const HEADING_STOP: u8 = 0x09;
+    /// Console (v2): load a magnetometer calibration.
+    pub const SET_CALIBRATION: u8 = 0x0A;
+    /// Unit (v2): one heading reading.
+    pub const HEADING: u8 = 0x86;
     /// Unit: unsolicited change of the running tactors.
     pub const REPORT: u8 = 0x85;
 }
@@ -163,6 +174,11 @@ pub trait WireCodec: Send {
     fn decode_replies(&mut self, bytes: &[u8], out: &mut Vec<Result<Packet<Reply>, DecodeError>>);
     /// Drops any partial frame (a new connection).
     fn reset(&mut self);
+    /// Writes `version` in the headers from now on (clamped to the versions the codec speaks): the version
+    /// a session negotiated.
+    fn set_version(&mut self, version: u8);
+    /// The version written in headers now.
+    fn version(&self) -> u8;
 }
 
 /// COBS-encodes `data` into `out` (no delimiters).
@@ -248,23 +264,47 @@ impl Framer {
     }
 }
 
-/// vestnav's WTCU protocol, version 1 (see the module doc and `docs/wtcu-protocol.md`).
-#[derive(Debug, Clone, Default)]
-pub struct V1Codec {
+/// vestnav's WTCU framing, protocol versions 1 and 2 (see the module doc and `docs/wtcu-protocol.md`).
+///
+/// It writes its current [`FrameCodec::version`] in every header and accepts frames of any version from
+/// [`MIN_PROTOCOL_VERSION`] up to its `max_version`; the v2 message types are known only in v2 frames, so a
+/// codec limited to v1 decodes exactly as a v1 unit does.
+#[derive(Debug, Clone)]
+pub struct FrameCodec {
     framer: Framer,
+    version: u8,
+    max_version: u8,
 }
 
-impl V1Codec {
-    /// A codec with no partial frame.
-    pub fn new() -> Self {
-        Self::default()
+impl Default for FrameCodec {
+    fn default() -> Self {
+        Self::new()
     }
 }
 
-/// Builds a complete frame from a type, sequence number and payload (payload <= [`MAX_PAYLOAD`]).
-fn frame(kind: u8, seq: u8, payload: &[u8]) -> Vec<u8> {
+impl FrameCodec {
+    /// A codec speaking the newest version, [`PROTOCOL_VERSION`].
+    pub fn new() -> Self {
+        Self::with_max_version(PROTOCOL_VERSION)
+    }
+
+    /// A codec that speaks at most `max_version` (clamped to the versions this build knows): what a unit
+    /// with older firmware is.
+    pub fn with_max_version(max_version: u8) -> Self {
+        let max_version = max_version.clamp(MIN_PROTOCOL_VERSION, PROTOCOL_VERSION);
+        Self { framer: Framer::default(), version: max_version, max_version }
+    }
+
+    /// The newest version accepted.
+    pub fn max_version(&self) -> u8 {
+        self.max_version
+    }
+}
+
+/// Builds a complete frame from a version, type, sequence number and payload (payload <= [`MAX_PAYLOAD`]).
+fn frame(version: u8, kind: u8, seq: u8, payload: &[u8]) -> Vec<u8> {
     let mut packet = Vec::with_capacity(payload.len() + 6);
-    packet.extend_from_slice(&[PROTOCOL_VERSION, kind, seq, payload.len() as u8]);
+    packet.extend_from_slice(&[version, kind, seq, payload.len() as u8]);
     packet.extend_from_slice(payload);
     let crc = CRC16.checksum(&packet);
     packet.extend_from_slice(&crc.to_le_bytes());
@@ -275,8 +315,8 @@ fn frame(kind: u8, seq: u8, payload: &[u8]) -> Vec<u8> {
     out
 }
 
-/// Checks a decoded block and splits it into (type, seq, payload).
-fn unpack(block: &[u8]) -> Result<(u8, u8, Vec<u8>), DecodeError> {
+/// Checks a decoded block and splits it into (version, type, seq, payload).
+fn unpack(block: &[u8], max_version: u8) -> Result<(u8, u8, u8, Vec<u8>), DecodeError> {
     let packet = cobs_decode(block).ok_or(DecodeError::Cobs)?;
     if packet.len() < 6 {
         return Err(DecodeError::TooShort { len: packet.len() });
@@ -292,10 +332,10 @@ fn unpack(block: &[u8]) -> Result<(u8, u8, Vec<u8>), DecodeError> {
     if declared != payload.len() {
         return Err(DecodeError::LengthMismatch { declared, actual: payload.len() });
     }
-    if version != PROTOCOL_VERSION {
+    if !(MIN_PROTOCOL_VERSION..=max_version).contains(&version) {
         return Err(DecodeError::Version { version, seq });
     }
-    Ok((kind, seq, payload.to_vec()))
+    Ok((version, kind, seq, payload.to_vec()))
 }
 
 /// Little-endian reader over a payload; every read is checked.
@@ -316,6 +356,10 @@ impl Reader<'_> {
         Some(u16::from_le_bytes([lo, hi]))
     }
 
+    fn i16(&mut self) -> Option<i16> {
+        self.u16().map(u16::cast_signed)
+    }
+
     fn done(&self) -> Option<()> {
         self.data.is_empty().then_some(())
     }
@@ -323,9 +367,13 @@ impl Reader<'_> {
 
 // Outer `None`: malformed payload; inner `None`: unknown type (the `?` on each field keeps it short).
 #[allow(clippy::option_option)]
-fn parse_request(kind: u8, payload: &[u8]) -> Option<Option<Request>> {
-    use msg_type::{FIRE, GET_STATUS, HEARTBEAT, HELLO, PLAY, SET_INTENSITY, STOP_ALL};
+fn parse_request(version: u8, kind: u8, payload: &[u8]) -> Option<Option<Request>> {
+    use msg_type::{
+        FIRE, GET_STATUS, HEADING_START, HEADING_STOP, HEARTBEAT, HELLO, PLAY, SET_CALIBRATION,
+        SET_INTENSITY, STOP_ALL,
+    };
     let mut r = Reader { data: payload };
+    let v2 = version >= 2;
     let req = match kind {
         HELLO => Request::Hello,
         HEARTBEAT => Request::Heartbeat,
@@ -342,6 +390,16 @@ fn parse_request(kind: u8, payload: &[u8]) -> Option<Option<Request>> {
         SET_INTENSITY => Request::SetIntensity { mask: TactorMask(r.u16()?), level: r.u8()? },
         STOP_ALL => Request::StopAll,
         GET_STATUS => Request::GetStatus,
+        HEADING_START if v2 => Request::HeadingStart { rate_hz: r.u8()? },
+        HEADING_STOP if v2 => Request::HeadingStop,
+        SET_CALIBRATION if v2 => {
+            let mut c = CalibrationWire::default();
+            for v in c.hard_iron_dut.iter_mut().chain(c.soft_iron_q12.iter_mut()) {
+                *v = r.i16()?;
+            }
+            c.field_dut = r.u16()?;
+            Request::SetCalibration(c)
+        }
         _ => return Some(None),
     };
     r.done()?;
@@ -349,8 +407,8 @@ fn parse_request(kind: u8, payload: &[u8]) -> Option<Option<Request>> {
 }
 
 #[allow(clippy::option_option)]
-fn parse_reply(kind: u8, payload: &[u8]) -> Option<Option<Reply>> {
-    use msg_type::{ACK, IDENTIFY, NAK, REPORT, STATUS};
+fn parse_reply(version: u8, kind: u8, payload: &[u8]) -> Option<Option<Reply>> {
+    use msg_type::{ACK, HEADING, IDENTIFY, NAK, REPORT, STATUS};
     let mut r = Reader { data: payload };
     let reply = match kind {
         IDENTIFY => {
@@ -367,7 +425,7 @@ fn parse_reply(kind: u8, payload: &[u8]) -> Option<Option<Reply>> {
             };
             let watchdog_ms = r.u16()?;
             Reply::Identify(DeviceInfo {
-                protocol_version: PROTOCOL_VERSION,
+                protocol_version: version,
                 firmware,
                 tactor_count,
                 capabilities,
@@ -385,29 +443,48 @@ fn parse_reply(kind: u8, payload: &[u8]) -> Option<Option<Reply>> {
             firmware: FirmwareVersion { major: r.u8()?, minor: r.u8()?, patch: r.u8()? },
         }),
         REPORT => Reply::Report { tactors_on: TactorMask(r.u16()?), faults: Faults(r.u8()?) },
+        HEADING if version >= 2 => {
+            let report = HeadingReport {
+                heading_cdeg: r.u16()?,
+                pitch_cdeg: r.i16()?,
+                roll_cdeg: r.i16()?,
+                quality_pct: r.u8()?,
+                raw_mag_dut: [r.i16()?, r.i16()?, r.i16()?],
+            };
+            // Out-of-range numbers are a malformed payload: refused here, never shown as a heading.
+            if !report.is_valid() {
+                return None;
+            }
+            Reply::Heading(report)
+        }
         _ => return Some(None),
     };
     r.done()?;
     Some(Some(reply))
 }
 
-/// Parses a block with `parse`, which returns `None` for a malformed payload and `Some(None)` for an unknown type.
+/// Parses a block with `parse` (given the header's version, type and payload), which returns `None` for a
+/// malformed payload and `Some(None)` for an unknown type.
 #[allow(clippy::option_option)]
 fn decode_block<M>(
     block: Result<&[u8], DecodeError>,
-    parse: fn(u8, &[u8]) -> Option<Option<M>>,
+    max_version: u8,
+    parse: fn(u8, u8, &[u8]) -> Option<Option<M>>,
 ) -> Result<Packet<M>, DecodeError> {
-    let (kind, seq, payload) = unpack(block?)?;
-    match parse(kind, &payload) {
-        Some(Some(message)) => Ok(Packet { seq, message }),
+    let (version, kind, seq, payload) = unpack(block?, max_version)?;
+    match parse(version, kind, &payload) {
+        Some(Some(message)) => Ok(Packet { version, seq, message }),
         Some(None) => Err(DecodeError::UnknownType { kind, seq }),
         None => Err(DecodeError::Malformed { kind, seq }),
     }
 }
 
-impl WireCodec for V1Codec {
+impl WireCodec for FrameCodec {
     fn encode_request(&self, seq: u8, request: &Request) -> Result<Vec<u8>, EncodeError> {
-        use msg_type::{FIRE, GET_STATUS, HEARTBEAT, HELLO, PLAY, SET_INTENSITY, STOP_ALL};
+        use msg_type::{
+            FIRE, GET_STATUS, HEADING_START, HEADING_STOP, HEARTBEAT, HELLO, PLAY, SET_CALIBRATION,
+            SET_INTENSITY, STOP_ALL,
+        };
         let mut p = Vec::new();
         let kind = match request {
             Request::Hello => HELLO,
@@ -434,15 +511,27 @@ impl WireCodec for V1Codec {
             }
             Request::StopAll => STOP_ALL,
             Request::GetStatus => GET_STATUS,
+            Request::HeadingStart { rate_hz } => {
+                p.push(*rate_hz);
+                HEADING_START
+            }
+            Request::HeadingStop => HEADING_STOP,
+            Request::SetCalibration(c) => {
+                for v in c.hard_iron_dut.iter().chain(&c.soft_iron_q12) {
+                    p.extend_from_slice(&v.to_le_bytes());
+                }
+                p.extend_from_slice(&c.field_dut.to_le_bytes());
+                SET_CALIBRATION
+            }
         };
         if p.len() > MAX_PAYLOAD {
             return Err(EncodeError { len: p.len() });
         }
-        Ok(frame(kind, seq, &p))
+        Ok(frame(self.version, kind, seq, &p))
     }
 
     fn encode_reply(&self, seq: u8, reply: &Reply) -> Vec<u8> {
-        use msg_type::{ACK, IDENTIFY, NAK, REPORT, STATUS};
+        use msg_type::{ACK, HEADING, IDENTIFY, NAK, REPORT, STATUS};
         let mut p = Vec::new();
         let kind = match reply {
             Reply::Identify(info) => {
@@ -480,20 +569,40 @@ impl WireCodec for V1Codec {
                 p.push(faults.0);
                 REPORT
             }
+            Reply::Heading(h) => {
+                p.extend_from_slice(&h.heading_cdeg.to_le_bytes());
+                p.extend_from_slice(&h.pitch_cdeg.to_le_bytes());
+                p.extend_from_slice(&h.roll_cdeg.to_le_bytes());
+                p.push(h.quality_pct);
+                for v in h.raw_mag_dut {
+                    p.extend_from_slice(&v.to_le_bytes());
+                }
+                HEADING
+            }
         };
-        frame(kind, seq, &p)
+        frame(self.version, kind, seq, &p)
     }
 
     fn decode_requests(&mut self, bytes: &[u8], out: &mut Vec<Result<Packet<Request>, DecodeError>>) {
-        self.framer.feed(bytes, |block| out.push(decode_block(block, parse_request)));
+        let max = self.max_version;
+        self.framer.feed(bytes, |block| out.push(decode_block(block, max, parse_request)));
     }
 
     fn decode_replies(&mut self, bytes: &[u8], out: &mut Vec<Result<Packet<Reply>, DecodeError>>) {
-        self.framer.feed(bytes, |block| out.push(decode_block(block, parse_reply)));
+        let max = self.max_version;
+        self.framer.feed(bytes, |block| out.push(decode_block(block, max, parse_reply)));
     }
 
     fn reset(&mut self) {
         self.framer.reset();
+    }
+
+    fn set_version(&mut self, version: u8) {
+        self.version = version.clamp(MIN_PROTOCOL_VERSION, self.max_version);
+    }
+
+    fn version(&self) -> u8 {
+        self.version
     }
 }
 

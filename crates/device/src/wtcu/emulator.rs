@@ -17,9 +17,115 @@ use std::time::{Duration, Instant};
 
 use vestnav_core::vest::{TACTOR_COUNT, TactorMask};
 
+use chrono::Datelike as _;
+use vestnav_core::compass::{MagnetometerModel, MagnetometerSim, SensorPose, SteelObject};
+use vestnav_core::geo::LatLon;
+
 use super::codec::WireCodec;
-use super::engine::{Engine, EngineConfig, EngineEvent, EngineStats};
+use super::engine::{Engine, EngineConfig, EngineEvent, EngineStats, HeadingSensor};
 use super::message::{Faults, Reply};
+
+/// How the emulated wearer's body moves: the truth the emulated magnetometer measures.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum WearerMotion {
+    /// Standing, facing `heading_deg` (true).
+    Still {
+        /// True heading \[deg\].
+        heading_deg: f64,
+    },
+    /// Turning in place at `rate_deg_s` from `start_deg` (true): a calibration rotation.
+    Turning {
+        /// True heading at the start \[deg\].
+        start_deg: f64,
+        /// Turn rate, clockwise positive \[deg/s\].
+        rate_deg_s: f64,
+    },
+}
+
+impl WearerMotion {
+    /// True heading after `t_s` seconds \[deg\].
+    pub fn heading_deg(&self, t_s: f64) -> f64 {
+        match *self {
+            Self::Still { heading_deg } => heading_deg,
+            Self::Turning { start_deg, rate_deg_s } => (start_deg + rate_deg_s * t_s).rem_euclid(360.0),
+        }
+    }
+}
+
+/// The emulated unit's magnetometer (protocol v2): which sensor, where, and how the wearer moves.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CompassSetup {
+    /// How the wearer moves.
+    pub motion: WearerMotion,
+    /// A parked car (a steel dipole of 30 µT m³) this far east of the wearer \[m\], if any: within 1–2 m
+    /// it turns the heading by tens of degrees and lowers the quality figure.
+    pub steel_east_m: Option<f64>,
+    /// An ideal sensor (no iron, no noise) instead of a typical uncalibrated vest unit.
+    pub ideal: bool,
+    /// Seed of the sensor noise.
+    pub seed: u64,
+}
+
+impl Default for CompassSetup {
+    fn default() -> Self {
+        Self { motion: WearerMotion::Still { heading_deg: 0.0 }, steel_east_m: None, ideal: false, seed: 1 }
+    }
+}
+
+/// Where the emulated wearer stands: the demo route's start by the MIT campus (42.3562° N, 71.1000° W).
+/// The World Magnetic Model field there is what the emulated sensor measures.
+pub const EMULATED_PLACE: (f64, f64) = (42.3562, -71.1000);
+
+/// The emulated unit's magnetometer and accelerometer: `vestnav_core::compass`'s sensor model (hard and
+/// soft iron, noise, the WMM field at [`EMULATED_PLACE`] on today's date, steel) seeing a wearer who moves
+/// as [`CompassSetup::motion`] says, on the unit's clock.
+#[derive(Debug)]
+pub struct SimulatedCompass {
+    sim: MagnetometerSim,
+    motion: WearerMotion,
+    start: Option<Instant>,
+}
+
+impl SimulatedCompass {
+    /// The sensor for `setup`. The WMM has no model for dates it does not cover; then the field of the
+    /// model's epoch at the place is used.
+    pub fn new(setup: &CompassSetup) -> Self {
+        let mut model =
+            if setup.ideal { MagnetometerModel::ideal() } else { MagnetometerModel::typical_vest() };
+        if let Some(east_m) = setup.steel_east_m {
+            model.steel.push(SteelObject { east_m, north_m: 0.0, moment_ut_m3: 30.0 });
+        }
+        let place = LatLon::new(EMULATED_PLACE.0, EMULATED_PLACE.1);
+        let today = chrono::Utc::now().date_naive();
+        let date = (today.year(), today.month() as u8, today.day() as u8);
+        let sim = MagnetometerSim::new(model.clone(), place, 0.0, date, setup.seed)
+            .or_else(|_| MagnetometerSim::new(model.clone(), place, 0.0, (2025, 1, 1), setup.seed))
+            // Boston's field (WMM2025): 14.3 µT north, -4.2 µT east, 47.9 µT down.
+            .unwrap_or_else(|_| MagnetometerSim::with_field(model, [18.9, -5.1, 47.0], setup.seed));
+        Self { sim, motion: setup.motion, start: None }
+    }
+
+    /// Declination of the emulated place's field, east positive \[deg\].
+    pub fn declination_deg(&self) -> f64 {
+        self.sim.declination_deg()
+    }
+}
+
+impl HeadingSensor for SimulatedCompass {
+    fn sample(&mut self, at: Instant) -> ([f64; 3], [f64; 3]) {
+        let start = *self.start.get_or_insert(at);
+        let t_s = at.saturating_duration_since(start).as_secs_f64();
+        let pose = SensorPose {
+            t_s,
+            heading_true_deg: self.motion.heading_deg(t_s),
+            east_m: 0.0,
+            north_m: 0.0,
+            pace_m_s: 0.0,
+        };
+        let s = self.sim.sample(&pose);
+        (s.raw_mag_body_ut, s.accel_body_m_s2)
+    }
+}
 
 /// Read timeout of the serving loop: the worst lateness of a pattern step or the watchdog.
 pub const SERVE_POLL: Duration = Duration::from_millis(5);
@@ -65,7 +171,7 @@ pub fn serve<C: WireCodec>(
             return Ok(ServeEnd::Stopped);
         }
         if control.vanish.load(Ordering::Relaxed) {
-            let frame = super::codec::V1Codec::new().encode_reply(
+            let frame = super::codec::FrameCodec::with_max_version(1).encode_reply(
                 0xEE,
                 &Reply::Report { tactors_on: TactorMask::ALL, faults: Faults::default() },
             );

@@ -18,15 +18,65 @@ use std::time::{Duration, Instant};
 
 use vestnav_core::vest::{TACTOR_COUNT, TactorMask};
 
-use super::codec::{DecodeError, V1Codec, WireCodec};
+use super::codec::{DecodeError, FrameCodec, MIN_PROTOCOL_VERSION, PROTOCOL_VERSION, WireCodec};
 use super::limits::{
     DutyLedger, LimitError, Limits, RunTracker, Schedule, Timeline, leading_pattern_ms, planned_fire_ms,
     planned_pattern_ms,
 };
+use vestnav_core::compass::{Calibration, tilt_compensated_heading};
+
+use super::emulator::{CompassSetup, SimulatedCompass};
+
 use super::message::{
-    Capabilities, CommandKind, DeviceInfo, Faults, FirmwareVersion, NakReason, Packet, Reply, Request,
-    UnitStatus,
+    Capabilities, CommandKind, DeviceInfo, Faults, FirmwareVersion, HeadingReport, NakReason, Packet, Reply,
+    Request, UnitStatus,
 };
+
+/// The unit's magnetometer and accelerometer, sampled by the engine for its heading stream (protocol v2).
+///
+/// The emulator's implementation is [`super::emulator::SimulatedCompass`] (a seeded sensor model); firmware
+/// reads real chips.
+pub trait HeadingSensor: Send + std::fmt::Debug {
+    /// The raw magnetometer reading \[µT\] and the accelerometer reading \[m/s²\] at `at`, body frame (x
+    /// forward, y right, z down).
+    fn sample(&mut self, at: Instant) -> ([f64; 3], [f64; 3]);
+}
+
+/// The unit's processing of one sensor sample, what firmware does too: `h = W (m - b)` with the loaded
+/// calibration, tilt compensation with the accelerometer (`vestnav_core::compass`), the quality of `|h|`
+/// against the calibrated field, and the raw reading for the console's calibration fit (saturating at the
+/// wire's ±3276.7 µT, as a saturated sensor does). `None` when no heading is defined (free fall, no field).
+pub fn heading_report(
+    raw_ut: [f64; 3],
+    accel_m_s2: [f64; 3],
+    calibration: &Calibration,
+) -> Option<HeadingReport> {
+    let corrected = calibration.apply(raw_ut);
+    let attitude = tilt_compensated_heading(corrected, accel_m_s2)?;
+    let cdeg = |deg: f64, limit: f64| (deg * 100.0).round().clamp(-limit, limit) as i16;
+    Some(HeadingReport {
+        heading_cdeg: ((attitude.heading_deg * 100.0).round() as u32 % 36_000) as u16,
+        pitch_cdeg: cdeg(attitude.pitch_deg, 9_000.0),
+        roll_cdeg: cdeg(attitude.roll_deg, 18_000.0),
+        quality_pct: calibration.quality_pct(corrected),
+        raw_mag_dut: raw_ut
+            .map(|v| (v * 10.0).round().clamp(f64::from(i16::MIN), f64::from(i16::MAX)) as i16),
+    })
+}
+
+/// What an outgoing frame is, for superseding and dropping.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum OutKind {
+    /// An answer to a request: never superseded, dropped last.
+    Answer,
+    /// A REPORT (the whole tactor state): an unsent one is superseded by the next.
+    Report,
+    /// A HEADING reading: an unsent one is superseded by the next, dropped first.
+    Heading,
+}
+
+/// Fastest heading stream a unit runs (reports per second).
+pub const MAX_HEADING_RATE_HZ: u8 = 10;
 
 /// Most frames waiting in the engine's outgoing queue: the engine never holds more, whoever (not) drains it.
 pub const MAX_QUEUED_FRAMES: usize = 64;
@@ -35,7 +85,7 @@ pub const MAX_QUEUED_FRAMES: usize = 64;
 pub const LOW_BATTERY_MV: u16 = 3500;
 
 /// How the emulated unit is built.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct EngineConfig {
     /// Firmware version reported.
     pub firmware: FirmwareVersion,
@@ -47,6 +97,11 @@ pub struct EngineConfig {
     pub intensity: bool,
     /// Battery voltage reported (mV).
     pub battery_mv: u16,
+    /// Newest protocol version the unit speaks (1 or 2): a unit with `1` behaves exactly as v1 firmware,
+    /// answering a v2 header with NAK 0x04.
+    pub protocol_version: u8,
+    /// The unit's magnetometer (v2 only), or none.
+    pub compass: Option<CompassSetup>,
 }
 
 impl Default for EngineConfig {
@@ -57,6 +112,8 @@ impl Default for EngineConfig {
             watchdog_ms: 1500,
             intensity: true,
             battery_mv: 3900,
+            protocol_version: PROTOCOL_VERSION,
+            compass: Some(CompassSetup::default()),
         }
     }
 }
@@ -120,7 +177,7 @@ pub struct EngineStats {
 
 /// The device engine (see the module doc).
 #[derive(Debug)]
-pub struct Engine<C: WireCodec = V1Codec> {
+pub struct Engine<C: WireCodec = FrameCodec> {
     config: EngineConfig,
     codec: C,
     identified: bool,
@@ -133,16 +190,36 @@ pub struct Engine<C: WireCodec = V1Codec> {
     watchdog_tripped: bool,
     last: Option<(u8, Request, Reply)>,
     report_seq: u8,
-    /// Frames to send, each marked whether it is a REPORT.
-    out: VecDeque<(bool, Vec<u8>)>,
+    /// Frames to send, each with what it is.
+    out: VecDeque<(OutKind, Vec<u8>)>,
     events: VecDeque<EngineEvent>,
     stats: EngineStats,
+    /// Protocol version of the current session (that of its HELLO).
+    session_version: u8,
+    heading: HeadingState,
 }
 
-impl Engine<V1Codec> {
-    /// An engine speaking [`V1Codec`].
+/// The heading stream's state.
+#[derive(Debug, Default)]
+struct HeadingState {
+    sensor: Option<Box<dyn HeadingSensor>>,
+    /// Reports per second while streaming.
+    rate_hz: Option<u8>,
+    /// When the next report is due.
+    next_at: Option<Instant>,
+    calibration: Calibration,
+}
+
+impl Engine<FrameCodec> {
+    /// An engine speaking [`FrameCodec`].
     pub fn new(config: EngineConfig) -> Self {
-        Self::with_codec(config, V1Codec::new())
+        let engine = Self::with_codec(config, FrameCodec::with_max_version(config.protocol_version));
+        match config.compass {
+            Some(setup) if config.protocol_version >= 2 => {
+                engine.with_heading_sensor(Box::new(SimulatedCompass::new(&setup)))
+            }
+            _ => engine,
+        }
     }
 }
 
@@ -165,7 +242,32 @@ impl<C: WireCodec> Engine<C> {
             out: VecDeque::new(),
             events: VecDeque::new(),
             stats: EngineStats::default(),
+            session_version: MIN_PROTOCOL_VERSION,
+            heading: HeadingState::default(),
         }
+    }
+
+    /// Gives the unit a magnetometer: it then reports [`Capabilities::HEADING`] in v2 sessions and streams
+    /// [`Reply::Heading`] on request.
+    #[must_use]
+    pub fn with_heading_sensor(mut self, sensor: Box<dyn HeadingSensor>) -> Self {
+        self.heading.sensor = Some(sensor);
+        self
+    }
+
+    /// The heading stream's rate, while it runs.
+    pub fn heading_rate_hz(&self) -> Option<u8> {
+        self.heading.rate_hz
+    }
+
+    /// The calibration loaded by the console (the identity, with no reference field, until one is).
+    pub fn calibration(&self) -> Calibration {
+        self.heading.calibration
+    }
+
+    /// Protocol version of the current session.
+    pub fn session_version(&self) -> u8 {
+        self.session_version
     }
 
     /// What the unit says about itself.
@@ -174,8 +276,11 @@ impl<C: WireCodec> Engine<C> {
         if self.config.intensity {
             capabilities = capabilities | Capabilities::INTENSITY;
         }
+        if self.heading.sensor.is_some() && self.session_version >= 2 {
+            capabilities = capabilities | Capabilities::HEADING;
+        }
         DeviceInfo {
-            protocol_version: super::codec::PROTOCOL_VERSION,
+            protocol_version: self.session_version,
             firmware: self.config.firmware,
             tactor_count: TACTOR_COUNT as u8,
             capabilities,
@@ -245,18 +350,24 @@ impl<C: WireCodec> Engine<C> {
     }
 
     /// Queues a frame for the console, keeping the queue bounded (see the module doc).
-    fn push_out(&mut self, frame: Vec<u8>, report: bool) {
-        if report && let Some((true, last)) = self.out.back_mut() {
-            // A REPORT carries the whole state: an unsent older one says nothing the new one does not.
-            *last = frame;
+    fn push_out(&mut self, frame: Vec<u8>, kind: OutKind) {
+        if kind != OutKind::Answer
+            && let Some(last) = self.out.iter_mut().rev().find(|(k, _)| *k == kind)
+        {
+            // A REPORT carries the whole state, a HEADING the latest reading: an unsent older one says
+            // nothing the new one does not. (It keeps its place in the queue, so order is kept.)
+            last.1 = frame;
             return;
         }
         if self.out.len() >= MAX_QUEUED_FRAMES {
-            let oldest_report = self.out.iter().position(|(is_report, _)| *is_report).unwrap_or(0);
-            self.out.remove(oldest_report);
+            let victim = [OutKind::Heading, OutKind::Report]
+                .iter()
+                .find_map(|want| self.out.iter().position(|(k, _)| k == want))
+                .unwrap_or(0);
+            self.out.remove(victim);
             self.stats.frames_dropped += 1;
         }
-        self.out.push_back((report, frame));
+        self.out.push_back((kind, frame));
     }
 
     /// Next event for a view or log.
@@ -266,12 +377,10 @@ impl<C: WireCodec> Engine<C> {
 
     /// When [`Self::handle_timeout`] must be called next (a pattern step, a fire's end, the watchdog).
     pub fn poll_timeout(&self) -> Option<Instant> {
-        let change = self.timeline.next_change();
-        let watchdog = self.watchdog_deadline();
-        match (change, watchdog) {
-            (Some(a), Some(b)) => Some(a.min(b)),
-            (a, b) => a.or(b),
-        }
+        [self.timeline.next_change(), self.watchdog_deadline(), self.heading.next_at]
+            .into_iter()
+            .flatten()
+            .min()
     }
 
     fn watchdog_deadline(&self) -> Option<Instant> {
@@ -300,6 +409,7 @@ impl<C: WireCodec> Engine<C> {
             }
         }
         self.step(now, true);
+        self.stream_heading(now);
     }
 
     /// Feeds bytes received from the console at `now`.
@@ -339,12 +449,12 @@ impl<C: WireCodec> Engine<C> {
         self.stats.naks_sent += 1;
         let reply = Reply::Nak { reason, tactors_on: self.tactors_on() };
         let frame = self.codec.encode_reply(seq, &reply);
-        self.push_out(frame, false);
+        self.push_out(frame, OutKind::Answer);
         self.events.push_back(EngineEvent::Rejected { seq: event_seq, reason, detail });
         reply
     }
 
-    fn handle_request(&mut self, Packet { seq, message }: Packet<Request>, now: Instant) {
+    fn handle_request(&mut self, Packet { version, seq, message }: Packet<Request>, now: Instant) {
         if message != Request::Hello
             && let Some((last_seq, last_req, last_reply)) = &self.last
             && *last_seq == seq
@@ -360,17 +470,20 @@ impl<C: WireCodec> Engine<C> {
                 other => other,
             };
             let frame = self.codec.encode_reply(seq, &reply);
-            self.push_out(frame, false);
+            self.push_out(frame, OutKind::Answer);
             return;
         }
         if message == Request::Hello {
             self.last = None;
+            // The session speaks the HELLO's version (the codec accepted it, so the unit speaks it too).
+            self.session_version = version;
+            self.codec.set_version(version);
         }
         let kind = message.kind();
         let reply = match self.execute(&message, now) {
             Ok(reply) => {
                 let frame = self.codec.encode_reply(seq, &reply);
-                self.push_out(frame, false);
+                self.push_out(frame, OutKind::Answer);
                 self.events.push_back(EngineEvent::Accepted { seq, kind });
                 reply
             }
@@ -395,6 +508,8 @@ impl<C: WireCodec> Engine<C> {
         if *request == Request::Hello {
             // A new session: whoever was driving the vest before is gone, so nothing keeps running.
             self.replace(Schedule::Idle, now, false);
+            self.heading.rate_hz = None;
+            self.heading.next_at = None;
             self.identified = true;
             self.events.push_back(EngineEvent::SessionStarted);
             return Ok(Reply::Identify(self.device_info()));
@@ -432,6 +547,31 @@ impl<C: WireCodec> Engine<C> {
                 }
             }
             Request::StopAll => self.replace(Schedule::Idle, now, false),
+            Request::HeadingStart { rate_hz } => {
+                if self.heading.sensor.is_none() {
+                    return Err((NakReason::NotSupported, "this unit has no magnetometer".to_owned()));
+                }
+                if !(1..=MAX_HEADING_RATE_HZ).contains(rate_hz) {
+                    return Err((
+                        NakReason::Malformed,
+                        format!("rate {rate_hz} Hz is not 1..={MAX_HEADING_RATE_HZ}"),
+                    ));
+                }
+                self.heading.rate_hz = Some(*rate_hz);
+                self.heading.next_at = Some(now);
+            }
+            Request::HeadingStop => {
+                self.heading.rate_hz = None;
+                self.heading.next_at = None;
+            }
+            Request::SetCalibration(c) => {
+                if self.heading.sensor.is_none() {
+                    return Err((NakReason::NotSupported, "this unit has no magnetometer".to_owned()));
+                }
+                let calibration = Calibration::from_wire(c);
+                calibration.check().map_err(|e| (NakReason::Malformed, e.to_string()))?;
+                self.heading.calibration = calibration;
+            }
             Request::GetStatus => {
                 let status = self.status();
                 self.faults = Faults::default();
@@ -442,6 +582,26 @@ impl<C: WireCodec> Engine<C> {
     }
 
     /// Books `mask`, on since the last booking, into the duty ledger up to `now`.
+    /// Sends the heading report due at or before `now`, if any: one reading at the latest due instant (a
+    /// unit that fell behind skips readings rather than bursting them), then schedules the next.
+    fn stream_heading(&mut self, now: Instant) {
+        let (Some(rate), Some(due)) = (self.heading.rate_hz, self.heading.next_at) else { return };
+        if due > now {
+            return;
+        }
+        let period = Duration::from_secs(1) / u32::from(rate);
+        let behind = (now - due).as_nanos() / period.as_nanos().max(1);
+        let at = due + period * u32::try_from(behind).unwrap_or(u32::MAX);
+        self.heading.next_at = Some(at + period);
+        let Some(sensor) = self.heading.sensor.as_mut() else { return };
+        let (raw_ut, accel) = sensor.sample(at);
+        // No reading while the accelerometer cannot tell down (free fall) or there is no field.
+        let Some(report) = heading_report(raw_ut, accel, &self.heading.calibration) else { return };
+        self.report_seq = self.report_seq.wrapping_add(1);
+        let frame = self.codec.encode_reply(self.report_seq, &Reply::Heading(report));
+        self.push_out(frame, OutKind::Heading);
+    }
+
     fn close_segment(&mut self, mask: TactorMask, now: Instant) {
         if let Some(start) = self.segment_start {
             self.ledger.record(mask, start, now);
@@ -474,7 +634,7 @@ impl<C: WireCodec> Engine<C> {
             self.report_seq = self.report_seq.wrapping_add(1);
             let reply = Reply::Report { tactors_on: mask, faults: self.faults };
             let frame = self.codec.encode_reply(self.report_seq, &reply);
-            self.push_out(frame, true);
+            self.push_out(frame, OutKind::Report);
         }
     }
 }
@@ -495,7 +655,10 @@ mod tests {
         fn new() -> Self {
             let t0 = Instant::now();
             let mut unit = Engine::new(EngineConfig::default());
-            unit.handle_bytes(&V1Codec::new().encode_request(0, &Request::Hello).unwrap(), t0);
+            unit.handle_bytes(
+                &FrameCodec::with_max_version(1).encode_request(0, &Request::Hello).unwrap(),
+                t0,
+            );
             while unit.poll_transmit().is_some() {}
             Self { unit, t0, seq: 0 }
         }
@@ -513,9 +676,12 @@ mod tests {
             }
             while self.unit.poll_transmit().is_some() {}
             self.seq = self.seq.wrapping_add(1);
-            self.unit.handle_bytes(&V1Codec::new().encode_request(self.seq, request).unwrap(), at);
+            self.unit.handle_bytes(
+                &FrameCodec::with_max_version(1).encode_request(self.seq, request).unwrap(),
+                at,
+            );
             let mut out = Vec::new();
-            V1Codec::new().decode_replies(&self.unit.poll_transmit().unwrap(), &mut out);
+            FrameCodec::new().decode_replies(&self.unit.poll_transmit().unwrap(), &mut out);
             out.pop().unwrap().unwrap().message
         }
     }
@@ -589,7 +755,7 @@ mod tests {
         let frames: Vec<_> = std::iter::from_fn(|| b.unit.poll_transmit()).collect();
         assert_eq!(frames.len(), 1);
         let mut out = Vec::new();
-        V1Codec::new().decode_replies(&frames[0], &mut out);
+        FrameCodec::new().decode_replies(&frames[0], &mut out);
         assert!(matches!(
             out[0].as_ref().unwrap().message,
             Reply::Report { tactors_on: TactorMask::NONE, .. }
@@ -603,7 +769,7 @@ mod tests {
     #[test]
     fn the_outgoing_queue_is_bounded_and_keeps_the_newest() {
         let mut b = Bench::new();
-        let codec = V1Codec::new();
+        let codec = FrameCodec::with_max_version(1);
         for seq in 1..=200u8 {
             b.unit.handle_bytes(&codec.encode_request(seq, &Request::GetStatus).unwrap(), b.t0);
         }
@@ -612,7 +778,7 @@ mod tests {
         assert_eq!(b.unit.stats().frames_dropped, 200 - MAX_QUEUED_FRAMES as u64);
         let seq_of = |frame: &Vec<u8>| {
             let mut out = Vec::new();
-            V1Codec::new().decode_replies(frame, &mut out);
+            FrameCodec::new().decode_replies(frame, &mut out);
             out[0].as_ref().unwrap().seq
         };
         assert_eq!(seq_of(&frames[0]), 200 - MAX_QUEUED_FRAMES as u8 + 1);

@@ -24,12 +24,15 @@ use std::time::{Duration, Instant};
 
 use vestnav_core::vest::{Pattern, TACTOR_COUNT, TactorMask};
 
-use super::codec::{EncodeError, V1Codec, WireCodec};
+use super::codec::{EncodeError, FrameCodec, MIN_PROTOCOL_VERSION, WireCodec};
 use super::limits::{
     DutyLedger, LimitError, Limits, Schedule, Timeline, leading_pattern_ms, planned_fire_ms,
     planned_pattern_ms,
 };
-use super::message::{Capabilities, CommandKind, DeviceInfo, NakReason, Packet, Reply, Request, UnitStatus};
+use super::message::{
+    CalibrationWire, Capabilities, CommandKind, DeviceInfo, HeadingReport, NakReason, Packet, Reply, Request,
+    UnitStatus,
+};
 
 /// Timing and limits of the console side.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -141,6 +144,8 @@ pub enum LinkEvent {
     },
     /// A status report.
     Status(UnitStatus),
+    /// A reading of the unit's heading stream (protocol v2).
+    Heading(HeadingReport),
 }
 
 /// A command the link refused to send.
@@ -174,6 +179,8 @@ pub struct LinkStats {
     pub received: u64,
     /// Received bytes that did not decode.
     pub bad_frames: u64,
+    /// HELLOs re-offered at a lower protocol version after the unit refused the header's (NAK 0x04).
+    pub version_fallbacks: u64,
 }
 
 #[derive(Debug, Clone)]
@@ -196,7 +203,7 @@ struct InFlight {
 
 /// The console-side link (see the module doc).
 #[derive(Debug)]
-pub struct Link<C: WireCodec = V1Codec> {
+pub struct Link<C: WireCodec = FrameCodec> {
     config: LinkConfig,
     codec: C,
     state: LinkState,
@@ -217,10 +224,10 @@ pub struct Link<C: WireCodec = V1Codec> {
     stats: LinkStats,
 }
 
-impl Link<V1Codec> {
-    /// A link speaking [`V1Codec`].
+impl Link<FrameCodec> {
+    /// A link speaking [`FrameCodec`] (the newest version, falling back to what the unit speaks).
     pub fn new(config: LinkConfig) -> Self {
-        Self::with_codec(config, V1Codec::new())
+        Self::with_codec(config, FrameCodec::new())
     }
 }
 
@@ -291,6 +298,8 @@ impl<C: WireCodec> Link<C> {
     /// Starts a session on a fresh transport: sends HELLO.
     pub fn connect(&mut self, now: Instant) {
         self.codec.reset();
+        // Offer the newest version again: the unit on this transport may not be the last one.
+        self.codec.set_version(u8::MAX);
         self.abandon_all();
         self.transmit.clear();
         self.device = None;
@@ -402,9 +411,10 @@ impl<C: WireCodec> Link<C> {
         self.in_flight.as_ref().filter(|f| f.out.seq == seq).map(|f| &f.out.request)
     }
 
-    fn handle_reply(&mut self, Packet { seq, message }: Packet<Reply>, now: Instant) {
+    fn handle_reply(&mut self, Packet { version, seq, message }: Packet<Reply>, now: Instant) {
         match message {
-            Reply::Identify(info) => {
+            Reply::Identify(mut info) => {
+                info.protocol_version = version;
                 if self.in_flight_matches(seq) != Some(&Request::Hello) {
                     return;
                 }
@@ -455,6 +465,15 @@ impl<C: WireCodec> Link<C> {
                 if let Some(kind) = self.in_flight_matches(seq).map(Request::kind) {
                     self.in_flight = None;
                     if kind == CommandKind::Hello {
+                        let offered = self.codec.version();
+                        if reason == NakReason::UnsupportedVersion && offered > MIN_PROTOCOL_VERSION {
+                            // Version negotiation: an older unit refuses our header; offer the one below.
+                            self.codec.set_version(offered - 1);
+                            self.stats.version_fallbacks += 1;
+                            let out = self.outgoing(Request::Hello).unwrap_or_else(|_| unreachable_hello());
+                            self.start(out, self.config.hello_retries, false, now);
+                            return;
+                        }
                         self.lose(format!("unit refused HELLO: {reason}"));
                         return;
                     }
@@ -469,6 +488,46 @@ impl<C: WireCodec> Link<C> {
                 self.events.push_back(LinkEvent::Status(status));
             }
             Reply::Report { tactors_on, .. } => self.set_tactors(tactors_on),
+            Reply::Heading(report) => {
+                if self.state == LinkState::Ready {
+                    self.events.push_back(LinkEvent::Heading(report));
+                }
+            }
+        }
+    }
+
+    /// Starts the unit's heading stream at `rate_hz` readings per second (protocol v2 units with
+    /// [`Capabilities::HEADING`] only).
+    pub fn heading_start(&mut self, rate_hz: u8, now: Instant) -> Result<u8, CommandError> {
+        self.require_heading()?;
+        let out = self.outgoing(Request::HeadingStart { rate_hz })?;
+        self.enqueue(out, now)
+    }
+
+    /// Stops the unit's heading stream.
+    pub fn heading_stop(&mut self, now: Instant) -> Result<u8, CommandError> {
+        self.require_heading()?;
+        let out = self.outgoing(Request::HeadingStop)?;
+        self.enqueue(out, now)
+    }
+
+    /// Loads a magnetometer calibration into the unit.
+    pub fn set_calibration(
+        &mut self,
+        calibration: CalibrationWire,
+        now: Instant,
+    ) -> Result<u8, CommandError> {
+        self.require_heading()?;
+        let out = self.outgoing(Request::SetCalibration(calibration))?;
+        self.enqueue(out, now)
+    }
+
+    fn require_heading(&self) -> Result<(), CommandError> {
+        self.require_ready()?;
+        if self.device.is_some_and(|d| d.capabilities.contains(Capabilities::HEADING)) {
+            Ok(())
+        } else {
+            Err(CommandError::NotSupported("heading (needs a protocol v2 unit with a magnetometer)"))
         }
     }
 
@@ -546,7 +605,11 @@ impl<C: WireCodec> Link<C> {
             match f.out.request.kind() {
                 CommandKind::Heartbeat => {}
                 // Not a cue: keep it, it goes out after the stop.
-                CommandKind::SetIntensity | CommandKind::GetStatus => self.queue.push_front(f.out),
+                CommandKind::SetIntensity
+                | CommandKind::GetStatus
+                | CommandKind::HeadingStart
+                | CommandKind::HeadingStop
+                | CommandKind::SetCalibration => self.queue.push_front(f.out),
                 kind => self.events.push_back(LinkEvent::Cancelled { seq: f.out.seq, kind }),
             }
         }
@@ -701,7 +764,12 @@ fn schedule_of(request: &Request, start: Instant) -> Option<Schedule> {
             Some(Schedule::Pattern { frames: frames.clone(), repeats: *repeats, start })
         }
         Request::Hello | Request::StopAll => Some(Schedule::Idle),
-        Request::Heartbeat | Request::SetIntensity { .. } | Request::GetStatus => None,
+        Request::Heartbeat
+        | Request::SetIntensity { .. }
+        | Request::GetStatus
+        | Request::HeadingStart { .. }
+        | Request::HeadingStop
+        | Request::SetCalibration(_) => None,
     }
 }
 

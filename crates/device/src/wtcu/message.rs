@@ -41,6 +41,62 @@ pub enum Request {
     StopAll,
     /// Asks for a [`Reply::Status`].
     GetStatus,
+    /// Protocol v2: starts the unit's [`Reply::Heading`] stream at `rate_hz` (1..=10) reports per second
+    /// (units with [`Capabilities::HEADING`] only).
+    HeadingStart {
+        /// Reports per second, 1..=10.
+        rate_hz: u8,
+    },
+    /// Protocol v2: stops the heading stream.
+    HeadingStop,
+    /// Protocol v2: loads a hard/soft-iron calibration into the unit's magnetometer processing (kept until
+    /// the next one or a power cycle).
+    SetCalibration(CalibrationWire),
+}
+
+/// A magnetometer calibration in the protocol's fixed-point form (`h = W (m - b)`; see
+/// `docs/wtcu-protocol.md`). Its one home is `vestnav_core::compass`, with the conversions.
+pub use vestnav_core::compass::CalibrationWire;
+
+/// One heading report of a unit's tilt-compensated magnetometer, as it travels on the wire (protocol v2).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct HeadingReport {
+    /// Magnetic heading of the vest's forward axis, 0..36000 centi-degrees.
+    pub heading_cdeg: u16,
+    /// Pitch, nose up positive, -9000..=9000 centi-degrees.
+    pub pitch_cdeg: i16,
+    /// Roll, right side down positive, -18000..=18000 centi-degrees.
+    pub roll_cdeg: i16,
+    /// Calibration/field quality 0..=100 (0 while uncalibrated).
+    pub quality_pct: u8,
+    /// The raw (uncalibrated) magnetometer reading, body frame x forward, y right, z down, in 0.1 µT: what
+    /// the console's calibration fit works on.
+    pub raw_mag_dut: [i16; 3],
+}
+
+impl HeadingReport {
+    /// The reading as the one heading type of the console, received at `received_at`.
+    pub fn to_attitude(&self, received_at: std::time::Instant) -> crate::heading::Attitude {
+        crate::heading::Attitude {
+            heading_deg: f64::from(self.heading_cdeg) / 100.0,
+            reference: crate::heading::HeadingReference::Magnetic,
+            pitch_deg: Some(f64::from(self.pitch_cdeg) / 100.0),
+            roll_deg: Some(f64::from(self.roll_cdeg) / 100.0),
+            quality_pct: Some(self.quality_pct),
+            field_ut: None,
+            raw_mag_ut: Some(self.raw_mag_dut.map(|v| f64::from(v) / 10.0)),
+            origin: crate::heading::HeadingOrigin::Vest,
+            received_at,
+        }
+    }
+
+    /// Whether every field is in its range (the decoder refuses a report that is not).
+    pub fn is_valid(&self) -> bool {
+        self.heading_cdeg < 36_000
+            && self.pitch_cdeg.unsigned_abs() <= 9_000
+            && self.roll_cdeg.unsigned_abs() <= 18_000
+            && self.quality_pct <= 100
+    }
 }
 
 impl Request {
@@ -54,6 +110,9 @@ impl Request {
             Self::SetIntensity { .. } => CommandKind::SetIntensity,
             Self::StopAll => CommandKind::StopAll,
             Self::GetStatus => CommandKind::GetStatus,
+            Self::HeadingStart { .. } => CommandKind::HeadingStart,
+            Self::HeadingStop => CommandKind::HeadingStop,
+            Self::SetCalibration(_) => CommandKind::SetCalibration,
         }
     }
 
@@ -80,6 +139,12 @@ pub enum CommandKind {
     StopAll,
     /// [`Request::GetStatus`].
     GetStatus,
+    /// [`Request::HeadingStart`].
+    HeadingStart,
+    /// [`Request::HeadingStop`].
+    HeadingStop,
+    /// [`Request::SetCalibration`].
+    SetCalibration,
 }
 
 impl CommandKind {
@@ -93,6 +158,9 @@ impl CommandKind {
             Self::SetIntensity => "set intensity",
             Self::StopAll => "stop all",
             Self::GetStatus => "status",
+            Self::HeadingStart => "heading start",
+            Self::HeadingStop => "heading stop",
+            Self::SetCalibration => "set calibration",
         }
     }
 }
@@ -124,6 +192,9 @@ pub enum Reply {
         /// Current fault flags.
         faults: Faults,
     },
+    /// Protocol v2, unsolicited: one reading of the heading stream ([`Request::HeadingStart`]). Never
+    /// answered; an unsent one is superseded by the next.
+    Heading(HeadingReport),
 }
 
 /// What a unit says about itself in [`Reply::Identify`].
@@ -169,6 +240,8 @@ impl Capabilities {
     pub const INTENSITY: Self = Self(0x01);
     /// The unit plays patterns itself ([`Request::Play`]).
     pub const PATTERNS: Self = Self(0x02);
+    /// The unit has a tilt-compensated magnetometer and streams [`Reply::Heading`] (protocol v2).
+    pub const HEADING: Self = Self(0x04);
 
     /// Whether every bit of `other` is set.
     pub fn contains(self, other: Self) -> bool {
@@ -317,9 +390,11 @@ impl std::fmt::Display for NakReason {
     }
 }
 
-/// A message with its sequence number, as read from or written to the wire.
+/// A message with its sequence number and protocol version, as read from or written to the wire.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Packet<M> {
+    /// The header's protocol version.
+    pub version: u8,
     /// Sequence number: chosen by the console for requests; a reply echoes the request's.
     pub seq: u8,
     /// The message.

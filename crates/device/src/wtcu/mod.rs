@@ -3,7 +3,7 @@
 //!
 //! Layers, each usable alone:
 //! - [`message`]: requests and replies, independent of framing;
-//! - [`codec`]: [`codec::WireCodec`] and vestnav's framing [`codec::V1Codec`] (COBS + CRC-16, see
+//! - [`codec`]: [`codec::WireCodec`] and vestnav's framing [`codec::FrameCodec`] (COBS + CRC-16, see
 //!   `docs/wtcu-protocol.md`);
 //! - [`limits`]: on-time, current budget and duty-cycle limits, shared by console and unit;
 //! - [`link`]: the console side as a sans-IO state machine (handshake, acks, retransmit, heartbeat, loss),
@@ -40,7 +40,7 @@ pub mod worker;
 #[cfg(test)]
 mod proptests;
 
-pub use codec::{V1Codec, WireCodec};
+pub use codec::{FrameCodec, WireCodec};
 pub use limits::Limits;
 pub use link::{Backoff, Link, LinkConfig, LinkEvent, LinkState};
 pub use message::{CommandKind, DeviceInfo, NakReason, Reply, Request, UnitStatus};

@@ -8,7 +8,7 @@ use std::time::{Duration, Instant};
 use proptest::prelude::*;
 use vestnav_core::vest::{Frame, TactorMask};
 
-use super::codec::{V1Codec, WireCodec};
+use super::codec::{FrameCodec, WireCodec};
 use super::engine::{Engine, EngineConfig, EngineEvent};
 use super::limits::Limits;
 use super::link::{Link, LinkConfig};
@@ -89,22 +89,22 @@ proptest! {
 
     #[test]
     fn every_request_round_trips(seq in any::<u8>(), request in arb_request()) {
-        let mut codec = V1Codec::new();
+        let mut codec = FrameCodec::with_max_version(1);
         let bytes = codec.encode_request(seq, &request).unwrap();
         // Only the delimiters are zero.
         prop_assert!(bytes[1..bytes.len() - 1].iter().all(|&b| b != 0));
         let mut out = Vec::new();
         codec.decode_requests(&bytes, &mut out);
-        prop_assert_eq!(out, vec![Ok(Packet { seq, message: request })]);
+        prop_assert_eq!(out, vec![Ok(Packet { version: 1, seq, message: request })]);
     }
 
     #[test]
     fn every_reply_round_trips(seq in any::<u8>(), reply in arb_reply()) {
-        let mut codec = V1Codec::new();
+        let mut codec = FrameCodec::with_max_version(1);
         let bytes = codec.encode_reply(seq, &reply);
         let mut out = Vec::new();
         codec.decode_replies(&bytes, &mut out);
-        prop_assert_eq!(out, vec![Ok(Packet { seq, message: reply })]);
+        prop_assert_eq!(out, vec![Ok(Packet { version: 1, seq, message: reply })]);
     }
 
     #[test]
@@ -123,14 +123,14 @@ proptest! {
         link.handle_bytes(&junk, t0);
         link.handle_timeout(t0 + Duration::from_secs(3));
 
-        let mut codec = V1Codec::new();
+        let mut codec = FrameCodec::with_max_version(1);
         let mut out = Vec::new();
         codec.decode_requests(&junk, &mut out);
         let frame = codec.encode_request(seq, &request).unwrap();
         let mut after = Vec::new();
         codec.decode_requests(&frame, &mut after);
         // The leading delimiter ends whatever the junk left half done; the frame itself decodes.
-        prop_assert_eq!(after.last().cloned(), Some(Ok(Packet { seq, message: request })));
+        prop_assert_eq!(after.last().cloned(), Some(Ok(Packet { version: 1, seq, message: request })));
     }
 
     #[test]
@@ -140,11 +140,11 @@ proptest! {
         flip_at in any::<prop::sample::Index>(),
         flip in 1u8..=255,
     ) {
-        let codec = V1Codec::new();
+        let codec = FrameCodec::with_max_version(1);
         let frame = codec.encode_request(9, &request).unwrap();
         let body = &frame[1..frame.len() - 1];
         // Truncated: the end of the frame never arrives, then the next frame's leading delimiter.
-        let mut fresh = V1Codec::new();
+        let mut fresh = FrameCodec::with_max_version(1);
         let mut out = Vec::new();
         let keep = body.len().saturating_sub(cut).max(1);
         let mut bytes = vec![0];
@@ -161,7 +161,7 @@ proptest! {
             bytes.extend_from_slice(&bad);
             bytes.push(0);
             let mut out = Vec::new();
-            V1Codec::new().decode_requests(&bytes, &mut out);
+            FrameCodec::new().decode_requests(&bytes, &mut out);
             prop_assert!(out.iter().all(|r| r.as_ref().map_or(true, |p| p.message != request || p.seq != 9)));
         }
     }
@@ -215,8 +215,8 @@ fn drive(
 ) -> (Vec<(Instant, TactorMask)>, Vec<Reply>) {
     let t0 = Instant::now();
     let mut engine = Engine::new(config);
-    let codec = V1Codec::new();
-    let mut replies_codec = V1Codec::new();
+    let codec = FrameCodec::with_max_version(1);
+    let mut replies_codec = FrameCodec::with_max_version(1);
     let mut trace = vec![(t0, TactorMask::NONE)];
     let mut replies = Vec::new();
     let mut now = t0;

@@ -31,10 +31,17 @@ use std::time::{Duration, Instant};
 use vestnav_core::vest::{Pattern, TactorMask};
 
 use super::emulator::is_timeout;
-use super::engine::{Engine, EngineConfig};
+use super::engine::EngineConfig;
 use super::link::{Backoff, CommandError, Link, LinkConfig, LinkEvent, LinkState};
-use super::message::{CommandKind, DeviceInfo, UnitStatus};
+use super::message::{CalibrationWire, CommandKind, DeviceInfo, UnitStatus};
+use crate::heading::Attitude;
 use crate::outbox::Outbox;
+
+mod emulated_port;
+#[cfg(test)]
+mod tests;
+
+pub use emulated_port::EmulatedPort;
 
 /// A byte transport the worker can own: a serial port, a PTY, an in-memory pipe. Reads must time out
 /// (`TimedOut`/`WouldBlock`) after a few ms so the worker can serve its timers and commands.
@@ -45,7 +52,7 @@ impl<T: Read + Write + Send + ?Sized> Transport for T {}
 pub type Connector = Box<dyn FnMut() -> io::Result<Box<dyn Transport>> + Send>;
 
 /// Where the vest is.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq)]
 pub enum VestConfig {
     /// A serial port (a Bluetooth SPP port such as `/dev/rfcomm0` or `COM5`, or an emulator's PTY).
     Serial {
@@ -81,6 +88,15 @@ pub enum VestCommand {
     StopAll,
     /// Ask for battery, firmware and fault flags.
     RequestStatus,
+    /// Start the unit's heading stream at `rate_hz` (1..=10) readings per second (protocol v2).
+    HeadingStart {
+        /// Readings per second.
+        rate_hz: u8,
+    },
+    /// Stop the unit's heading stream.
+    HeadingStop,
+    /// Load a magnetometer calibration into the unit.
+    SetCalibration(CalibrationWire),
 }
 
 /// Who asked for a vest command: the worker refuses automatic commands after a STOP ALL until the
@@ -103,6 +119,14 @@ impl VestCommand {
             Self::SetIntensity { mask, level } => format!("intensity {level} on [{}]", list(*mask)),
             Self::StopAll => "STOP ALL".to_owned(),
             Self::RequestStatus => "status request".to_owned(),
+            Self::HeadingStart { rate_hz } => format!("heading stream at {rate_hz} Hz"),
+            Self::HeadingStop => "heading stream off".to_owned(),
+            Self::SetCalibration(c) => format!(
+                "compass calibration (hard iron {:.1} {:.1} {:.1} µT)",
+                f64::from(c.hard_iron_dut[0]) / 10.0,
+                f64::from(c.hard_iron_dut[1]) / 10.0,
+                f64::from(c.hard_iron_dut[2]) / 10.0
+            ),
         }
     }
 
@@ -114,13 +138,17 @@ impl VestCommand {
             Self::SetIntensity { .. } => CommandKind::SetIntensity,
             Self::StopAll => CommandKind::StopAll,
             Self::RequestStatus => CommandKind::GetStatus,
+            Self::HeadingStart { .. } => CommandKind::HeadingStart,
+            Self::HeadingStop => CommandKind::HeadingStop,
+            Self::SetCalibration(_) => CommandKind::SetCalibration,
         }
     }
 }
 
 /// What the worker reports. Every event carries what the device (or our own refusal) said; the time it
-/// happened is when the consumer receives it, a few milliseconds later at most.
-#[derive(Debug, Clone, PartialEq, Eq)]
+/// happened is when the consumer receives it, a few milliseconds later at most (a heading reading carries
+/// the instant its bytes arrived).
+#[derive(Debug, Clone, PartialEq)]
 pub enum VestEvent {
     /// The link changed state.
     State(LinkState),
@@ -156,6 +184,8 @@ pub enum VestEvent {
     },
     /// The operator resumed automatic commands.
     Resumed,
+    /// A reading of the unit's heading stream (protocol v2), timed by when its bytes arrived.
+    Heading(Attitude),
 }
 
 /// Tuning of the worker.
@@ -759,6 +789,9 @@ impl Worker {
             VestCommand::SetIntensity { mask, level } => self.link.set_intensity(*mask, *level, now),
             VestCommand::StopAll => self.link.stop_all(now),
             VestCommand::RequestStatus => self.link.request_status(now),
+            VestCommand::HeadingStart { rate_hz } => self.link.heading_start(*rate_hz, now),
+            VestCommand::HeadingStop => self.link.heading_stop(now),
+            VestCommand::SetCalibration(c) => self.link.set_calibration(*c, now),
         };
         if let Err(e) = result {
             let reason = match e {
@@ -807,6 +840,8 @@ impl Worker {
                     reason: format!("{} cancelled (superseded or stopped)", kind.name()),
                 },
                 LinkEvent::Status(s) => VestEvent::Status(s),
+                // The link reports events right after the bytes that carried them were fed in.
+                LinkEvent::Heading(report) => VestEvent::Heading(report.to_attitude(Instant::now())),
             };
             self.emit(event);
         }
@@ -827,214 +862,5 @@ impl Worker {
         for out in &self.events {
             out.wake();
         }
-    }
-}
-
-/// The emulated unit as an in-process transport: writes feed the [`Engine`] at the wall-clock time, reads
-/// return its replies, waiting at most the read timeout (the engine's timers run inside reads).
-#[derive(Debug)]
-pub struct EmulatedPort {
-    engine: Engine,
-    pending: std::collections::VecDeque<u8>,
-    read_timeout: Duration,
-}
-
-impl EmulatedPort {
-    /// A fresh unit built from `config`; reads wait at most `read_timeout`.
-    pub fn new(config: EngineConfig, read_timeout: Duration) -> Self {
-        Self { engine: Engine::new(config), pending: std::collections::VecDeque::new(), read_timeout }
-    }
-
-    /// The unit behind the port.
-    pub fn engine(&self) -> &Engine {
-        &self.engine
-    }
-}
-
-impl Read for EmulatedPort {
-    fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
-        let deadline = Instant::now() + self.read_timeout;
-        loop {
-            let now = Instant::now();
-            self.engine.handle_timeout(now);
-            while let Some(frame) = self.engine.poll_transmit() {
-                self.pending.extend(frame);
-            }
-            while self.engine.poll_event().is_some() {}
-            if !self.pending.is_empty() {
-                let n = buf.len().min(self.pending.len());
-                for (dst, src) in buf.iter_mut().zip(self.pending.drain(..n)) {
-                    *dst = src;
-                }
-                return Ok(n);
-            }
-            if now >= deadline {
-                return Err(io::Error::new(io::ErrorKind::TimedOut, "no data from the emulated unit"));
-            }
-            let wake = self.engine.poll_timeout().map_or(deadline, |t| t.min(deadline));
-            std::thread::sleep(wake.saturating_duration_since(now).max(Duration::from_micros(100)));
-        }
-    }
-}
-
-impl Write for EmulatedPort {
-    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
-        self.engine.handle_bytes(buf, Instant::now());
-        Ok(buf.len())
-    }
-
-    fn flush(&mut self) -> io::Result<()> {
-        Ok(())
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::wtcu::engine::EngineConfig;
-    use vestnav_core::vest::Frame;
-
-    fn emulated() -> (VestHandle, Receiver<VestEvent>) {
-        let connector: Connector = Box::new(|| {
-            Ok(Box::new(EmulatedPort::new(EngineConfig::default(), Duration::from_millis(2)))
-                as Box<dyn Transport>)
-        });
-        VestHandle::spawn_with_receiver(connector, WorkerSettings::default()).unwrap()
-    }
-
-    /// Waits for the first event matching `f`, collecting everything seen.
-    fn wait(
-        rx: &Receiver<VestEvent>,
-        seen: &mut Vec<VestEvent>,
-        f: impl Fn(&VestEvent) -> bool,
-    ) -> Option<Instant> {
-        let end = Instant::now() + Duration::from_secs(3);
-        while Instant::now() < end {
-            if let Ok(ev) = rx.recv_timeout(Duration::from_millis(10)) {
-                let hit = f(&ev);
-                seen.push(ev);
-                if hit {
-                    return Some(Instant::now());
-                }
-            }
-        }
-        None
-    }
-
-    fn ready(rx: &Receiver<VestEvent>) {
-        let mut seen = Vec::new();
-        assert!(wait(rx, &mut seen, |e| *e == VestEvent::State(LinkState::Ready)).is_some(), "{seen:?}");
-    }
-
-    fn long_pattern() -> Pattern {
-        Pattern {
-            name: "long".into(),
-            frames: vec![
-                Frame { mask: TactorMask(0x000F), duration_ms: 1500 },
-                Frame { mask: TactorMask::NONE, duration_ms: 500 },
-            ],
-            repeats: 3,
-        }
-    }
-
-    #[test]
-    fn stop_all_jumps_a_full_queue_and_cancels_what_was_queued() {
-        let (vest, rx) = emulated();
-        ready(&rx);
-        // Fill the queue: whatever is waiting there must not delay the stop, nor play after it.
-        let mut queued = 0;
-        while vest.send(VestCommand::Play(long_pattern()), CommandOrigin::Manual).is_ok() {
-            queued += 1;
-            assert!(queued <= 64, "the queue is bounded");
-        }
-        assert_eq!(vest.send(VestCommand::RequestStatus, CommandOrigin::Manual), Err(VestSendError::Full));
-        let t0 = Instant::now();
-        vest.stop_all();
-        let mut seen = Vec::new();
-        let acked =
-            wait(&rx, &mut seen, |e| matches!(e, VestEvent::Acked { kind: CommandKind::StopAll, .. }))
-                .expect("STOP ALL acknowledged");
-        assert!(acked - t0 < Duration::from_millis(50), "{:?}", acked - t0);
-        // Everything queued before the stop is refused, never played after it.
-        std::thread::sleep(Duration::from_millis(100));
-        seen.extend(rx.try_iter());
-        let plays_after_stop = seen
-            .iter()
-            .skip_while(|e| !matches!(e, VestEvent::Acked { kind: CommandKind::StopAll, .. }))
-            .filter(|e| matches!(e, VestEvent::Acked { kind: CommandKind::Play, .. }))
-            .count();
-        assert_eq!(plays_after_stop, 0, "{seen:?}");
-        assert!(seen.iter().any(
-            |e| matches!(e, VestEvent::Rejected { reason, .. } if reason.contains("cancelled by STOP ALL"))
-        ));
-    }
-
-    #[test]
-    fn automatic_commands_are_refused_after_stop_all_until_resumed() {
-        let (vest, rx) = emulated();
-        ready(&rx);
-        let cue = VestCommand::Fire { mask: TactorMask(1), duration_ms: 200 };
-        assert_eq!(vest.send(cue.clone(), CommandOrigin::Guidance), Ok(()));
-        vest.stop_all();
-        assert!(vest.is_halted());
-        assert!(matches!(vest.send(cue.clone(), CommandOrigin::Guidance), Err(VestSendError::Halted(_))));
-        // The operator's own commands still go.
-        assert_eq!(vest.send(cue.clone(), CommandOrigin::Manual), Ok(()));
-        let mut seen = Vec::new();
-        assert!(wait(&rx, &mut seen, |e| matches!(e, VestEvent::Halted { .. })).is_some());
-        vest.resume_guidance();
-        assert!(!vest.is_halted());
-        assert_eq!(vest.send(cue, CommandOrigin::Guidance), Ok(()));
-        assert!(wait(&rx, &mut seen, |e| *e == VestEvent::Resumed).is_some());
-    }
-
-    #[test]
-    fn a_stalled_watched_thread_stops_every_tactor() {
-        let (vest, rx) = emulated();
-        ready(&rx);
-        let beat = vest.heartbeat(Watched::Guidance, Duration::from_millis(100));
-        // The first beat only announces the thread: a long pause after it is start-up, not a stall.
-        beat.beat();
-        std::thread::sleep(Duration::from_millis(250));
-        assert!(!vest.is_halted(), "armed by the first beat");
-        beat.beat();
-        assert_eq!(vest.send(VestCommand::Play(long_pattern()), CommandOrigin::Guidance), Ok(()));
-        let mut seen = Vec::new();
-        assert!(
-            wait(&rx, &mut seen, |e| matches!(e, VestEvent::TactorsOn(Some(m)) if !m.is_empty())).is_some()
-        );
-        // The guidance thread stops beating: the worker stops the vest by itself within the bound.
-        let stalled = Instant::now();
-        let stopped =
-            wait(&rx, &mut seen, |e| matches!(e, VestEvent::Acked { kind: CommandKind::StopAll, .. }))
-                .expect("the worker stopped the vest");
-        let after = stopped - stalled;
-        assert!(after >= Duration::from_millis(90) && after < Duration::from_millis(300), "{after:?}");
-        assert!(
-            seen.iter().any(|e| matches!(e, VestEvent::Halted { reason } if reason.contains("guidance")))
-        );
-        assert!(matches!(
-            vest.send(VestCommand::Play(long_pattern()), CommandOrigin::Guidance),
-            Err(VestSendError::Halted(_))
-        ));
-        // A released heartbeat is not a stall.
-        vest.resume_guidance();
-        beat.beat();
-        beat.release();
-        std::thread::sleep(Duration::from_millis(300));
-        assert!(!vest.is_halted());
-    }
-
-    #[test]
-    fn the_stopper_stops_and_closes_within_the_exit_budget() {
-        let (vest, rx) = emulated();
-        ready(&rx);
-        assert_eq!(vest.send(VestCommand::Play(long_pattern()), CommandOrigin::Guidance), Ok(()));
-        let stopper = vest.stopper();
-        let t0 = Instant::now();
-        assert!(stopper.stop_and_close(Duration::from_millis(180)), "STOP ALL acknowledged");
-        assert!(t0.elapsed() < Duration::from_millis(200), "{:?}", t0.elapsed());
-        assert!(!vest.is_running());
-        assert_eq!(vest.send(VestCommand::RequestStatus, CommandOrigin::Manual), Err(VestSendError::Stopped));
     }
 }

@@ -19,6 +19,13 @@
 //!
 //! Every fix is checked by [`Fix::validate`] as it is emitted (out-of-range positions removed, implausible
 //! values removed or corrected); what was removed is counted in [`DecodeStats`].
+//!
+//! HDG (an external magnetic compass, often at 10 Hz) is not part of any epoch: each one becomes a
+//! [`GpsEvent::Attitude`] at once (magnetic, origin NMEA, `received_at` = the instant of the
+//! [`NmeaDecoder::handle_bytes`] call that completed it, as for fixes), checked by
+//! [`Attitude::validate`](crate::heading::Attitude::validate)
+//! (a failure is counted as malformed). It neither opens nor closes an epoch, and bytes that carried only
+//! HDG sentences do not hold the quiet gap open, so a compass stream does not delay fixes.
 
 use std::collections::{BTreeMap, VecDeque};
 use std::time::{Duration, Instant};
@@ -29,6 +36,7 @@ use super::fix::{Constellation, ErrorEstimate, ErrorSource, Fix, FixMode, FixQua
 use super::framing::{DecodeStats, Framer};
 use super::sentence::{self, Parsed, Unused};
 use super::{GpsEvent, Mark, UERE_DGPS_M, UERE_M};
+use crate::heading::{HeadingOrigin, HeadingReference};
 
 /// Decoder settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -68,7 +76,9 @@ enum Kind {
     Vtg,
     Zda,
     Gst,
-    Heading,
+    /// THS and HDT are separate kinds: receivers send both in one epoch (`SkyTraq` PX1172RH).
+    Ths,
+    Hdt,
     Pgrme,
     Gsa,
     Gsv,
@@ -84,7 +94,8 @@ fn kind_of(p: &Parsed) -> Kind {
         Parsed::Vtg { .. } => Kind::Vtg,
         Parsed::Zda { .. } => Kind::Zda,
         Parsed::Gst { .. } => Kind::Gst,
-        Parsed::Heading { .. } => Kind::Heading,
+        Parsed::Heading { ths: true, .. } => Kind::Ths,
+        Parsed::Heading { ths: false, .. } => Kind::Hdt,
         Parsed::Pgrme { .. } => Kind::Pgrme,
         Parsed::Gsa { .. } => Kind::Gsa,
         Parsed::Gsv { .. } => Kind::Gsv,
@@ -128,6 +139,8 @@ struct Epoch {
     gst: Option<(Option<f64>, Option<f64>, Option<f64>)>,
     pgrme: Option<(Option<f64>, Option<f64>)>,
     heading_deg: Option<f64>,
+    /// A THS with mode `V` said this epoch's heading is not valid.
+    heading_invalid: bool,
     /// Anything that makes this epoch worth a fix (a position/time sentence).
     substantive: bool,
 }
@@ -159,6 +172,10 @@ pub struct NmeaDecoder {
     ender_candidate: Option<Kind>,
     closed_by_ender: bool,
     last_input: Option<Instant>,
+    /// Bytes of HDG sentences (with their line end) completed during the current `handle_bytes` call.
+    attitude_bytes: usize,
+    /// The last HDG magnetic variation, east positive \[deg\].
+    magnetic_variation_deg: Option<f64>,
     now: Option<Instant>,
     events: VecDeque<GpsEvent>,
     last_timestamp_ms: Option<i64>,
@@ -189,6 +206,8 @@ impl NmeaDecoder {
             ender_candidate: None,
             closed_by_ender: false,
             last_input: None,
+            attitude_bytes: 0,
+            magnetic_variation_deg: None,
             now: None,
             events: VecDeque::new(),
             last_timestamp_ms: None,
@@ -212,15 +231,24 @@ impl NmeaDecoder {
         self.last_timestamp_ms
     }
 
+    /// The magnetic variation (east positive) of the last HDG that sent one, if any. Recorded only: the
+    /// console applies its own WMM declination to every magnetic heading.
+    pub fn magnetic_variation_deg(&self) -> Option<f64> {
+        self.magnetic_variation_deg
+    }
+
     /// Feeds bytes received at `now`.
     pub fn handle_bytes(&mut self, data: &[u8], now: Instant) {
         self.now = Some(now);
-        if !data.is_empty() {
-            self.last_input = Some(now);
-        }
+        self.attitude_bytes = 0;
         let mut framer = std::mem::take(&mut self.framer);
         framer.feed(data, |s, stats| self.handle_sentence(s, stats));
         self.framer = framer;
+        // Bytes that were nothing but HDG sentences say nothing about the epoch: they do not hold the
+        // quiet gap open.
+        if data.len() > self.attitude_bytes {
+            self.last_input = Some(now);
+        }
     }
 
     /// When [`Self::handle_timeout`] wants to be called next (the quiet-gap deadline), if an epoch is open.
@@ -280,6 +308,26 @@ impl NmeaDecoder {
             }
             Parsed::Timestamp { unix_ms } => {
                 self.last_timestamp_ms = Some(unix_ms);
+                return;
+            }
+            Parsed::Hdg { magnetic_deg, variation_deg } => {
+                self.attitude_bytes += line.len() + 2;
+                if variation_deg.is_some() {
+                    self.magnetic_variation_deg = variation_deg;
+                }
+                let Some(received_at) = self.now else { return };
+                let attitude = super::bare_attitude(
+                    magnetic_deg,
+                    HeadingReference::Magnetic,
+                    HeadingOrigin::Nmea,
+                    received_at,
+                );
+                // The boundary check, as for fixes; the parser's range checks make a failure unlikely.
+                if attitude.validate().is_err() {
+                    stats.malformed += 1;
+                    return;
+                }
+                self.events.push_back(GpsEvent::Attitude(attitude));
                 return;
             }
             Parsed::Ignored => return,
@@ -354,7 +402,10 @@ impl NmeaDecoder {
             Parsed::Vtg { course_deg, speed_m_s } => e.vtg = Some((course_deg, speed_m_s)),
             Parsed::Gst { lat_sd_m, lon_sd_m, alt_sd_m, .. } => e.gst = Some((lat_sd_m, lon_sd_m, alt_sd_m)),
             Parsed::Pgrme { horizontal_m, vertical_m } => e.pgrme = Some((horizontal_m, vertical_m)),
-            Parsed::Heading { heading_deg } => e.heading_deg = heading_deg,
+            Parsed::Heading { heading_deg, invalid, .. } => {
+                e.heading_invalid |= invalid;
+                e.heading_deg = heading_deg.or(e.heading_deg);
+            }
             Parsed::Gsa { mode, constellation, ids, pdop, hdop, vdop } => {
                 let ids = ids
                     .into_iter()
@@ -385,7 +436,7 @@ impl NmeaDecoder {
                     g.next = 0;
                 }
             }
-            Parsed::Mark { .. } | Parsed::Timestamp { .. } | Parsed::Ignored => {}
+            Parsed::Mark { .. } | Parsed::Timestamp { .. } | Parsed::Hdg { .. } | Parsed::Ignored => {}
         }
     }
 
@@ -488,7 +539,8 @@ impl NmeaDecoder {
             fix.lat_deg = pos.map(|p| p.0);
             fix.lon_deg = pos.map(|p| p.1);
         }
-        fix.true_heading_deg = e.heading_deg;
+        // THS mode V: the receiver says the epoch's heading (THS or HDT) is not valid.
+        fix.true_heading_deg = e.heading_deg.filter(|_| !e.heading_invalid);
         // GSA: the epoch's, else the receiver's last.
         let gsa: &[GsaPart] = if e.gsa.is_empty() { &self.gsa_state } else { &e.gsa };
         let gsa_mode = gsa.iter().filter_map(|g| g.mode).max();
@@ -626,161 +678,6 @@ fn error_estimate(e: &Epoch, fix: &Fix) -> Option<ErrorEstimate> {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use proptest::prelude::*;
-
-    fn all_events(d: &mut NmeaDecoder) -> Vec<GpsEvent> {
-        std::iter::from_fn(|| d.poll_event()).collect()
-    }
-
-    proptest! {
-        /// No byte sequence makes the decoder panic, in any chunking.
-        #[test]
-        fn arbitrary_bytes_never_panic(data in proptest::collection::vec(any::<u8>(), 0..4000), cut in 1usize..600) {
-            let now = Instant::now();
-            for config in [DecoderConfig::file(), DecoderConfig::live()] {
-                let mut d = NmeaDecoder::new(config);
-                for chunk in data.chunks(cut) {
-                    d.handle_bytes(chunk, now);
-                    d.handle_timeout(now + Duration::from_secs(1));
-                }
-                d.finish(now);
-                let _ = all_events(&mut d);
-            }
-        }
-
-        /// Valid-looking sentences with random field contents (correct checksums) never panic either.
-        #[test]
-        fn checksummed_garbage_never_panics(
-            tag in prop::sample::select(vec!["GPGGA", "GNRMC", "GPGSA", "GLGSV", "GNGNS", "GPVTG", "GPZDA",
-                                             "GPGST", "GNTHS", "GPHDT", "GPGLL", "PVNAV", "PGRME"]),
-            fields in proptest::collection::vec("[0-9A-Z.,+-]{0,12}", 0..22),
-        ) {
-            let body = format!("{tag},{}", fields.join(","));
-            let text = crate::gps::framing::with_checksum(&body).repeat(3);
-            let (_fixes, stats) = crate::gps::decode_reader(text.as_bytes()).unwrap();
-            prop_assert_eq!(stats.sentences + stats.overlong, 3);
-        }
-    }
-
-    #[test]
-    fn live_mode_learns_the_cycle_end_and_emits_without_waiting() {
-        let log = std::fs::read(
-            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/gpsd-logs/nd-1005.log"),
-        )
-        .unwrap();
-        let mut d = NmeaDecoder::new(DecoderConfig::live());
-        let now = Instant::now();
-        // Feed line by line; after learning (3 epochs) a fix must come out at the cycle's last sentence,
-        // i.e. before the next epoch's first GGA is fed.
-        let mut fixes_before_next_gga = 0;
-        for line in log.split_inclusive(|&b| b == b'\n') {
-            if line.starts_with(b"$GPGGA") {
-                fixes_before_next_gga = 0;
-            }
-            d.handle_bytes(line, now);
-            fixes_before_next_gga +=
-                all_events(&mut d).iter().filter(|e| matches!(e, GpsEvent::Fix(_))).count();
-        }
-        assert_eq!(d.ender, Some(Kind::Vtg));
-        assert_eq!(fixes_before_next_gga, 1, "the last epoch was emitted at its VTG");
-    }
-
-    #[test]
-    fn constellation_table_is_in_discriminant_order() {
-        for (i, c) in ALL_CONSTELLATIONS.into_iter().enumerate() {
-            assert_eq!(c as usize, i, "{c:?}");
-        }
-    }
-
-    #[test]
-    fn midnight_rolls_the_date_over() {
-        use crate::gps::framing::with_checksum;
-        let text = [
-            "GPRMC,235959.00,A,4221.0,N,07106.0,W,0.0,0.0,311226,,,A",
-            "GPGGA,000000.00,4221.0,N,07106.0,W,1,05,1.0,10.0,M,0.0,M,,",
-            "GPGGA,000001.00,4221.0,N,07106.0,W,1,05,1.0,10.0,M,0.0,M,,",
-        ]
-        .map(with_checksum)
-        .concat();
-        let (fixes, _) = crate::gps::decode_reader(text.as_bytes()).unwrap();
-        let times: Vec<String> = fixes.iter().map(|f| f.time.unwrap().to_rfc3339()).collect();
-        assert_eq!(
-            times,
-            ["2026-12-31T23:59:59+00:00", "2027-01-01T00:00:00+00:00", "2027-01-01T00:00:01+00:00"]
-        );
-    }
-
-    #[test]
-    fn fix_loss_and_recovery() {
-        let (fixes, _) = crate::gps::decode_file(
-            &std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-                .join("../../tests/data/gpsd-logs/tomtom-mkII.log"),
-        )
-        .unwrap();
-        let modes: Vec<_> = fixes.iter().map(|f| f.mode).collect();
-        assert!(modes.contains(&Some(FixMode::Fix3D)));
-        assert!(modes.contains(&Some(FixMode::Fix2D)));
-        let lost = fixes.iter().filter(|f| f.mode == Some(FixMode::NoFix)).count();
-        assert!(lost >= 20, "{lost}");
-        assert!(
-            fixes
-                .iter()
-                .filter(|f| f.mode == Some(FixMode::NoFix))
-                .all(|f| f.lat_deg.is_none() && f.error.is_none())
-        );
-    }
-
-    /// Implausible values with correct checksums: removed or corrected by `Fix::validate` and counted,
-    /// the position (which is fine) kept.
-    #[test]
-    fn implausible_nmea_values_are_removed_and_counted() {
-        use crate::gps::framing::with_checksum;
-        let text = [
-            // 10 100 satellites used and a negative HDOP.
-            "GPGGA,110518.000,5709.8067,N,00207.2822,W,1,10100,-1.0,59.3,M,48.2,M,,0000",
-            // Speed -5 kn and course 400 deg.
-            "GPRMC,110518.000,A,5709.8067,N,00207.2822,W,-5.0,400.0,140311,,,A",
-        ]
-        .map(with_checksum)
-        .concat();
-        let (fixes, stats) = crate::gps::decode_reader(text.as_bytes()).unwrap();
-        assert_eq!(stats.rejected(), 0, "{stats}");
-        assert_eq!(fixes.len(), 1);
-        let f = &fixes[0];
-        assert!(f.has_position());
-        assert!((f.lat_deg.unwrap() - 57.163_445).abs() < 1e-9);
-        assert_eq!((f.sats_used, f.hdop, f.speed_m_s), (None, None, None));
-        assert!((f.course_deg.unwrap() - 40.0).abs() < 1e-9, "{f:?}");
-        // The DOP model made a negative error estimate (-1.0 x UERE) from the negative HDOP: removed too.
-        assert_eq!(f.error, None);
-        // sats, HDOP, speed, course (normalised), error estimate.
-        assert_eq!(stats.implausible_values, 5, "{stats}");
-        assert_eq!(stats.invalid_positions, 0);
-        assert!(stats.to_string().contains("5 implausible values"), "{stats}");
-    }
-
-    /// The same through VTG and GSA, which carry course, speed and DOPs on their own.
-    #[test]
-    fn implausible_vtg_and_gsa_values_are_removed_and_counted() {
-        use crate::gps::framing::with_checksum;
-        let text = [
-            "GPGGA,110518.000,5709.8067,N,00207.2822,W,1,08,,59.3,M,48.2,M,,0000",
-            "GPGSA,A,3,02,05,07,12,13,15,18,20,,,,,1.8,-1.0,-1.5",
-            "GPVTG,400.0,T,,M,-5.0,N,-9.3,K,A",
-        ]
-        .map(with_checksum)
-        .concat();
-        let (fixes, stats) = crate::gps::decode_reader(text.as_bytes()).unwrap();
-        assert_eq!(stats.rejected(), 0, "{stats}");
-        let f = &fixes[0];
-        assert!(f.has_position());
-        assert_eq!((f.hdop, f.vdop, f.pdop), (None, None, Some(1.8)));
-        assert_eq!(f.speed_m_s, None);
-        assert!((f.course_deg.unwrap() - 40.0).abs() < 1e-9, "{f:?}");
-        assert_eq!(f.sats_used, Some(8));
-        // HDOP, VDOP, speed, course, and the DOP model's negative error estimate.
-        assert_eq!(stats.implausible_values, 5, "{stats}");
-    }
-}
+mod heading_tests;
+#[cfg(test)]
+mod tests;

@@ -37,9 +37,8 @@
 //! std::fs::remove_dir_all(&dir).unwrap();
 //! ```
 
-use std::collections::BTreeMap;
 use std::fmt;
-use std::io::{self, BufRead, BufWriter, Write};
+use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
@@ -50,6 +49,8 @@ use std::time::{Duration, Instant};
 use serde::{Deserialize, Serialize};
 use vestnav_core::vest::{Pattern, TactorMask};
 
+use crate::heading::{Attitude, HeadingOrigin, HeadingReference};
+use crate::wtcu::message::CalibrationWire;
 use crate::wtcu::{CommandOrigin, VestCommand};
 
 /// Lines longer than this are skipped by [`read_log`] (a record is a few hundred bytes; a pattern with
@@ -114,6 +115,35 @@ pub enum LogEntry {
         /// Text.
         text: String,
     },
+    /// A heading reading (the vest's magnetometer, an NMEA compass, gpsd's ATT), as received.
+    Heading {
+        /// Heading \[deg\], from `reference` north.
+        heading_deg: f64,
+        /// Magnetic or true.
+        reference: HeadingReference,
+        /// Which device.
+        origin: HeadingOrigin,
+        /// Pitch \[deg\], if known.
+        pitch_deg: Option<f64>,
+        /// Roll \[deg\], if known.
+        roll_deg: Option<f64>,
+        /// Quality 0..=100, if given.
+        quality_pct: Option<u8>,
+    },
+}
+
+impl LogEntry {
+    /// The record of a heading reading.
+    pub fn heading(a: &Attitude) -> Self {
+        Self::Heading {
+            heading_deg: a.heading_deg,
+            reference: a.reference,
+            origin: a.origin,
+            pitch_deg: a.pitch_deg,
+            roll_deg: a.roll_deg,
+            quality_pct: a.quality_pct,
+        }
+    }
 }
 
 /// The serialised shape of [`VestCommand`] in the log: serde's default shape of the device type, with the
@@ -134,6 +164,11 @@ enum LoggedCommand {
     },
     StopAll,
     RequestStatus,
+    HeadingStart {
+        rate_hz: u8,
+    },
+    HeadingStop,
+    SetCalibration(CalibrationWire),
 }
 
 /// The kind of a [`LogEntry`] (its `kind` tag), for rate limits and statistics.
@@ -152,11 +187,14 @@ pub enum EntryKind {
     Mark,
     /// [`LogEntry::Note`].
     Note,
+    /// [`LogEntry::Heading`].
+    Heading,
 }
 
 impl EntryKind {
     /// Every kind, in tag order.
-    pub const ALL: [Self; 6] = [Self::Fix, Self::Command, Self::Ack, Self::TactorsOn, Self::Mark, Self::Note];
+    pub const ALL: [Self; 7] =
+        [Self::Fix, Self::Command, Self::Ack, Self::TactorsOn, Self::Mark, Self::Note, Self::Heading];
 
     /// The `kind` tag in the file.
     pub fn tag(self) -> &'static str {
@@ -167,6 +205,7 @@ impl EntryKind {
             Self::TactorsOn => "tactors_on",
             Self::Mark => "mark",
             Self::Note => "note",
+            Self::Heading => "heading",
         }
     }
 
@@ -196,6 +235,7 @@ impl LogEntry {
             Self::TactorsOn { .. } => EntryKind::TactorsOn,
             Self::Mark { .. } => EntryKind::Mark,
             Self::Note { .. } => EntryKind::Note,
+            Self::Heading { .. } => EntryKind::Heading,
         }
     }
 }
@@ -224,18 +264,19 @@ pub fn utc_stamp(t: chrono::DateTime<chrono::Utc>) -> String {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RateLimits {
     /// Limit per kind, indexed like [`EntryKind::ALL`].
-    per_kind: [Option<u32>; 6],
+    per_kind: [Option<u32>; EntryKind::ALL.len()],
 }
 
 impl Default for RateLimits {
-    /// 20 fixes/s (a 1–10 Hz receiver never reaches it), 50 acks, tactor reports and notes per second;
-    /// commands and marks unlimited.
+    /// 20 fixes/s (a 1–10 Hz receiver never reaches it), 20 headings/s (the vest streams at most 10),
+    /// 50 acks, tactor reports and notes per second; commands and marks unlimited.
     fn default() -> Self {
         let mut l = Self::unlimited();
         l.set(EntryKind::Fix, Some(20));
         l.set(EntryKind::Ack, Some(50));
         l.set(EntryKind::TactorsOn, Some(50));
         l.set(EntryKind::Note, Some(50));
+        l.set(EntryKind::Heading, Some(20));
         l
     }
 }
@@ -243,7 +284,7 @@ impl Default for RateLimits {
 impl RateLimits {
     /// No limit on any kind.
     pub fn unlimited() -> Self {
-        Self { per_kind: [None; 6] }
+        Self { per_kind: [None; EntryKind::ALL.len()] }
     }
 
     /// Sets the limit of `kind` [records/s]. Commands and marks stay unlimited whatever is asked.
@@ -267,15 +308,21 @@ impl RateLimits {
 pub struct Coalescer {
     limits: RateLimits,
     window: Option<i64>,
-    passed: [u32; 6],
-    suppressed: [u64; 6],
+    passed: [u32; EntryKind::ALL.len()],
+    suppressed: [u64; EntryKind::ALL.len()],
     total_suppressed: u64,
 }
 
 impl Coalescer {
     /// A filter with these limits.
     pub fn new(limits: RateLimits) -> Self {
-        Self { limits, window: None, passed: [0; 6], suppressed: [0; 6], total_suppressed: 0 }
+        Self {
+            limits,
+            window: None,
+            passed: [0; EntryKind::ALL.len()],
+            suppressed: [0; EntryKind::ALL.len()],
+            total_suppressed: 0,
+        }
     }
 
     /// Records suppressed so far, all kinds.
@@ -293,7 +340,7 @@ impl Coalescer {
         if self.window != Some(second) {
             notes = self.summaries(t_s, &rec.utc);
             self.window = Some(second);
-            self.passed = [0; 6];
+            self.passed = [0; EntryKind::ALL.len()];
         }
         let k = rec.entry.kind().index();
         let keep = match self.limits.per_kind[k] {
@@ -604,246 +651,8 @@ impl QueueDropNotes {
     }
 }
 
-// ---------------------------------------------------------------------------------------------------------
-// Reader.
-
-/// Why a fix record was rejected by [`read_log`].
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum FixProblem {
-    /// Latitude or longitude is NaN or infinite.
-    NonFinitePosition,
-    /// Latitude outside [-90, 90] or longitude outside [-180, 180].
-    OutOfRangePosition,
-    /// Negative (or non-finite) horizontal error estimate.
-    BadError,
-    /// Negative (or non-finite) speed.
-    BadSpeed,
-}
-
-impl fmt::Display for FixProblem {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            Self::NonFinitePosition => "non-finite position",
-            Self::OutOfRangePosition => "position out of range",
-            Self::BadError => "negative or non-finite error estimate",
-            Self::BadSpeed => "negative or non-finite speed",
-        })
-    }
-}
-
-/// Checks a fix's numbers: finite latitude in [-90, 90], longitude in [-180, 180], error and speed (when
-/// present) finite and not negative.
-pub fn check_fix(
-    lat_deg: f64,
-    lon_deg: f64,
-    error_m: Option<f64>,
-    speed_m_s: Option<f64>,
-) -> Result<(), FixProblem> {
-    if !(lat_deg.is_finite() && lon_deg.is_finite()) {
-        return Err(FixProblem::NonFinitePosition);
-    }
-    if lat_deg.abs() > 90.0 || lon_deg.abs() > 180.0 {
-        return Err(FixProblem::OutOfRangePosition);
-    }
-    let ok = |v: Option<f64>| v.is_none_or(|v| v.is_finite() && v >= 0.0);
-    if !ok(error_m) {
-        return Err(FixProblem::BadError);
-    }
-    if !ok(speed_m_s) {
-        return Err(FixProblem::BadSpeed);
-    }
-    Ok(())
-}
-
-/// What [`read_log`] skipped, and why.
-#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize)]
-pub struct ReadStats {
-    /// Lines read (blank ones included).
-    pub lines: usize,
-    /// Records kept.
-    pub records: usize,
-    /// Lines that were not valid records (cut off, edited, foreign, non-finite `t_s`).
-    pub bad_lines: usize,
-    /// Lines longer than [`MAX_LINE_BYTES`], skipped unread.
-    pub long_lines: usize,
-    /// Fix records rejected, by reason.
-    pub invalid_fixes: BTreeMap<FixProblem, usize>,
-    /// Marks whose position was invalid: kept, with the position removed.
-    pub invalid_mark_positions: usize,
-    /// Line numbers (1-based) of the first few skipped lines, with the reason, for the operator.
-    pub examples: Vec<(usize, String)>,
-}
-
-impl ReadStats {
-    /// Fix records rejected, all reasons.
-    pub fn invalid_fix_count(&self) -> usize {
-        self.invalid_fixes.values().sum()
-    }
-
-    /// Lines skipped for any reason (bad, too long, invalid fix).
-    pub fn skipped(&self) -> usize {
-        self.bad_lines + self.long_lines + self.invalid_fix_count()
-    }
-
-    fn note(&mut self, line: usize, why: String) {
-        if self.examples.len() < 10 {
-            self.examples.push((line, why));
-        }
-    }
-}
-
-/// Errors of [`read_log`]; each names the file.
-#[derive(Debug, thiserror::Error)]
-pub enum LogReadError {
-    /// The file could not be opened.
-    #[error("cannot open session log {}: {source}", path.display())]
-    Open {
-        /// The file.
-        path: PathBuf,
-        /// Why.
-        source: io::Error,
-    },
-    /// Reading failed part-way.
-    #[error("cannot read session log {} at line {line}: {source}", path.display())]
-    Read {
-        /// The file.
-        path: PathBuf,
-        /// 1-based line number being read.
-        line: usize,
-        /// Why.
-        source: io::Error,
-    },
-}
-
-/// Reads a session log (see the module doc): the valid records in file order and what was skipped.
-pub fn read_log(path: &Path) -> Result<(Vec<LogRecord>, ReadStats), LogReadError> {
-    let file = std::fs::File::open(path)
-        .map_err(|source| LogReadError::Open { path: path.to_path_buf(), source })?;
-    read_log_from(io::BufReader::new(file)).map_err(|(line, source)| LogReadError::Read {
-        path: path.to_path_buf(),
-        line,
-        source,
-    })
-}
-
-/// Reads session-log lines from any reader; on an IO error, the 1-based line number and the error.
-pub fn read_log_from(mut reader: impl BufRead) -> Result<(Vec<LogRecord>, ReadStats), (usize, io::Error)> {
-    let mut records = Vec::new();
-    let mut stats = ReadStats::default();
-    let mut buf = Vec::new();
-    loop {
-        let line_no = stats.lines + 1;
-        let Some(fits) = next_line(&mut reader, &mut buf, MAX_LINE_BYTES).map_err(|e| (line_no, e))? else {
-            break;
-        };
-        stats.lines += 1;
-        if !fits {
-            stats.long_lines += 1;
-            stats.note(line_no, format!("longer than {MAX_LINE_BYTES} bytes"));
-            continue;
-        }
-        if buf.iter().all(u8::is_ascii_whitespace) {
-            continue;
-        }
-        let mut rec = match serde_json::from_slice::<LogRecord>(&buf) {
-            Ok(r) if r.t_s.is_finite() => r,
-            Ok(_) => {
-                stats.bad_lines += 1;
-                stats.note(line_no, "non-finite t_s".into());
-                continue;
-            }
-            Err(e) => {
-                stats.bad_lines += 1;
-                stats.note(line_no, format!("not a record: {e}"));
-                continue;
-            }
-        };
-        match &mut rec.entry {
-            LogEntry::Fix { lat_deg, lon_deg, error_m, speed_m_s, .. } => {
-                if let Err(p) = check_fix(*lat_deg, *lon_deg, *error_m, *speed_m_s) {
-                    *stats.invalid_fixes.entry(p).or_default() += 1;
-                    stats.note(line_no, format!("fix skipped: {p}"));
-                    continue;
-                }
-            }
-            LogEntry::Mark { lat_deg, lon_deg, .. } => {
-                let bad = match (*lat_deg, *lon_deg) {
-                    (Some(la), Some(lo)) => check_fix(la, lo, None, None).is_err(),
-                    (None, None) => false,
-                    _ => true,
-                };
-                if bad {
-                    (*lat_deg, *lon_deg) = (None, None);
-                    stats.invalid_mark_positions += 1;
-                    stats.note(line_no, "mark kept without its invalid position".into());
-                }
-            }
-            _ => {}
-        }
-        records.push(rec);
-    }
-    stats.records = records.len();
-    Ok((records, stats))
-}
-
-/// Reads the next line (without its `\n`) into `buf`, holding at most `max` bytes: `Some(true)` for a
-/// line that fits, `Some(false)` for a longer one (consumed, `buf` left empty), `None` at the end.
-fn next_line(reader: &mut impl BufRead, buf: &mut Vec<u8>, max: usize) -> io::Result<Option<bool>> {
-    buf.clear();
-    let mut fits = true;
-    let mut any = false;
-    loop {
-        let available = match reader.fill_buf() {
-            Ok(b) => b,
-            Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
-            Err(e) => return Err(e),
-        };
-        if available.is_empty() {
-            return Ok(any.then_some(fits));
-        }
-        any = true;
-        let (take, done) = match available.iter().position(|&b| b == b'\n') {
-            Some(i) => (i, true),
-            None => (available.len(), false),
-        };
-        if fits {
-            if buf.len() + take > max {
-                fits = false;
-                buf.clear();
-            } else {
-                buf.extend_from_slice(&available[..take]);
-            }
-        }
-        reader.consume(take + usize::from(done));
-        if done {
-            return Ok(Some(fits));
-        }
-    }
-}
-
-/// The positions of a log, as `(t_s, lat_deg, lon_deg)`.
-pub fn track(records: &[LogRecord]) -> Vec<(f64, f64, f64)> {
-    records
-        .iter()
-        .filter_map(|r| match r.entry {
-            LogEntry::Fix { lat_deg, lon_deg, .. } => Some((r.t_s, lat_deg, lon_deg)),
-            _ => None,
-        })
-        .collect()
-}
-
-/// Session logs (`*.jsonl`) in `dir`, newest first (by name, which starts with the UTC time).
-pub fn list_logs(dir: &Path) -> Vec<PathBuf> {
-    let mut v: Vec<PathBuf> = std::fs::read_dir(dir)
-        .map(|d| {
-            d.flatten().map(|e| e.path()).filter(|p| p.extension().is_some_and(|e| e == "jsonl")).collect()
-        })
-        .unwrap_or_default();
-    v.sort();
-    v.reverse();
-    v
-}
+mod read;
+pub use read::*;
 
 #[cfg(test)]
 mod tests {
@@ -880,7 +689,7 @@ mod tests {
     }
 
     fn read_str(text: &str) -> (Vec<LogRecord>, ReadStats) {
-        read_log_from(io::Cursor::new(text.as_bytes().to_vec())).unwrap()
+        read_log_from(io::Cursor::new(text.as_bytes().to_vec()), ReadMode::Lenient).unwrap()
     }
 
     #[test]
@@ -1010,12 +819,60 @@ mod tests {
         // A reader with a tiny buffer exercises the line being assembled across many fills.
         let text = format!("{huge}\n{good}\n{exact}\n{huge}");
         let reader = io::BufReader::with_capacity(7, io::Cursor::new(text.into_bytes()));
-        let (r, s) = read_log_from(reader).unwrap();
+        let (r, s) = read_log_from(reader, ReadMode::Lenient).unwrap();
         assert_eq!(s.long_lines, 2);
         assert_eq!(s.lines, 4);
         assert_eq!(r.len(), 2);
         assert_eq!(r[0].entry, LogEntry::Note { text: "ok".into() });
         assert!(matches!(&r[1].entry, LogEntry::Note { text } if text.len() == MAX_LINE_BYTES - head));
+    }
+
+    fn read_strict(text: &str) -> Result<(Vec<LogRecord>, ReadStats), LineError> {
+        read_log_from(io::Cursor::new(text.as_bytes().to_vec()), ReadMode::Strict)
+    }
+
+    #[test]
+    fn strict_reading_refuses_what_would_lose_data_and_skips_what_would_not() {
+        let note = |t: f64| format!("{{\"t_s\":{t},\"utc\":\"u\",\"kind\":\"note\",\"text\":\"n\"}}\n");
+        // A byte-order mark on line 1 and a record of a kind from a newer console are fine.
+        let text = format!(
+            "\u{feff}{}{{\"t_s\":2,\"utc\":\"u\",\"kind\":\"wind\",\"speed_m_s\":3}}\n{}",
+            note(1.0),
+            note(3.0)
+        );
+        let (r, s) = read_strict(&text).unwrap();
+        assert_eq!((r.len(), s.other_kinds, s.bad_lines), (2, 1, 0), "{s:?}");
+        // A malformed line in the middle is refused with its number and what is wrong.
+        for (bad, what) in [
+            ("not json\n", "not JSON"),
+            ("{\"t_s\":2}\n", "kind"),
+            ("{\"t_s\":2,\"utc\":\"u\",\"kind\":\"fix\",\"lat_deg\":\"n\"}\n", "bad fix record"),
+        ] {
+            let Err(LineError::Refused(line, why)) = read_strict(&format!("{}{bad}{}", note(1.0), note(2.0)))
+            else {
+                panic!("{bad} was not refused");
+            };
+            assert_eq!(line, 2);
+            assert!(why.contains(what), "{why}");
+        }
+        // The same line cut off at the end of the file (no newline) is skipped and named.
+        let (r, s) = read_strict(&format!("{}{}{{\"t_s\":3,\"ki", note(1.0), note(2.0))).unwrap();
+        assert_eq!((r.len(), s.bad_lines), (2, 1));
+        assert!(s.examples[0].1.contains("cut off"), "{s:?}");
+        // Time going back by more than a second: two sessions in one file.
+        let Err(LineError::Refused(line, why)) =
+            read_strict(&format!("{}{}{}", note(10.0), note(9.5), note(2.0)))
+        else {
+            panic!("time going back was not refused");
+        };
+        assert_eq!(line, 3);
+        assert!(why.contains("goes back from 10.000 s to 2.000 s"), "{why}");
+        // An overlong line is refused (lenient reading skips it: see above).
+        let huge = format!(
+            "{{\"t_s\":0,\"utc\":\"u\",\"kind\":\"note\",\"text\":\"{}\"}}\n",
+            "x".repeat(MAX_LINE_BYTES)
+        );
+        assert!(matches!(read_strict(&format!("{}{huge}", note(1.0))), Err(LineError::Refused(2, _))));
     }
 
     #[test]

@@ -1,0 +1,250 @@
+//! Routes: waypoints, the active one, and arrival or passing with confirmation and re-arming.
+
+use serde::{Deserialize, Serialize};
+
+use crate::geo::{Earth, LatLon, leg_offset};
+
+/// Errors building a route.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum RouteError {
+    /// A route needs at least one waypoint.
+    #[error("the route has no waypoints")]
+    Empty,
+    /// A waypoint with a bad latitude/longitude.
+    #[error("waypoint {index} ({name}): {source}")]
+    BadWaypoint {
+        /// Index of the waypoint.
+        index: usize,
+        /// Its name.
+        name: String,
+        /// What is wrong.
+        source: crate::geo::GeoError,
+    },
+    /// Arrival radius not positive and finite, or confirm count zero.
+    #[error("invalid route setting: {0}")]
+    BadConfig(&'static str),
+}
+
+/// A named waypoint.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Waypoint {
+    /// Name shown to the operator.
+    pub name: String,
+    /// Position.
+    pub pos: LatLon,
+}
+
+impl Waypoint {
+    /// A waypoint named `name` at `pos`.
+    pub fn new(name: impl Into<String>, pos: LatLon) -> Self {
+        Self { name: name.into(), pos }
+    }
+}
+
+/// Settings of a route: arrival and its hysteresis, looping.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct RouteConfig {
+    /// A waypoint is reached within this distance [m]. Default 8 m: about 2.5x the `SiRF` III's open-sky
+    /// horizontal RMS (~3 m), so a noisy fix rarely misses it.
+    pub arrival_radius_m: f64,
+    /// Consecutive fixes inside the radius needed to count an arrival (default 2): one noisy fix does not
+    /// arrive.
+    pub confirm_fixes: u32,
+    /// After [`Route::back`] the waypoint only arms again once the wearer is farther than this [m] (default
+    /// 1.5x the arrival radius), so stepping back while standing on it does not re-arrive at once.
+    pub rearm_radius_m: f64,
+    /// A waypoint passed abeam within this distance [m] counts as *passed* (advance, logged as missed)
+    /// instead of making the wearer turn around (default 2x the arrival radius).
+    pub pass_radius_m: f64,
+    /// After the last waypoint, start again at the first.
+    pub looped: bool,
+}
+
+impl Default for RouteConfig {
+    fn default() -> Self {
+        Self {
+            arrival_radius_m: 8.0,
+            confirm_fixes: 2,
+            rearm_radius_m: 12.0,
+            pass_radius_m: 16.0,
+            looped: false,
+        }
+    }
+}
+
+/// What happened to the route in one update.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum RouteEvent {
+    /// The active waypoint was reached (index); the next one is active.
+    Arrived(usize),
+    /// The active waypoint was passed close by without reaching the arrival radius (index).
+    Passed(usize),
+    /// The last waypoint was reached (or passed): the route is finished.
+    Finished,
+}
+
+/// A route of waypoints with the index of the active one.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Route {
+    waypoints: Vec<Waypoint>,
+    config: RouteConfig,
+    active: usize,
+    finished: bool,
+    inside_count: u32,
+    armed: bool,
+    laps: u32,
+}
+
+impl Route {
+    /// A route; the first waypoint is active.
+    pub fn new(waypoints: Vec<Waypoint>, config: RouteConfig) -> Result<Self, RouteError> {
+        if waypoints.is_empty() {
+            return Err(RouteError::Empty);
+        }
+        for (index, w) in waypoints.iter().enumerate() {
+            w.pos.validated().map_err(|source| RouteError::BadWaypoint {
+                index,
+                name: w.name.clone(),
+                source,
+            })?;
+        }
+        let positive = |x: f64| x.is_finite() && x > 0.0;
+        if !positive(config.arrival_radius_m)
+            || !positive(config.rearm_radius_m)
+            || !positive(config.pass_radius_m)
+        {
+            return Err(RouteError::BadConfig("radii must be positive"));
+        }
+        if config.confirm_fixes == 0 {
+            return Err(RouteError::BadConfig("confirm_fixes must be at least 1"));
+        }
+        Ok(Self { waypoints, config, active: 0, finished: false, inside_count: 0, armed: true, laps: 0 })
+    }
+
+    /// The waypoints.
+    pub fn waypoints(&self) -> &[Waypoint] {
+        &self.waypoints
+    }
+
+    /// The settings.
+    pub fn config(&self) -> &RouteConfig {
+        &self.config
+    }
+
+    /// Index of the active waypoint.
+    pub fn active_index(&self) -> usize {
+        self.active
+    }
+
+    /// The active waypoint.
+    pub fn active(&self) -> &Waypoint {
+        // `active` is always < len (kept by every mutator) and the route is never empty.
+        &self.waypoints[self.active.min(self.waypoints.len() - 1)]
+    }
+
+    /// The waypoint before the active one (start of the active leg), if any.
+    pub fn previous(&self) -> Option<&Waypoint> {
+        if self.active > 0 {
+            self.waypoints.get(self.active - 1)
+        } else if self.config.looped && self.waypoints.len() > 1 && self.laps > 0 {
+            // In a loop, the leg into waypoint 0 comes from the last waypoint after the first lap.
+            self.waypoints.last()
+        } else {
+            None
+        }
+    }
+
+    /// Completed laps of a looped route.
+    pub fn laps(&self) -> u32 {
+        self.laps
+    }
+
+    /// Whether the active waypoint is armed: arrival at it is being watched for (false after [`Route::back`]
+    /// until the wearer has been farther than [`RouteConfig::rearm_radius_m`] from it).
+    pub fn is_armed(&self) -> bool {
+        self.armed
+    }
+
+    /// Whether the route is finished (never for a looped route).
+    pub fn is_finished(&self) -> bool {
+        self.finished
+    }
+
+    /// Skips the active waypoint (operator command): the next one becomes active. At the last waypoint of an
+    /// open route this finishes the route.
+    pub fn skip(&mut self) -> Option<RouteEvent> {
+        self.advance()
+    }
+
+    /// Goes back to the previous waypoint (operator command). It arms only after the wearer is farther than
+    /// [`RouteConfig::rearm_radius_m`] from it. Un-finishes a finished route.
+    pub fn back(&mut self) {
+        if self.finished {
+            self.finished = false;
+        } else if self.active > 0 {
+            self.active -= 1;
+        } else if self.config.looped && self.laps > 0 {
+            self.active = self.waypoints.len() - 1;
+            self.laps -= 1;
+        }
+        self.inside_count = 0;
+        self.armed = false;
+    }
+
+    fn advance(&mut self) -> Option<RouteEvent> {
+        if self.finished {
+            return None;
+        }
+        self.inside_count = 0;
+        self.armed = true;
+        if self.active + 1 < self.waypoints.len() {
+            self.active += 1;
+            None
+        } else if self.config.looped {
+            self.active = 0;
+            self.laps += 1;
+            None
+        } else {
+            self.finished = true;
+            Some(RouteEvent::Finished)
+        }
+    }
+
+    /// Feeds one fix: arrival with confirmation and re-arming, or passing abeam. Returns what happened.
+    ///
+    /// Arrival: `d <= arrival_radius` for `confirm_fixes` consecutive fixes while armed. Passing: the fix is
+    /// past the waypoint along the active leg (`along > leg length`) and within `pass_radius`. Re-arming:
+    /// `d > rearm_radius`.
+    pub fn observe(&mut self, earth: Earth, pos: LatLon) -> Option<RouteEvent> {
+        if self.finished {
+            return None;
+        }
+        let index = self.active;
+        let target = self.active().pos;
+        let d = earth.distance_m(pos, target);
+        if !self.armed {
+            if d > self.config.rearm_radius_m {
+                self.armed = true;
+            }
+            return None;
+        }
+        if d <= self.config.arrival_radius_m {
+            self.inside_count += 1;
+            if self.inside_count >= self.config.confirm_fixes {
+                return Some(self.advance().unwrap_or(RouteEvent::Arrived(index)));
+            }
+            return None;
+        }
+        self.inside_count = 0;
+        if let Some(prev) = self.previous().map(|w| w.pos) {
+            let off = leg_offset(earth, prev, target, pos);
+            if off.leg_length_m > 0.0
+                && off.along_track_m > off.leg_length_m
+                && d <= self.config.pass_radius_m
+            {
+                return Some(self.advance().map_or(RouteEvent::Passed(index), |_| RouteEvent::Finished));
+            }
+        }
+        None
+    }
+}

@@ -1,0 +1,300 @@
+//! Unit tests of guidance: route progress, cue selection, rate limiting, manual overrides and strategies.
+
+use super::*;
+use approx::assert_relative_eq;
+
+const O: LatLon = LatLon::new(42.3575, -71.1010);
+
+fn route_line(n: usize, spacing_m: f64, bearing_deg: f64, config: RouteConfig) -> Route {
+    let wps = (0..n)
+        .map(|i| Waypoint::new(format!("w{i}"), Earth::Wgs84.direct(O, bearing_deg, spacing_m * i as f64)))
+        .collect();
+    Route::new(wps, config).unwrap()
+}
+
+/// A fix of a walker at `p` at time `t_s`, nudged ~1 cm per second so the position is never frozen.
+fn mv(p: LatLon, cog_deg: f64, t_s: f64) -> NavInput {
+    NavInput::moving(LatLon::new(p.lat_deg + 1e-7 * t_s, p.lon_deg), cog_deg, 1.4)
+}
+
+fn at(bearing_deg: f64, distance_m: f64) -> LatLon {
+    Earth::Wgs84.direct(O, bearing_deg, distance_m)
+}
+
+#[test]
+fn a_cue_that_never_reached_the_wearer_is_not_counted_as_played() {
+    // 50 m south of the first waypoint, walking east: it is 90° to the left.
+    let mut g = Guidance::new(
+        route_line(3, 100.0, 0.0, RouteConfig::default()),
+        GuidanceConfig::default(),
+        StrategyKind::BearingOnly,
+    );
+    let p = at(180.0, 50.0);
+    let d = g.update(&mv(p, 90.0, 0.0), 0.0);
+    assert_eq!(d.cue, Some(Cue::TurnLeft));
+    // Played: the pattern is running, nothing new until it ends and the repeat interval passes.
+    assert_eq!(g.update(&mv(p, 90.0, 0.1), 0.1).cue, None);
+    // Not played (say the vest refused it): the same cue goes at the next update.
+    let mut g2 = Guidance::new(
+        route_line(3, 100.0, 0.0, RouteConfig::default()),
+        GuidanceConfig::default(),
+        StrategyKind::BearingOnly,
+    );
+    assert_eq!(g2.update(&mv(p, 90.0, 0.0), 0.0).cue, Some(Cue::TurnLeft));
+    g2.not_played();
+    assert_eq!(g2.update(&mv(p, 90.0, 0.1), 0.1).cue, Some(Cue::TurnLeft));
+    // Taking back is one-shot: an update that decided nothing has nothing to take back.
+    assert_eq!(g2.update(&mv(p, 90.0, 0.2), 0.2).cue, None);
+    g2.not_played();
+    assert_eq!(g2.update(&mv(p, 90.0, 0.3), 0.3).cue, None);
+}
+
+#[test]
+fn thresholds_classify_by_bearing_error() {
+    let t = CueThresholds::default();
+    assert_eq!(t.classify(0.0, None), Cue::Forward);
+    assert_eq!(t.classify(14.0, None), Cue::Forward);
+    assert_eq!(t.classify(20.0, None), Cue::SlightRight);
+    assert_eq!(t.classify(-20.0, None), Cue::SlightLeft);
+    assert_eq!(t.classify(90.0, None), Cue::TurnRight);
+    assert_eq!(t.classify(-90.0, None), Cue::TurnLeft);
+    assert_eq!(t.classify(170.0, None), Cue::TurnAround);
+    assert_eq!(t.classify(-150.0, None), Cue::TurnAround);
+    // Hysteresis: at 17° a walker already told "forward" stays forward; at 21° it changes.
+    assert_eq!(t.classify(17.0, Some(Cue::Forward)), Cue::Forward);
+    assert_eq!(t.classify(21.0, Some(Cue::Forward)), Cue::SlightRight);
+    assert_eq!(t.classify(12.0, Some(Cue::SlightRight)), Cue::SlightRight);
+    assert_eq!(t.classify(9.0, Some(Cue::SlightRight)), Cue::Forward);
+}
+
+#[test]
+fn heading_source_rules() {
+    let route = route_line(2, 100.0, 0.0, RouteConfig::default());
+    let mut cfg = GuidanceConfig::default();
+    let g = Guidance::new(route.clone(), cfg, StrategyKind::BearingOnly);
+    let mut input =
+        NavInput { position: Some(O), cog_deg: Some(10.0), speed_m_s: Some(1.2), ..NavInput::default() };
+    assert_eq!(g.select_heading(&input).0, HeadingSource::Cog);
+    input.speed_m_s = Some(0.3);
+    assert_eq!(g.select_heading(&input), (HeadingSource::None, None));
+    input.compass_deg = Some(100.0);
+    // No declination configured: the compass is not trusted.
+    assert_eq!(g.select_heading(&input).0, HeadingSource::None);
+    cfg.declination_deg = Some(-14.2);
+    let g = Guidance::new(route, cfg, StrategyKind::BearingOnly);
+    let (src, h) = g.select_heading(&input);
+    assert_eq!(src, HeadingSource::Compass);
+    assert_relative_eq!(h.unwrap(), 85.8, max_relative = 1e-12);
+    input.true_heading_deg = Some(200.0);
+    assert_eq!(g.select_heading(&input), (HeadingSource::TrueHeading, Some(200.0)));
+    input.speed_m_s = Some(1.0);
+    assert_eq!(g.select_heading(&input).0, HeadingSource::Cog);
+}
+
+#[test]
+fn stale_missing_or_headingless_fix_gives_attention_only() {
+    let route = route_line(2, 100.0, 0.0, RouteConfig::default());
+    let mut g = Guidance::new(route, GuidanceConfig::default(), StrategyKind::BearingOnly);
+    let d = g.update(&NavInput::default(), 0.0);
+    assert_eq!((d.cue, d.state), (Some(Cue::Attention), NavState::Hold));
+    let mut stale = NavInput::moving(at(180.0, 50.0), 0.0, 1.4);
+    stale.fix_age_s = 4.0;
+    let d = g.update(&stale, 10.0);
+    assert_eq!(d.cue, Some(Cue::Attention));
+    assert!(d.reason.contains("stale"), "{}", d.reason);
+    // Standing still with COG only: no heading, no direction.
+    let still = NavInput::moving(at(180.0, 50.0), 0.0, 0.2);
+    let d = g.update(&still, 20.0);
+    assert_eq!(d.cue, Some(Cue::Attention));
+    assert_eq!(d.heading_source, HeadingSource::None);
+    // Poor HDOP.
+    let mut poor = NavInput::moving(at(180.0, 50.0), 0.0, 1.4);
+    poor.hdop = Some(8.0);
+    let d = g.update(&poor, 30.0);
+    assert_eq!(d.state, NavState::Hold);
+    // Non-finite input never panics nor directs.
+    let nan = NavInput::moving(LatLon::new(f64::NAN, 0.0), f64::NAN, f64::NAN);
+    let d = g.update(&nan, 40.0);
+    assert_eq!(d.state, NavState::Hold);
+}
+
+#[test]
+fn a_pinned_position_while_moving_holds() {
+    let route = route_line(2, 200.0, 0.0, RouteConfig::default());
+    let mut g = Guidance::new(route, GuidanceConfig::default(), StrategyKind::BearingOnly);
+    let p = at(180.0, 50.0);
+    for t in 0..=5 {
+        let d = g.update(&NavInput::moving(p, 0.0, 1.0), f64::from(t));
+        assert_eq!(d.state, NavState::Guiding, "t = {t}");
+    }
+    let d = g.update(&NavInput::moving(p, 0.0, 1.0), 6.0);
+    assert_eq!((d.state, d.cue), (NavState::Hold, Some(Cue::Attention)));
+    assert!(d.reason.contains("frozen"), "{}", d.reason);
+    // A new position ends it.
+    let d = g.update(&NavInput::moving(at(180.0, 48.0), 0.0, 1.0), 7.0);
+    assert_eq!(d.state, NavState::Guiding);
+}
+
+#[test]
+fn rate_limit_one_cue_at_a_time_and_repeat_intervals() {
+    let route = route_line(2, 200.0, 0.0, RouteConfig::default());
+    let mut g = Guidance::new(route, GuidanceConfig::default(), StrategyKind::BearingOnly);
+    // Heading east while the waypoint is north: turn left.
+    let p = at(180.0, 50.0);
+    let d = g.update(&mv(p, 90.0, 0.0), 0.0);
+    assert_eq!(d.cue, Some(Cue::TurnLeft));
+    // Turn pattern = 4 x 250 ms = 1 s, + 0.5 s gap; the same cue needs 3 s after the pattern ended.
+    assert_eq!(g.update(&mv(p, 90.0, 1.0), 1.0).cue, None);
+    assert_eq!(g.update(&mv(p, 90.0, 3.9), 3.9).cue, None);
+    assert_eq!(g.update(&mv(p, 90.0, 4.0), 4.0).cue, Some(Cue::TurnLeft));
+    // A different cue only waits for the pattern end (5.0) + gap.
+    assert_eq!(g.update(&mv(p, 0.0, 5.4), 5.4).cue, None);
+    let d = g.update(&mv(p, 0.0, 5.5), 5.5);
+    assert_eq!(d.cue, Some(Cue::Forward));
+    // Forward (1 s pattern, ends 6.5) repeats 10 s after its end only.
+    for t in [7.0, 10.0, 16.4] {
+        let d = g.update(&mv(p, 0.0, t), t);
+        assert_eq!((d.cue, d.wanted), (None, Some(Cue::Forward)), "t = {t}");
+    }
+    assert_eq!(g.update(&mv(p, 0.0, 16.5), 16.5).cue, Some(Cue::Forward));
+}
+
+#[test]
+fn manual_override_and_stop_all_priority() {
+    let route = route_line(2, 200.0, 0.0, RouteConfig::default());
+    let mut g = Guidance::new(route, GuidanceConfig::default(), StrategyKind::BearingOnly);
+    let p = at(180.0, 50.0);
+    let d = g.manual(Cue::Stop, 0.0);
+    assert_eq!(d.cue, Some(Cue::Stop));
+    // Muted for the pattern (0.5 s) + 10 s.
+    let d = g.update(&mv(p, 90.0, 5.0), 5.0);
+    assert_eq!((d.cue, d.state, d.wanted), (None, NavState::Manual, Some(Cue::TurnLeft)));
+    assert_eq!(g.update(&mv(p, 90.0, 11.0), 11.0).cue, Some(Cue::TurnLeft));
+    // STOP ALL wins over manual cues and automatic ones until resume.
+    let d = g.stop_all(12.0);
+    assert!(d.stop_all);
+    assert_eq!(g.manual(Cue::Forward, 13.0).cue, None);
+    assert_eq!(g.update(&mv(p, 90.0, 20.0), 20.0).cue, None);
+    g.resume();
+    assert_eq!(g.update(&mv(p, 90.0, 21.0), 21.0).cue, Some(Cue::TurnLeft));
+}
+
+#[test]
+fn arrival_needs_confirmation_and_back_rearms() {
+    let mut route = route_line(3, 100.0, 90.0, RouteConfig::default());
+    let near0 = at(0.0, 3.0);
+    assert_eq!(route.observe(Earth::Wgs84, near0), None);
+    assert_eq!(route.observe(Earth::Wgs84, at(0.0, 30.0)), None); // a noisy jump out resets
+    assert_eq!(route.observe(Earth::Wgs84, near0), None);
+    assert_eq!(route.observe(Earth::Wgs84, near0), Some(RouteEvent::Arrived(0)));
+    assert_eq!(route.active_index(), 1);
+    route.back();
+    assert_eq!(route.active_index(), 0);
+    // Standing on waypoint 0 after `back`: not re-arrived until we leave 12 m and come back.
+    for _ in 0..5 {
+        assert_eq!(route.observe(Earth::Wgs84, near0), None);
+    }
+    assert_eq!(route.observe(Earth::Wgs84, at(90.0, 20.0)), None);
+    assert_eq!(route.observe(Earth::Wgs84, near0), None);
+    assert_eq!(route.observe(Earth::Wgs84, near0), Some(RouteEvent::Arrived(0)));
+    // Skip to the last, then finish.
+    assert_eq!(route.skip(), None);
+    assert_eq!(route.active_index(), 2);
+    assert_eq!(route.skip(), Some(RouteEvent::Finished));
+    assert!(route.is_finished());
+}
+
+#[test]
+fn passing_abeam_advances() {
+    let mut route = route_line(3, 100.0, 90.0, RouteConfig::default());
+    route.skip(); // active = w1 at 100 m east; leg w0 -> w1
+    // 105 m east and 12 m north: past w1, outside 8 m but within 16 m.
+    let p = Earth::Wgs84.direct(at(90.0, 105.0), 0.0, 12.0);
+    assert_eq!(route.observe(Earth::Wgs84, p), Some(RouteEvent::Passed(1)));
+    assert_eq!(route.active_index(), 2);
+}
+
+#[test]
+fn looped_route_wraps() {
+    let cfg = RouteConfig { looped: true, confirm_fixes: 1, ..RouteConfig::default() };
+    let mut route = route_line(2, 100.0, 0.0, cfg);
+    assert_eq!(route.observe(Earth::Wgs84, O), Some(RouteEvent::Arrived(0)));
+    assert_eq!(route.observe(Earth::Wgs84, at(0.0, 100.0)), Some(RouteEvent::Arrived(1)));
+    assert_eq!(route.active_index(), 0);
+    assert_eq!(route.laps(), 1);
+    assert!(!route.is_finished());
+    assert_eq!(route.previous().map(|w| w.name.as_str()), Some("w1"));
+}
+
+#[test]
+fn arrival_then_finish_cues() {
+    let cfg = RouteConfig { confirm_fixes: 1, ..RouteConfig::default() };
+    let route = route_line(2, 100.0, 0.0, cfg);
+    let mut g = Guidance::new(route, GuidanceConfig::default(), StrategyKind::Pursuit);
+    let d = g.update(&NavInput::moving(O, 0.0, 1.4), 0.0);
+    assert_eq!((d.event, d.cue), (Some(RouteEvent::Arrived(0)), Some(Cue::Arrived)));
+    let d = g.update(&NavInput::moving(at(0.0, 50.0), 0.0, 1.4), 5.0);
+    assert_eq!(d.cue, Some(Cue::Forward));
+    let d = g.update(&NavInput::moving(at(0.0, 99.0), 0.0, 1.4), 6.0);
+    assert_eq!((d.event, d.state), (Some(RouteEvent::Finished), NavState::Finished));
+    // The forward pattern (1 s) is still playing: the stop waits for it.
+    assert_eq!(d.cue, None);
+    let d = g.update(&mv(at(0.0, 99.0), 0.0, 7.0), 7.0);
+    assert_eq!(d.cue, Some(Cue::Stop));
+    let d = g.update(&mv(at(0.0, 99.0), 0.0, 20.0), 20.0);
+    assert_eq!(d.cue, None);
+}
+
+#[test]
+fn pursuit_corrects_cross_track_and_bearing_does_not() {
+    // Leg w0 -> w1 due north, 200 m; wearer 20 m east of the leg, 50 m along, heading north.
+    let route = || {
+        let mut r = route_line(2, 200.0, 0.0, RouteConfig::default());
+        r.skip();
+        r
+    };
+    let p = Earth::Wgs84.direct(at(0.0, 50.0), 90.0, 20.0);
+    let mut bearing = Guidance::new(route(), GuidanceConfig::default(), StrategyKind::BearingOnly);
+    let mut pursuit = Guidance::new(route(), GuidanceConfig::default(), StrategyKind::Pursuit);
+    let db = bearing.update(&NavInput::moving(p, 0.0, 1.4), 0.0);
+    let dp = pursuit.update(&NavInput::moving(p, 0.0, 1.4), 0.0);
+    // Bearing-only: atan(20/150) = 7.6° left -> forward. Pursuit: atan(20/15) = 53.1° left -> turn left.
+    assert_relative_eq!(
+        db.bearing_error_deg.unwrap(),
+        -(20.0f64 / 150.0).atan().to_degrees(),
+        epsilon = 0.05
+    );
+    assert_relative_eq!(dp.bearing_error_deg.unwrap(), -(20.0f64 / 15.0).atan().to_degrees(), epsilon = 0.05);
+    assert_eq!(db.cue, Some(Cue::Forward));
+    assert_eq!(dp.cue, Some(Cue::TurnLeft));
+    assert_relative_eq!(dp.cross_track_m.unwrap(), 20.0, epsilon = 0.01);
+}
+
+proptest::proptest! {
+    #[test]
+    fn no_input_panics_and_stale_fixes_never_direct(
+        lat in proptest::num::f64::ANY, lon in proptest::num::f64::ANY,
+        age in proptest::num::f64::ANY, speed in proptest::num::f64::ANY,
+        cog in proptest::num::f64::ANY, hdg in proptest::num::f64::ANY,
+        hdop in proptest::num::f64::ANY, now in -1e6..1e6f64, has_pos: bool,
+    ) {
+        let route = route_line(3, 100.0, 45.0, RouteConfig::default());
+        let mut g = Guidance::new(route, GuidanceConfig::default(), StrategyKind::Pursuit);
+        let input = NavInput {
+            position: has_pos.then_some(LatLon::new(lat, lon)),
+            fix_age_s: age,
+            speed_m_s: Some(speed),
+            cog_deg: Some(cog),
+            true_heading_deg: Some(hdg),
+            compass_deg: None,
+            hdop: Some(hdop),
+            accuracy_m: None,
+        };
+        let d = g.update(&input, now);
+        let trustworthy = has_pos && age.is_finite() && age <= 3.0;
+        if !trustworthy {
+            proptest::prop_assert!(matches!(d.cue, None | Some(Cue::Attention)), "{:?}", d.cue);
+        }
+        proptest::prop_assert!(d.bearing_error_deg.is_none_or(f64::is_finite));
+    }
+}

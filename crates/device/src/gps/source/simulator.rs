@@ -1,0 +1,75 @@
+//! The simulator source: the built-in simulated receiver walking a route in real time, optionally looped.
+
+use std::time::{Duration, Instant};
+
+use vestnav_core::gnss_sim::GnssErrorModel;
+
+use super::{SourceState, Worker};
+use crate::gps::sim::SimulatedReceiver;
+use crate::gps::{DecoderConfig, GpsEvent, NmeaDecoder};
+
+/// The simulator's settings, as given in [`SourceConfig::Simulator`](super::SourceConfig::Simulator).
+pub(super) struct SimParams<'a> {
+    pub(super) route: &'a [(f64, f64)],
+    pub(super) pace_m_s: f64,
+    pub(super) model: GnssErrorModel,
+    pub(super) seed: u64,
+    pub(super) period: Duration,
+    pub(super) looped: bool,
+}
+
+pub(super) fn run_sim(w: &Worker, p: &SimParams<'_>) {
+    let new_lap = |lap: u64, start| {
+        SimulatedReceiver::new(p.route, p.pace_m_s, p.model, p.seed.wrapping_add(lap), start)
+    };
+    let mut rx = match new_lap(0, crate::gps::sim::whole_second_now()) {
+        Ok(r) => r,
+        Err(e) => {
+            w.state(SourceState::Lost { reason: e.to_string() });
+            return;
+        }
+    };
+    if !w.state(SourceState::Live { detail: "simulator".into() }) {
+        return;
+    }
+    let mut d = NmeaDecoder::new(DecoderConfig::live());
+    let start = Instant::now();
+    let mut k: u32 = 0;
+    let mut lap: u64 = 0;
+    loop {
+        let text = rx.next_epoch(p.period.as_secs_f64());
+        d.handle_bytes(text.as_bytes(), Instant::now());
+        d.handle_timeout(Instant::now() + Duration::from_hours(1));
+        if !w.drain(&mut d) {
+            return;
+        }
+        if rx.finished() {
+            if !p.looped {
+                w.state(SourceState::Finished);
+                return;
+            }
+            lap += 1;
+            // The next lap's clock continues from the last epoch, so epoch times keep increasing.
+            match new_lap(lap, rx.time()) {
+                Ok(r) => rx = r,
+                Err(e) => {
+                    w.state(SourceState::Lost { reason: e.to_string() });
+                    return;
+                }
+            }
+            let seed = p.seed.wrapping_add(lap);
+            if !w.send(GpsEvent::Notice(format!(
+                "simulator: route finished, starting lap {} (seed {seed})",
+                lap + 1
+            ))) {
+                return;
+            }
+        }
+        k = k.saturating_add(1);
+        let due = start + p.period * k;
+        let now = Instant::now();
+        if due > now && !w.sleep(due - now) {
+            return;
+        }
+    }
+}
