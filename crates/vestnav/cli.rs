@@ -4,13 +4,38 @@
 
 use clap::{Parser, Subcommand};
 
-use crate::{analyze, emulate_gps, emulate_vest, fieldtest, nav, nmea, sim_tactor, sim_wave};
+use crate::{analyze, completions, emulate_gps, emulate_vest, fieldtest, nav, nmea, sim_tactor, sim_wave};
+
+/// One line: `-h`, and the NAME of the man page.
+const ABOUT: &str = "Navigation console for a 16-tactor haptic vest, and the thesis physics behind it";
+
+/// `--help` and the man page's DESCRIPTION: first of all, that no subcommand opens the window.
+const LONG_ABOUT: &str = "Navigation console for a 16-tactor haptic vest, and the thesis physics behind it.
+
+Run with no subcommand to open the console (the window), with the options below; \
+the subcommands run headless and are scriptable.";
+
+/// The usage lines say the same for `-h`, which shows no long description.
+const USAGE: &str = "vestnav [OPTIONS]     opens the console (the window)
+       vestnav <COMMAND>     runs a headless subcommand";
+
+/// What `--help` says after the lists: the two subcommands it hides because an operator never needs them.
+const AFTER_HELP: &str = "Shell completions: `vestnav completions <bash|zsh|fish|powershell|elvish>` prints a \
+completion script; `vestnav man` prints the man page (roff). See `vestnav completions --help`.";
 
 /// vestnav: a navigation console for a 16-tactor haptic vest, and the physics behind it.
 ///
 /// With no subcommand, opens the console (the window). Subcommands run headless and are scriptable.
 #[derive(Debug, Parser)]
-#[command(name = "vestnav", version, about, long_about = None, args_conflicts_with_subcommands = true)]
+#[command(
+    name = "vestnav",
+    version,
+    about = ABOUT,
+    long_about = LONG_ABOUT,
+    override_usage = USAGE,
+    after_help = AFTER_HELP,
+    args_conflicts_with_subcommands = true
+)]
 pub struct Cli {
     /// Console only: the GPS to connect at start, winning over the saved settings for this run.
     /// One of gpsd://HOST:PORT, serial:PATH[@BAUD] (no @BAUD: detected), replay:FILE[@SPEED]
@@ -56,6 +81,12 @@ pub enum Command {
     /// GPS field tests: stationary drift and the cone test (thesis §5).
     #[command(subcommand)]
     Fieldtest(FieldtestCommand),
+    /// Print a shell completion script for vestnav to standard output.
+    #[command(hide = true)]
+    Completions(completions::CompletionsArgs),
+    /// Print the vestnav man page (roff) to standard output.
+    #[command(hide = true)]
+    Man,
 }
 
 /// `vestnav sim ...`

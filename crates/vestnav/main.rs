@@ -4,6 +4,7 @@
 
 mod analyze;
 mod cli;
+mod completions;
 mod emulate_gps;
 mod emulate_vest;
 mod fieldtest;
@@ -80,5 +81,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Nav(NavCommand::Simulate(a)) => nav::run_simulate(&a),
         Command::Fieldtest(FieldtestCommand::Drift(a)) => fieldtest::run_drift(&a),
         Command::Fieldtest(FieldtestCommand::Cones(a)) => fieldtest::run_cones(&a),
+        Command::Completions(a) => completions::run_completions(&a),
+        Command::Man => completions::run_man(),
     }
 }

@@ -275,7 +275,7 @@ struct Unit {
 impl Unit {
     fn new(config: EngineConfig, t0: Instant) -> Self {
         Self {
-            engine: Engine::new(config),
+            engine: Engine::new(config.clone()),
             config,
             timeline: vec![(t0, TactorMask::NONE)],
             tap: FrameCodec::new(),

@@ -240,7 +240,7 @@ fn nmea_fix_to_vest_play_latency_p50_p99() {
     };
     let log_dir = std::env::temp_dir().join(format!("vestnav-latency-{}", std::process::id()));
     let mut console = Console::new(
-        Box::new(Hardware),
+        Box::new(Hardware::default()),
         ConsoleOptions { cfg, log_dir: Some(log_dir.clone()), ..ConsoleOptions::default() },
     );
     console.map.waypoints = vec![

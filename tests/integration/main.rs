@@ -3,12 +3,17 @@
 // Test helpers outside `#[test]` functions may unwrap too: a failure there is a failed test.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
+mod cli;
 mod gps;
 mod latency;
 mod nav;
 mod safety;
 mod sim_tactor;
 mod sim_wave;
+// Several tests of each serve the emulated unit on a PTY (`PtyEmulator::spawn` exists on Unix only), so
+// neither module compiles elsewhere. `latency` and `safety` gate themselves (`#![cfg(unix)]`).
+#[cfg(unix)]
 mod wtcu;
 mod wtcu_pair;
+#[cfg(unix)]
 mod wtcu_v2;

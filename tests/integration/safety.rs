@@ -246,7 +246,7 @@ fn console_with(
         ..Config::default()
     };
     Console::new(
-        Box::new(Hardware),
+        Box::new(Hardware::default()),
         ConsoleOptions { cfg, log_dir, liveness: Some(liveness), ..ConsoleOptions::default() },
     )
 }

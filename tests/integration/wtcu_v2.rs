@@ -378,3 +378,49 @@ fn steel_near_the_emulated_unit_shows_in_heading_and_quality() {
     let diff = (f64::from(r1.heading_cdeg) - f64::from(r0.heading_cdeg)) / 100.0;
     assert!(diff.abs() > 2.0, "a car at 1.5 m moved the heading by only {diff:.2}°");
 }
+
+/// One simulated wearer for both simulated devices: the GPS simulator publishes its walker's truth and the
+/// emulated unit's compass measures that body. Truth: the first leg's geodesic bearing (the walker's course
+/// on it) minus the WMM declination is what an ideal compass reads.
+#[test]
+fn the_emulated_compass_follows_the_gps_simulator_s_walker() {
+    use vestnav_core::geo::{Earth, LatLon};
+    use vestnav_core::gnss_sim::GnssErrorModel;
+    use vestnav_device::gps::{GpsEvent, GpsSource, SourceConfig};
+    use vestnav_device::heading::SharedTruth;
+
+    let route = vec![(42.3562, -71.1000), (42.3572, -71.0985), (42.3580, -71.1000)];
+    let truth = SharedTruth::default();
+    let (mut gps, rx) = GpsSource::spawn_channel(
+        SourceConfig::Simulator {
+            route: route.clone(),
+            pace_m_s: 1.4,
+            model: GnssErrorModel::perfect(),
+            seed: 1,
+            period: Duration::from_millis(100),
+            looped: false,
+            truth: Some(truth.clone()),
+        },
+        64,
+        None,
+    )
+    .unwrap();
+    let deadline = Instant::now() + Duration::from_secs(3);
+    while !matches!(rx.recv_timeout(Duration::from_millis(50)), Ok(GpsEvent::Fix(_))) {
+        assert!(Instant::now() < deadline, "no fix from the simulator");
+    }
+    gps.stop();
+    let body = truth.get().expect("the simulator published its walker");
+    let leg_deg = Earth::Wgs84
+        .initial_bearing_deg(LatLon::new(route[0].0, route[0].1), LatLon::new(route[1].0, route[1].1));
+    assert!((body.heading_true_deg - leg_deg).abs() < 0.5, "{body:?} vs leg {leg_deg:.2}°");
+    assert!((body.pace_m_s - 1.4).abs() < 1e-9);
+
+    let setup = CompassSetup { motion: WearerMotion::Follow(truth), ..ideal_compass(0.0) };
+    let mut compass = SimulatedCompass::new(&setup);
+    let (raw, accel) = compass.sample(Instant::now());
+    let r = heading_report(raw, accel, &Calibration::identity(50.0)).unwrap();
+    let want = (body.heading_true_deg - compass.declination_deg()).rem_euclid(360.0);
+    let got = f64::from(r.heading_cdeg) / 100.0;
+    assert!((got - want).abs() < 0.05, "compass {got:.2}°, walker {want:.2}° magnetic");
+}

@@ -426,6 +426,8 @@ impl Console {
             }));
         }
         self.gps = GpsView { picker: std::mem::take(&mut self.gps.picker), ..GpsView::default() };
+        // A new source: its first position must not be joined to the old source's last one.
+        self.map.break_track();
         match self.factory.open_gps(&self.cfg.gps, &self.map.waypoints, outputs) {
             Ok(w) => self.gps_worker = Some(w),
             Err(e) => {
@@ -652,7 +654,7 @@ impl Console {
             {
                 self.gps.fixes += 1;
                 self.gps.alarm_silenced = false;
-                self.map.push_track(lat, lon);
+                self.map.push_track(&f);
                 let t_s =
                     f.received_at.map_or(0.0, |t| t.saturating_duration_since(self.epoch).as_secs_f64());
                 self.field_panel.push_position(t_s, lat, lon, f.speed_m_s);

@@ -595,7 +595,7 @@ fn cone_stats_ui(ui: &mut egui::Ui, s: &ConeStats) {
             "mean {:.2} m; RMSE vs {} m: {:.2} m; range {:.2}..{:.2} m; along-line RMSE {:.2} m; \
                  cross-line RMS {:.2} m; line bearing {:.1}°",
             s.mean_m,
-            s.spacing_m,
+            crate::sim_panel::sig(s.spacing_m, 4),
             s.rmse_m,
             s.min_m,
             s.max_m,

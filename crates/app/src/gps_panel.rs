@@ -126,6 +126,31 @@ pub fn state_label(s: Option<&SourceState>) -> String {
     }
 }
 
+/// Whether the epoch shown is current, or only the last one known.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Freshness {
+    /// The source is running and the epoch's bytes arrived at most `stale_after_s` ago.
+    Current,
+    /// Anything else: the link is lost or closed, or the epoch is older than the stale limit (or its arrival
+    /// time is unknown). Mode, satellites and signal describe the sky of `age_s` ago, not now.
+    LastKnown {
+        /// Age of the epoch [s] (`None`: unknown).
+        age_s: Option<f64>,
+    },
+}
+
+/// The freshness of epoch `fix` at `now`, from its arrival instant and the source's state alone (never
+/// from what was shown before): current only while `source_running` and the epoch is at most
+/// `stale_after_s` old — the limit at which the GPS alarm calls the fix stale.
+pub fn freshness(fix: &Fix, source_running: bool, now: Instant, stale_after_s: f64) -> Freshness {
+    let age_s = fix.age(now).map(|a| a.as_secs_f64());
+    if source_running && age_s.is_some_and(|a| a <= stale_after_s) {
+        Freshness::Current
+    } else {
+        Freshness::LastKnown { age_s }
+    }
+}
+
 /// Draws the GPS section; `now` is the clock fix ages are measured on, `anim_s` only drives the blink.
 pub fn show(c: &mut Console, ui: &mut egui::Ui, now: Instant, anim_s: f64) {
     picker_ui(c, ui);
@@ -184,7 +209,20 @@ pub fn show(c: &mut Console, ui: &mut egui::Ui, now: Instant, anim_s: f64) {
         return;
     };
     let age = c.position_age(now).map(|a| a.as_secs_f64());
-    fix_grid(ui, &fix, age, c.gps.fixes);
+    let running = c.gps_connected() && !matches!(c.gps.state, None | Some(SourceState::Lost { .. }));
+    let fresh = freshness(&fix, running, now, c.cfg.stale_after_s);
+    if let Freshness::LastKnown { age_s } = fresh {
+        let what = if matches!(alarm, Some(GpsAlarm::Lost { .. })) { "FIX LOST" } else { "NOT CURRENT" };
+        ui.label(
+            RichText::new(format!(
+                "{what}: showing the last known fix, {}",
+                crate::map_panel::age_text(age_s)
+            ))
+            .strong()
+            .color(ui.visuals().warn_fg_color),
+        );
+    }
+    fix_grid(ui, &fix, age, c.gps.fixes, fresh);
     if let Some(st) = &c.gps.stats {
         ui.label(
             RichText::new(format!(
@@ -198,10 +236,17 @@ pub fn show(c: &mut Console, ui: &mut egui::Ui, now: Instant, anim_s: f64) {
         );
     }
     if !fix.satellites.is_empty() {
+        let grey = matches!(fresh, Freshness::LastKnown { .. });
         ui.horizontal(|ui| {
-            sky_plot(ui, &fix.satellites, 130.0);
-            signal_bars(ui, &fix.satellites, vec2(170.0, 130.0));
+            sky_plot(ui, &fix.satellites, 130.0, grey);
+            signal_bars(ui, &fix.satellites, vec2(170.0, 130.0), grey);
         });
+        if let Freshness::LastKnown { age_s } = fresh {
+            ui.label(
+                RichText::new(format!("sky and signal: last known, {}", crate::map_panel::age_text(age_s)))
+                    .weak(),
+            );
+        }
     }
 }
 
@@ -306,10 +351,24 @@ pub fn attitude_line(a: &Attitude, now: Instant, stale_after_s: f64) -> (String,
     )
 }
 
-fn fix_grid(ui: &mut egui::Ui, f: &Fix, age_s: Option<f64>, fixes: u64) {
+/// The value of a row describing the receiver's current state: as is while the epoch is current, struck
+/// through and greyed with "last known, N s ago" when it is not.
+fn live_value(text: String, fresh: Freshness) -> RichText {
+    match fresh {
+        Freshness::Current => RichText::new(text),
+        Freshness::LastKnown { age_s } => {
+            RichText::new(format!("{text} (last known, {})", crate::map_panel::age_text(age_s)))
+                .strikethrough()
+                .weak()
+        }
+    }
+}
+
+fn fix_grid(ui: &mut egui::Ui, f: &Fix, age_s: Option<f64>, fixes: u64, fresh: Freshness) {
     let opt = |v: Option<f64>, unit: &str, prec: usize| {
         v.filter(|x| x.is_finite()).map_or_else(|| "—".to_owned(), |x| format!("{x:.prec$} {unit}"))
     };
+    let live = |text: String| live_value(text, fresh);
     egui::Grid::new("gps-fix").num_columns(2).striped(true).show(ui, |ui| {
         if f.has_position()
             && let (Some(lat), Some(lon)) = (f.lat_deg, f.lon_deg)
@@ -335,26 +394,26 @@ fn fix_grid(ui: &mut egui::Ui, f: &Fix, age_s: Option<f64>, fixes: u64) {
             Some(FixMode::Fix3D) => "3D",
         };
         let quality = f.quality.map_or_else(|| "—".to_owned(), |q| format!("{q:?}"));
-        ui.label(format!("{mode} · {quality}"));
+        ui.label(live(format!("{mode} · {quality}")));
         ui.end_row();
         ui.label("Satellites");
         let n = |v: Option<u32>| v.map_or_else(|| "—".to_owned(), |v| v.to_string());
-        ui.label(format!("{} used / {} in view", n(f.sats_used), n(f.sats_visible)));
+        ui.label(live(format!("{} used / {} in view", n(f.sats_used), n(f.sats_visible))));
         ui.end_row();
         ui.label("HDOP / PDOP");
-        ui.label(format!("{} / {}", opt(f.hdop, "", 1), opt(f.pdop, "", 1)));
+        ui.label(live(format!("{} / {}", opt(f.hdop, "", 1), opt(f.pdop, "", 1))));
         ui.end_row();
         ui.label("Error estimate");
-        ui.label(opt(f.error.map(|e| e.horizontal_m), "m", 1));
+        ui.label(live(opt(f.error.map(|e| e.horizontal_m), "m", 1)));
         ui.end_row();
         ui.label("Altitude");
         ui.label(opt(f.alt_m, "m", 1));
         ui.end_row();
         ui.label("Speed");
-        ui.label(opt(f.speed_m_s, "m/s", 2));
+        ui.label(live(opt(f.speed_m_s, "m/s", 2)));
         ui.end_row();
         ui.label("Course");
-        ui.label(opt(f.course_deg, "°", 0));
+        ui.label(live(opt(f.course_deg, "°", 0)));
         ui.end_row();
         ui.label("Fix age");
         ui.label(format!("{} ({fixes} fixes)", opt(age_s, "s", 1)));
@@ -362,8 +421,10 @@ fn fix_grid(ui: &mut egui::Ui, f: &Fix, age_s: Option<f64>, fixes: u64) {
     });
 }
 
-fn snr_color(snr: Option<f64>, used: bool) -> Color32 {
+/// A satellite's colour by its signal; all grey (`grey`) when the epoch is not current.
+fn snr_color(snr: Option<f64>, used: bool, grey: bool) -> Color32 {
     let base = match snr {
+        _ if grey => Color32::GRAY,
         Some(s) if s >= 35.0 => Color32::from_rgb(40, 170, 60),
         Some(s) if s >= 25.0 => Color32::from_rgb(200, 170, 30),
         Some(_) => Color32::from_rgb(220, 90, 40),
@@ -373,7 +434,7 @@ fn snr_color(snr: Option<f64>, used: bool) -> Color32 {
 }
 
 /// Polar sky plot: north up, elevation 90° at the centre, the horizon on the rim.
-fn sky_plot(ui: &mut egui::Ui, sats: &[Satellite], size: f32) {
+fn sky_plot(ui: &mut egui::Ui, sats: &[Satellite], size: f32, grey: bool) {
     let (rect, _) = ui.allocate_exact_size(vec2(size, size), egui::Sense::hover());
     let p = ui.painter_at(rect);
     let c = rect.center();
@@ -394,7 +455,7 @@ fn sky_plot(ui: &mut egui::Ui, sats: &[Satellite], size: f32) {
         let rr = r * ((90.0 - el.clamp(0.0, 90.0)) / 90.0) as f32;
         let a = (az as f32).to_radians();
         let pos = c + vec2(rr * a.sin(), -rr * a.cos());
-        p.circle_filled(pos, 5.0, snr_color(s.snr_dbhz, s.used));
+        p.circle_filled(pos, 5.0, snr_color(s.snr_dbhz, s.used, grey));
         p.text(
             pos + vec2(0.0, -9.0),
             egui::Align2::CENTER_CENTER,
@@ -406,7 +467,7 @@ fn sky_plot(ui: &mut egui::Ui, sats: &[Satellite], size: f32) {
 }
 
 /// Signal bars: one per satellite, height = C/N0 (0..50 dB-Hz), bright when used.
-fn signal_bars(ui: &mut egui::Ui, sats: &[Satellite], size: egui::Vec2) {
+fn signal_bars(ui: &mut egui::Ui, sats: &[Satellite], size: egui::Vec2, grey: bool) {
     let (rect, _) = ui.allocate_exact_size(size, egui::Sense::hover());
     let p = ui.painter_at(rect);
     let n = sats.len().clamp(1, 24);
@@ -419,7 +480,7 @@ fn signal_bars(ui: &mut egui::Ui, sats: &[Satellite], size: egui::Vec2) {
         p.rect_filled(
             egui::Rect::from_min_max(egui::pos2(x0, bottom - h), egui::pos2(x0 + w - 2.0, bottom)),
             1.0,
-            snr_color(s.snr_dbhz, s.used),
+            snr_color(s.snr_dbhz, s.used, grey),
         );
         p.text(
             egui::pos2(x0 + w / 2.0, bottom + 6.0),
@@ -467,6 +528,19 @@ mod tests {
         let (text, stale) = attitude_line(&a, t0 + std::time::Duration::from_secs(4), 3.0);
         assert_eq!(text, "Heading 229.8° true (gpsd ATT) · pitch 2.8° · roll 0.0° · 4.0 s ago · STALE");
         assert!(stale);
+    }
+
+    /// Current only while the source runs and the epoch is within the stale limit; the age is the epoch's.
+    #[test]
+    fn freshness_follows_the_epoch_age_and_the_source() {
+        let t0 = Instant::now();
+        let f = Fix { received_at: Some(t0), ..Fix::default() };
+        let at = |s: f64| t0 + std::time::Duration::from_secs_f64(s);
+        assert_eq!(freshness(&f, true, at(2.0), 3.0), Freshness::Current);
+        assert_eq!(freshness(&f, true, at(4.0), 3.0), Freshness::LastKnown { age_s: Some(4.0) });
+        assert_eq!(freshness(&f, false, at(1.0), 3.0), Freshness::LastKnown { age_s: Some(1.0) });
+        let unknown = Fix::default();
+        assert_eq!(freshness(&unknown, true, at(0.0), 3.0), Freshness::LastKnown { age_s: None });
     }
 
     #[test]

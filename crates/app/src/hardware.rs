@@ -11,7 +11,9 @@ use std::time::Duration;
 
 use vestnav_core::gnss_sim::GnssErrorModel;
 use vestnav_device::gps::{GpsEvent, GpsSource, SourceConfig};
+use vestnav_device::heading::SharedTruth;
 use vestnav_device::outbox::Outbox;
+use vestnav_device::wtcu::emulator::{CompassSetup, WearerMotion};
 use vestnav_device::wtcu::{self, VestEvent, VestHandle};
 
 use crate::config::{GpsSourceConfig, VestSourceConfig};
@@ -25,8 +27,14 @@ pub const WTCU_BAUD: u32 = 115_200;
 pub const SIM_PACE_M_S: f64 = 1.4;
 
 /// Opens devices through `vestnav-device`.
+///
+/// The simulated GPS and the emulated vest it starts see one simulated wearer: the simulator publishes the
+/// walker's true position, course and pace ([`SharedTruth`]) and the emulated unit's compass measures that
+/// body (`WearerMotion::Follow`), so the compass and the GPS course agree as they would on a real walk.
 #[derive(Debug, Default)]
-pub struct Hardware;
+pub struct Hardware {
+    truth: SharedTruth,
+}
 
 impl DeviceFactory for Hardware {
     fn open_gps(
@@ -35,7 +43,10 @@ impl DeviceFactory for Hardware {
         route: &[Waypoint],
         outputs: Vec<Outbox<GpsEvent>>,
     ) -> Result<Box<dyn GpsWorker>, String> {
-        let config = device_config(source, route, 2026)?;
+        let mut config = device_config(source, route, 2026)?;
+        if let SourceConfig::Simulator { truth, .. } = &mut config {
+            *truth = Some(self.truth.clone());
+        }
         let handle =
             GpsSource::spawn(config, outputs).map_err(|e| format!("cannot start the GPS worker: {e}"))?;
         Ok(Box::new(handle))
@@ -47,7 +58,13 @@ impl DeviceFactory for Hardware {
         outputs: Vec<Outbox<VestEvent>>,
     ) -> Result<VestHandle, String> {
         let config = match source {
-            VestSourceConfig::Emulated => wtcu::VestConfig::Emulated(wtcu::engine::EngineConfig::default()),
+            VestSourceConfig::Emulated => wtcu::VestConfig::Emulated(wtcu::engine::EngineConfig {
+                compass: Some(CompassSetup {
+                    motion: WearerMotion::Follow(self.truth.clone()),
+                    ..CompassSetup::default()
+                }),
+                ..wtcu::engine::EngineConfig::default()
+            }),
             VestSourceConfig::Serial { port } if port.trim().is_empty() => {
                 return Err("pick the vest's port".into());
             }
@@ -77,6 +94,7 @@ pub fn device_config(
                 seed,
                 period: Duration::from_secs(1),
                 looped: true,
+                truth: None,
             }
         }
         GpsSourceConfig::Serial { port, baud } => SourceConfig::Serial { port: port.clone(), baud: *baud },
@@ -113,6 +131,7 @@ mod tests {
             seed,
             period: Duration::from_millis(5),
             looped: false,
+            truth: None,
         };
         let (out, rx) = Outbox::channel(256, Overflow::Wait, None);
         let mut h = GpsSource::spawn(cfg, vec![out]).unwrap();
@@ -138,7 +157,7 @@ mod tests {
     #[test]
     fn missing_replay_file_is_a_clear_error() {
         let src = GpsSourceConfig::Replay { path: "/nonexistent/x.nmea".into(), speed: 1.0 };
-        let err = Hardware.open_gps(&src, &[], Vec::new()).err().unwrap();
+        let err = Hardware::default().open_gps(&src, &[], Vec::new()).err().unwrap();
         assert!(err.contains("/nonexistent/x.nmea"));
     }
 }

@@ -9,7 +9,7 @@
 //!
 //! ```no_run
 //! # use vestnav_app::{console::{Console, ConsoleOptions}, hardware::Hardware};
-//! let console = Console::new(Box::new(Hardware), ConsoleOptions::default());
+//! let console = Console::new(Box::new(Hardware::default()), ConsoleOptions::default());
 //! assert!(console.gps_connected());
 //! ```
 
@@ -60,7 +60,7 @@ pub fn run(devices: DeviceOverrides) -> anyhow::Result<()> {
         Box::new(move |cc| {
             exit.set_ui(cc.egui_ctx.clone());
             let mut console = Console::new(
-                Box::new(hardware::Hardware),
+                Box::new(hardware::Hardware::default()),
                 ConsoleOptions {
                     cfg,
                     cfg_path,

@@ -7,6 +7,7 @@
 
 use std::cell::Cell;
 use std::rc::Rc;
+use std::time::Instant;
 
 use egui::{Color32, Pos2, RichText, Stroke, vec2};
 use walkers::{HttpOptions, HttpTiles, MapMemory, Position, Projector, TileId, TilePiece, Tiles, lat_lon};
@@ -25,6 +26,118 @@ pub const TRACK_TAIL: usize = 500;
 /// With tiles on, the map falls back to the local grid when no tile has arrived for this long [s].
 pub const TILES_OFFLINE_AFTER_S: f64 = 2.0;
 
+/// Fastest the wearer can plausibly move between two fixes [m/s]: a run (walking is ~1.4 m/s), so that a
+/// hurried wearer never splits the track but a teleport does.
+pub const TRACK_MAX_SPEED_M_S: f64 = 5.0;
+/// Jump every step is allowed on top of [`TRACK_MAX_SPEED_M_S`] [m]: GPS error (a SiRF receiver's multipath
+/// hop is tens of metres), and the step between two fixes whose timestamps are missing or equal.
+pub const TRACK_JUMP_SLACK_M: f64 = 50.0;
+
+/// Beyond this distance the next waypoint is not a walk but a wrong route or a wrong position [m]. A day's
+/// walk is 30-40 km; 100 km is beyond any single leg of a guided walk, so the console warns instead of
+/// printing a distance and a time to go.
+pub const FAR_WAYPOINT_M: f64 = 100_000.0;
+/// Longest time to go shown as a number [s]; beyond it the line says "more than 12 h to go".
+pub const TIME_TO_GO_MAX_S: f64 = 12.0 * 3600.0;
+
+/// Whether the step from `a` to `b` is one the wearer can have walked in `dt_s` seconds: the rule that splits
+/// the track into segments.
+///
+/// Plausible when `distance_m(a, b) <= TRACK_JUMP_SLACK_M + TRACK_MAX_SPEED_M_S * dt_s` (negative or unknown
+/// `dt_s` counts as 0: only the slack is allowed). Distances on the WGS84 ellipsoid.
+pub fn plausible_step(a: (f64, f64), b: (f64, f64), dt_s: f64) -> bool {
+    let d = Earth::Wgs84.distance_m(LatLon::new(a.0, a.1), LatLon::new(b.0, b.1));
+    let dt_s = if dt_s.is_finite() { dt_s.max(0.0) } else { 0.0 };
+    d <= TRACK_JUMP_SLACK_M + TRACK_MAX_SPEED_M_S * dt_s
+}
+
+/// The time between two fixes for the walking rule [s]: from the receiver's UTC when both carry it (true
+/// time also in a fast replay), else from the instants their bytes arrived, else 0.
+fn fix_dt_s(prev: &TrackStamp, f: &Fix) -> f64 {
+    match ((prev.time, f.time), (prev.received_at, f.received_at)) {
+        ((Some(a), Some(b)), _) => (b - a).num_milliseconds() as f64 / 1000.0,
+        (_, (Some(a), Some(b))) => b.saturating_duration_since(a).as_secs_f64(),
+        _ => 0.0,
+    }
+}
+
+/// When and where the newest track point was taken.
+#[derive(Debug, Clone, Copy)]
+struct TrackStamp {
+    at: (f64, f64),
+    time: Option<chrono::DateTime<chrono::Utc>>,
+    received_at: Option<Instant>,
+}
+
+/// How the wearer's dot is drawn: live (blue) or last known (grey, with its age).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WearerMarker {
+    /// The position is current: its bytes arrived at most `stale_after_s` ago.
+    pub live: bool,
+    /// Age of the position [s] (`None`: the arrival time is unknown, which counts as not live).
+    pub age_s: Option<f64>,
+}
+
+/// The wearer's marker for `fix` at `now`: live only while the fix's bytes arrived at most `stale_after_s`
+/// ago (the limit the GPS alarm calls a fix stale at).
+pub fn wearer_marker(fix: &Fix, now: Instant, stale_after_s: f64) -> WearerMarker {
+    let age_s = fix.age(now).map(|a| a.as_secs_f64());
+    WearerMarker { live: age_s.is_some_and(|a| a <= stale_after_s), age_s }
+}
+
+/// The distance and time-to-go part of the next-waypoint line, and a warning when the numbers make no
+/// sense for a walk.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LegSummary {
+    /// "312 m · aim bearing 45° · 4 min 00 s to go", or only the distance when it is absurd.
+    pub text: String,
+    /// Set when the waypoint is beyond [`FAR_WAYPOINT_M`].
+    pub warning: Option<String>,
+}
+
+/// Distance in metres, in units a reader takes in at once: "850 m", "4.2 km", "15196 km".
+pub fn distance_text(distance_m: f64) -> String {
+    if distance_m < 1000.0 {
+        format!("{distance_m:.0} m")
+    } else if distance_m < 100_000.0 {
+        format!("{:.1} km", distance_m / 1000.0)
+    } else {
+        format!("{:.0} km", distance_m / 1000.0)
+    }
+}
+
+/// A time to go: "4 min 05 s", "2 h 10 min", or "more than 12 h" past [`TIME_TO_GO_MAX_S`].
+pub fn time_to_go_text(ttg_s: f64) -> String {
+    if !ttg_s.is_finite() || ttg_s > TIME_TO_GO_MAX_S {
+        return format!("more than {:.0} h", TIME_TO_GO_MAX_S / 3600.0);
+    }
+    // Whole seconds first, so that 59.6 s reads "1 min 00 s", never "0 min 60 s".
+    let s = ttg_s.max(0.0).round() as u64;
+    if s >= 3600 {
+        format!("{} h {:02} min", s / 3600, (s % 3600) / 60)
+    } else {
+        format!("{} min {:02} s", s / 60, s % 60)
+    }
+}
+
+/// The leg to the next waypoint in words: `distance_m` and `bearing_deg` from guidance, `speed_m_s` the pace
+/// the time to go assumes (time to go = distance / speed).
+pub fn leg_summary(distance_m: f64, bearing_deg: Option<f64>, speed_m_s: f64) -> LegSummary {
+    let d = distance_text(distance_m);
+    if distance_m > FAR_WAYPOINT_M {
+        return LegSummary {
+            text: format!("{d} away"),
+            warning: Some(format!(
+                "Next waypoint {d} away: too far to walk (over {:.0} km). Check the route and the GPS source.",
+                FAR_WAYPOINT_M / 1000.0
+            )),
+        };
+    }
+    let b = bearing_deg.filter(|b| b.is_finite()).map_or_else(|| "—".to_owned(), |b| format!("{b:.0}°"));
+    let ttg = time_to_go_text(distance_m / speed_m_s.max(0.1));
+    LegSummary { text: format!("{d} · aim bearing {b} · {ttg} to go"), warning: None }
+}
+
 /// Map state kept between frames.
 pub struct MapView {
     /// walkers' view state (centre, zoom).
@@ -40,8 +153,14 @@ pub struct MapView {
     pub waypoints: Vec<Waypoint>,
     /// Index of the next waypoint.
     pub next: usize,
-    /// The wearer's track, `(lat_deg, lon_deg)`.
+    /// The wearer's track, `(lat_deg, lon_deg)`, all segments one after the other.
     pub track: Vec<(f64, f64)>,
+    /// Indices into `track` where a new segment starts (after a GPS source change or an implausible jump,
+    /// see [`plausible_step`]); segments are drawn as separate lines.
+    pub track_breaks: Vec<usize>,
+    track_last: Option<TrackStamp>,
+    /// How the wearer was drawn in the latest frame (`None`: no position), for tests and the status line.
+    pub wearer_shown: Option<WearerMarker>,
     /// A track shown from a session log being replayed, and the replay cursor.
     pub replay: Option<(Vec<(f64, f64)>, usize)>,
     /// Left click adds a waypoint.
@@ -118,6 +237,9 @@ impl MapView {
             waypoints: Vec::new(),
             next: 0,
             track: Vec::new(),
+            track_breaks: Vec::new(),
+            track_last: None,
+            wearer_shown: None,
             replay: None,
             add_mode: false,
             marks: 0,
@@ -127,11 +249,35 @@ impl MapView {
         }
     }
 
-    /// Appends a position to the wearer's track.
-    pub fn push_track(&mut self, lat_deg: f64, lon_deg: f64) {
-        if lat_deg.is_finite() && lon_deg.is_finite() {
-            self.track.push((lat_deg, lon_deg));
+    /// Appends the position of `fix` to the wearer's track, starting a new segment when the step from the
+    /// previous point is not one a walker can make in the time between them ([`plausible_step`]).
+    pub fn push_track(&mut self, fix: &Fix) {
+        let (Some(lat_deg), Some(lon_deg)) = (fix.lat_deg, fix.lon_deg) else { return };
+        if !(lat_deg.is_finite() && lon_deg.is_finite()) {
+            return;
         }
+        let at = (lat_deg, lon_deg);
+        if let Some(prev) = &self.track_last
+            && !plausible_step(prev.at, at, fix_dt_s(prev, fix))
+        {
+            self.break_track();
+        }
+        self.track.push(at);
+        self.track_last = Some(TrackStamp { at, time: fix.time, received_at: fix.received_at });
+    }
+
+    /// Ends the current track segment: the next point starts a new one (the GPS source changed).
+    pub fn break_track(&mut self) {
+        let n = self.track.len();
+        if n > 0 && self.track_breaks.last() != Some(&n) {
+            self.track_breaks.push(n);
+        }
+        self.track_last = None;
+    }
+
+    /// The track's segments, oldest first, none empty.
+    pub fn track_segments(&self) -> Vec<&[(f64, f64)]> {
+        segments(&self.track, &self.track_breaks).map(|r| &self.track[r]).collect()
     }
 
     fn anchor(&self) -> (f64, f64) {
@@ -213,6 +359,8 @@ impl MapView {
             }
             if ui.button("Clear track").clicked() {
                 self.track.clear();
+                self.track_breaks.clear();
+                self.track_last = None;
                 self.replay = None;
             }
         });
@@ -229,6 +377,7 @@ impl MapView {
         speed_m_s: Option<f64>,
         walking_m_s: f64,
     ) {
+        let mut warning = None;
         let text = match (fix, self.waypoints.get(self.next)) {
             (_, None) if self.waypoints.is_empty() => {
                 "no waypoints: right-click the map to add one".to_owned()
@@ -249,20 +398,16 @@ impl MapView {
                 ),
                 Some((d, bearing)) => {
                     let v = speed_m_s.filter(|v| *v >= 0.3).unwrap_or(walking_m_s).max(0.1);
-                    let ttg = d / v;
-                    let b = bearing.map_or_else(|| "—".to_owned(), |b| format!("{b:.0}°"));
-                    format!(
-                        "next: {} ({}/{}) · {d:.0} m · aim bearing {b} · {:.0} min {:02.0} s to go",
-                        w.name,
-                        self.next + 1,
-                        self.waypoints.len(),
-                        (ttg / 60.0).floor(),
-                        ttg % 60.0
-                    )
+                    let leg = leg_summary(d, bearing, v);
+                    warning = leg.warning;
+                    format!("next: {} ({}/{}) · {}", w.name, self.next + 1, self.waypoints.len(), leg.text)
                 }
             },
         };
         ui.label(RichText::new(text).strong());
+        if let Some(w) = warning {
+            ui.label(RichText::new(w).strong().color(ui.visuals().warn_fg_color));
+        }
     }
 
     fn waypoint_list(&mut self, ui: &mut egui::Ui) -> bool {
@@ -354,6 +499,9 @@ impl MapView {
                 Some(HttpTiles::with_options(walkers::sources::OpenStreetMap, options, ui.ctx().clone()));
         }
         let wearer = fix.and_then(|f| f.lat_deg.zip(f.lon_deg)).map(|(la, lo)| lat_lon(la, lo));
+        let marker =
+            fix.filter(|_| wearer.is_some()).map(|f| wearer_marker(f, Instant::now(), cfg.stale_after_s));
+        self.wearer_shown = marker;
         let anchor = self.anchor();
         let my_position = wearer.unwrap_or_else(|| lat_lon(anchor.0, anchor.1));
         self.tile_hits.set(0);
@@ -374,6 +522,7 @@ impl MapView {
         let waypoints = &mut self.waypoints;
         let next = &mut self.next;
         let track = &self.track;
+        let track_breaks = &self.track_breaks;
         let replay = &self.replay;
         let add_mode = self.add_mode;
         let right_click_at = &mut self.right_click_at;
@@ -411,6 +560,7 @@ impl MapView {
                     &painter,
                     projector,
                     &rt[..(*cursor).min(rt.len())],
+                    &[],
                     Color32::from_rgb(150, 60, 200),
                 );
                 if let Some(&(la, lo)) = rt.get((*cursor).min(rt.len()).saturating_sub(1)) {
@@ -422,7 +572,7 @@ impl MapView {
                 }
             }
             // The wearer's own track.
-            draw_track(&painter, projector, track, Color32::from_rgb(220, 50, 50));
+            draw_track(&painter, projector, track, track_breaks, Color32::from_rgb(220, 50, 50));
 
             // Waypoints, draggable, with a context menu.
             let mut action: Option<(usize, WaypointAction)> = None;
@@ -523,19 +673,21 @@ impl MapView {
             }
 
             // The wearer: accuracy circle, dot, course arrow (blue, COG) and the heading guidance steers by
-            // (orange: the compass, or whatever the heading rule chose; true north up).
-            if let (Some(w), Some(f)) = (wearer, fix) {
+            // (orange: the compass, or whatever the heading rule chose; true north up). A position that is
+            // no longer current is drawn grey with its age, without the course it had.
+            if let (Some(w), Some(f), Some(m)) = (wearer, fix, marker) {
                 let c = to_pos2(projector.project(w));
+                let (dot, ring) = if m.live {
+                    (Color32::from_rgb(20, 90, 200), Color32::from_rgb(40, 140, 255))
+                } else {
+                    (Color32::from_gray(120), Color32::from_gray(150))
+                };
                 if let Some(e) = f.error.map(|e| e.horizontal_m).filter(|e| e.is_finite() && *e > 0.0) {
                     let r = (e * px_per_m) as f32;
-                    painter.circle(
-                        c,
-                        r.min(4000.0),
-                        Color32::from_rgba_unmultiplied(40, 140, 255, 40),
-                        Stroke::new(1.0, Color32::from_rgb(40, 140, 255)),
-                    );
+                    painter.circle(c, r.min(4000.0), ring.gamma_multiply(0.16), Stroke::new(1.0, ring));
                 }
-                if let (Some(course), Some(v)) = (f.course_deg, f.speed_m_s)
+                if m.live
+                    && let (Some(course), Some(v)) = (f.course_deg, f.speed_m_s)
                     && v >= 0.3
                     && course.is_finite()
                 {
@@ -548,7 +700,16 @@ impl MapView {
                     let tip = c + vec2(a.sin(), -a.cos()) * 34.0;
                     painter.arrow(c, tip - c, Stroke::new(2.5, Color32::from_rgb(240, 140, 20)));
                 }
-                painter.circle(c, 7.0, Color32::from_rgb(20, 90, 200), Stroke::new(2.0, Color32::WHITE));
+                painter.circle(c, 7.0, dot, Stroke::new(2.0, Color32::WHITE));
+                if !m.live {
+                    painter.text(
+                        c + vec2(12.0, 12.0),
+                        egui::Align2::LEFT_TOP,
+                        format!("last known, {}", age_text(m.age_s)),
+                        font.clone(),
+                        ui.visuals().strong_text_color(),
+                    );
+                }
             }
 
             // Adding waypoints.
@@ -645,22 +806,49 @@ impl MapView {
     }
 }
 
-/// Draws a track, strided for old points and full for the newest [`TRACK_TAIL`].
-fn draw_track(painter: &egui::Painter, projector: &Projector, track: &[(f64, f64)], color: Color32) {
-    if track.len() < 2 {
-        return;
+/// An age in words: "12 s ago", "5 min ago", or "age unknown".
+pub fn age_text(age_s: Option<f64>) -> String {
+    match age_s.filter(|a| a.is_finite()) {
+        None => "age unknown".to_owned(),
+        Some(a) if a < 120.0 => format!("{a:.0} s ago"),
+        Some(a) if a < 7200.0 => format!("{:.0} min ago", a / 60.0),
+        Some(a) => format!("{:.1} h ago", a / 3600.0),
     }
+}
+
+/// The index ranges of the segments of a track of `n` points split at `breaks` (ascending), none empty.
+fn segments(track: &[(f64, f64)], breaks: &[usize]) -> impl Iterator<Item = std::ops::Range<usize>> {
+    let n = track.len();
+    let starts = std::iter::once(0).chain(breaks.iter().copied().filter(move |&b| b < n));
+    let ends = breaks.iter().copied().filter(move |&b| b < n).chain(std::iter::once(n));
+    starts.zip(ends).filter(|(a, b)| a < b).map(|(a, b)| a..b)
+}
+
+/// Draws a track as one line per segment, strided for old points and full for the newest [`TRACK_TAIL`]
+/// (the stride is the whole track's, so many segments cost no more than one).
+fn draw_track(
+    painter: &egui::Painter,
+    projector: &Projector,
+    track: &[(f64, f64)],
+    breaks: &[usize],
+    color: Color32,
+) {
     let tail_start = track.len().saturating_sub(TRACK_TAIL);
     let stride = decimation_stride(tail_start, TRACK_DRAW_MAX - TRACK_TAIL);
-    let mut pts: Vec<Pos2> = Vec::with_capacity(TRACK_DRAW_MAX + 2);
-    pts.extend(
-        track[..tail_start]
-            .iter()
-            .step_by(stride)
-            .map(|&(la, lo)| to_pos2(projector.project(lat_lon(la, lo)))),
-    );
-    pts.extend(track[tail_start..].iter().map(|&(la, lo)| to_pos2(projector.project(lat_lon(la, lo)))));
-    painter.line(pts, Stroke::new(2.0, color));
+    let project = |&(la, lo): &(f64, f64)| to_pos2(projector.project(lat_lon(la, lo)));
+    for seg in segments(track, breaks) {
+        let last = seg.end - 1;
+        let pts: Vec<Pos2> = seg
+            .clone()
+            .filter(|&i| i >= tail_start || i % stride == 0 || i == seg.start || i == last)
+            .map(|i| project(&track[i]))
+            .collect();
+        if pts.len() >= 2 {
+            painter.line(pts, Stroke::new(2.0, color));
+        } else if let Some(p) = pts.first() {
+            painter.circle_filled(*p, 2.0, color);
+        }
+    }
 }
 
 /// A metric grid anchored at the route's first point, with lines every "nice" distance.
@@ -720,6 +908,51 @@ mod tests {
         assert_relative_eq!(nice_length_m(70.0), 100.0);
         assert_relative_eq!(nice_length_m(120.0), 200.0);
         assert_relative_eq!(nice_length_m(1.0), 1.0);
+    }
+
+    fn fix_at(lat: f64, lon: f64, t_s: i64) -> Fix {
+        let t0 = "2026-01-01T12:00:00Z".parse::<chrono::DateTime<chrono::Utc>>().unwrap();
+        Fix {
+            lat_deg: Some(lat),
+            lon_deg: Some(lon),
+            time: Some(t0 + chrono::TimeDelta::seconds(t_s)),
+            ..Fix::default()
+        }
+    }
+
+    /// 1e-4° of latitude is ~11.1 m: a walker's step per second stays in one segment; 0.01° (1.1 km) in 10 s
+    /// (111 m/s) does not; a source change always splits.
+    #[test]
+    fn the_track_splits_at_jumps_and_source_changes() {
+        let mut m = MapView::new(true);
+        for k in 0..5 {
+            m.push_track(&fix_at(42.0 + f64::from(k) * 1e-5, -71.0, i64::from(k)));
+        }
+        m.push_track(&fix_at(42.01, -71.0, 14));
+        m.push_track(&fix_at(42.01001, -71.0, 15));
+        m.break_track();
+        m.push_track(&fix_at(42.01002, -71.0, 16));
+        let lens: Vec<usize> = m.track_segments().iter().map(|s| s.len()).collect();
+        assert_eq!(lens, vec![5, 2, 1]);
+        // 1.1 km over 10 minutes of receiver time is a walk (1.9 m/s), whatever the arrival instants say.
+        let mut m = MapView::new(true);
+        m.push_track(&fix_at(42.0, -71.0, 0));
+        m.push_track(&fix_at(42.01, -71.0, 600));
+        assert_eq!(m.track_segments().len(), 1);
+    }
+
+    #[test]
+    fn legs_beyond_a_walk_warn_and_times_to_go_are_bounded() {
+        let near = leg_summary(312.0, Some(45.2), 1.3);
+        assert_eq!(near.text, "312 m · aim bearing 45° · 4 min 00 s to go");
+        assert!(near.warning.is_none());
+        let far = leg_summary(15_195_988.0, Some(10.0), 1.3);
+        assert_eq!(far.text, "15196 km away");
+        assert!(far.warning.unwrap().contains("too far to walk"));
+        assert_eq!(time_to_go_text(59.6), "1 min 00 s");
+        assert_eq!(time_to_go_text(7800.0), "2 h 10 min");
+        assert_eq!(time_to_go_text(90_000.0), "more than 12 h");
+        assert_eq!(distance_text(4_249.0), "4.2 km");
     }
 
     #[test]

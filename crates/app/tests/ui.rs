@@ -93,10 +93,10 @@ impl DeviceFactory for Fake {
     }
     fn open_vest(&self, _s: &VestSourceConfig, out: Vec<Outbox<VestEvent>>) -> Result<VestHandle, String> {
         let sent = self.sent.clone();
-        let compass = self.compass;
+        let compass = self.compass.clone();
         let connector = Box::new(move || {
             let port = EmulatedPort::new(
-                EngineConfig { compass, ..EngineConfig::default() },
+                EngineConfig { compass: compass.clone(), ..EngineConfig::default() },
                 Duration::from_millis(2),
             );
             Ok(Box::new(RecordingUnit { port, codec: FrameCodec::new(), sent: sent.clone() })
@@ -280,7 +280,7 @@ fn a_fix_shows_and_losing_it_raises_the_alarm() {
 fn real_harness(log_dir: Option<std::path::PathBuf>) -> Harness<'static, Console> {
     let cfg = Config { map_tiles: false, guidance_auto: false, ..Config::default() };
     let console = Console::new(
-        Box::new(vestnav_app::hardware::Hardware),
+        Box::new(vestnav_app::hardware::Hardware::default()),
         ConsoleOptions { cfg, log_dir, ..ConsoleOptions::default() },
     );
     Harness::builder()
@@ -410,4 +410,150 @@ fn the_vest_compass_reaches_guidance_and_steers_by_true_heading() {
     h.get_by_label("Vest").click();
     h.run_steps(2);
     h.get_by_label_contains("quality 100 %");
+}
+
+/// Great-circle distance on a sphere of the WGS84 mean radius [m] (haversine): the test's own geometry.
+fn haversine_m(a: (f64, f64), b: (f64, f64)) -> f64 {
+    let (la1, lo1, la2, lo2) = (a.0.to_radians(), a.1.to_radians(), b.0.to_radians(), b.1.to_radians());
+    let h = ((la2 - la1) / 2.0).sin().powi(2) + la1.cos() * la2.cos() * ((lo2 - lo1) / 2.0).sin().powi(2);
+    2.0 * 6_371_008.8 * h.sqrt().asin()
+}
+
+/// Fault 3 of issue 15: during a stale or lost fix the panel no longer shows the last mode and satellite
+/// count as current, and the wearer's dot is not the live one. Ages come from the injected fixes' arrival
+/// instants (small limits keep the test short).
+#[test]
+fn a_stale_or_lost_fix_is_shown_as_last_known_not_live() {
+    let fake = Fake::default();
+    let cfg = Config {
+        map_tiles: false,
+        guidance_auto: false,
+        stale_after_s: 2.0,
+        lost_after_s: 4.0,
+        ..Config::default()
+    };
+    let mut h = harness_with(&fake, cfg);
+    let with_sats = |age: Duration| Fix {
+        sats_used: Some(8),
+        sats_visible: Some(9),
+        satellites: (1..=9)
+            .map(|prn| vestnav_device::gps::Satellite {
+                prn,
+                constellation: vestnav_device::gps::Constellation::Gps,
+                elevation_deg: Some(45.0),
+                azimuth_deg: Some(f64::from(prn) * 40.0),
+                snr_dbhz: Some(42.0),
+                used: prn <= 8,
+            })
+            .collect(),
+        ..fix(42.3562, -71.1, age)
+    };
+    fake.gps(&GpsEvent::Fix(Box::new(with_sats(Duration::ZERO))));
+    settle(&mut h, |c| c.gps.fixes == 1);
+    h.run_steps(1);
+    assert!(h.query_by_label("3D · —").is_some(), "a fresh fix shows its mode as current");
+    assert!(h.query_by_label("8 used / 9 in view").is_some());
+    assert!(h.query_by_label_contains("showing the last known fix").is_none());
+    assert!(h.state().map.wearer_shown.is_some_and(|m| m.live));
+
+    // Stale: the newest fix's bytes arrived 3 s ago (past 2 s).
+    fake.gps(&GpsEvent::Fix(Box::new(with_sats(Duration::from_secs(3)))));
+    settle(&mut h, |c| c.gps.fixes == 2);
+    h.run_steps(1);
+    assert!(matches!(h.state().gps_alarm(Instant::now()), Some(GpsAlarm::Stale { .. })));
+    assert!(h.query_by_label_contains("NOT CURRENT: showing the last known fix, 3 s ago").is_some());
+    assert!(h.query_by_label("3D · —").is_none(), "the live mode label is gone");
+    assert!(h.query_by_label("8 used / 9 in view").is_none(), "the live satellite count is gone");
+    assert!(h.query_by_label_contains("3D · — (last known, 3 s ago)").is_some());
+    assert!(h.query_by_label_contains("sky and signal: last known").is_some());
+    let m = h.state().map.wearer_shown.unwrap();
+    assert!(!m.live && m.age_s.is_some_and(|a| a >= 3.0), "{m:?}");
+
+    // Lost: 5 s (past 4 s).
+    fake.gps(&GpsEvent::Fix(Box::new(with_sats(Duration::from_secs(5)))));
+    settle(&mut h, |c| c.gps.fixes == 3);
+    h.run_steps(1);
+    assert!(matches!(h.state().gps_alarm(Instant::now()), Some(GpsAlarm::Lost { .. })));
+    assert!(h.query_by_label_contains("FIX LOST: showing the last known fix, 5 s ago").is_some());
+    assert!(h.query_by_label("3D · —").is_none());
+    assert!(h.query_by_label_contains("8 used / 9 in view (last known, 5 s ago)").is_some());
+    assert!(h.state().map.wearer_shown.is_some_and(|m| !m.live));
+
+    // A fresh fix makes it live again.
+    fake.gps(&GpsEvent::Fix(Box::new(with_sats(Duration::ZERO))));
+    settle(&mut h, |c| c.gps.fixes == 4);
+    h.run_steps(1);
+    assert!(h.query_by_label("3D · —").is_some());
+    assert!(h.state().map.wearer_shown.is_some_and(|m| m.live));
+}
+
+/// Fault 6a of issue 15: a waypoint 15,000 km away (on the equator, a * 134.75° in radians with the WGS84
+/// a = 6378137 m) shows a warning with the distance in km, and no time to go.
+#[test]
+fn an_absurdly_far_waypoint_warns_instead_of_a_time_to_go() {
+    let fake = Fake::default();
+    let mut h = harness(&fake);
+    let far_lon = (15_000_000.0_f64 / 6_378_137.0).to_degrees();
+    h.state_mut().map.waypoints = vec![
+        Waypoint { name: "Far".into(), lat_deg: 0.0, lon_deg: far_lon },
+        Waypoint { name: "Farther".into(), lat_deg: 0.0, lon_deg: far_lon + 1.0 },
+    ];
+    h.state_mut().map.next = 0;
+    h.state_mut().push_route();
+    for _ in 0..100 {
+        fake.gps(&GpsEvent::Fix(Box::new(fix(0.0, 0.0, Duration::ZERO))));
+        h.step();
+        if h.state().guidance.as_ref().is_some_and(|g| g.distance_m.is_some_and(|d| d > 1e6)) {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    h.run_steps(2);
+    assert!(h.query_by_label_contains("too far to walk").is_some());
+    assert!(h.query_by_label_contains("to go").is_none(), "no time to go is shown for 15,000 km");
+    let line = egui_kittest::kittest::NodeT::accesskit_node(&h.get_by_label_contains("km away"))
+        .label()
+        .unwrap_or_default();
+    let km: f64 = line
+        .split(" km away")
+        .next()
+        .and_then(|s| s.rsplit(' ').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no distance in {line:?}"));
+    assert!((km - 15_000.0).abs() < 15_000.0 * 0.01, "{km} km shown for a 15,000 km leg ({line})");
+}
+
+/// Fault 6b of issue 15: the track does not join positions a walker cannot have walked between, nor two
+/// GPS sources. Truth: the injected fixes' geometry (haversine) and the walking bound.
+#[test]
+fn the_track_starts_a_new_segment_on_a_jump_or_a_source_change() {
+    let fake = Fake::default();
+    let mut h = harness(&fake);
+    let boston = (42.3562, -71.1);
+    let far = (42.3562, -11.1);
+    let step = (42.3562, -11.09988); // ~10 m east of `far`
+    assert!(haversine_m(boston, far) > 4_900_000.0, "the jump is ~5000 km");
+    assert!(haversine_m(far, step) < 15.0, "the step is a walker's");
+    for (k, p) in [boston, far, step].into_iter().enumerate() {
+        fake.gps(&GpsEvent::Fix(Box::new(fix(p.0, p.1, Duration::ZERO))));
+        settle(&mut h, |c| c.gps.fixes == k as u64 + 1);
+    }
+    let segs: Vec<Vec<(f64, f64)>> = h.state().map.track_segments().iter().map(|s| s.to_vec()).collect();
+    assert_eq!(
+        segs,
+        vec![vec![boston], vec![far, step]],
+        "5000 km in no time splits the track, 10 m does not"
+    );
+
+    // Another source: its first position, though only ~1 m away, starts a new segment.
+    h.get_by_label("Disconnect GPS").click();
+    h.run_steps(2);
+    h.get_by_label("Connect GPS").click();
+    h.run_steps(2);
+    assert!(h.state().gps_connected());
+    let near = (42.3562, -11.099_87);
+    fake.gps(&GpsEvent::Fix(Box::new(fix(near.0, near.1, Duration::ZERO))));
+    settle(&mut h, |c| c.gps.fixes == 1);
+    let lens: Vec<usize> = h.state().map.track_segments().iter().map(|s| s.len()).collect();
+    assert_eq!(lens, vec![1, 2, 1]);
 }

@@ -50,8 +50,13 @@ pub(super) fn output(
     let mut head = header(setup, results);
     if let Some(sw) = sweep {
         head.push(sw.threshold_mm.map_or_else(
-            || format!("threshold (RMSE = {} of a): not reached in the sweep", sw.relative_rmse),
-            |t| format!("threshold (RMSE = {} of a): {t:.2} mm", sw.relative_rmse),
+            || {
+                format!(
+                    "threshold (RMSE = {} of a): not reached in the sweep",
+                    super::sig(sw.relative_rmse, 3)
+                )
+            },
+            |t| format!("threshold (RMSE = {} of a): {t:.2} mm", super::sig(sw.relative_rmse, 3)),
         ));
     }
     TwoPointOutput {

@@ -60,6 +60,11 @@ impl SimulatedReceiver {
         Ok(Self { walker, error: GnssErrorState::new(model, seed), start, t_s: 0.0, sigma_m })
     }
 
+    /// The walker's true state at the last epoch (position, course, speed): the simulation's truth.
+    pub fn truth(&self) -> vestnav_core::gnss_sim::WalkerSample {
+        self.walker.sample(self.t_s)
+    }
+
     /// True once the walker has reached the end of the route.
     pub fn finished(&self) -> bool {
         self.walker.sample(self.t_s).finished

@@ -21,12 +21,14 @@ use chrono::Datelike as _;
 use vestnav_core::compass::{MagnetometerModel, MagnetometerSim, SensorPose, SteelObject};
 use vestnav_core::geo::LatLon;
 
+use crate::heading::SharedTruth;
+
 use super::codec::WireCodec;
 use super::engine::{Engine, EngineConfig, EngineEvent, EngineStats, HeadingSensor};
 use super::message::{Faults, Reply};
 
 /// How the emulated wearer's body moves: the truth the emulated magnetometer measures.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub enum WearerMotion {
     /// Standing, facing `heading_deg` (true).
     Still {
@@ -40,20 +42,37 @@ pub enum WearerMotion {
         /// Turn rate, clockwise positive \[deg/s\].
         rate_deg_s: f64,
     },
+    /// Where the GPS simulator's walker is and faces (the console's simulated wearer): one wearer for both
+    /// simulated devices. Standing facing north until the simulator's first epoch.
+    Follow(SharedTruth),
 }
 
 impl WearerMotion {
-    /// True heading after `t_s` seconds \[deg\].
-    pub fn heading_deg(&self, t_s: f64) -> f64 {
-        match *self {
-            Self::Still { heading_deg } => heading_deg,
-            Self::Turning { start_deg, rate_deg_s } => (start_deg + rate_deg_s * t_s).rem_euclid(360.0),
+    /// The wearer's pose after `t_s` seconds on the unit's clock.
+    pub fn pose(&self, t_s: f64) -> SensorPose {
+        let standing =
+            |heading_true_deg| SensorPose { t_s, heading_true_deg, east_m: 0.0, north_m: 0.0, pace_m_s: 0.0 };
+        match self {
+            Self::Still { heading_deg } => standing(*heading_deg),
+            Self::Turning { start_deg, rate_deg_s } => {
+                standing((start_deg + rate_deg_s * t_s).rem_euclid(360.0))
+            }
+            Self::Follow(cell) => cell.get().map_or_else(
+                || standing(0.0),
+                |b| SensorPose {
+                    t_s,
+                    heading_true_deg: b.heading_true_deg,
+                    east_m: b.east_m,
+                    north_m: b.north_m,
+                    pace_m_s: b.pace_m_s,
+                },
+            ),
         }
     }
 }
 
 /// The emulated unit's magnetometer (protocol v2): which sensor, where, and how the wearer moves.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct CompassSetup {
     /// How the wearer moves.
     pub motion: WearerMotion,
@@ -102,7 +121,7 @@ impl SimulatedCompass {
             .or_else(|_| MagnetometerSim::new(model.clone(), place, 0.0, (2025, 1, 1), setup.seed))
             // Boston's field (WMM2025): 14.3 µT north, -4.2 µT east, 47.9 µT down.
             .unwrap_or_else(|_| MagnetometerSim::with_field(model, [18.9, -5.1, 47.0], setup.seed));
-        Self { sim, motion: setup.motion, start: None }
+        Self { sim, motion: setup.motion.clone(), start: None }
     }
 
     /// Declination of the emulated place's field, east positive \[deg\].
@@ -115,14 +134,7 @@ impl HeadingSensor for SimulatedCompass {
     fn sample(&mut self, at: Instant) -> ([f64; 3], [f64; 3]) {
         let start = *self.start.get_or_insert(at);
         let t_s = at.saturating_duration_since(start).as_secs_f64();
-        let pose = SensorPose {
-            t_s,
-            heading_true_deg: self.motion.heading_deg(t_s),
-            east_m: 0.0,
-            north_m: 0.0,
-            pace_m_s: 0.0,
-        };
-        let s = self.sim.sample(&pose);
+        let s = self.sim.sample(&self.motion.pose(t_s));
         (s.raw_mag_body_ut, s.accel_body_m_s2)
     }
 }

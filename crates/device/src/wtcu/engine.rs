@@ -85,7 +85,7 @@ pub const MAX_QUEUED_FRAMES: usize = 64;
 pub const LOW_BATTERY_MV: u16 = 3500;
 
 /// How the emulated unit is built.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct EngineConfig {
     /// Firmware version reported.
     pub firmware: FirmwareVersion,
@@ -213,12 +213,11 @@ struct HeadingState {
 impl Engine<FrameCodec> {
     /// An engine speaking [`FrameCodec`].
     pub fn new(config: EngineConfig) -> Self {
-        let engine = Self::with_codec(config, FrameCodec::with_max_version(config.protocol_version));
-        match config.compass {
-            Some(setup) if config.protocol_version >= 2 => {
-                engine.with_heading_sensor(Box::new(SimulatedCompass::new(&setup)))
-            }
-            _ => engine,
+        let compass = config.compass.clone().filter(|_| config.protocol_version >= 2);
+        let engine = Self::with_codec(config.clone(), FrameCodec::with_max_version(config.protocol_version));
+        match compass {
+            Some(setup) => engine.with_heading_sensor(Box::new(SimulatedCompass::new(&setup))),
+            None => engine,
         }
     }
 }

@@ -214,7 +214,7 @@ fn drive(
     step_ms: Option<u64>,
 ) -> (Vec<(Instant, TactorMask)>, Vec<Reply>) {
     let t0 = Instant::now();
-    let mut engine = Engine::new(config);
+    let mut engine = Engine::new(config.clone());
     let codec = FrameCodec::with_max_version(1);
     let mut replies_codec = FrameCodec::with_max_version(1);
     let mut trace = vec![(t0, TactorMask::NONE)];
@@ -343,10 +343,10 @@ proptest! {
         watchdog_ms in prop_oneof![Just(1500u16), Just(60_000u16)],
     ) {
         let config = EngineConfig { watchdog_ms, ..EngineConfig::default() };
-        let (trace, replies) = drive(config, &ops, Some(step_ms));
+        let (trace, replies) = drive(config.clone(), &ops, Some(step_ms));
         assert_within_limits(&trace, &config.limits)?;
         // Time is played exactly however coarsely the engine is driven: the same ACKs and NAKs.
-        let (_, coarse_replies) = drive(config, &ops, None);
+        let (_, coarse_replies) = drive(config.clone(), &ops, None);
         prop_assert_eq!(replies, coarse_replies);
     }
 }

@@ -407,7 +407,7 @@ impl VestHandle {
             }
             VestConfig::Emulated(engine) => {
                 let poll = settings.io_poll;
-                Box::new(move || Ok(Box::new(EmulatedPort::new(engine, poll)) as Box<dyn Transport>))
+                Box::new(move || Ok(Box::new(EmulatedPort::new(engine.clone(), poll)) as Box<dyn Transport>))
             }
         };
         Self::spawn_with(connector, settings, events)

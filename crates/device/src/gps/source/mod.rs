@@ -90,6 +90,9 @@ pub enum SourceConfig {
         /// At the end of the route, start over (with seed `seed + lap`, so each lap has a different error
         /// realisation) and send a [`GpsEvent::Notice`] instead of [`SourceState::Finished`].
         looped: bool,
+        /// Where to publish the walker's true position, course and pace every epoch (for an emulated vest's
+        /// compass to measure the same wearer), if anywhere.
+        truth: Option<crate::heading::SharedTruth>,
     },
 }
 
@@ -260,8 +263,9 @@ impl GpsSource {
                 SourceConfig::Serial { port, baud } => run_serial(&worker, &port, baud),
                 SourceConfig::Replay { path, speed } => run_replay(&worker, &path, speed),
                 SourceConfig::Gpsd { host, port } => run_gpsd(&worker, &host, port),
-                SourceConfig::Simulator { route, pace_m_s, model, seed, period, looped } => {
-                    run_sim(&worker, &SimParams { route: &route, pace_m_s, model, seed, period, looped });
+                SourceConfig::Simulator { route, pace_m_s, model, seed, period, looped, truth } => {
+                    let p = SimParams { route: &route, pace_m_s, model, seed, period, looped, truth };
+                    run_sim(&worker, &p);
                 }
             }
             for o in &worker.outputs {

@@ -7,6 +7,7 @@ use vestnav_core::gnss_sim::GnssErrorModel;
 use super::{SourceState, Worker};
 use crate::gps::sim::SimulatedReceiver;
 use crate::gps::{DecoderConfig, GpsEvent, NmeaDecoder};
+use crate::heading::{BodyTruth, SharedTruth};
 
 /// The simulator's settings, as given in [`SourceConfig::Simulator`](super::SourceConfig::Simulator).
 pub(super) struct SimParams<'a> {
@@ -16,6 +17,7 @@ pub(super) struct SimParams<'a> {
     pub(super) seed: u64,
     pub(super) period: Duration,
     pub(super) looped: bool,
+    pub(super) truth: Option<SharedTruth>,
 }
 
 pub(super) fn run_sim(w: &Worker, p: &SimParams<'_>) {
@@ -38,6 +40,15 @@ pub(super) fn run_sim(w: &Worker, p: &SimParams<'_>) {
     let mut lap: u64 = 0;
     loop {
         let text = rx.next_epoch(p.period.as_secs_f64());
+        if let Some(cell) = &p.truth {
+            let t = rx.truth();
+            cell.set(BodyTruth {
+                heading_true_deg: t.course_deg,
+                east_m: t.en_m.x,
+                north_m: t.en_m.y,
+                pace_m_s: t.speed_m_s,
+            });
+        }
         d.handle_bytes(text.as_bytes(), Instant::now());
         d.handle_timeout(Instant::now() + Duration::from_hours(1));
         if !w.drain(&mut d) {

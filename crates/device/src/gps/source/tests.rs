@@ -56,6 +56,7 @@ fn simulator_emits_fixes_and_stops() {
         seed: 5,
         period: Duration::from_millis(20),
         looped: false,
+        truth: None,
     });
     let ev = collect(
         &rx,
@@ -414,6 +415,7 @@ fn looped_simulator_starts_over_with_a_new_seed() {
         seed: 7,
         period: Duration::from_millis(100),
         looped: true,
+        truth: None,
     });
     let notices = |e: &[GpsEvent]| e.iter().filter(|e| matches!(e, GpsEvent::Notice(_))).count();
     let ev = collect(&rx, |e| notices(e) >= 2, Duration::from_secs(10));

@@ -1,0 +1,136 @@
+//! Integration tests: the command line as a user meets it (`--help`, shell completions, the man page) and the
+//! distribution files beside it (licences, the third-party licence notice).
+
+use std::collections::BTreeSet;
+use std::path::PathBuf;
+use std::process::Command;
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// Runs the binary and returns its standard output, failing the test on a non-zero exit.
+fn vestnav(args: &[&str]) -> String {
+    let out = Command::new(env!("CARGO_BIN_EXE_vestnav")).args(args).output().expect("run vestnav");
+    assert!(
+        out.status.success(),
+        "vestnav {args:?} failed ({}): {}",
+        out.status,
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout).expect("UTF-8 output")
+}
+
+/// The subcommands a user types; each must be in the help, the completions and the man page.
+const SUBCOMMANDS: [&str; 6] = ["sim", "analyze", "nmea", "emulate", "nav", "fieldtest"];
+
+#[test]
+fn help_says_that_no_subcommand_opens_the_console() {
+    let help = vestnav(&["--help"]);
+    assert!(help.contains("Run with no subcommand to open the console"), "{help}");
+    assert!(help.contains("--gps <SPEC>") && help.contains("--vest <SPEC>"), "console options: {help}");
+    for sub in SUBCOMMANDS {
+        assert!(help.contains(&format!("\n  {sub} ")), "{sub} listed: {help}");
+    }
+    // The generators are named in the footer, not in the list of commands.
+    assert!(!help.contains("\n  completions ") && !help.contains("\n  man "), "{help}");
+    assert!(help.contains("vestnav completions <bash|zsh|fish|powershell|elvish>"), "{help}");
+    assert!(help.contains("vestnav man"), "{help}");
+
+    let short = vestnav(&["-h"]);
+    assert!(short.contains("vestnav [OPTIONS]     opens the console"), "{short}");
+}
+
+#[test]
+fn bash_completions_name_every_subcommand() {
+    let bash = vestnav(&["completions", "bash"]);
+    assert!(bash.contains("_vestnav()"), "{bash}");
+    for sub in SUBCOMMANDS {
+        assert!(bash.contains(&format!("vestnav,{sub})")), "{sub} completed: {bash}");
+    }
+    assert!(bash.contains("--gps") && bash.contains("--vest"), "{bash}");
+    // Nested subcommands are completed too.
+    assert!(bash.contains("two-point") && bash.contains("drift") && bash.contains("cones"), "{bash}");
+}
+
+#[test]
+fn completions_for_every_shell_are_generated() {
+    for shell in ["bash", "zsh", "fish", "powershell", "elvish"] {
+        let script = vestnav(&["completions", shell]);
+        assert!(script.contains("vestnav") && script.contains("fieldtest"), "{shell}: {script}");
+    }
+    let out = Command::new(env!("CARGO_BIN_EXE_vestnav")).args(["completions", "tcsh"]).output().unwrap();
+    assert!(!out.status.success(), "an unknown shell is an error");
+}
+
+#[test]
+fn man_page_is_roff_and_names_the_program() {
+    let man = vestnav(&["man"]);
+    assert!(man.starts_with(".ie") || man.starts_with(".TH"), "roff: {man}");
+    assert!(man.contains(".TH vestnav 1"), "title line: {man}");
+    assert!(man.contains(".SH NAME\nvestnav \\- "), "NAME section: {man}");
+    assert!(man.contains("Run with no subcommand to open the console"), "{man}");
+    for sub in SUBCOMMANDS {
+        assert!(man.contains(&format!("vestnav\\-{sub}(1)")), "{sub} in SUBCOMMANDS: {man}");
+    }
+}
+
+#[test]
+fn licence_files_name_the_vestnav_developers() {
+    let mit = std::fs::read_to_string(root().join("LICENSE-MIT")).unwrap();
+    assert!(mit.starts_with("MIT License") && mit.contains("The vestnav developers"), "{mit}");
+    let apache = std::fs::read_to_string(root().join("LICENSE-APACHE")).unwrap();
+    assert!(apache.contains("Apache License") && apache.contains("Version 2.0, January 2004"));
+    assert!(apache.contains("The vestnav developers"));
+}
+
+/// The `(name, version)` of every third-party package in a Cargo.lock: those with a `source` (registry or git);
+/// path packages, our own crates, have none.
+fn locked_registry_packages(lock: &str) -> BTreeSet<(String, String)> {
+    let value = |line: &str, key: &str| {
+        line.strip_prefix(key)
+            .and_then(|rest| rest.strip_prefix(" = \""))
+            .and_then(|rest| rest.strip_suffix('"'))
+            .map(str::to_owned)
+    };
+    let mut found = BTreeSet::new();
+    for block in lock.split("[[package]]").skip(1) {
+        let (mut name, mut version, mut sourced) = (None, None, false);
+        for line in block.lines() {
+            name = name.or_else(|| value(line, "name"));
+            version = version.or_else(|| value(line, "version"));
+            sourced |= line.starts_with("source = ");
+        }
+        if let (Some(name), Some(version), true) = (name, version, sourced) {
+            found.insert((name, version));
+        }
+    }
+    found
+}
+
+#[test]
+fn third_party_notice_names_every_locked_crate() {
+    let lock = std::fs::read_to_string(root().join("Cargo.lock")).unwrap();
+    let notice = std::fs::read_to_string(root().join("THIRD-PARTY-LICENSES.md")).unwrap();
+    let locked = locked_registry_packages(&lock);
+    assert!(locked.len() > 100 && locked.iter().any(|(name, _)| name == "clap_mangen"), "{locked:?}");
+    let missing: Vec<String> = locked
+        .iter()
+        .filter(|(name, version)| !notice.contains(&format!("\n| {name} | {version} | ")))
+        .map(|(name, version)| format!("{name} {version}"))
+        .collect();
+    assert!(
+        missing.is_empty(),
+        "THIRD-PARTY-LICENSES.md is stale: run scripts/third-party-licenses.sh. Missing: {}",
+        missing.join(", ")
+    );
+}
+
+#[test]
+fn lock_parser_skips_our_own_crates() {
+    let lock = "version = 4\n\n[[package]]\nname = \"a\"\nversion = \"1.2.3\"\nsource = \
+                \"registry+https://github.com/rust-lang/crates.io-index\"\nchecksum = \"00\"\n\n[[package]]\n\
+                name = \"vestnav-core\"\nversion = \"0.1.0\"\ndependencies = [\n \"a\",\n]\n";
+    let found = locked_registry_packages(lock);
+    assert_eq!(found.into_iter().collect::<Vec<_>>(), [("a".to_owned(), "1.2.3".to_owned())]);
+}
