@@ -29,7 +29,7 @@ pub const TILES_OFFLINE_AFTER_S: f64 = 2.0;
 /// Fastest the wearer can plausibly move between two fixes [m/s]: a run (walking is ~1.4 m/s), so that a
 /// hurried wearer never splits the track but a teleport does.
 pub const TRACK_MAX_SPEED_M_S: f64 = 5.0;
-/// Jump every step is allowed on top of [`TRACK_MAX_SPEED_M_S`] [m]: GPS error (a SiRF receiver's multipath
+/// Jump every step is allowed on top of [`TRACK_MAX_SPEED_M_S`] [m]: GPS error (a `SiRF` receiver's multipath
 /// hop is tens of metres), and the step between two fixes whose timestamps are missing or equal.
 pub const TRACK_JUMP_SLACK_M: f64 = 50.0;
 

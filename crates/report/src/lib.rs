@@ -13,7 +13,7 @@
 //! - [`fieldtest`]: the drift (Fig 65) and cone (Figs 67–70) sheets, [`fieldtest::DriftReport`],
 //!   [`fieldtest::ConesReport`];
 //! - [`nav`]: the guidance simulation, [`nav::NavReport`];
-//! - [`series`]: `linspace` and time windows; [`csv`]: a figure's data as CSV.
+//! - [`series`]: `linspace`, time windows and `sig` (numbers with sensible precision in labels); [`csv`]: a figure's data as CSV.
 //!
 //! ```
 //! use vestnav_core::twopoint::TwoPointSetup;
@@ -38,6 +38,7 @@ pub mod tactor;
 pub mod twopoint;
 pub mod wave;
 
+pub use series::sig;
 pub use vestnav_plot::{Figure, PlotError, decimate_minmax, viridis};
 
 /// The JSON text of a result: pretty-printed with a final newline, exactly what the command line prints

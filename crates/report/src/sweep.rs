@@ -150,7 +150,7 @@ pub fn header(set: &SweepSet) -> Vec<String> {
 }
 
 fn name(r: &SweepResult) -> String {
-    format!("{}, l = {} mm", r.params.body.name(), r.params.radius_m * 1e3)
+    format!("{}, l = {} mm", r.params.body.name(), crate::sig(r.params.radius_m * 1e3, 4))
 }
 
 fn xy(r: &SweepResult, fx: fn(&SweepPoint) -> f64) -> (Vec<f64>, Vec<f64>) {

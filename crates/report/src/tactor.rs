@@ -324,7 +324,7 @@ pub fn calibrated_figure(cal: &Calibration, run: &TactorRun) -> Figure {
     Figure::new()
         .title(format!(
             "Calibrated tactor (thesis Figs 39-41, model side; measured traces not available): \
-             peak {} Hz -> b = {:.4e} N m s (closed form {:.4e})",
+             peak {:.2} Hz -> b = {:.4e} N m s (closed form {:.4e})",
             cal.frequency_hz, cal.damping_n_m_s, cal.damping_closed_form_n_m_s
         ))
         .columns(3)

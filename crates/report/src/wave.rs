@@ -407,11 +407,11 @@ impl VestField {
             format!(
                 "firing tactors {:?}; spacing {} mm; a0 = {} m/s^2, b = {:.2} mm, f = {:.2} Hz, c = {} m/s",
                 self.tactors,
-                self.spacing_mm,
-                self.amplitude_m_s2,
+                crate::sig(self.spacing_mm, 4),
+                crate::sig(self.amplitude_m_s2, 4),
                 self.width_mm,
                 self.frequency_hz,
-                self.speed_m_s
+                crate::sig(self.speed_m_s, 4)
             ),
             format!("spacing rule (neighbour below 10 %): {:.2} mm", self.spacing_rule_mm),
             format!(

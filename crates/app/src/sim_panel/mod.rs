@@ -20,31 +20,7 @@ mod waves;
 pub(crate) use jobs::{ExportFormat, Exporter};
 pub(crate) use plot_ui::figure_grid;
 
-/// `x` with `digits` significant digits and no trailing zeros, for numbers computed or typed in the views:
-/// 70.40055891942245 reads "70.4" (3 digits), 0.05 "0.05", 1.234e-7 "1.23e-7". Magnitudes outside
-/// 1e-3..1e6 are written in scientific notation; NaN and infinities as Rust writes them.
-pub(crate) fn sig(x: f64, digits: usize) -> String {
-    let digits = digits.max(1);
-    if !x.is_finite() {
-        return x.to_string();
-    }
-    if x.abs() < f64::MIN_POSITIVE {
-        return "0".to_owned();
-    }
-    let mag = x.abs().log10().floor() as i64;
-    if !(-3..6).contains(&mag) {
-        let s = format!("{:.*e}", digits - 1, x);
-        let (mantissa, exp) = s.split_once('e').unwrap_or((&s, "0"));
-        return format!("{}e{exp}", trim_zeros(mantissa));
-    }
-    let decimals = usize::try_from(digits as i64 - 1 - mag).unwrap_or(0);
-    trim_zeros(&format!("{x:.decimals$}")).to_owned()
-}
-
-/// "70.400" -> "70.4", "100.0" -> "100", "120" -> "120".
-fn trim_zeros(s: &str) -> &str {
-    if s.contains('.') { s.trim_end_matches('0').trim_end_matches('.') } else { s }
-}
+pub(crate) use vestnav_report::sig;
 
 /// Height of one plot on screen [points].
 const PLOT_HEIGHT: f32 = 220.0;
@@ -123,20 +99,6 @@ mod tests {
     use egui_kittest::kittest::Queryable as _;
 
     use super::*;
-
-    #[test]
-    fn sig_gives_units_appropriate_precision() {
-        assert_eq!(sig(70.400_558_919_422_45, 3), "70.4");
-        assert_eq!(sig(70.400_558_919_422_45, 4), "70.4");
-        assert_eq!(sig(70.46, 3), "70.5");
-        assert_eq!(sig(0.05, 3), "0.05");
-        assert_eq!(sig(0.050_000_000_000_01, 3), "0.05");
-        assert_eq!(sig(99.96, 3), "100");
-        assert_eq!(sig(1.234e-7, 3), "1.23e-7");
-        assert_eq!(sig(-2.5e7, 2), "-2.5e7");
-        assert_eq!(sig(0.0, 3), "0");
-        assert_eq!(sig(f64::NAN, 3), "NaN");
-    }
 
     fn tmp_dir(name: &str) -> PathBuf {
         let dir = std::env::temp_dir().join(format!("vestnav-sim-panel-{name}-{}", std::process::id()));

@@ -9,6 +9,11 @@
 //! - HDG (heading, deviation, variation from a magnetic compass): nmea 0.8 names the type
 //!   (`SentenceType::HDG`) but has no parser for it, so `parse_str` refuses it;
 //! - proprietary sentences: Garmin `$PGRME` (error estimate) and our own `$PVNAV` (marks, timestamps).
+//! - older shapes the crate refuses ([`legacy`]): GLL without the NMEA 2.3 mode field, RMC with a
+//!   variation letter other than E/W (`SiRF` III handsets' no-fix `0,N`);
+//! - proprietary sentences ([`proprietary`]); any other type with a valid checksum (a marine multiplexer's
+//!   MWV, MWD, VHW, DPT, DBT, MTW, XDR, RMB, APB...) is [`Unused::Unsupported`]: skipped and counted, never
+//!   malformed, and it neither opens nor closes an epoch.
 //!
 //! Heading sentences:
 //! - HDT (`heading,T`) and THS (`heading,mode`) carry the receiver's true heading, part of its epoch. THS's
@@ -25,6 +30,9 @@
 use chrono::{NaiveDate, NaiveTime, Timelike};
 
 use super::fix::{Constellation, FixMode, FixQuality};
+
+mod legacy;
+mod proprietary;
 
 /// Knots to metres per second (1 kn = 1852 m / 3600 s).
 pub const MS_PER_KNOT: f64 = 1852.0 / 3600.0;
@@ -174,7 +182,7 @@ pub(crate) fn parse(sentence: &str) -> Result<Parsed, Unused> {
     }
     let f = &store[..n];
     if let Some(rest) = tag.strip_prefix('P') {
-        return parse_proprietary(rest, f);
+        return proprietary::parse(rest, f);
     }
     if tag.len() != 5 || !sentence.starts_with('$') {
         return Err(Unused::Unsupported);
@@ -191,8 +199,14 @@ pub(crate) fn parse(sentence: &str) -> Result<Parsed, Unused> {
         // Hot path: canonical GGA/GLL are decoded here with the crate's own arithmetic; anything unusual
         // goes through the crate so its acceptance rules stay the reference.
         "GGA" => fast_gga(sentence, f).map_or_else(|| via_crate(sentence, talker), Ok),
-        "GLL" => fast_gll(sentence, f).map_or_else(|| via_crate(sentence, talker), Ok),
-        "RMC" => fast_rmc(sentence, f).map_or_else(|| via_crate(sentence, talker), Ok),
+        // Older shapes the crate refuses (GLL without its v2.3 mode, RMC with an odd variation letter):
+        // our own parsers, by NMEA 0183 and gpsd's rules (see `legacy`).
+        "GLL" => fast_gll(sentence, f)
+            .map_or_else(|| via_crate(sentence, talker), Ok)
+            .or_else(|_| legacy::parse_gll(f)),
+        "RMC" => fast_rmc(sentence, f)
+            .map_or_else(|| via_crate(sentence, talker), Ok)
+            .or_else(|_| legacy::parse_rmc(f)),
         "GST" | "HDT" => via_crate(sentence, talker),
         "GNS" => parse_gns(f),
         "GSV" => parse_gsv(talker, f),
@@ -710,30 +724,6 @@ fn parse_vtg(f: &[&str]) -> Parsed {
     Parsed::Vtg { course_deg: num(course), speed_m_s: speed }
 }
 
-fn parse_proprietary(rest: &str, f: &[&str]) -> Result<Parsed, Unused> {
-    match rest {
-        // Garmin: $PGRME,hpe,M,vpe,M,spe,M
-        // An EPE of 0.00 (TomTom Mk II) means "not computed", not a perfect fix.
-        "GRME" => Ok(Parsed::Pgrme {
-            horizontal_m: num(f.first()).filter(|&v| v > 0.0),
-            vertical_m: num(f.get(2)).filter(|&v| v > 0.0),
-        }),
-        "VNAV" => match f.first().copied() {
-            Some("MARK") => {
-                let number = uint(f.get(1)).ok_or(Unused::Malformed)?;
-                let label = f.get(2..).map(|l| l.join(",")).unwrap_or_default();
-                Ok(Parsed::Mark { number, label })
-            }
-            Some("TS") => {
-                let unix_ms = f.get(1).and_then(|s| s.parse::<i64>().ok()).ok_or(Unused::Malformed)?;
-                Ok(Parsed::Timestamp { unix_ms })
-            }
-            _ => Err(Unused::Unsupported),
-        },
-        _ => Ok(Parsed::Ignored),
-    }
-}
-
 /// The time a sentence carries, if it is one of the time-bearing types.
 pub(crate) fn time_of(p: &Parsed) -> Option<NaiveTime> {
     match p {
@@ -884,93 +874,4 @@ mod tests {
 }
 
 #[cfg(test)]
-mod fast_path_tests {
-    use super::*;
-    use crate::gps::framing::with_checksum;
-    use proptest::prelude::*;
-
-    /// Splits a sentence the way [`parse`] does: the fields after the tag.
-    fn fields(sentence: &str) -> Vec<&str> {
-        sentence[1..sentence.len() - 3].split(',').skip(1).collect()
-    }
-
-    /// Whether the fast path took the sentence (and then agreed with the crate).
-    fn agrees(sentence: &str) -> bool {
-        let f = fields(sentence);
-        let fast = match sentence.get(3..6) {
-            Some("GGA") => fast_gga(sentence, &f),
-            Some("GLL") => fast_gll(sentence, &f),
-            Some("RMC") => fast_rmc(sentence, &f),
-            _ => fast_gsa(sentence, &sentence[1..3], &f),
-        };
-        if let Some(fast) = fast {
-            assert_eq!(Ok(fast), via_crate(sentence, &sentence[1..3]), "{sentence}");
-            return true;
-        }
-        false
-    }
-
-    /// The own GGA/GLL/RMC/GSA decoding equals the `nmea` crate's on every such sentence of gpsd's logs.
-    #[test]
-    fn fast_path_matches_the_crate_on_gpsd_logs() {
-        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/gpsd-logs");
-        let (mut checked, mut fast) = (0, 0);
-        for entry in std::fs::read_dir(dir).unwrap() {
-            let path = entry.unwrap().path();
-            if path.extension().is_none_or(|e| e != "log") {
-                continue;
-            }
-            let text = String::from_utf8_lossy(&std::fs::read(path).unwrap()).into_owned();
-            for line in text.lines().map(str::trim_end) {
-                let Some(start) = line.find('$') else { continue };
-                let s = &line[start..];
-                if s.len() > 10
-                    && s.is_ascii()
-                    && s.as_bytes()[s.len() - 3] == b'*'
-                    && !s[1..].contains('$')
-                    && with_checksum(&s[1..s.len() - 3]).trim_end() == s
-                {
-                    let kind = &s[3..6];
-                    if matches!(kind, "GGA" | "GLL" | "RMC" | "GSA") {
-                        fast += usize::from(agrees(s));
-                        checked += 1;
-                    }
-                }
-            }
-        }
-        assert!(checked > 1000, "{checked}");
-        assert!(fast * 10 > checked * 9, "the fast path took only {fast} of {checked}");
-    }
-
-    proptest! {
-        /// Random near-canonical GGA, GLL, RMC and GSA: the fast path either declines or agrees with the crate.
-        #[test]
-        fn fast_path_matches_the_crate(
-            time in "[0-9]{6}(\\.[0-9]{1,4})?|[0-9]{5}|",
-            lat in "[0-9]{4}(\\.[0-9]{1,6})?|[0-9]{2}\\.|",
-            ns in "[NSX]?",
-            lon in "[0-9]{5}(\\.[0-9]{1,6})?|",
-            ew in "[EWX]?",
-            q in "[0-9]?",
-            sats in "[0-9]{0,3}",
-            hdop in "[0-9]{1,2}(\\.[0-9]{1,3})?|-1|",
-            alt in "-?[0-9]{1,5}(\\.[0-9]{1,3})?|",
-            sep in "-?[0-9]{1,3}(\\.[0-9]{1,2})?|",
-            status in "[AVX]",
-            mode in "[ADNX]?",
-            date in "[0-3][0-9][01][0-9][0-9]{2}|[0-9]{5}|",
-            m1 in "[MAX]",
-            ids in proptest::collection::vec("[0-9]{0,3}", 12..14),
-            sys in "(,[0-9]{0,2})?",
-        ) {
-            let gga = format!("GPGGA,{time},{lat},{ns},{lon},{ew},{q},{sats},{hdop},{alt},M,{sep},M,,");
-            let _ = agrees(with_checksum(&gga).trim_end());
-            let gll = format!("GPGLL,{lat},{ns},{lon},{ew},{time},{status},{mode}");
-            let _ = agrees(with_checksum(&gll).trim_end());
-            let rmc = format!("GNRMC,{time},{status},{lat},{ns},{lon},{ew},{hdop},{sep},{date},{hdop},{ew},{mode}");
-            let _ = agrees(with_checksum(&rmc).trim_end());
-            let gsa = format!("GPGSA,{m1},{q},{},{hdop},{sep},{alt}{sys}", ids.join(","));
-            let _ = agrees(with_checksum(&gsa).trim_end());
-        }
-    }
-}
+mod fast_path_tests;

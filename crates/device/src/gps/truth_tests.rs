@@ -10,6 +10,8 @@ use std::path::PathBuf;
 
 use super::{Fix, FixMode, decode_file, sentence};
 
+mod table;
+
 fn logs_dir() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/gpsd-logs")
 }

@@ -214,7 +214,8 @@ impl Engine<FrameCodec> {
     /// An engine speaking [`FrameCodec`].
     pub fn new(config: EngineConfig) -> Self {
         let compass = config.compass.clone().filter(|_| config.protocol_version >= 2);
-        let engine = Self::with_codec(config.clone(), FrameCodec::with_max_version(config.protocol_version));
+        let codec = FrameCodec::with_max_version(config.protocol_version);
+        let engine = Self::with_codec(config, codec);
         match compass {
             Some(setup) => engine.with_heading_sensor(Box::new(SimulatedCompass::new(&setup))),
             None => engine,

@@ -214,14 +214,14 @@ fn drive(
     step_ms: Option<u64>,
 ) -> (Vec<(Instant, TactorMask)>, Vec<Reply>) {
     let t0 = Instant::now();
-    let mut engine = Engine::new(config.clone());
+    let budget = u32::from(config.limits.max_simultaneous);
+    let mut engine = Engine::new(config);
     let codec = FrameCodec::with_max_version(1);
     let mut replies_codec = FrameCodec::with_max_version(1);
     let mut trace = vec![(t0, TactorMask::NONE)];
     let mut replies = Vec::new();
     let mut now = t0;
     let mut collect = |engine: &mut Engine, at: Instant, trace: &mut Vec<(Instant, TactorMask)>| {
-        let budget = u32::from(config.limits.max_simultaneous);
         assert!(engine.tactors_on().count() <= budget, "{:?} on at once", engine.tactors_on());
         while let Some(event) = engine.poll_event() {
             if let EngineEvent::TactorsChanged(mask) = event {

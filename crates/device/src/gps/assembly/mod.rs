@@ -143,6 +143,8 @@ struct Epoch {
     heading_invalid: bool,
     /// Anything that makes this epoch worth a fix (a position/time sentence).
     substantive: bool,
+    /// The position of the epoch's most recent valid position sentence (GGA/RMC/GNS/GLL).
+    latest_pos: Option<LatLon>,
 }
 
 /// A GSV group being collected, and the last complete one, per group key.
@@ -166,6 +168,9 @@ pub struct NmeaDecoder {
     date: Option<NaiveDate>,
     last_tod: Option<NaiveTime>,
     last_closed_tod_ms: Option<u32>,
+    /// The last emitted fix was 3D: an epoch without GSA or altitude keeps that dimension (see
+    /// [`Self::build_fix`]); a fix loss clears it.
+    altitude_fix: bool,
     gsa_state: Vec<GsaPart>,
     sky: BTreeMap<String, SkyGroup>,
     ender: Option<Kind>,
@@ -200,6 +205,7 @@ impl NmeaDecoder {
             date: None,
             last_tod: None,
             last_closed_tod_ms: None,
+            altitude_fix: false,
             gsa_state: Vec::new(),
             sky: BTreeMap::new(),
             ender: None,
@@ -351,7 +357,14 @@ impl NmeaDecoder {
                 self.boundary();
             }
         }
-        if kind != Kind::Gsa && kind != Kind::Gsv && self.epoch.seen & (1 << kind as u16) != 0 {
+        // A repeated type closes the epoch, unless the repeat carries the epoch's own UTC time: then it is
+        // the same second said twice (the B&G Zeus 2 multiplexer forwards some ZDAs twice), and splitting
+        // would leave a second epoch of that time with no position. NMEA 0183 ties a sentence to its
+        // epoch by the UTC time field; only sentences without one need the repeat rule.
+        let same_second =
+            time.zip(self.epoch.tod).is_some_and(|(t, cur)| sentence::tod_ms(t) == sentence::tod_ms(cur));
+        if kind != Kind::Gsa && kind != Kind::Gsv && !same_second && self.epoch.seen & (1 << kind as u16) != 0
+        {
             self.boundary();
         }
         if let Some(t) = time {
@@ -376,10 +389,16 @@ impl NmeaDecoder {
         match p {
             Parsed::Gga { pos, quality, sats, hdop, alt_m, geoid_sep_m, .. } => {
                 e.gga = Some((pos, quality, sats, hdop, alt_m, geoid_sep_m));
+                if quality.is_some_and(FixQuality::has_position) {
+                    e.latest_pos = pos.or(e.latest_pos);
+                }
                 e.substantive = true;
             }
             Parsed::Rmc { date, valid, pos, speed_m_s, course_deg, .. } => {
                 e.rmc = Some((valid, pos, speed_m_s, course_deg));
+                if valid {
+                    e.latest_pos = pos.or(e.latest_pos);
+                }
                 if date.is_some() {
                     e.date = date;
                 }
@@ -387,10 +406,16 @@ impl NmeaDecoder {
             }
             Parsed::Gll { pos, valid, .. } => {
                 e.gll = Some((valid, pos));
+                if valid {
+                    e.latest_pos = pos.or(e.latest_pos);
+                }
                 e.substantive = true;
             }
             Parsed::Gns { pos, valid, sats, hdop, alt_m, geoid_sep_m, .. } => {
                 e.gns = Some((valid, pos, sats, hdop, alt_m, geoid_sep_m));
+                if valid {
+                    e.latest_pos = pos.or(e.latest_pos);
+                }
                 e.substantive = true;
             }
             Parsed::Zda { date, time } => {
@@ -476,6 +501,7 @@ impl NmeaDecoder {
         let mut fix = self.build_fix(epoch);
         // The one boundary check of every value before the fix leaves the decoder.
         fix.validate().count_into(&mut self.checked);
+        self.altitude_fix = fix.mode == Some(FixMode::Fix3D);
         self.epochs += 1;
         self.events.push_back(GpsEvent::Fix(Box::new(fix)));
     }
@@ -536,6 +562,11 @@ impl NmeaDecoder {
         }
         let valid = valid.unwrap_or(false) && pos.is_some();
         if valid {
+            // When the epoch's sentences disagree on the position (a marine multiplexer such as the B&G
+            // Zeus 2 sends GGA and GLL of the same second from different sources), the latest one wins:
+            // gpsd merges every sentence into its fix in arrival order, so its report for the second
+            // carries the last sentence's position.
+            let pos = e.latest_pos.or(pos);
             fix.lat_deg = pos.map(|p| p.0);
             fix.lon_deg = pos.map(|p| p.1);
         }
@@ -548,6 +579,11 @@ impl NmeaDecoder {
             Some(match gsa_mode {
                 Some(m @ (FixMode::Fix2D | FixMode::Fix3D)) => m,
                 _ if fix.alt_m.is_some() => FixMode::Fix3D,
+                // No GSA and no altitude in this epoch (an RMC/GLL-only second between GGAs, e.g. the
+                // Humminbird GR16 sends GGA every 4 s): RMC and GLL carry no dimension, so the fix keeps
+                // the dimension of the receiver's last altitude-bearing epoch, as gpsd does (its RMC/GLL
+                // handlers raise the mode to 2D only when it is below 2D).
+                _ if self.altitude_fix => FixMode::Fix3D,
                 _ => FixMode::Fix2D,
             })
         } else {
