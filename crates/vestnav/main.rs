@@ -21,6 +21,7 @@ use cli::{
 
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
+    init_tracing();
     quiet_on_broken_pipe();
     match run(cli) {
         Ok(()) => std::process::ExitCode::SUCCESS,
@@ -30,6 +31,16 @@ fn main() -> std::process::ExitCode {
             std::process::ExitCode::FAILURE
         }
     }
+}
+
+/// Diagnostics (serial, gpsd, vest transport and map tile failures) go to stderr, filtered by `RUST_LOG`
+/// (`RUST_LOG=vestnav_device=info`, `RUST_LOG=debug`); without it only warnings and errors are shown. The
+/// `log` records of dependencies (walkers' tile fetches) are forwarded too. Stdout stays the subcommands'.
+fn init_tracing() {
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn"));
+    // A second subscriber (none here) is the only way this fails; logging is then simply off.
+    let _ = tracing_subscriber::fmt().with_env_filter(filter).with_writer(std::io::stderr).try_init();
 }
 
 /// Exit status when the reader of our output went away (`vestnav ... | head`): 128 + SIGPIPE, as a

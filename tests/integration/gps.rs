@@ -231,6 +231,7 @@ fn gpsd_trickling_without_newline_goes_stale_then_lost_and_reconnects() {
 
 /// `nmea record` on a real PTY fed by the GPS emulator, with cone marks typed on standard input: the
 /// recording decodes to the emulator's fixes (positions of the replayed log) and carries the marks in order.
+#[cfg(unix)]
 #[test]
 fn record_from_a_pty_with_operator_marks() {
     use std::io::Write as _;

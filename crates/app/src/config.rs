@@ -94,6 +94,10 @@ pub struct Config {
     pub heading_mode: vestnav_core::guidance::HeadingMode,
     /// Compass calibrations by unit (its port, or "emulated"), sent to the unit when it connects.
     pub compass_calibrations: std::collections::BTreeMap<String, vestnav_core::compass::Calibration>,
+    /// Light, high-contrast theme (for sunlight) instead of the dark one (View menu).
+    pub light_theme: bool,
+    /// Larger text everywhere (View menu): body text 18 pt instead of 13.
+    pub large_text: bool,
 }
 
 impl Default for Config {
@@ -118,6 +122,8 @@ impl Default for Config {
             log_dir: None,
             heading_mode: vestnav_core::guidance::HeadingMode::Auto,
             compass_calibrations: std::collections::BTreeMap::new(),
+            light_theme: false,
+            large_text: false,
         }
     }
 }
@@ -135,6 +141,11 @@ pub fn default_path() -> Option<PathBuf> {
 /// Directory for session logs and the tile cache when the config names none.
 pub fn data_dir() -> PathBuf {
     project_dirs().map_or_else(|| std::env::temp_dir().join("vestnav"), |d| d.data_dir().to_path_buf())
+}
+
+/// Where the console autosaves the route being edited and restores it from at start-up.
+pub fn route_autosave_path() -> PathBuf {
+    data_dir().join(crate::route::AUTOSAVE_FILE)
 }
 
 impl Config {

@@ -41,6 +41,8 @@ use vestnav_device::session_log::{LogEntry, LogSender, SessionLog};
 
 mod frame;
 
+pub use frame::{Banner, BannerSubject, Severity};
+
 /// Time the UI may spend per frame draining worker events.
 const DRAIN_BUDGET: Duration = Duration::from_millis(2);
 /// Capacity of each of the UI's event channels.
@@ -127,6 +129,9 @@ pub struct VestView {
     pub last_reply: Option<VestReply>,
     /// Why automatic cues are latched off, when they are (STOP ALL, a stalled thread).
     pub halted: Option<String>,
+    /// Why the link was last lost, kept until the unit is ready again: reconnection attempts in between
+    /// are still a lost vest (the banner says so).
+    pub lost: Option<String>,
     /// Latest reading of the unit's heading stream (protocol v2), timed by its arrival.
     pub heading: Option<Attitude>,
     /// Tactors selected for a multi-fire.
@@ -269,6 +274,8 @@ pub struct Console {
     field_panel: FieldTestPanel,
     /// Session log viewer / replay.
     pub log_viewer: crate::log_viewer::LogViewer,
+    /// The route autosave (`None`: the route is not autosaved).
+    route_autosave: Option<crate::route::Autosave>,
 }
 
 /// Options for [`Console::new`].
@@ -288,13 +295,17 @@ pub struct ConsoleOptions {
     pub liveness: Option<Liveness>,
     /// Where exit paths find the vest (the signal handler holds a clone).
     pub exit: ExitGuard,
+    /// Where the route is autosaved and restored from at start-up (`None`: neither, e.g. in tests; the
+    /// console's own is [`crate::config::route_autosave_path`]).
+    pub route_autosave: Option<PathBuf>,
 }
 
 impl Console {
     /// Builds the console, starts the guidance worker and the session log, and connects the configured
     /// devices when `cfg.auto_connect` is set or devices were given on the command line.
     pub fn new(factory: Box<dyn DeviceFactory>, opts: ConsoleOptions) -> Self {
-        let ConsoleOptions { mut cfg, cfg_path, log_dir, waker, devices, liveness, exit } = opts;
+        let ConsoleOptions { mut cfg, cfg_path, log_dir, waker, devices, liveness, exit, route_autosave } =
+            opts;
         let waker: Option<Waker> = waker.map(|ctx| Arc::new(move || ctx.request_repaint()) as Waker);
         let mut status = String::new();
         let log = log_dir.and_then(|d| match SessionLog::create(&d) {
@@ -326,18 +337,9 @@ impl Console {
         }
 
         let mut map = MapView::new(cfg.follow);
-        let route = match devices.gps.as_ref().and_then(|g| g.route.clone()) {
-            Some(path) => std::fs::read_to_string(&path)
-                .map_err(|e| format!("cannot read {}: {e}", path.display()))
-                .and_then(|t| crate::route::parse_gpx(&t).map_err(|e| format!("{}: {e}", path.display()))),
-            None => crate::route::parse_gpx(crate::route::DEMO_GPX).map_err(|e| format!("demo route: {e}")),
-        };
-        match route {
-            Ok(c) => {
-                map.route_name = c.name.unwrap_or_else(|| "route".into());
-                map.waypoints = c.waypoints;
-            }
-            Err(e) => status = format!("route unreadable: {e}"),
+        let cli_route = devices.gps.as_ref().and_then(|g| g.route.clone());
+        if let Some(e) = load_route(&mut map, cli_route, route_autosave.as_deref()) {
+            status = e;
         }
 
         let mut console = Self {
@@ -381,7 +383,10 @@ impl Console {
             sim_panel: SimPanel::new(),
             field_panel: FieldTestPanel::new(),
             log_viewer: crate::log_viewer::LogViewer::default(),
+            route_autosave: None,
         };
+        console.route_autosave =
+            route_autosave.map(|p| crate::route::Autosave::new(p, console.map.route_state()));
         console.push_route();
         if connect_now {
             console.connect_vest();
@@ -511,6 +516,17 @@ impl Console {
     pub fn shutdown(&mut self) {
         self.disconnect_vest();
         self.disconnect_gps();
+        self.autosave_route(true);
+    }
+
+    /// Writes the route to the autosave when it changed (rate-limited, unless `now_or_never`); a failure
+    /// is shown once in the status line.
+    pub fn autosave_route(&mut self, now_or_never: bool) {
+        let Some(a) = &mut self.route_autosave else { return };
+        let m = &self.map;
+        if let Some(e) = a.poll(&m.route_name, &m.waypoints, m.next, Instant::now(), now_or_never) {
+            self.status = e;
+        }
     }
 
     /// Sends a manual command to the vest (holding automatic guidance off) and logs it; `cue` names it when
@@ -692,6 +708,11 @@ impl Console {
                     self.vest.device = None;
                     self.vest.heading = None;
                 }
+                match &s {
+                    LinkState::Lost { reason } => self.vest.lost = Some(reason.clone()),
+                    LinkState::Ready => self.vest.lost = None,
+                    _ => {}
+                }
                 self.vest.state = Some(s);
             }
             VestEvent::Identified(info) => {
@@ -743,6 +764,7 @@ impl Console {
             b.beat();
         }
         self.pump();
+        self.autosave_route(false);
     }
 
     fn log_dir(&self) -> PathBuf {
@@ -770,6 +792,64 @@ impl Console {
 impl Drop for Console {
     fn drop(&mut self) {
         self.shutdown();
+    }
+}
+
+/// Loads the route the console starts with into `map`: the route named on the command line, else the
+/// autosaved one, else the demo route. Returns a problem for the status line.
+fn load_route(
+    map: &mut MapView,
+    cli_route: Option<PathBuf>,
+    autosave: Option<&std::path::Path>,
+) -> Option<String> {
+    if cli_route.is_none()
+        && let Some(path) = autosave
+        && restore_route(path, map)
+    {
+        return None;
+    }
+    let route = match cli_route {
+        Some(path) => std::fs::read_to_string(&path)
+            .map_err(|e| format!("cannot read {}: {e}", path.display()))
+            .and_then(|t| crate::route::parse_gpx(&t).map_err(|e| format!("{}: {e}", path.display()))),
+        None => crate::route::parse_gpx(crate::route::DEMO_GPX).map_err(|e| format!("demo route: {e}")),
+    };
+    match route {
+        Ok(c) => {
+            map.route_name = c.name.unwrap_or_else(|| "route".into());
+            map.waypoints = c.waypoints;
+            map.notice.clone()
+        }
+        Err(e) => Some(format!("route unreadable: {e}")),
+    }
+}
+
+/// Restores the autosaved route at `path` into `map`; returns whether it did. An unreadable autosave is
+/// moved aside (`….corrupt`, so that the next autosave does not overwrite what may be worth rescuing)
+/// and the reason, naming the file, is left in `map.notice`.
+fn restore_route(path: &std::path::Path, map: &mut MapView) -> bool {
+    match crate::route::read_autosave(path) {
+        Ok(Some(state)) => {
+            map.route_name = state.name;
+            map.waypoints = state.waypoints;
+            map.next = state.next;
+            true
+        }
+        Ok(None) => false,
+        Err(e) => {
+            let mut aside = path.as_os_str().to_owned();
+            aside.push(".corrupt");
+            let aside = PathBuf::from(aside);
+            let kept = match std::fs::rename(path, &aside) {
+                Ok(()) => format!("it was kept as {}", aside.display()),
+                Err(_) => "it will be overwritten by the next autosave".to_owned(),
+            };
+            map.notice = Some(format!(
+                "Route autosave {} is unreadable ({e}); started with the default route, {kept}.",
+                path.display()
+            ));
+            false
+        }
     }
 }
 

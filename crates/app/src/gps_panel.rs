@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use egui::{Color32, RichText, Stroke, vec2};
-use vestnav_device::gps::{Fix, FixMode, Satellite, SourceState};
+use vestnav_device::gps::{Constellation, Fix, FixMode, Satellite, SourceState};
 use vestnav_device::heading::{Attitude, HeadingOrigin, HeadingReference};
 use vestnav_device::serial::{PortInfo, PortKind};
 
@@ -151,8 +151,8 @@ pub fn freshness(fix: &Fix, source_running: bool, now: Instant, stale_after_s: f
     }
 }
 
-/// Draws the GPS section; `now` is the clock fix ages are measured on, `anim_s` only drives the blink.
-pub fn show(c: &mut Console, ui: &mut egui::Ui, now: Instant, anim_s: f64) {
+/// Draws the GPS section; `now` is the clock fix ages are measured on.
+pub fn show(c: &mut Console, ui: &mut egui::Ui, now: Instant) {
     picker_ui(c, ui);
     ui.horizontal(|ui| {
         let connected = c.gps_connected();
@@ -174,28 +174,8 @@ pub fn show(c: &mut Console, ui: &mut egui::Ui, now: Instant, anim_s: f64) {
         ui.label(RichText::new(n).small().weak());
     }
 
+    // The alarm itself (state, what to do, "Silence alarm") is the banner strip's GPS line.
     let alarm = c.gps_alarm(now);
-    if let Some(a) = &alarm
-        && !c.gps.alarm_silenced
-    {
-        let blink = (anim_s * 2.0).fract() < 0.5;
-        let (text, color) = match a {
-            GpsAlarm::Lost { reason } => (format!("GPS FIX LOST: {reason}"), Color32::from_rgb(220, 30, 30)),
-            GpsAlarm::Stale { age_s } => {
-                (format!("GPS STALE: last fix {age_s:.0} s ago"), Color32::from_rgb(220, 140, 0))
-            }
-        };
-        egui::Frame::new()
-            .fill(if blink { color } else { color.gamma_multiply(0.7) })
-            .inner_margin(6.0)
-            .show(ui, |ui| {
-                ui.label(RichText::new(text).color(Color32::WHITE).strong());
-                if ui.button("Silence alarm").clicked() {
-                    c.gps.alarm_silenced = true;
-                }
-            });
-        ui.ctx().request_repaint_after(std::time::Duration::from_millis(250));
-    }
 
     if let Some(a) = &c.gps.attitude {
         let (text, stale) = attitude_line(a, now, c.cfg.stale_after_s);
@@ -247,7 +227,62 @@ pub fn show(c: &mut Console, ui: &mut egui::Ui, now: Instant, anim_s: f64) {
                     .weak(),
             );
         }
+        satellite_table(ui, &fix.satellites, fresh);
     }
+}
+
+/// A constellation's name as receivers' tools show it.
+pub fn constellation_name(c: Constellation) -> &'static str {
+    match c {
+        Constellation::Gps => "GPS",
+        Constellation::Sbas => "SBAS",
+        Constellation::Glonass => "GLONASS",
+        Constellation::Galileo => "Galileo",
+        Constellation::Beidou => "BeiDou",
+        Constellation::Qzss => "QZSS",
+        Constellation::Navic => "NavIC",
+        Constellation::Unknown => "?",
+    }
+}
+
+/// The satellite table as u-center and xgps show it: PRN, constellation, elevation, azimuth, SNR, used;
+/// sorted by constellation and PRN. Greyed under a "last known" heading when the epoch is not current.
+/// Collapsed at first (its header gives the count): open, it would push the vest grid below the fold.
+fn satellite_table(ui: &mut egui::Ui, sats: &[Satellite], fresh: Freshness) {
+    let grey = matches!(fresh, Freshness::LastKnown { .. });
+    let title = match fresh {
+        Freshness::Current => format!("Satellites ({} in view)", sats.len()),
+        Freshness::LastKnown { age_s } => {
+            format!("Satellites ({} in view, last known, {})", sats.len(), crate::map_panel::age_text(age_s))
+        }
+    };
+    egui::CollapsingHeader::new(title).id_salt("gps-satellites").default_open(false).show(ui, |ui| {
+        let mut rows: Vec<&Satellite> = sats.iter().collect();
+        rows.sort_by_key(|s| (s.constellation, s.prn));
+        let cell = |text: String| if grey { RichText::new(text).weak() } else { RichText::new(text) };
+        let deg = |v: Option<f64>| {
+            v.filter(|x| x.is_finite()).map_or_else(|| "—".to_owned(), |x| format!("{x:.0}°"))
+        };
+        egui::Grid::new("gps-satellites-grid").num_columns(6).striped(true).show(ui, |ui| {
+            for h in ["PRN", "System", "Elev.", "Azim.", "SNR dB-Hz", "Used"] {
+                ui.label(cell(h.to_owned()).strong());
+            }
+            ui.end_row();
+            for s in rows {
+                ui.label(cell(s.prn.to_string()));
+                ui.label(cell(constellation_name(s.constellation).to_owned()));
+                ui.label(cell(deg(s.elevation_deg)));
+                ui.label(cell(deg(s.azimuth_deg)));
+                let snr = s
+                    .snr_dbhz
+                    .filter(|x| x.is_finite())
+                    .map_or_else(|| "—".to_owned(), |x| format!("{x:.0}"));
+                ui.label(cell(snr).color(snr_color(s.snr_dbhz, true, grey)));
+                ui.label(cell(if s.used { "yes" } else { "no" }.to_owned()));
+                ui.end_row();
+            }
+        });
+    });
 }
 
 fn picker_ui(c: &mut Console, ui: &mut egui::Ui) {

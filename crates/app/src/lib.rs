@@ -69,6 +69,7 @@ pub fn run(devices: DeviceOverrides) -> anyhow::Result<()> {
                     devices,
                     liveness: Some(Liveness::default()),
                     exit,
+                    route_autosave: Some(config::route_autosave_path()),
                 },
             );
             if let Some(e) = cfg_error {

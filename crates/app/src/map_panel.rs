@@ -4,20 +4,29 @@
 //! Mouse: drag the map to pan (leaves follow mode), Ctrl+wheel or pinch to zoom; drag a waypoint to move
 //! it; right-click a waypoint for delete / move earlier / move later / make next; right-click the map to add
 //! a waypoint there; with "Add waypoints" on, a left click adds one at the end of the route.
+//!
+//! Every edit of the route (add, move, drag, delete, reorder, rename, typed coordinates, clear, import)
+//! is one step of a bounded undo history ([`UNDO_STEPS`]); Ctrl+Z undoes, Ctrl+Shift+Z and Ctrl+Y redo
+//! (outside text fields). A delete is not confirmed: it is undoable at once, and says so ("Deleted WP3"
+//! with an **Undo delete** button).
 
 use std::cell::Cell;
+use std::collections::VecDeque;
 use std::rc::Rc;
 use std::time::Instant;
 
-use egui::{Color32, Pos2, RichText, Stroke, vec2};
+use egui::{Color32, Key, KeyboardShortcut, Modifiers, Pos2, RichText, Stroke, vec2};
 use walkers::{HttpOptions, HttpTiles, MapMemory, Position, Projector, TileId, TilePiece, Tiles, lat_lon};
 
 use crate::config::Config;
-use crate::route::{Waypoint, decimation_stride};
+use crate::route::{RouteState, Waypoint, decimation_stride};
 use vestnav_core::geo::{DVec2, Earth, LatLon, LocalFrame};
 use vestnav_device::gps::Fix;
 
 use crate::guidance::GuidanceStatus;
+
+/// Undo steps kept; the oldest is forgotten beyond this.
+pub const UNDO_STEPS: usize = 100;
 
 /// Track points drawn at most per frame (older points are strided, the newest [`TRACK_TAIL`] drawn in full).
 pub const TRACK_DRAW_MAX: usize = 2500;
@@ -171,6 +180,100 @@ pub struct MapView {
     pub gpx_path: String,
     right_click_at: Option<Position>,
     menu_wp: Option<usize>,
+    /// Undo steps, oldest first (at most [`UNDO_STEPS`]).
+    undo: VecDeque<UndoStep>,
+    /// Redo steps, the most recently undone last.
+    redo: Vec<UndoStep>,
+    /// "Deleted WP3": shown with an **Undo delete** button after a delete or a clear, until the next edit.
+    pub undo_notice: Option<String>,
+    /// A problem the operator must read (e.g. an unreadable route autosave), shown until dismissed.
+    pub notice: Option<String>,
+    /// The waypoint editor (name and typed coordinates), when open.
+    pub editor: Option<WaypointEditor>,
+    /// The waypoint being dragged and the route before the drag began (one drag is one undo step).
+    drag_before: Option<(usize, RouteState)>,
+}
+
+/// One step of the undo (or redo) history: the route to go back to.
+#[derive(Debug, Clone)]
+struct UndoStep {
+    /// The edit, in words ("delete WP3").
+    what: String,
+    /// The route to restore.
+    state: RouteState,
+    /// The next waypoint's index the history left: when guidance has moved on since (an arrival), the
+    /// restore keeps guidance's next waypoint instead of the stored one.
+    left_next: usize,
+}
+
+/// The waypoint editor's fields, as typed.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WaypointEditor {
+    /// Index of the waypoint edited.
+    pub index: usize,
+    /// Its name.
+    pub name: String,
+    /// Latitude in decimal degrees, as typed.
+    pub lat: String,
+    /// Longitude in decimal degrees, as typed.
+    pub lon: String,
+    /// Why the last Apply was refused (names the field).
+    pub error: Option<String>,
+}
+
+/// Parses a coordinate typed in decimal degrees (`42.3573`, `-71.1`; a decimal comma and a trailing `°`
+/// are accepted) and checks it against GPX's range for `field`: latitude in [-90, 90], longitude in
+/// [-180, 180). Errors name the field.
+pub fn parse_coordinate(text: &str, field: Coordinate) -> Result<f64, String> {
+    let t = text.trim().trim_end_matches('°').trim();
+    let t = if t.contains(',') && !t.contains('.') { t.replace(',', ".") } else { t.to_owned() };
+    let name = field.name();
+    if t.is_empty() {
+        return Err(format!("{name}: enter a value in decimal degrees"));
+    }
+    let v: f64 =
+        t.parse().map_err(|_| format!("{name}: '{}' is not a number in decimal degrees", text.trim()))?;
+    let ok = match field {
+        Coordinate::Latitude => (-90.0..=90.0).contains(&v),
+        Coordinate::Longitude => (-180.0..180.0).contains(&v),
+    };
+    if ok { Ok(v) } else { Err(format!("{name}: {v} is outside {}", field.range())) }
+}
+
+/// Which coordinate [`parse_coordinate`] reads.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Coordinate {
+    /// Latitude, [-90, 90] degrees.
+    Latitude,
+    /// Longitude, [-180, 180) degrees.
+    Longitude,
+}
+
+impl Coordinate {
+    fn name(self) -> &'static str {
+        match self {
+            Self::Latitude => "Latitude",
+            Self::Longitude => "Longitude",
+        }
+    }
+    fn range(self) -> &'static str {
+        match self {
+            Self::Latitude => "[-90, 90] degrees",
+            Self::Longitude => "[-180, 180) degrees",
+        }
+    }
+}
+
+/// A map position as waypoint coordinates within GPX's ranges: latitude clamped to [-90, 90], longitude
+/// wrapped into [-180, 180) (the map can be panned past the antimeridian), so the route can always be
+/// saved and read back.
+fn waypoint_coords(p: Position) -> (f64, f64) {
+    let lat_deg = if p.y().is_finite() { p.y().clamp(-90.0, 90.0) } else { 0.0 };
+    let mut lon_deg = if p.x().is_finite() { (p.x() + 180.0).rem_euclid(360.0) - 180.0 } else { 0.0 };
+    if lon_deg >= 180.0 {
+        lon_deg -= 360.0;
+    }
+    (lat_deg, lon_deg)
 }
 
 /// A [`Tiles`] wrapper that counts tiles found and missing, to tell "offline" from "loading".
@@ -213,6 +316,8 @@ enum WaypointAction {
     MoveDown,
     /// Remove it.
     Delete,
+    /// Open the editor on it.
+    Edit,
 }
 
 fn to_pos2(v: egui::Vec2) -> Pos2 {
@@ -246,7 +351,137 @@ impl MapView {
             gpx_path: String::new(),
             right_click_at: None,
             menu_wp: None,
+            undo: VecDeque::new(),
+            redo: Vec::new(),
+            undo_notice: None,
+            notice: None,
+            editor: None,
+            drag_before: None,
         }
+    }
+
+    /// The route as it stands (name, waypoints, next).
+    pub fn route_state(&self) -> RouteState {
+        RouteState { name: self.route_name.clone(), waypoints: self.waypoints.clone(), next: self.next }
+    }
+
+    /// Records the edit just made (the route was `before`) as one undo step; clears the redo steps, the
+    /// delete notice and the editor. Nothing is recorded when the route did not change.
+    fn commit(&mut self, what: String, before: RouteState) {
+        if before.is(&self.route_name, &self.waypoints, self.next) {
+            return;
+        }
+        if self.undo.len() >= UNDO_STEPS {
+            self.undo.pop_front();
+        }
+        self.undo.push_back(UndoStep { what, state: before, left_next: self.next });
+        self.redo.clear();
+        self.undo_notice = None;
+        self.editor = None;
+    }
+
+    /// Puts `step`'s route in place and returns the step that goes back to the route it replaced.
+    fn swap_in(&mut self, step: UndoStep) -> UndoStep {
+        let current = RouteState {
+            name: std::mem::take(&mut self.route_name),
+            waypoints: std::mem::take(&mut self.waypoints),
+            next: self.next,
+        };
+        let UndoStep { what, state, left_next } = step;
+        self.route_name = state.name;
+        self.waypoints = state.waypoints;
+        let next = if current.next == left_next { state.next } else { current.next };
+        self.next = next.min(self.waypoints.len());
+        self.undo_notice = None;
+        self.editor = None;
+        self.drag_before = None;
+        UndoStep { what, state: current, left_next: self.next }
+    }
+
+    /// Undoes the latest edit; returns whether there was one.
+    pub fn undo(&mut self) -> bool {
+        let Some(step) = self.undo.pop_back() else { return false };
+        let back = self.swap_in(step);
+        self.redo.push(back);
+        true
+    }
+
+    /// Redoes the latest undone edit; returns whether there was one.
+    pub fn redo(&mut self) -> bool {
+        let Some(step) = self.redo.pop() else { return false };
+        let back = self.swap_in(step);
+        self.undo.push_back(back);
+        true
+    }
+
+    /// The edit Undo would take back, in words.
+    pub fn undo_label(&self) -> Option<&str> {
+        self.undo.back().map(|s| s.what.as_str())
+    }
+
+    /// The edit Redo would make again, in words.
+    pub fn redo_label(&self) -> Option<&str> {
+        self.redo.last().map(|s| s.what.as_str())
+    }
+
+    /// Removes every waypoint (one undo step, with the delete notice).
+    pub fn clear_route(&mut self) {
+        if self.waypoints.is_empty() {
+            return;
+        }
+        let before = self.route_state();
+        let n = before.waypoints.len();
+        self.waypoints.clear();
+        self.next = 0;
+        self.commit("clear route".to_owned(), before);
+        self.undo_notice = Some(format!("Cleared the route ({n} waypoints)"));
+    }
+
+    /// Replaces the route with an imported one (one undo step).
+    pub fn replace_route(&mut self, name: String, waypoints: Vec<Waypoint>) {
+        let before = self.route_state();
+        let what = format!("import {name}");
+        self.route_name = name;
+        self.waypoints = waypoints;
+        self.next = 0;
+        self.commit(what, before);
+    }
+
+    /// Renames waypoint `i` and sets its position from typed text (decimal degrees): one undo step.
+    /// Errors name the field (`Name`, `Latitude`, `Longitude`) and change nothing.
+    pub fn edit_waypoint(&mut self, i: usize, name: &str, lat: &str, lon: &str) -> Result<(), String> {
+        let name = name.trim();
+        if name.is_empty() {
+            return Err("Name: must not be empty".to_owned());
+        }
+        let lat_deg = parse_coordinate(lat, Coordinate::Latitude)?;
+        let lon_deg = parse_coordinate(lon, Coordinate::Longitude)?;
+        let Some(old) = self.waypoints.get(i).cloned() else {
+            return Err(format!("waypoint {} no longer exists", i + 1));
+        };
+        let moved = old.lat_deg.to_bits() != lat_deg.to_bits() || old.lon_deg.to_bits() != lon_deg.to_bits();
+        let what = match (old.name != name, moved) {
+            (true, false) => format!("rename {} to {name}", old.name),
+            (false, true) => format!("move {} to typed coordinates", old.name),
+            _ => format!("edit {}", old.name),
+        };
+        let before = self.route_state();
+        if let Some(w) = self.waypoints.get_mut(i) {
+            *w = Waypoint { name: name.to_owned(), lat_deg, lon_deg };
+        }
+        self.commit(what, before);
+        Ok(())
+    }
+
+    /// Opens the editor on waypoint `i` with its current values.
+    pub fn open_editor(&mut self, i: usize) {
+        self.editor = self.waypoints.get(i).map(|w| WaypointEditor {
+            index: i,
+            name: w.name.clone(),
+            lat: w.lat_deg.to_string(),
+            lon: w.lon_deg.to_string(),
+            error: None,
+        });
     }
 
     /// Appends the position of `fix` to the wearer's track, starting a new segment when the step from the
@@ -299,10 +534,28 @@ impl MapView {
         status: &mut String,
     ) -> bool {
         let mut changed = false;
+        if !ui.ctx().text_edit_focused() {
+            // The more specific shortcut first: Ctrl+Z alone also matches Ctrl+Shift+Z.
+            let (redo, undo) = ui.input_mut(|i| {
+                let redo = i
+                    .consume_shortcut(&KeyboardShortcut::new(Modifiers::COMMAND | Modifiers::SHIFT, Key::Z))
+                    || i.consume_shortcut(&KeyboardShortcut::new(Modifiers::COMMAND, Key::Y));
+                (redo, !redo && i.consume_shortcut(&KeyboardShortcut::new(Modifiers::COMMAND, Key::Z)))
+            });
+            changed |= (redo && self.redo()) || (undo && self.undo());
+        }
+        if let Some(n) = self.notice.clone() {
+            ui.horizontal_wrapped(|ui| {
+                ui.label(RichText::new(n).strong().color(ui.visuals().warn_fg_color));
+                if ui.small_button("Dismiss").clicked() {
+                    self.notice = None;
+                }
+            });
+        }
         changed |= self.toolbar(ui, cfg, status);
         let speed_m_s = fix.and_then(|f| f.speed_m_s);
         self.next_info(ui, fix, guidance, speed_m_s, walking_m_s);
-        egui::Panel::right("waypoint-list").default_size(210.0).show(ui, |ui| {
+        egui::Panel::right("waypoint-list").default_size(290.0).show(ui, |ui| {
             changed |= self.waypoint_list(ui);
         });
         changed |= self.map_ui(ui, fix, guidance.and_then(|g| g.heading_deg), cfg);
@@ -331,9 +584,7 @@ impl MapView {
                     Ok(c) => {
                         let (nw, nt) = (c.waypoints.len(), c.track.len());
                         if nw > 0 {
-                            self.waypoints = c.waypoints;
-                            self.next = 0;
-                            self.route_name = c.name.unwrap_or_else(|| "imported".into());
+                            self.replace_route(c.name.unwrap_or_else(|| "imported".into()), c.waypoints);
                             changed = true;
                         }
                         if nt > 0 {
@@ -413,6 +664,38 @@ impl MapView {
     fn waypoint_list(&mut self, ui: &mut egui::Ui) -> bool {
         let mut changed = false;
         ui.label(RichText::new(format!("{} ({} waypoints)", self.route_name, self.waypoints.len())).strong());
+        ui.horizontal(|ui| {
+            let undo = ui
+                .add_enabled(!self.undo.is_empty(), egui::Button::new("Undo"))
+                .on_hover_text(format!("Undo {} (Ctrl+Z)", self.undo_label().unwrap_or("")))
+                .on_disabled_hover_text("Nothing to undo");
+            if undo.clicked() {
+                changed |= self.undo();
+            }
+            let redo = ui
+                .add_enabled(!self.redo.is_empty(), egui::Button::new("Redo"))
+                .on_hover_text(format!("Redo {} (Ctrl+Shift+Z or Ctrl+Y)", self.redo_label().unwrap_or("")))
+                .on_disabled_hover_text("Nothing to redo");
+            if redo.clicked() {
+                changed |= self.redo();
+            }
+            let clear = ui
+                .add_enabled(!self.waypoints.is_empty(), egui::Button::new("Clear route"))
+                .on_hover_text("Remove every waypoint (Undo brings them back)");
+            if clear.clicked() {
+                self.clear_route();
+                changed = true;
+            }
+        });
+        if let Some(n) = self.undo_notice.clone() {
+            ui.horizontal_wrapped(|ui| {
+                ui.label(RichText::new(n).strong());
+                if ui.small_button("Undo delete").clicked() {
+                    changed |= self.undo();
+                }
+            });
+        }
+        changed |= self.editor_ui(ui);
         let mut action: Option<(usize, WaypointAction)> = None;
         egui::ScrollArea::vertical().show_rows(ui, 22.0, self.waypoints.len(), |ui, range| {
             for i in range {
@@ -423,23 +706,75 @@ impl MapView {
                     {
                         action = Some((i, WaypointAction::Select));
                     }
+                    if ui.small_button("Edit").on_hover_text("Rename, type coordinates").clicked() {
+                        action = Some((i, WaypointAction::Edit));
+                    }
                     if ui.small_button("Up").on_hover_text("Move earlier").clicked() {
                         action = Some((i, WaypointAction::MoveUp));
                     }
                     if ui.small_button("Down").on_hover_text("Move later").clicked() {
                         action = Some((i, WaypointAction::MoveDown));
                     }
-                    if ui.small_button("Del").on_hover_text("Delete").clicked() {
+                    if ui.small_button("Del").on_hover_text("Delete (Undo brings it back)").clicked() {
                         action = Some((i, WaypointAction::Delete));
                     }
                 });
             }
         });
         if let Some((i, a)) = action {
-            changed = true;
+            changed |= a != WaypointAction::Edit;
             self.apply_waypoint_action(i, a);
         }
         changed
+    }
+
+    /// The waypoint editor (when open): name, latitude and longitude; Apply (or Enter) checks and applies
+    /// them as one undo step.
+    fn editor_ui(&mut self, ui: &mut egui::Ui) -> bool {
+        let Some(ed) = &mut self.editor else { return false };
+        let (mut apply, mut cancel) = (false, false);
+        ui.group(|ui| {
+            ui.label(RichText::new(format!("Edit waypoint {}", ed.index + 1)).strong());
+            egui::Grid::new("waypoint-editor").num_columns(2).show(ui, |ui| {
+                for (label, text) in [
+                    ("Name", &mut ed.name),
+                    ("Latitude (deg)", &mut ed.lat),
+                    ("Longitude (deg)", &mut ed.lon),
+                ] {
+                    let l = ui.label(label);
+                    let r = ui.add(egui::TextEdit::singleline(text).desired_width(150.0)).labelled_by(l.id);
+                    apply |= r.lost_focus() && ui.input(|i| i.key_pressed(Key::Enter));
+                    ui.end_row();
+                }
+            });
+            if let Some(e) = &ed.error {
+                ui.label(RichText::new(e).strong().color(ui.visuals().error_fg_color));
+            }
+            ui.horizontal(|ui| {
+                apply |= ui.button("Apply").clicked();
+                cancel = ui.button("Cancel").clicked();
+            });
+        });
+        if cancel {
+            self.editor = None;
+            return false;
+        }
+        if !apply {
+            return false;
+        }
+        let ed = ed.clone();
+        match self.edit_waypoint(ed.index, &ed.name, &ed.lat, &ed.lon) {
+            Ok(()) => {
+                self.editor = None;
+                true
+            }
+            Err(e) => {
+                if let Some(open) = &mut self.editor {
+                    open.error = Some(e);
+                }
+                false
+            }
+        }
     }
 
     fn apply_waypoint_action(&mut self, i: usize, action: WaypointAction) {
@@ -448,6 +783,7 @@ impl MapView {
             WaypointAction::MoveUp => self.move_waypoint(i, -1),
             WaypointAction::MoveDown => self.move_waypoint(i, 1),
             WaypointAction::Delete => self.delete_waypoint(i),
+            WaypointAction::Edit => self.open_editor(i),
         }
     }
 
@@ -455,29 +791,40 @@ impl MapView {
     pub fn move_waypoint(&mut self, i: usize, dir: i32) {
         let j = if dir < 0 { i.checked_sub(1) } else { Some(i + 1) };
         if let Some(j) = j.filter(|&j| j < self.waypoints.len()) {
+            let before = self.route_state();
             self.waypoints.swap(i, j);
+            let way = if dir < 0 { "earlier" } else { "later" };
+            self.commit(format!("move {} {way}", self.waypoints[j].name), before);
         }
     }
 
-    /// Deletes waypoint `i`, keeping the next waypoint the same where possible.
+    /// Deletes waypoint `i`, keeping the next waypoint the same where possible; undoable at once (the
+    /// delete notice says so).
     pub fn delete_waypoint(&mut self, i: usize) {
         if i < self.waypoints.len() {
-            self.waypoints.remove(i);
+            let before = self.route_state();
+            let w = self.waypoints.remove(i);
             if i < self.next {
                 self.next -= 1;
             }
+            self.commit(format!("delete {}", w.name), before);
+            self.undo_notice = Some(format!("Deleted {}", w.name));
         }
     }
 
     /// Adds a waypoint at `pos`: at the end, or right before the next one when `as_next`.
     pub fn add_waypoint(&mut self, pos: Position, as_next: bool) {
+        let before = self.route_state();
         let n = self.waypoints.len() + 1;
-        let w = Waypoint { name: format!("WP{n}"), lat_deg: pos.y(), lon_deg: pos.x() };
+        let (lat_deg, lon_deg) = waypoint_coords(pos);
+        let w = Waypoint { name: format!("WP{n}"), lat_deg, lon_deg };
+        let what = format!("add {}", w.name);
         if as_next && self.next <= self.waypoints.len() {
             self.waypoints.insert(self.next, w);
         } else {
             self.waypoints.push(w);
         }
+        self.commit(what, before);
     }
 
     #[allow(clippy::too_many_lines)] // one paint pass over every layer of the map, in order
@@ -527,6 +874,9 @@ impl MapView {
         let add_mode = self.add_mode;
         let right_click_at = &mut self.right_click_at;
         let menu_wp = &mut self.menu_wp;
+        let route_name = &self.route_name;
+        let drag_before = &mut self.drag_before;
+        let mut dragging = false;
         let map = walkers::Map::new(tiles_dyn, &mut self.memory, my_position)
             .double_click_to_zoom(true)
             .zoom_with_ctrl(false);
@@ -622,9 +972,17 @@ impl MapView {
                 if r.dragged()
                     && let Some(pos) = r.interact_pointer_pos()
                 {
-                    let ll = projector.unproject(pos.to_vec2());
-                    waypoints[i].lat_deg = ll.y();
-                    waypoints[i].lon_deg = ll.x();
+                    if drag_before.is_none() {
+                        let before = RouteState {
+                            name: route_name.clone(),
+                            waypoints: waypoints.clone(),
+                            next: *next,
+                        };
+                        *drag_before = Some((i, before));
+                    }
+                    dragging = true;
+                    (waypoints[i].lat_deg, waypoints[i].lon_deg) =
+                        waypoint_coords(projector.unproject(pos.to_vec2()));
                     changed = true;
                 }
                 painter.circle(
@@ -713,17 +1071,12 @@ impl MapView {
             }
 
             // Adding waypoints.
+            let mut add_click = None;
             if add_mode
                 && response.clicked()
                 && let Some(pos) = response.interact_pointer_pos()
             {
-                let ll = projector.unproject(pos.to_vec2());
-                waypoints.push(Waypoint {
-                    name: format!("WP{}", waypoints.len() + 1),
-                    lat_deg: ll.y(),
-                    lon_deg: ll.x(),
-                });
-                changed = true;
+                add_click = Some(projector.unproject(pos.to_vec2()));
             }
             if response.secondary_clicked() {
                 *right_click_at = response.interact_pointer_pos().map(|p| projector.unproject(p.to_vec2()));
@@ -783,9 +1136,18 @@ impl MapView {
                 ink,
             );
 
-            (action, add_here)
+            (action, add_here, add_click, dragging)
         });
-        let (action, add_here) = resp.inner;
+        let (action, add_here, add_click, dragging) = resp.inner;
+        // A drag is one undo step, recorded when it ends.
+        if !dragging && let Some((i, before)) = self.drag_before.take() {
+            let name = self.waypoints.get(i).map_or_else(|| format!("WP{}", i + 1), |w| w.name.clone());
+            self.commit(format!("drag {name}"), before);
+        }
+        if let Some(pos) = add_click {
+            self.add_waypoint(pos, false);
+            changed = true;
+        }
         if let Some((i, a)) = action {
             changed = true;
             self.apply_waypoint_action(i, a);
@@ -971,5 +1333,55 @@ mod tests {
         assert_eq!(m.waypoints[0].name, "WP3");
         m.add_waypoint(lat_lon(1.0, 2.0), true);
         assert_relative_eq!(m.waypoints[1].lat_deg, 1.0);
+    }
+
+    #[test]
+    fn the_undo_history_is_bounded_and_keeps_guidances_next_waypoint() {
+        let mut m = MapView::new(true);
+        for k in 0..(UNDO_STEPS + 5) {
+            m.add_waypoint(lat_lon(42.0, -71.0 + k as f64 * 1e-4), false);
+        }
+        let mut undone = 0;
+        while m.undo() {
+            undone += 1;
+        }
+        assert_eq!(undone, UNDO_STEPS);
+        assert_eq!(m.waypoints.len(), 5);
+        while m.redo() {}
+        assert_eq!(m.waypoints.len(), UNDO_STEPS + 5);
+        // Deleting the next waypoint and undoing makes it next again, unless guidance moved on meanwhile.
+        m.next = 3;
+        m.delete_waypoint(3);
+        assert_eq!(m.undo_notice.as_deref(), Some("Deleted WP4"));
+        m.undo();
+        assert_eq!((m.next, m.waypoints[3].name.as_str()), (3, "WP4"));
+        m.redo();
+        m.next = 7;
+        m.undo();
+        assert_eq!(m.next, 7, "guidance's arrival is kept");
+        // A new edit forgets the redo steps.
+        m.undo();
+        m.move_waypoint(0, 1);
+        assert!(!m.redo());
+    }
+
+    #[test]
+    fn typed_coordinates_are_checked_and_name_the_field() {
+        assert_relative_eq!(parse_coordinate(" 42.3573 ", Coordinate::Latitude).unwrap(), 42.3573);
+        assert_relative_eq!(parse_coordinate("-71,1°", Coordinate::Longitude).unwrap(), -71.1);
+        let e = parse_coordinate("91", Coordinate::Latitude).unwrap_err();
+        assert!(e.starts_with("Latitude: 91 is outside"), "{e}");
+        assert!(parse_coordinate("180", Coordinate::Longitude).unwrap_err().starts_with("Longitude"));
+        assert!(parse_coordinate("north", Coordinate::Latitude).unwrap_err().contains("not a number"));
+        assert!(parse_coordinate("NaN", Coordinate::Latitude).is_err());
+        let mut m = MapView::new(true);
+        m.add_waypoint(lat_lon(1.0, 2.0), false);
+        assert_eq!(m.edit_waypoint(0, "  ", "1", "2").unwrap_err(), "Name: must not be empty");
+        m.edit_waypoint(0, "Gate", "1.5", "2").unwrap();
+        assert_eq!(m.undo_label(), Some("edit WP1"));
+        m.edit_waypoint(0, "Gate 2", "1.5", "2").unwrap();
+        assert_eq!(m.undo_label(), Some("rename Gate to Gate 2"));
+        // Positions off the map's edge are wrapped into GPX's ranges.
+        assert_eq!(waypoint_coords(lat_lon(95.0, 190.0)), (90.0, -170.0));
     }
 }

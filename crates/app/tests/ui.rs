@@ -556,3 +556,450 @@ fn the_track_starts_a_new_segment_on_a_jump_or_a_source_change() {
     let lens: Vec<usize> = h.state().map.track_segments().iter().map(|s| s.len()).collect();
     assert_eq!(lens, vec![1, 2, 1]);
 }
+
+/// The console with the route autosaved to (and restored from) `autosave`.
+fn harness_autosaving(fake: &Fake, autosave: &std::path::Path) -> Harness<'static, Console> {
+    let cfg = Config { map_tiles: false, guidance_auto: false, ..Config::default() };
+    let opts =
+        ConsoleOptions { cfg, route_autosave: Some(autosave.to_path_buf()), ..ConsoleOptions::default() };
+    let console = Console::new(Box::new(fake.clone()), opts);
+    let mut h = Harness::builder()
+        .with_size(egui::vec2(1400.0, 900.0))
+        .build_ui_state(|ui, c: &mut Console| c.ui(ui), console);
+    settle(&mut h, |c| c.vest.is_live());
+    h
+}
+
+/// A fresh directory for one test's files.
+fn test_dir(name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("vestnav-ui-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// Three waypoints with coordinates the tests compare against.
+fn three_waypoints() -> Vec<Waypoint> {
+    vec![
+        Waypoint { name: "Alpha".into(), lat_deg: 42.3571, lon_deg: -71.1012 },
+        Waypoint { name: "Bravo".into(), lat_deg: 42.3577, lon_deg: -71.1003 },
+        Waypoint { name: "Charlie".into(), lat_deg: 42.3581, lon_deg: -71.0995 },
+    ]
+}
+
+fn set_route(h: &mut Harness<'static, Console>, waypoints: Vec<Waypoint>, next: usize) {
+    let c = h.state_mut();
+    c.map.route_name = "Test loop".into();
+    c.map.waypoints = waypoints;
+    c.map.next = next;
+    c.push_route();
+    h.run_steps(2);
+}
+
+const UNDO_KEYS: egui::Modifiers = egui::Modifiers { ctrl: true, command: true, ..egui::Modifiers::NONE };
+
+/// Fault 4 of issue 15: route edits survive a restart. Truth: the route the test set.
+#[test]
+fn the_autosaved_route_comes_back_after_a_restart() {
+    let dir = test_dir("autosave");
+    let path = dir.join("route-autosave.gpx");
+    let fake = Fake::default();
+    let mut h = harness_autosaving(&fake, &path);
+    assert_eq!(h.state().map.waypoints.len(), 7, "no autosave yet: the demo route");
+    set_route(&mut h, three_waypoints(), 1);
+    // The edit is on disk while the console runs (not only at exit).
+    settle(&mut h, |_| std::fs::read_to_string(&path).is_ok_and(|t| t.contains("Charlie")));
+    assert!(std::fs::read_to_string(&path).unwrap().contains("Charlie"));
+    // Deleting through the list is saved too; no temp file is left behind.
+    h.get_all_by_label("Del").nth(2).unwrap().click();
+    h.run_steps(2);
+    drop(h);
+    assert!(!dir.join("route-autosave.gpx.tmp").exists());
+
+    let mut h = harness_autosaving(&Fake::default(), &path);
+    h.run_steps(2);
+    let m = &h.state().map;
+    assert_eq!(m.route_name, "Test loop");
+    assert_eq!(m.waypoints, three_waypoints()[..2].to_vec());
+    assert_eq!(m.next, 1);
+    assert!(h.query_by_label_contains("next: Bravo (2/2)").is_some());
+    drop(h);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Fault 4 of issue 15: Delete is undoable at once (the notice says so), Undo brings the waypoint back
+/// with its name and coordinates, Redo deletes it again; the same with Ctrl+Z / Ctrl+Shift+Z / Ctrl+Y.
+#[test]
+fn undo_restores_a_deleted_waypoint_and_redo_deletes_it_again() {
+    let fake = Fake::default();
+    let mut h = harness(&fake);
+    set_route(&mut h, three_waypoints(), 0);
+    h.get_all_by_label("Del").nth(1).unwrap().click();
+    h.run_steps(2);
+    let without_bravo = vec![three_waypoints()[0].clone(), three_waypoints()[2].clone()];
+    assert_eq!(h.state().map.waypoints, without_bravo);
+    assert!(h.query_by_label("Deleted Bravo").is_some(), "the delete says it can be undone");
+    h.get_by_label("Undo").click();
+    h.run_steps(2);
+    assert_eq!(h.state().map.waypoints, three_waypoints(), "Bravo is back, same name and coordinates");
+    assert!(h.query_by_label("Deleted Bravo").is_none());
+    h.get_by_label("Redo").click();
+    h.run_steps(2);
+    assert_eq!(h.state().map.waypoints, without_bravo);
+    // The notice's own button.
+    h.get_all_by_label("Del").next().unwrap().click();
+    h.run_steps(2);
+    assert!(h.query_by_label("Deleted Alpha").is_some());
+    h.get_by_label("Undo delete").click();
+    h.run_steps(2);
+    assert_eq!(h.state().map.waypoints, without_bravo, "Alpha is back");
+    // The keys: Ctrl+Z, Ctrl+Shift+Z, Ctrl+Y.
+    h.key_press_modifiers(UNDO_KEYS, egui::Key::Z);
+    h.run_steps(2);
+    assert_eq!(h.state().map.waypoints, three_waypoints());
+    h.key_press_modifiers(UNDO_KEYS | egui::Modifiers::SHIFT, egui::Key::Z);
+    h.run_steps(2);
+    assert_eq!(h.state().map.waypoints, without_bravo);
+    h.key_press_modifiers(UNDO_KEYS, egui::Key::Z);
+    h.run_steps(2);
+    h.key_press_modifiers(UNDO_KEYS, egui::Key::Y);
+    h.run_steps(2);
+    assert_eq!(h.state().map.waypoints, without_bravo);
+}
+
+/// The fake's emulated unit behind a switch: while `dead` is set every read and write fails (the unit
+/// switched off or out of range) and no new transport opens.
+struct Killable {
+    fake: Fake,
+    dead: Arc<AtomicBool>,
+}
+
+struct MortalUnit {
+    unit: RecordingUnit,
+    dead: Arc<AtomicBool>,
+}
+
+impl MortalUnit {
+    fn check(&self) -> std::io::Result<()> {
+        if self.dead.load(std::sync::atomic::Ordering::SeqCst) {
+            Err(std::io::Error::new(std::io::ErrorKind::BrokenPipe, "unit switched off"))
+        } else {
+            Ok(())
+        }
+    }
+}
+
+impl Read for MortalUnit {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        self.check()?;
+        self.unit.read(buf)
+    }
+}
+
+impl Write for MortalUnit {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.check()?;
+        self.unit.write(buf)
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.unit.flush()
+    }
+}
+
+impl DeviceFactory for Killable {
+    fn open_gps(
+        &self,
+        s: &GpsSourceConfig,
+        r: &[Waypoint],
+        out: Vec<Outbox<GpsEvent>>,
+    ) -> Result<Box<dyn GpsWorker>, String> {
+        self.fake.open_gps(s, r, out)
+    }
+    fn open_vest(&self, _s: &VestSourceConfig, out: Vec<Outbox<VestEvent>>) -> Result<VestHandle, String> {
+        let (sent, dead) = (self.fake.sent.clone(), self.dead.clone());
+        let connector = Box::new(move || {
+            if dead.load(std::sync::atomic::Ordering::SeqCst) {
+                return Err(std::io::Error::new(std::io::ErrorKind::NotFound, "no unit on the port"));
+            }
+            let port = EmulatedPort::new(EngineConfig::default(), Duration::from_millis(2));
+            let unit = RecordingUnit { port, codec: FrameCodec::new(), sent: sent.clone() };
+            Ok(Box::new(MortalUnit { unit, dead: dead.clone() }) as Box<dyn Transport>)
+        });
+        // Quick reconnection attempts keep the test short.
+        let settings = WorkerSettings {
+            backoff: vestnav_device::backoff::Backoff::new(
+                Duration::from_millis(20),
+                Duration::from_millis(100),
+            ),
+            ..WorkerSettings::default()
+        };
+        VestHandle::spawn_with(connector, settings, out).map_err(|e| e.to_string())
+    }
+}
+
+/// A walking wearer's fix (speed and course, so guidance has a heading), fresh.
+fn walking_fix() -> Fix {
+    Fix { speed_m_s: Some(1.3), course_deg: Some(90.0), ..fix(42.3562, -71.1, Duration::ZERO) }
+}
+
+/// Steps frames feeding fresh fixes until `done` holds, at most `limit`.
+fn walk_until(
+    h: &mut Harness<'static, Console>,
+    fake: &Fake,
+    limit: Duration,
+    done: impl Fn(&Console) -> bool,
+) {
+    let end = Instant::now() + limit;
+    while Instant::now() < end && !done(h.state()) {
+        fake.gps(&GpsEvent::Fix(Box::new(walking_fix())));
+        h.step();
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+use vestnav_app::console::{Banner, BannerSubject, Severity};
+
+fn banner_of(c: &Console, subject: BannerSubject) -> Option<Banner> {
+    c.banners(Instant::now()).into_iter().find(|b| b.subject == subject)
+}
+
+/// Issue 15, "one unmistakable state": the vest's transport dies while guiding. The banner strip says VEST
+/// LOST with what to do (derived from the vest worker's link state), guidance is on hold in the banner and
+/// in its panel, and the grid is disabled; when the unit comes back the vest and guidance lines go.
+#[test]
+fn a_killed_vest_shows_in_the_banner_and_guidance_holds() {
+    let fake = Fake::default();
+    let dead = Arc::new(AtomicBool::new(false));
+    let factory = Killable { fake: fake.clone(), dead: dead.clone() };
+    let cfg = Config { map_tiles: false, guidance_auto: true, ..Config::default() };
+    let console = Console::new(Box::new(factory), ConsoleOptions { cfg, ..ConsoleOptions::default() });
+    let mut h = Harness::builder()
+        .with_size(egui::vec2(1400.0, 900.0))
+        .build_ui_state(|ui, c: &mut Console| c.ui(ui), console);
+    settle(&mut h, |c| c.vest.is_live());
+    walk_until(&mut h, &fake, Duration::from_secs(3), |c| {
+        c.guidance.as_ref().is_some_and(|g| g.hold.is_none() && g.heading_source != "none")
+    });
+    h.run_steps(1);
+    let c = h.state();
+    assert!(banner_of(c, BannerSubject::Vest).is_none(), "{:?}", c.banners(Instant::now()));
+    assert!(banner_of(c, BannerSubject::Guidance).is_none(), "{:?}", c.guidance);
+    assert!(h.query_by_label_contains("VEST LOST").is_none());
+
+    dead.store(true, std::sync::atomic::Ordering::SeqCst);
+    walk_until(&mut h, &fake, Duration::from_secs(3), |c| {
+        !c.vest.is_live() && c.guidance.as_ref().is_some_and(|g| g.hold.is_some())
+    });
+    h.run_steps(1);
+    let vest = banner_of(h.state(), BannerSubject::Vest).expect("a vest line");
+    assert_eq!(vest.severity, Severity::Alarm);
+    assert!(vest.text.starts_with("VEST LOST: ") && vest.text.contains("Check the unit's power"), "{vest:?}");
+    assert!(h.query_by_label_contains("VEST LOST: ").is_some());
+    let guidance = banner_of(h.state(), BannerSubject::Guidance).expect("a guidance line");
+    assert!(guidance.text.starts_with("GUIDANCE ON HOLD: no vest"), "{guidance:?}");
+    assert!(h.query_by_label_contains("GUIDANCE ON HOLD: no vest").is_some());
+    assert!(h.query_by_label_contains("On hold: vest").is_some(), "the Guidance panel says hold");
+    assert!(h.query_by_label_contains("tactors cannot be fired").is_some());
+
+    dead.store(false, std::sync::atomic::Ordering::SeqCst);
+    walk_until(&mut h, &fake, Duration::from_secs(5), |c| {
+        c.vest.is_live() && c.guidance.as_ref().is_some_and(|g| g.hold.is_none())
+    });
+    h.run_steps(1);
+    assert!(h.state().vest.is_live());
+    assert!(banner_of(h.state(), BannerSubject::Vest).is_none());
+    assert!(banner_of(h.state(), BannerSubject::Guidance).is_none(), "{:?}", h.state().guidance);
+    assert!(h.query_by_label_contains("VEST LOST").is_none());
+    assert!(h.query_by_label_contains("GUIDANCE ON HOLD").is_none());
+}
+
+/// Disconnecting the vest by hand: the banner says so, and automatic guidance is on hold.
+#[test]
+fn a_disconnected_vest_shows_in_the_banner() {
+    let fake = Fake::default();
+    let cfg = Config { map_tiles: false, guidance_auto: true, ..Config::default() };
+    let mut h = harness_with(&fake, cfg);
+    h.get_by_label("Disconnect vest").click();
+    settle(&mut h, |c| !c.vest.is_live());
+    h.run_steps(1);
+    assert!(h.query_by_label_contains("VEST DISCONNECTED: ").is_some());
+    assert!(h.query_by_label_contains("GUIDANCE ON HOLD: no vest").is_some());
+}
+
+/// A stale fix raises the GPS line of the banner (amber, with its age and what to do); a fresh one clears it.
+#[test]
+fn a_stale_fix_shows_in_the_banner() {
+    let fake = Fake::default();
+    let cfg = Config {
+        map_tiles: false,
+        guidance_auto: false,
+        stale_after_s: 2.0,
+        lost_after_s: 30.0,
+        ..Config::default()
+    };
+    let mut h = harness_with(&fake, cfg);
+    fake.gps(&GpsEvent::Fix(Box::new(fix(42.3562, -71.1, Duration::ZERO))));
+    settle(&mut h, |c| c.gps.fixes == 1);
+    h.run_steps(1);
+    assert!(banner_of(h.state(), BannerSubject::Gps).is_none());
+    assert!(h.query_by_label_contains("GPS STALE").is_none());
+    fake.gps(&GpsEvent::Fix(Box::new(fix(42.3562, -71.1, Duration::from_secs(3)))));
+    settle(&mut h, |c| c.gps.fixes == 2);
+    h.run_steps(1);
+    let gps = banner_of(h.state(), BannerSubject::Gps).expect("a GPS line");
+    assert_eq!(gps.severity, Severity::Warning);
+    assert!(gps.text.starts_with("GPS STALE: last position 3 s old"), "{gps:?}");
+    assert!(h.query_by_label_contains("GPS STALE: last position 3 s old").is_some());
+    fake.gps(&GpsEvent::Fix(Box::new(fix(42.3562, -71.1, Duration::ZERO))));
+    settle(&mut h, |c| c.gps.fixes == 3);
+    h.run_steps(1);
+    assert!(banner_of(h.state(), BannerSubject::Gps).is_none());
+    assert!(h.query_by_label_contains("GPS STALE").is_none());
+}
+
+/// The View menu switches the light high-contrast theme and large text: the context's visuals and text
+/// sizes change, and the choice is written to the config file.
+#[test]
+fn view_menu_switches_theme_and_text_size_and_remembers_them() {
+    let dir = std::env::temp_dir().join(format!("vestnav-ui-theme-{}", std::process::id()));
+    let path = dir.join("console.json");
+    let fake = Fake::default();
+    let cfg = Config { map_tiles: false, guidance_auto: false, ..Config::default() };
+    let console = Console::new(
+        Box::new(fake.clone()),
+        ConsoleOptions { cfg, cfg_path: Some(path.clone()), ..ConsoleOptions::default() },
+    );
+    let mut h = Harness::builder()
+        .with_size(egui::vec2(1400.0, 900.0))
+        .build_ui_state(|ui, c: &mut Console| c.ui(ui), console);
+    h.run_steps(2);
+    let body = |h: &Harness<'static, Console>| h.ctx.global_style().text_styles[&egui::TextStyle::Body].size;
+    assert!(h.ctx.global_style().visuals.dark_mode);
+    let body_before = body(&h);
+
+    for option in ["Light high-contrast theme", "Large text"] {
+        if h.query_by_label(option).is_none() {
+            h.get_by_label("View").click();
+            h.run_steps(2);
+        }
+        h.get_by_label(option).click();
+        h.run_steps(3);
+    }
+    assert!(h.state().cfg.light_theme && h.state().cfg.large_text);
+    let style = h.ctx.global_style();
+    assert!(!style.visuals.dark_mode, "the light theme is active");
+    assert_eq!(style.visuals.panel_fill, egui::Color32::WHITE);
+    assert!(body(&h) >= 18.0 && body(&h) > body_before, "{} pt", body(&h));
+    let (saved, err) = Config::load(&path);
+    assert!(err.is_none(), "{err:?}");
+    assert!(saved.light_theme && saved.large_text, "remembered in the config file");
+    drop(h);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The GPS panel's satellite table (opened by its header) lists each satellite of the epoch with its PRN,
+/// system, elevation, azimuth, SNR and use, on one row; a stale epoch is labelled last known.
+#[test]
+fn the_satellite_table_lists_prn_and_snr() {
+    use vestnav_device::gps::Constellation;
+    let fake = Fake::default();
+    let cfg = Config { map_tiles: false, guidance_auto: false, stale_after_s: 2.0, ..Config::default() };
+    let mut h = harness_with(&fake, cfg);
+    let sat = |prn, constellation, el, az, snr, used| vestnav_device::gps::Satellite {
+        prn,
+        constellation,
+        elevation_deg: Some(el),
+        azimuth_deg: Some(az),
+        snr_dbhz: Some(snr),
+        used,
+    };
+    let with_sats = |age| Fix {
+        satellites: vec![
+            sat(27, Constellation::Gps, 61.0, 123.0, 47.0, true),
+            sat(71, Constellation::Glonass, 12.0, 301.0, 19.0, false),
+        ],
+        ..fix(42.3562, -71.1, age)
+    };
+    fake.gps(&GpsEvent::Fix(Box::new(with_sats(Duration::ZERO))));
+    settle(&mut h, |c| c.gps.fixes == 1);
+    h.run_steps(2);
+    h.get_by_label_contains("Satellites (2 in view)").click();
+    h.run_steps(2);
+    let prn = h.get_by_label("27").rect();
+    let snr = h.get_by_label("47").rect();
+    assert!((prn.center().y - snr.center().y).abs() < 2.0 && snr.left() > prn.right(), "{prn:?} {snr:?}");
+    for cell in ["61°", "123°", "GLONASS", "71", "19", "301°"] {
+        assert!(h.query_by_label(cell).is_some(), "{cell}");
+    }
+    assert_eq!(h.query_all_by_label("GPS").count(), 2, "the section header and the system cell");
+    fake.gps(&GpsEvent::Fix(Box::new(with_sats(Duration::from_secs(5)))));
+    settle(&mut h, |c| c.gps.fixes == 2);
+    h.run_steps(2);
+    assert!(h.query_by_label_contains("Satellites (2 in view, last known, 5 s ago)").is_some());
+    assert!(h.query_by_label("27").is_some(), "the last known sky stays listed, greyed");
+}
+
+/// Issue 15: a waypoint is renamed and given typed coordinates from the list; a bad value is refused
+/// with a message naming the field; the edit is one undo step. Truth: the values the test typed.
+#[test]
+fn rename_and_typed_coordinates_change_the_waypoint_and_can_be_undone() {
+    use egui::accesskit::Role;
+    let fake = Fake::default();
+    let mut h = harness(&fake);
+    set_route(&mut h, three_waypoints(), 0);
+    h.get_all_by_label("Edit").nth(1).unwrap().click();
+    h.run_steps(2);
+    let field = |h: &Harness<'static, Console>, label: &str, text: &str| {
+        h.get_by_role_and_label(Role::TextInput, label).set_text_value_accesskit(text);
+    };
+    field(&h, "Name", "Gate 2");
+    field(&h, "Latitude (deg)", "95");
+    field(&h, "Longitude (deg)", "-71.0987");
+    h.run_steps(2);
+    h.get_by_label("Apply").click();
+    h.run_steps(2);
+    assert!(h.query_by_label_contains("Latitude: 95 is outside [-90, 90]").is_some());
+    assert_eq!(h.state().map.waypoints, three_waypoints(), "nothing changed");
+    field(&h, "Latitude (deg)", "42.35795");
+    h.run_steps(2);
+    h.get_by_label("Apply").click();
+    h.run_steps(2);
+    let edited = Waypoint { name: "Gate 2".into(), lat_deg: 42.35795, lon_deg: -71.0987 };
+    assert_eq!(h.state().map.waypoints[1], edited);
+    assert!(h.query_by_label_contains("Gate 2").is_some(), "the list shows the new name");
+    h.get_by_label("Undo").click();
+    h.run_steps(2);
+    assert_eq!(h.state().map.waypoints, three_waypoints(), "one undo step takes back name and position");
+    h.get_by_label("Redo").click();
+    h.run_steps(2);
+    assert_eq!(h.state().map.waypoints[1], edited);
+}
+
+/// Issue 15: a corrupt autosave does not stop the console: it says which file, keeps it aside, starts
+/// with the demo route, and autosaves again after the next edit.
+#[test]
+fn a_corrupt_autosave_gives_a_message_and_the_console_still_starts() {
+    let dir = test_dir("corrupt");
+    let path = dir.join("route-autosave.gpx");
+    std::fs::write(&path, "<gpx><rte><rtept lat=\"400\" lon=\"0\"/></rte></gpx>").unwrap();
+    let fake = Fake::default();
+    let mut h = harness_autosaving(&fake, &path);
+    assert!(h.state().vest.is_live(), "the console started");
+    h.run_steps(2);
+    let shown = path.display().to_string();
+    let messages: Vec<String> =
+        h.query_all_by_label_contains("is unreadable").map(|n| n.value().unwrap_or_default()).collect();
+    assert!(messages.iter().any(|m| m.contains(&shown)), "{messages:?}");
+    assert_eq!(h.state().map.waypoints.len(), 7, "the demo route");
+    assert!(dir.join("route-autosave.gpx.corrupt").exists(), "the broken file is kept aside");
+    h.get_all_by_label("Del").next().unwrap().click();
+    settle(&mut h, |_| path.exists());
+    assert!(path.exists(), "the next edit is autosaved again");
+    drop(h);
+    let mut h = harness_autosaving(&Fake::default(), &path);
+    h.run_steps(1);
+    assert_eq!(h.state().map.waypoints.len(), 6);
+    assert!(h.query_all_by_label_contains("is unreadable").next().is_none());
+    drop(h);
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -1,4 +1,10 @@
-//! The console's frame: the panels' layout, the top bar, the guidance controls and the keyboard keys.
+//! The console's frame: the panels' layout, the top bar, the banner strip, the theme, the guidance controls
+//! and the keyboard keys.
+//!
+//! The banner strip under the top bar gives one line per device and for guidance whenever it is not OK:
+//! a strong colour, the state in capitals and what to do. [`Console::banners`] derives the lines each frame
+//! from the device events' state and timestamps (the vest's link state, the GPS alarm on fix ages, the
+//! guidance worker's latest status) — never from what an earlier frame showed.
 
 use std::time::{Duration, Instant};
 
@@ -9,18 +15,68 @@ use vestnav_device::gps::SourceState;
 use vestnav_device::wtcu::LinkState;
 
 use super::{Console, GpsAlarm, Tab};
+use crate::config::Config;
 use crate::fieldtest_panel::FieldTestAction;
+
+/// Text size of the banner lines [pt] (large-text option: [`BANNER_PT_LARGE`]): readable outdoors.
+pub const BANNER_PT: f32 = 18.0;
+/// Text size of the banner lines with the large-text option [pt].
+pub const BANNER_PT_LARGE: f32 = 22.0;
+
+/// How bad the state a banner line reports is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Severity {
+    /// Cues cannot reach the wearer, or guidance cannot steer: red.
+    Alarm,
+    /// Degraded or not there yet (connecting, stale fix): amber.
+    Warning,
+    /// Not a fault, but the wearer gets no automatic cues (manual guidance): blue.
+    Notice,
+}
+
+/// What a banner line is about.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BannerSubject {
+    /// The vest link.
+    Vest,
+    /// The GPS source and its fix.
+    Gps,
+    /// Automatic guidance.
+    Guidance,
+}
+
+/// One line of the banner strip: the state and what to do.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Banner {
+    /// Its device, or guidance.
+    pub subject: BannerSubject,
+    /// Its colour.
+    pub severity: Severity,
+    /// `STATE: detail. Consequence. What to do.`
+    pub text: String,
+}
+
+impl Banner {
+    fn new(subject: BannerSubject, severity: Severity, text: String) -> Self {
+        Self { subject, severity, text }
+    }
+}
 
 impl Console {
     /// Draws one frame (also the entry point of the kittest tests).
     #[allow(clippy::too_many_lines)] // the frame's layout in one place: panels in the order they are drawn
     pub fn ui(&mut self, ui: &mut egui::Ui) {
         self.tick();
+        apply_theme(ui, &self.cfg);
         let now = Instant::now();
         let anim_s = ui.input(|i| i.time);
         self.handle_keys(ui);
 
         egui::Panel::top("vestnav-top").show(ui, |ui| self.top_bar(ui, now));
+        let banners = self.banners(now);
+        if !banners.is_empty() {
+            egui::Panel::top("vestnav-banners").show(ui, |ui| self.banner_strip(ui, &banners, anim_s));
+        }
         egui::Panel::bottom("vestnav-status").show(ui, |ui| {
             ui.horizontal(|ui| {
                 ui.label(RichText::new(&self.status).small());
@@ -34,7 +90,7 @@ impl Console {
         egui::Panel::left("vestnav-side").default_size(360.0).min_size(300.0).show(ui, |ui| {
             egui::ScrollArea::vertical().show(ui, |ui| {
                 egui::CollapsingHeader::new("GPS").default_open(true).show(ui, |ui| {
-                    crate::gps_panel::show(self, ui, now, anim_s);
+                    crate::gps_panel::show(self, ui, now);
                 });
                 egui::CollapsingHeader::new("Vest").default_open(true).show(ui, |ui| {
                     crate::vest_panel::show(self, ui);
@@ -140,11 +196,162 @@ impl Console {
             };
             ui.label(RichText::new(g).color(color).strong());
             ui.separator();
+            ui.menu_button("View", |ui| {
+                ui.checkbox(&mut self.cfg.light_theme, "Light high-contrast theme")
+                    .on_hover_text("Dark text on white, for sunlight");
+                ui.checkbox(&mut self.cfg.large_text, "Large text");
+            });
+            ui.separator();
             ui.selectable_value(&mut self.tab, Tab::Map, "Map");
             ui.selectable_value(&mut self.tab, Tab::Simulation, "Simulation");
             ui.selectable_value(&mut self.tab, Tab::FieldTests, "Field tests");
             ui.selectable_value(&mut self.tab, Tab::SessionLog, "Session log");
         });
+    }
+
+    /// The banner strip's lines at `now`, one per device and one for guidance, each only when not OK.
+    pub fn banners(&self, now: Instant) -> Vec<Banner> {
+        [self.vest_banner(), self.gps_banner(now), self.guidance_banner(now)].into_iter().flatten().collect()
+    }
+
+    fn vest_banner(&self) -> Option<Banner> {
+        let alarm = |text: String| Some(Banner::new(BannerSubject::Vest, Severity::Alarm, text));
+        let lost = |reason: &str, retry: &str| {
+            format!(
+                "VEST LOST: {reason}. Cues cannot reach the wearer. Check the unit's power and range; \
+                 reconnecting{retry}..."
+            )
+        };
+        match (&self.vest.state, &self.vest.lost) {
+            (Some(LinkState::Ready), _) => None,
+            (Some(LinkState::Lost { reason }), _) => alarm(lost(reason, "")),
+            (Some(LinkState::Connecting { attempt }), Some(reason)) => {
+                alarm(lost(reason, &format!(" (attempt {attempt})")))
+            }
+            (Some(LinkState::Handshaking), Some(reason)) => alarm(lost(reason, " (handshaking)")),
+            (Some(LinkState::Connecting { attempt }), None) => Some(Banner::new(
+                BannerSubject::Vest,
+                Severity::Warning,
+                format!(
+                    "VEST CONNECTING (attempt {attempt}): cues cannot reach the wearer yet. Check the unit is \
+                     switched on and in range."
+                ),
+            )),
+            (Some(LinkState::Handshaking), None) => Some(Banner::new(
+                BannerSubject::Vest,
+                Severity::Warning,
+                "VEST HANDSHAKING: waiting for the unit to identify itself; cues cannot reach the wearer yet."
+                    .to_owned(),
+            )),
+            (Some(LinkState::Disconnected) | None, _) => alarm(
+                "VEST DISCONNECTED: no vest link. Cues cannot reach the wearer. Connect the vest in the Vest \
+                 panel."
+                    .to_owned(),
+            ),
+        }
+    }
+
+    fn gps_banner(&self, now: Instant) -> Option<Banner> {
+        let line = |severity, text: String| Some(Banner::new(BannerSubject::Gps, severity, text));
+        let advice = "Check the receiver's link and its view of the sky.";
+        match self.gps_alarm(now) {
+            Some(GpsAlarm::Lost { reason }) => line(
+                Severity::Alarm,
+                format!("GPS FIX LOST: {reason}. No position: guidance cannot steer the wearer. {advice}"),
+            ),
+            Some(GpsAlarm::Stale { age_s }) => line(
+                Severity::Warning,
+                format!("GPS STALE: last position {age_s:.0} s old. Cues hold until a fresh fix. {advice}"),
+            ),
+            None if !self.gps_connected() || self.gps.state.is_none() => line(
+                Severity::Alarm,
+                "GPS DISCONNECTED: no GPS source. Guidance has no position. Pick a source in the GPS panel \
+                 and connect it."
+                    .to_owned(),
+            ),
+            None if self.gps.last_position.is_none()
+                && !matches!(self.gps.state, Some(SourceState::Finished | SourceState::Stopped)) =>
+            {
+                line(
+                    Severity::Warning,
+                    format!("GPS NO FIX YET: no position received. Guidance waits for one. {advice}"),
+                )
+            }
+            None => None,
+        }
+    }
+
+    fn guidance_banner(&self, now: Instant) -> Option<Banner> {
+        let line = |severity, text: String| Some(Banner::new(BannerSubject::Guidance, severity, text));
+        if let Some(why) = &self.vest.halted {
+            return line(
+                Severity::Alarm,
+                format!(
+                    "GUIDANCE HALTED: {why}. No automatic cues. Press Resume automatic cues in the Guidance \
+                     panel when it is safe."
+                ),
+            );
+        }
+        if !self.cfg.guidance_auto {
+            return line(
+                Severity::Notice,
+                "GUIDANCE MANUAL: automatic cues are off; only tactors fired by hand reach the wearer. Tick \
+                 Automatic cues in the Guidance panel to guide."
+                    .to_owned(),
+            );
+        }
+        let st = self.guidance.as_ref();
+        let hold = if !self.vest.is_live() {
+            "no vest. The wearer gets no cues until the vest link is back.".to_owned()
+        } else if self.gps_alarm(now).is_some() || self.gps.last_position.is_none() {
+            "no fix. No directional cues without a current position.".to_owned()
+        } else if let Some(h) = st.and_then(|s| s.hold.as_ref()) {
+            format!("{h}.")
+        } else if st.is_some_and(|s| s.heading_source == "none" && !s.finished) {
+            "no heading. The wearer stands still and no compass is in use: ask them to walk a few steps, \
+             or connect the vest's compass."
+                .to_owned()
+        } else if let Some(s) = st.filter(|s| s.state == "hold") {
+            format!("{}.", s.reason)
+        } else {
+            return None;
+        };
+        line(Severity::Alarm, format!("GUIDANCE ON HOLD: {hold}"))
+    }
+
+    fn banner_strip(&mut self, ui: &mut egui::Ui, banners: &[Banner], anim_s: f64) {
+        let pt = if self.cfg.large_text { BANNER_PT_LARGE } else { BANNER_PT };
+        ui.add_space(2.0);
+        for b in banners {
+            let (fill, text) = match b.severity {
+                Severity::Alarm => (Color32::from_rgb(190, 20, 20), Color32::WHITE),
+                Severity::Warning => (Color32::from_rgb(245, 165, 0), Color32::BLACK),
+                Severity::Notice => (Color32::from_rgb(25, 75, 165), Color32::WHITE),
+            };
+            // The GPS alarm blinks until the operator silences it (it re-arms on the next good fix); the
+            // text stays either way.
+            let alarm = b.subject == BannerSubject::Gps && b.severity != Severity::Notice;
+            let blink = alarm && !self.gps.alarm_silenced && (anim_s * 2.0).fract() < 0.5;
+            egui::Frame::new()
+                .fill(if blink { fill.gamma_multiply(0.8) } else { fill })
+                .inner_margin(egui::Margin::symmetric(10, 5))
+                .show(ui, |ui| {
+                    ui.set_width(ui.available_width());
+                    ui.horizontal(|ui| {
+                        if alarm
+                            && !self.gps.alarm_silenced
+                            && ui.button(RichText::new("Silence alarm").size(pt * 0.8)).clicked()
+                        {
+                            self.gps.alarm_silenced = true;
+                        }
+                        ui.add(egui::Label::new(RichText::new(&b.text).size(pt).strong().color(text)).wrap());
+                    });
+                });
+            ui.add_space(2.0);
+        }
+        if banners.iter().any(|b| b.subject == BannerSubject::Gps) && !self.gps.alarm_silenced {
+            ui.ctx().request_repaint_after(Duration::from_millis(250));
+        }
     }
 
     fn guidance_ui(&mut self, ui: &mut egui::Ui) {
@@ -256,5 +463,74 @@ fn gps_color(s: Option<&SourceState>) -> Color32 {
         }
         Some(SourceState::Lost { .. }) => Color32::from_rgb(230, 40, 40),
         Some(SourceState::Finished | SourceState::Stopped) | None => Color32::GRAY,
+    }
+}
+
+/// Text sizes [pt] of the normal and the large-text option: large makes body text 18 pt and nothing
+/// smaller than 14 pt.
+fn text_styles(large: bool) -> std::collections::BTreeMap<egui::TextStyle, egui::FontId> {
+    use egui::{FontFamily, FontId, TextStyle};
+    if !large {
+        return egui::style::default_text_styles();
+    }
+    [
+        (TextStyle::Small, FontId::new(14.0, FontFamily::Proportional)),
+        (TextStyle::Body, FontId::new(18.0, FontFamily::Proportional)),
+        (TextStyle::Button, FontId::new(18.0, FontFamily::Proportional)),
+        (TextStyle::Heading, FontId::new(24.0, FontFamily::Proportional)),
+        (TextStyle::Monospace, FontId::new(17.0, FontFamily::Monospace)),
+    ]
+    .into()
+}
+
+/// A light theme for sunlight: black text on white, dark outlines, darker warning and error colours.
+pub fn high_contrast_light() -> egui::Visuals {
+    let mut v = egui::Visuals::light();
+    let black = Color32::BLACK;
+    v.panel_fill = Color32::WHITE;
+    v.window_fill = Color32::WHITE;
+    v.extreme_bg_color = Color32::WHITE;
+    v.faint_bg_color = Color32::from_gray(232);
+    v.weak_text_color = Some(Color32::from_gray(60));
+    v.warn_fg_color = Color32::from_rgb(170, 70, 0);
+    v.error_fg_color = Color32::from_rgb(180, 0, 0);
+    v.hyperlink_color = Color32::from_rgb(0, 50, 170);
+    v.window_stroke = egui::Stroke::new(1.0, black);
+    for w in [
+        &mut v.widgets.noninteractive,
+        &mut v.widgets.inactive,
+        &mut v.widgets.hovered,
+        &mut v.widgets.active,
+        &mut v.widgets.open,
+    ] {
+        w.fg_stroke.color = black;
+    }
+    v.widgets.noninteractive.bg_stroke = egui::Stroke::new(1.0, Color32::from_gray(90));
+    v.widgets.inactive.bg_stroke = egui::Stroke::new(1.0, Color32::from_gray(40));
+    v.widgets.inactive.bg_fill = Color32::from_gray(215);
+    v.widgets.inactive.weak_bg_fill = Color32::from_gray(215);
+    v
+}
+
+/// Applies the theme and text size of `cfg` to the context (popups, the next frames) and to this frame's
+/// root `ui`, each frame; the context is only written when it differs.
+fn apply_theme(ui: &mut egui::Ui, cfg: &Config) {
+    let ctx = ui.ctx().clone();
+    let theme = if cfg.light_theme { egui::Theme::Light } else { egui::Theme::Dark };
+    if ctx.theme() != theme {
+        ctx.set_theme(theme);
+    }
+    let visuals = if cfg.light_theme { high_contrast_light() } else { egui::Visuals::dark() };
+    let sizes = text_styles(cfg.large_text);
+    let current = ctx.style_of(theme);
+    if current.visuals != visuals || current.text_styles != sizes {
+        ctx.style_mut_of(theme, |s| {
+            s.visuals = visuals;
+            s.text_styles = sizes;
+        });
+    }
+    let style = ctx.style_of(theme);
+    if **ui.style() != *style {
+        ui.set_style(style);
     }
 }

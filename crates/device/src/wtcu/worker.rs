@@ -401,7 +401,11 @@ impl VestHandle {
             VestConfig::Serial { port, baud } => {
                 let poll = settings.io_poll;
                 Box::new(move || {
-                    let p = crate::serial::open(&port, baud, poll).map_err(io::Error::other)?;
+                    let p = crate::serial::open(&port, baud, poll).map_err(|e| {
+                        tracing::warn!(port, baud, "vest serial port {port}: cannot open: {e}");
+                        io::Error::other(e)
+                    })?;
+                    tracing::info!(port, baud, "vest serial port {port} open at {baud} baud");
                     Ok(Box::new(p) as Box<dyn Transport>)
                 })
             }
@@ -579,6 +583,8 @@ impl Worker {
                     }
                 }
                 Err(e) => {
+                    // The serial connector names its port in its own warning; other transports are named here.
+                    tracing::debug!("vest transport: cannot open the vest port: {e}");
                     self.emit(VestEvent::Transport(format!("cannot open the vest port: {e}")));
                     self.wake();
                 }
@@ -810,6 +816,9 @@ impl Worker {
             let event = match ev {
                 LinkEvent::State(s) => {
                     let lost = matches!(s, LinkState::Lost { .. });
+                    if let LinkState::Lost { reason } = &s {
+                        tracing::warn!("vest link lost: {reason}");
+                    }
                     self.emit(VestEvent::State(s));
                     if lost {
                         self.emit(VestEvent::TactorsOn(None));

@@ -19,6 +19,7 @@ pub(super) fn run_gpsd(w: &Worker, host: &str, port: u16) {
             return;
         }
         let Some(reason) = gpsd_session(w, host, port, &mut attempt) else { return };
+        tracing::warn!(host, port, "gpsd at {host}:{port}: {reason}");
         if !w.state(SourceState::Lost { reason }) {
             return;
         }
@@ -46,6 +47,7 @@ fn gpsd_session(w: &Worker, host: &str, port: u16, attempt: &mut u32) -> Option<
     {
         return Some(e.to_string());
     }
+    tracing::info!(host, port, "connected to gpsd at {addr}");
     if !w.state(SourceState::Live { detail: format!("gpsd at {addr}") }) {
         return None;
     }

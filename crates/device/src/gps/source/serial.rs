@@ -67,6 +67,7 @@ pub(super) fn run_serial(w: &Worker, port: &str, baud: Option<u32>) {
             None => match detect_baud(port, Duration::from_millis(1500), &w.stop) {
                 Ok(x) => x,
                 Err(reason) => {
+                    tracing::warn!(port, "GPS serial port {port}: baud detection failed: {reason}");
                     if !w.state(SourceState::Lost { reason }) {
                         return;
                     }
@@ -77,12 +78,14 @@ pub(super) fn run_serial(w: &Worker, port: &str, baud: Option<u32>) {
         let mut p = match crate::serial::open(port, baud, Duration::from_millis(100)) {
             Ok(p) => p,
             Err(e) => {
+                tracing::warn!(port, baud, "GPS serial port {port}: cannot open: {e}");
                 if !w.state(SourceState::Lost { reason: e.to_string() }) {
                     return;
                 }
                 continue;
             }
         };
+        tracing::info!(port, baud, "GPS serial port {port} open at {baud} baud");
         if !w.state(SourceState::Live { detail: format!("{port} at {baud} baud") }) {
             return;
         }
@@ -92,6 +95,7 @@ pub(super) fn run_serial(w: &Worker, port: &str, baud: Option<u32>) {
         match reason {
             None => return,
             Some(reason) => {
+                tracing::warn!(port, "GPS serial port {port}: link lost: {reason}");
                 attempt = 1;
                 if !w.state(SourceState::Lost { reason }) {
                     return;
