@@ -266,6 +266,8 @@ pub struct Console {
     vest_link: Option<Arc<VestHandle>>,
     /// The compass calibration wizard.
     pub compass_wizard: crate::compass_panel::Wizard,
+    /// The pattern editor (Vest panel), kept while its window is closed.
+    pub pattern_editor: crate::pattern_editor::PatternEditor,
     ui_beat: Option<Heartbeat>,
     exit: ExitGuard,
     log: Option<SessionLog>,
@@ -376,6 +378,7 @@ impl Console {
             gps_worker: None,
             vest_link: None,
             compass_wizard: crate::compass_panel::Wizard::default(),
+            pattern_editor: crate::pattern_editor::PatternEditor::default(),
             ui_beat: None,
             exit,
             log,
@@ -665,15 +668,13 @@ impl Console {
             GpsEvent::Attitude(a) => self.gps.attitude = Some(a),
         });
         for f in fixes {
-            if f.has_position()
-                && let (Some(lat), Some(lon)) = (f.lat_deg, f.lon_deg)
-            {
+            if f.has_position() {
                 self.gps.fixes += 1;
                 self.gps.alarm_silenced = false;
                 self.map.push_track(&f);
                 let t_s =
                     f.received_at.map_or(0.0, |t| t.saturating_duration_since(self.epoch).as_secs_f64());
-                self.field_panel.push_position(t_s, lat, lon, f.speed_m_s);
+                self.field_panel.push_fix(t_s, &f);
                 self.gps.last_position = Some(f.clone());
             }
             self.gps.fix = Some(f);

@@ -9,14 +9,36 @@
 //!   [`FieldTestAction::Mark`] so the app logs the mark, and shows the consecutive distances, their mean, the
 //!   RMSE against the spacing and the along-/cross-line components.
 //!
+//! **Time base.** Both tests run on the receiver's clock: the UTC time of day of each fix (`Fix::time_of_day`,
+//! unwrapped across midnight), so replaying a log at x10 still reports "201 fixes over 200 s". Only when the
+//! receiver sends no time are the fixes' arrival instants at the console used instead (a test falls back to
+//! them for good as soon as one of its fixes has no receiver time). The panel says which clock a test is on.
+//!
+//! **Moving during a drift test.** A drift test is for a receiver lying still; the panel warns in amber while
+//! the receiver moves at walking speed, and keeps a note that it did: either the reported speed over ground
+//! is at least [`WALKING_SPEED_M_S`] on every fix of the last [`WALK_SUSTAIN_S`] s, or the straight-line
+//! displacement over the last [`WALK_WINDOW_S`] s is at least that speed times the window (a walker's
+//! progress, well above the noise of a still receiver, which wanders a few decimetres in a few seconds).
+//!
+//! **Cone count.** While a cone test runs the panel counts marks ("3 of 10 cones marked"); whether a cone
+//! was missed or marked twice is judged only when the test is finished.
+//!
+//! **Exports.** The drift and cone tests each have their own export path (`vestnav-drift.*`,
+//! `vestnav-cones.*`), and an export never replaces an existing file silently: the panel asks first
+//! (**Overwrite** / **Cancel**), naming the file.
+//!
 //! Both warn when the receiver looks pinned: `SiRF` Star III "static navigation" holds the position while the
 //! speed is below about 1.2 m/s (physics.md §5), which flatters a drift test and distorts cone marks.
 //! Statistics come from `vestnav_core::fieldtest`, geodesy from `vestnav_core::geo`; the sheets shown and
 //! exported and the JSON reports come from `vestnav_report::fieldtest`, the same as `vestnav fieldtest drift|
 //! cones --png/--json` write for the same fixes.
 
+use std::path::PathBuf;
+
+use chrono::Timelike as _;
 use vestnav_core::fieldtest::{self, ConeConfig, ConeMark, ConeStats, DriftStats, TimedFix};
 use vestnav_core::geo::{Earth, LatLon};
+use vestnav_device::gps::Fix;
 use vestnav_report::Figure;
 use vestnav_report::fieldtest::{ConesReport, DriftReport, Source, cones_figure, drift_figure, drift_rows};
 
@@ -26,12 +48,159 @@ use crate::sim_panel::{ExportFormat, Exporter, figure_grid};
 pub const STATIC_NAV_SPEED_M_S: f64 = 1.2;
 /// Default drift-test duration [s] (thesis: 3 min).
 pub const DEFAULT_DRIFT_TARGET_S: f64 = 180.0;
+/// Default export path of the drift test (the extension follows the format).
+pub const DRIFT_EXPORT_PATH: &str = "vestnav-drift.json";
+/// Default export path of the cone test (the extension follows the format).
+pub const CONES_EXPORT_PATH: &str = "vestnav-cones.json";
 /// Default nominal cone spacing [m] (thesis: 10 m).
 pub const DEFAULT_CONE_SPACING_M: f64 = 10.0;
 /// Default number of cones (thesis: 10).
 pub const DEFAULT_CONE_COUNT: usize = 10;
 /// Identical consecutive fixes for this long while walking raise the live pinning warning [s].
 const LIVE_PINNED_RUN_S: f64 = 5.0;
+/// Speed at or above which a "stationary" receiver is taken to be carried at walking pace [m/s] (a slow
+/// walk is about 1 m/s; a still receiver's reported speed stays below ~0.2 m/s).
+pub const WALKING_SPEED_M_S: f64 = 0.5;
+/// The reported speed must stay at or above [`WALKING_SPEED_M_S`] this long to warn [s].
+pub const WALK_SUSTAIN_S: f64 = 3.0;
+/// Window of the displacement check [s]: moving `WALKING_SPEED_M_S * WALK_WINDOW_S` (2.5 m) in it warns.
+pub const WALK_WINDOW_S: f64 = 5.0;
+/// Seconds in a day, for unwrapping the receiver's time of day across midnight.
+const DAY_S: f64 = 86_400.0;
+
+/// The clock a test's times are on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Clock {
+    /// The receiver's UTC time of each fix.
+    Receiver,
+    /// The instant each fix arrived at the console (the receiver sends no time).
+    Arrival,
+}
+
+impl Clock {
+    /// How the panel names it.
+    pub fn describe(self) -> &'static str {
+        match self {
+            Clock::Receiver => "receiver UTC time of each fix",
+            Clock::Arrival => {
+                "arrival time at the console (the receiver sends no time: a faster-than-real-time replay \
+                 shortens durations)"
+            }
+        }
+    }
+
+    /// Short name, as written in the JSON report's `clock`.
+    pub fn key(self) -> &'static str {
+        match self {
+            Clock::Receiver => "receiver",
+            Clock::Arrival => "arrival",
+        }
+    }
+}
+
+/// One fix as the panel received it: both clocks, position and speed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Sample {
+    /// Arrival time at the console [s].
+    arrival_s: f64,
+    /// Receiver UTC time of day, unwrapped across midnight [s], when the receiver sent one.
+    receiver_s: Option<f64>,
+    pos: LatLon,
+    speed_m_s: Option<f64>,
+}
+
+impl Sample {
+    fn time_on(&self, clock: Clock) -> Option<f64> {
+        match clock {
+            Clock::Receiver => self.receiver_s,
+            Clock::Arrival => Some(self.arrival_s),
+        }
+    }
+}
+
+/// The fixes of one test, with the times on the test's clock.
+#[derive(Debug, Clone, Default)]
+struct Recording {
+    samples: Vec<Sample>,
+    /// `None` before the first fix.
+    clock: Option<Clock>,
+    /// `samples` on `clock`.
+    fixes: Vec<TimedFix>,
+    /// The last receiver time of day seen [s] and the days added so far [s].
+    last_tod_s: Option<f64>,
+    day_offset_s: f64,
+}
+
+impl Recording {
+    fn clear(&mut self) {
+        *self = Self::default();
+    }
+
+    /// Records a fix (receiver time of day `tod_s` [s], if any). Returns `false`, recording nothing, when the
+    /// fix's time on the test's clock is earlier than the previous fix's.
+    fn push(&mut self, arrival_s: f64, tod_s: Option<f64>, pos: LatLon, speed_m_s: Option<f64>) -> bool {
+        let receiver_s = tod_s.map(|tod| {
+            // A time of day more than half a day earlier than the last one is the next day.
+            if self.last_tod_s.is_some_and(|last| tod < last - DAY_S / 2.0) {
+                self.day_offset_s += DAY_S;
+            }
+            self.last_tod_s = Some(tod);
+            tod + self.day_offset_s
+        });
+        let sample = Sample { arrival_s, receiver_s, pos, speed_m_s };
+        let clock = match (self.clock, receiver_s) {
+            (None | Some(Clock::Receiver), Some(_)) => Clock::Receiver,
+            _ => Clock::Arrival,
+        };
+        let Some(t_s) = sample.time_on(clock) else { return false };
+        if self.clock != Some(clock) {
+            self.clock = Some(clock);
+            self.fixes = self
+                .samples
+                .iter()
+                .filter_map(|s| s.time_on(clock).map(|t_s| TimedFix { t_s, pos: s.pos }))
+                .collect();
+        }
+        if self.fixes.last().is_some_and(|l| t_s < l.t_s) {
+            return false;
+        }
+        self.samples.push(sample);
+        self.fixes.push(TimedFix { t_s, pos });
+        true
+    }
+
+    fn elapsed_s(&self) -> f64 {
+        match (self.fixes.first(), self.fixes.last()) {
+            (Some(a), Some(b)) => b.t_s - a.t_s,
+            _ => 0.0,
+        }
+    }
+
+    fn is_empty(&self) -> bool {
+        self.samples.is_empty()
+    }
+
+    /// The speed [m/s] at which the receiver is moving like a walker at the latest fix, if it is (see the
+    /// module doc): the lowest reported speed over the last [`WALK_SUSTAIN_S`] s when all are at least
+    /// [`WALKING_SPEED_M_S`], else the displacement over the last [`WALK_WINDOW_S`] s divided by its time.
+    fn walking_speed_m_s(&self, earth: Earth) -> Option<f64> {
+        let last = self.fixes.last()?;
+        let mut slowest = f64::INFINITY;
+        for (f, s) in self.fixes.iter().zip(&self.samples).rev() {
+            match s.speed_m_s {
+                Some(v) if v >= WALKING_SPEED_M_S => slowest = slowest.min(v),
+                _ => break,
+            }
+            if last.t_s - f.t_s >= WALK_SUSTAIN_S {
+                return Some(slowest);
+            }
+        }
+        let before = self.fixes.iter().rev().find(|f| last.t_s - f.t_s >= WALK_WINDOW_S)?;
+        let dt_s = last.t_s - before.t_s;
+        let v = earth.distance_m(before.pos, last.pos) / dt_s;
+        (v >= WALKING_SPEED_M_S).then_some(v)
+    }
+}
 
 /// What the operator did in the panel that the app must act on.
 #[derive(Debug, Clone, PartialEq)]
@@ -65,7 +234,11 @@ enum Phase {
 struct DriftTest {
     phase: Phase,
     target_s: f64,
-    fixes: Vec<TimedFix>,
+    rec: Recording,
+    /// The walking speed [m/s] at the latest fix, when the receiver is moving like a walker.
+    walking_now_m_s: Option<f64>,
+    /// When (test time [s] from the first fix) and how fast the receiver first moved like a walker.
+    walked: Option<(f64, f64)>,
     stats: Option<DriftStats>,
     error: Option<String>,
     /// Bumped whenever `fixes` changes; derived plots are cached per revision.
@@ -77,7 +250,9 @@ impl DriftTest {
         Self {
             phase: Phase::Idle,
             target_s: DEFAULT_DRIFT_TARGET_S,
-            fixes: Vec::new(),
+            rec: Recording::default(),
+            walking_now_m_s: None,
+            walked: None,
             stats: None,
             error: None,
             revision: 0,
@@ -85,10 +260,7 @@ impl DriftTest {
     }
 
     fn elapsed_s(&self) -> f64 {
-        match (self.fixes.first(), self.fixes.last()) {
-            (Some(a), Some(b)) => b.t_s - a.t_s,
-            _ => 0.0,
-        }
+        self.rec.elapsed_s()
     }
 }
 
@@ -100,7 +272,7 @@ struct ConeTest {
     /// Use a typed true bearing for the line instead of the first-to-last mark direction.
     use_bearing: bool,
     bearing_deg: f64,
-    track: Vec<TimedFix>,
+    rec: Recording,
     marks: Vec<ConeMark>,
     stats: Option<ConeStats>,
     error: Option<String>,
@@ -115,7 +287,7 @@ impl ConeTest {
             count: DEFAULT_CONE_COUNT,
             use_bearing: false,
             bearing_deg: 0.0,
-            track: Vec::new(),
+            rec: Recording::default(),
             marks: Vec::new(),
             stats: None,
             error: None,
@@ -123,9 +295,11 @@ impl ConeTest {
         }
     }
 
+    /// The settings; the expected count is left out while the test runs (a missing mark is only a mistake
+    /// once the operator has finished).
     fn config(&self, earth: Earth) -> ConeConfig {
         ConeConfig {
-            count: Some(self.count),
+            count: (self.phase != Phase::Running).then_some(self.count),
             line_bearing_deg: self.use_bearing.then_some(self.bearing_deg),
             earth,
             ..ConeConfig::with_spacing(self.spacing_m)
@@ -136,7 +310,10 @@ impl ConeTest {
 /// The latest fix the panel was given.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Latest {
+    /// Arrival time [s] and position.
     fix: TimedFix,
+    /// Receiver UTC time of day [s], when sent.
+    tod_s: Option<f64>,
     speed_m_s: Option<f64>,
 }
 
@@ -150,7 +327,20 @@ pub struct FieldTestPanel {
     drift: DriftTest,
     cones: ConeTest,
     plots: Option<(PlotKey, Figure)>,
-    exporter: Exporter,
+    /// The drift test's export path and state.
+    drift_exporter: Exporter,
+    /// The cone test's export path and state.
+    cones_exporter: Exporter,
+    /// An export waiting for the operator's go-ahead because its file exists.
+    overwrite: Option<PendingOverwrite>,
+}
+
+/// An export the operator must confirm: its file exists.
+#[derive(Debug, Clone, PartialEq)]
+struct PendingOverwrite {
+    procedure: Procedure,
+    format: ExportFormat,
+    path: PathBuf,
 }
 
 /// What the cached plots were derived from.
@@ -177,41 +367,78 @@ impl FieldTestPanel {
             drift: DriftTest::new(),
             cones: ConeTest::new(),
             plots: None,
-            exporter: Exporter::new("vestnav-fieldtest.json"),
+            drift_exporter: Exporter::new(DRIFT_EXPORT_PATH),
+            cones_exporter: Exporter::new(CONES_EXPORT_PATH),
+            overwrite: None,
         }
     }
 
-    /// Feeds one fix: time [s] (any origin, increasing), WGS-84 latitude/longitude [deg], speed over ground
-    /// [m/s] if known. Call it for every fix; a running test records it. Fixes with non-finite or
-    /// out-of-range coordinates, or a time earlier than the previous fix, are counted and ignored.
-    pub fn push_position(&mut self, t_s: f64, lat_deg: f64, lon_deg: f64, speed_m_s: Option<f64>) {
+    /// Feeds one fix from the GPS: `arrival_s` is when it reached the console [s] (any origin, increasing);
+    /// the receiver's UTC time of day comes from the fix (`time_of_day`, else `time`). Call it for every fix
+    /// with a position; a running test records it. See [`Self::push_sample`] for what is refused.
+    pub fn push_fix(&mut self, arrival_s: f64, fix: &Fix) {
+        let (Some(lat), Some(lon)) = (fix.lat_deg, fix.lon_deg) else { return };
+        let tod = fix.time_of_day.or_else(|| fix.time.map(|t| t.time()));
+        let tod_s = tod.map(|t| f64::from(t.num_seconds_from_midnight()) + f64::from(t.nanosecond()) * 1e-9);
+        self.push_sample(arrival_s, tod_s, lat, lon, fix.speed_m_s);
+    }
+
+    /// Feeds one fix: arrival time [s] (any origin, increasing), receiver UTC time of day [s] if sent,
+    /// WGS-84 latitude/longitude [deg], speed over ground [m/s] if known. Fixes with non-finite or
+    /// out-of-range coordinates, an arrival time earlier than the previous fix's, or a time earlier than the
+    /// previous fix's on a running test's clock, are counted and ignored.
+    fn push_sample(
+        &mut self,
+        arrival_s: f64,
+        tod_s: Option<f64>,
+        lat_deg: f64,
+        lon_deg: f64,
+        speed: Option<f64>,
+    ) {
         let Ok(pos) = LatLon::new(lat_deg, lon_deg).validated() else {
             self.rejected += 1;
             return;
         };
-        if !t_s.is_finite() || self.latest.is_some_and(|l| t_s < l.fix.t_s) {
+        if !arrival_s.is_finite() || self.latest.is_some_and(|l| arrival_s < l.fix.t_s) {
             self.rejected += 1;
             return;
         }
-        let fix = TimedFix { t_s, pos };
-        self.latest = Some(Latest { fix, speed_m_s: speed_m_s.filter(|s| s.is_finite() && *s >= 0.0) });
+        let tod_s = tod_s.filter(|t| t.is_finite() && (0.0..DAY_S + 1.0).contains(t));
+        let speed_m_s = speed.filter(|s| s.is_finite() && *s >= 0.0);
+        self.latest = Some(Latest { fix: TimedFix { t_s: arrival_s, pos }, tod_s, speed_m_s });
+        let mut refused = false;
         if self.drift.phase == Phase::Running {
-            self.drift.fixes.push(fix);
-            self.drift.revision += 1;
-            self.update_drift_stats();
-            if self.drift.elapsed_s() >= self.drift.target_s {
-                self.drift.phase = Phase::Done;
+            if self.drift.rec.push(arrival_s, tod_s, pos, speed_m_s) {
+                self.drift.revision += 1;
+                self.update_drift_stats();
+                self.drift.walking_now_m_s = self.drift.rec.walking_speed_m_s(self.earth);
+                if let Some(v) = self.drift.walking_now_m_s
+                    && self.drift.walked.is_none()
+                {
+                    self.drift.walked = Some((self.drift.elapsed_s(), v));
+                }
+                if self.drift.elapsed_s() >= self.drift.target_s {
+                    self.drift.phase = Phase::Done;
+                }
+            } else {
+                refused = true;
             }
         }
         if self.cones.phase == Phase::Running {
-            self.cones.track.push(fix);
-            self.cones.revision += 1;
-            self.update_cone_stats();
+            if self.cones.rec.push(arrival_s, tod_s, pos, speed_m_s) {
+                self.cones.revision += 1;
+                self.update_cone_stats();
+            } else {
+                refused = true;
+            }
+        }
+        if refused {
+            self.rejected += 1;
         }
     }
 
     fn update_drift_stats(&mut self) {
-        match fieldtest::drift(&self.drift.fixes, self.earth) {
+        match fieldtest::drift(&self.drift.rec.fixes, self.earth) {
             Ok(s) => {
                 self.drift.stats = Some(s);
                 self.drift.error = None;
@@ -229,7 +456,7 @@ impl FieldTestPanel {
             self.cones.error = None;
             return;
         }
-        match fieldtest::cones(&self.cones.marks, &self.cones.track, &self.cones.config(self.earth)) {
+        match fieldtest::cones(&self.cones.marks, &self.cones.rec.fixes, &self.cones.config(self.earth)) {
             Ok(s) => {
                 self.cones.stats = Some(s);
                 self.cones.error = None;
@@ -244,7 +471,9 @@ impl FieldTestPanel {
     /// Starts a new drift test (discarding the previous one).
     fn start_drift(&mut self) {
         self.drift.phase = Phase::Running;
-        self.drift.fixes.clear();
+        self.drift.rec.clear();
+        self.drift.walking_now_m_s = None;
+        self.drift.walked = None;
         self.drift.stats = None;
         self.drift.error = None;
         self.drift.revision += 1;
@@ -254,13 +483,14 @@ impl FieldTestPanel {
     fn stop_drift(&mut self) {
         if self.drift.phase == Phase::Running {
             self.drift.phase = Phase::Done;
+            self.drift.walking_now_m_s = None;
         }
     }
 
     /// Starts a new cone test (discarding the previous one).
     fn start_cones(&mut self) {
         self.cones.phase = Phase::Running;
-        self.cones.track.clear();
+        self.cones.rec.clear();
         self.cones.marks.clear();
         self.cones.stats = None;
         self.cones.error = None;
@@ -271,6 +501,9 @@ impl FieldTestPanel {
     fn finish_cones(&mut self) {
         if self.cones.phase == Phase::Running {
             self.cones.phase = Phase::Done;
+            // Now the mark count is judged against the expected count.
+            self.update_cone_stats();
+            self.cones.revision += 1;
         }
     }
 
@@ -279,10 +512,11 @@ impl FieldTestPanel {
         if self.cones.phase != Phase::Running {
             return None;
         }
-        let latest = self.latest?;
+        // The mark is at the test's latest fix, on the test's clock.
+        let at = self.cones.rec.fixes.last().copied().or_else(|| self.latest.map(|l| l.fix))?;
         let label = format!("cone {}", self.cones.marks.len() + 1);
-        let pos = fieldtest::position_at(&self.cones.track, latest.fix.t_s).unwrap_or(latest.fix.pos);
-        self.cones.marks.push(ConeMark { t_s: latest.fix.t_s, label: label.clone(), pos });
+        let pos = fieldtest::position_at(&self.cones.rec.fixes, at.t_s).unwrap_or(at.pos);
+        self.cones.marks.push(ConeMark { t_s: at.t_s, label: label.clone(), pos });
         self.cones.revision += 1;
         self.update_cone_stats();
         Some(FieldTestAction::Mark { label })
@@ -292,8 +526,8 @@ impl FieldTestPanel {
     /// static-navigation threshold while a cone test runs.
     fn live_pinning_warning(&self) -> Option<String> {
         let (track, what) = match self.procedure {
-            Procedure::Drift => (&self.drift.fixes, "drift test"),
-            Procedure::Cones => (&self.cones.track, "cone test"),
+            Procedure::Drift => (&self.drift.rec.fixes, "drift test"),
+            Procedure::Cones => (&self.cones.rec.fixes, "cone test"),
         };
         let last = track.last()?;
         let start = track.iter().rposition(|f| last.t_s - f.t_s > 30.0).map_or(0, |i| i + 1);
@@ -340,7 +574,8 @@ impl FieldTestPanel {
         ui.horizontal(|ui| {
             match self.latest {
                 Some(l) => ui.label(format!(
-                    "latest fix: t = {:.1} s, {:.7}°, {:.7}°{}",
+                    "latest fix: {}, arrived at t = {:.1} s, {:.7}°, {:.7}°{}",
+                    l.tod_s.map_or_else(|| "no receiver time".to_owned(), utc_of_day),
                     l.fix.t_s,
                     l.fix.pos.lat_deg,
                     l.fix.pos.lon_deg,
@@ -364,7 +599,7 @@ impl FieldTestPanel {
     }
 
     fn update_drift_stats_if_any(&mut self) {
-        if !self.drift.fixes.is_empty() {
+        if !self.drift.rec.is_empty() {
             self.update_drift_stats();
         }
     }
@@ -376,14 +611,12 @@ impl FieldTestPanel {
         );
         ui.horizontal(|ui| {
             let mut minutes = self.drift.target_s / 60.0;
+            let name = ui.label("duration target");
             ui.add_enabled(
                 self.drift.phase != Phase::Running,
-                egui::DragValue::new(&mut minutes)
-                    .range(0.5..=60.0)
-                    .speed(0.1)
-                    .suffix(" min")
-                    .prefix("target "),
-            );
+                egui::DragValue::new(&mut minutes).range(0.5..=60.0).speed(0.1).suffix(" min"),
+            )
+            .labelled_by(name.id);
             self.drift.target_s = minutes * 60.0;
             match self.drift.phase {
                 Phase::Running => {
@@ -411,10 +644,35 @@ impl FieldTestPanel {
                 Phase::Done => "done",
             });
         });
+        if let Some(clock) = self.drift.rec.clock {
+            ui.label(format!("time base: {}", clock.describe()));
+        }
+        let amber = ui.visuals().warn_fg_color;
+        if let Some(v) = self.drift.walking_now_m_s {
+            ui.label(
+                egui::RichText::new(format!(
+                    "Warning: the receiver is moving at {v:.1} m/s (walking speed) during a stationary drift \
+                     test: put it down and start again"
+                ))
+                .color(amber)
+                .strong()
+                .size(16.0),
+            );
+        } else if let Some((at_s, v)) = self.drift.walked {
+            ui.label(
+                egui::RichText::new(format!(
+                    "Warning: the receiver moved at {v:.1} m/s (walking speed) {at_s:.0} s into this test: \
+                     the figures are not those of a stationary receiver"
+                ))
+                .color(amber)
+                .strong(),
+            );
+        }
         if let Some(e) = &self.drift.error {
             ui.colored_label(ui.visuals().error_fg_color, e);
         }
         if let Some(s) = &self.drift.stats {
+            ui.strong(format!("{} fixes over {:.0} s", s.fixes, s.duration_s));
             egui::Grid::new("fieldtest-drift-stats").striped(true).show(ui, |ui| {
                 for (name, value) in drift_rows(s) {
                     ui.label(name);
@@ -470,6 +728,7 @@ impl FieldTestPanel {
                 if ui.button("Finish").clicked() {
                     self.finish_cones();
                 }
+                // A live count, not a verdict: the count is checked when the test is finished.
                 ui.label(format!("{} of {} cones marked", self.cones.marks.len(), self.cones.count));
             } else {
                 let label = if self.cones.phase == Phase::Idle { "Start cone test" } else { "Start again" };
@@ -487,6 +746,9 @@ impl FieldTestPanel {
         }
         if running && self.cones.marks.len() == self.cones.count {
             ui.colored_label(ui.visuals().hyperlink_color, "All cones marked: press Finish.");
+        }
+        if let Some(clock) = self.cones.rec.clock {
+            ui.label(format!("time base: {}", clock.describe()));
         }
         if let Some(e) = &self.cones.error {
             ui.colored_label(ui.visuals().error_fg_color, e);
@@ -512,9 +774,12 @@ impl FieldTestPanel {
         if self.plots.as_ref().is_none_or(|(k, _)| *k != key) {
             let figure = match self.procedure {
                 Procedure::Drift => self.drift.stats.as_ref().map_or_else(Figure::new, drift_figure),
-                Procedure::Cones => {
-                    cones_figure(self.cones.stats.as_ref(), &self.cones.marks, &self.cones.track, self.earth)
-                }
+                Procedure::Cones => cones_figure(
+                    self.cones.stats.as_ref(),
+                    &self.cones.marks,
+                    &self.cones.rec.fixes,
+                    self.earth,
+                ),
             };
             self.plots = Some((key, figure));
         }
@@ -527,7 +792,15 @@ impl FieldTestPanel {
             (Some(s), _) => Ok(s.clone()),
             (None, e) => Err(e.clone().unwrap_or_else(|| "no fixes recorded".to_string())),
         };
-        DriftReport::new(Source::live(), self.earth, Some(self.drift.target_s), stats, &self.drift.fixes)
+        let mut report = DriftReport::new(
+            Source::live(),
+            self.earth,
+            Some(self.drift.target_s),
+            stats,
+            &self.drift.rec.fixes,
+        );
+        report.clock = self.drift.rec.clock.map(|c| c.key().to_owned());
+        report
     }
 
     /// The cone test's report.
@@ -543,7 +816,7 @@ impl FieldTestPanel {
             None,
             stats,
             &self.cones.marks,
-            &self.cones.track,
+            &self.cones.rec.fixes,
         )
     }
 
@@ -557,35 +830,88 @@ impl FieldTestPanel {
     }
 
     fn export_and_plots(&mut self, ui: &mut egui::Ui) {
-        let has_data = match self.procedure {
-            Procedure::Drift => !self.drift.fixes.is_empty(),
-            Procedure::Cones => !self.cones.track.is_empty() || !self.cones.marks.is_empty(),
+        let procedure = self.procedure;
+        let has_data = match procedure {
+            Procedure::Drift => !self.drift.rec.is_empty(),
+            Procedure::Cones => !self.cones.rec.is_empty() || !self.cones.marks.is_empty(),
         };
         if !has_data {
             return;
         }
-        if let Some(format) = self.exporter.ui(ui, &[ExportFormat::Json, ExportFormat::Png]) {
-            let ctx = ui.ctx().clone();
-            match format {
-                ExportFormat::Json => {
-                    let json = self.report_json();
-                    self.exporter.start(&ctx, format, move || json);
+        let pressed = self.exporter_mut(procedure).ui(ui, &[ExportFormat::Json, ExportFormat::Png]);
+        if let Some(format) = pressed {
+            self.overwrite = None;
+            match self.exporter_mut(procedure).target(format) {
+                Some(path) if path.exists() => {
+                    self.overwrite = Some(PendingOverwrite { procedure, format, path });
                 }
-                ExportFormat::Png | ExportFormat::Csv => {
-                    let figure = self.figure().clone();
-                    self.exporter.start(&ctx, ExportFormat::Png, move || {
-                        figure.render_png().map_err(|e| format!("cannot render the figure: {e}"))
-                    });
-                }
+                _ => self.start_export(ui.ctx(), format, false),
             }
         }
-        let id = match self.procedure {
+        if let Some(p) = self.overwrite.clone().filter(|p| p.procedure == procedure) {
+            ui.horizontal_wrapped(|ui| {
+                ui.colored_label(
+                    ui.visuals().warn_fg_color,
+                    format!("{} already exists: overwrite it?", p.path.display()),
+                );
+                if ui.button("Overwrite").clicked() {
+                    self.overwrite = None;
+                    self.start_export(ui.ctx(), p.format, true);
+                }
+                if ui.button("Cancel").clicked() {
+                    self.overwrite = None;
+                }
+            });
+        }
+        let id = match procedure {
             Procedure::Drift => "fieldtest-drift",
             Procedure::Cones => "fieldtest-cones",
         };
         let figure = self.figure().clone();
         egui::ScrollArea::vertical().id_salt(id).show(ui, |ui| figure_grid(ui, id, &figure, 260.0));
     }
+
+    fn exporter_mut(&mut self, procedure: Procedure) -> &mut Exporter {
+        match procedure {
+            Procedure::Drift => &mut self.drift_exporter,
+            Procedure::Cones => &mut self.cones_exporter,
+        }
+    }
+
+    /// Writes the current procedure's export in `format` on the exporter's thread. Unless `overwrite`, a
+    /// file that appeared at the target meanwhile is left alone and the export fails naming it.
+    fn start_export(&mut self, ctx: &egui::Context, format: ExportFormat, overwrite: bool) {
+        let procedure = self.procedure;
+        let Some(path) = self.exporter_mut(procedure).target(format) else {
+            // The exporter reports the missing path itself.
+            self.exporter_mut(procedure).start(ctx, format, || Err(String::new()));
+            return;
+        };
+        let bytes: Box<dyn FnOnce() -> Result<Vec<u8>, String> + Send> = match format {
+            ExportFormat::Json => {
+                let json = self.report_json();
+                Box::new(move || json)
+            }
+            ExportFormat::Png | ExportFormat::Csv => {
+                let figure = self.figure().clone();
+                Box::new(move || figure.render_png().map_err(|e| format!("cannot render the figure: {e}")))
+            }
+        };
+        let format = if format == ExportFormat::Csv { ExportFormat::Png } else { format };
+        self.exporter_mut(procedure).start(ctx, format, move || {
+            if !overwrite && path.exists() {
+                return Err(format!("{} already exists: not overwritten", path.display()));
+            }
+            bytes()
+        });
+    }
+}
+
+/// A UTC time of day [s] as `hh:mm:ss.s UTC`.
+fn utc_of_day(tod_s: f64) -> String {
+    let t = tod_s.rem_euclid(DAY_S);
+    let (h, m, s) = ((t / 3600.0).floor(), ((t % 3600.0) / 60.0).floor(), t % 60.0);
+    format!("{h:02.0}:{m:02.0}:{s:04.1} UTC")
 }
 
 /// The cone statistics: summary line, consecutive distances table and warnings.
@@ -641,7 +967,7 @@ mod tests {
     }
 
     fn push(panel: &mut FieldTestPanel, t_s: f64, p: LatLon, speed: Option<f64>) {
-        panel.push_position(t_s, p.lat_deg, p.lon_deg, speed);
+        panel.push_sample(t_s, None, p.lat_deg, p.lon_deg, speed);
     }
 
     #[test]
@@ -671,7 +997,11 @@ mod tests {
         // The line runs north: the components are all along-line.
         assert_relative_eq!(s.line_bearing_deg, 0.0, epsilon = 1e-6);
         assert!(s.cross_m.iter().all(|c| c.abs() < 1e-6));
-        assert!(s.warnings.iter().any(|w| w.contains("4 marks for 10 cones")), "{:?}", s.warnings);
+        assert!(
+            s.warnings.iter().all(|w| !w.contains("missed")),
+            "no verdict on the count while the test runs: {:?}",
+            s.warnings
+        );
         // The last cone marked 3 m east (right of the northward line), line bearing fixed at 0 degrees.
         panel.cones.use_bearing = true;
         panel.cones.marks.last_mut().unwrap().pos = at(30.0, 3.0);
@@ -681,6 +1011,8 @@ mod tests {
         assert_relative_eq!(s.along_m[2], 8.0, max_relative = 1e-6);
         panel.finish_cones();
         assert_eq!(panel.mark_cone(), None, "finished");
+        let s = panel.cones.stats.as_ref().unwrap();
+        assert!(s.warnings.iter().any(|w| w.contains("4 marks for 10 cones")), "{:?}", s.warnings);
         // The JSON report carries the statistics and the marks.
         panel.procedure = Procedure::Cones;
         let json: serde_json::Value = serde_json::from_slice(&panel.report_json().unwrap()).unwrap();
@@ -709,7 +1041,9 @@ mod tests {
             push(&mut panel, 101.0 + f64::from(k), p, Some(0.0));
         }
         assert_eq!(panel.drift.phase, Phase::Done);
-        assert_eq!(panel.drift.fixes.len(), 181, "recording stops at the 3 min target");
+        assert_eq!(panel.drift.rec.fixes.len(), 181, "recording stops at the 3 min target");
+        assert_eq!(panel.drift.rec.clock, Some(Clock::Arrival), "no receiver time was given");
+        assert_eq!(panel.drift.walked, None, "a 2 m circle at 0 m/s is not a walk");
         let s = panel.drift.stats.as_ref().unwrap();
         assert_relative_eq!(s.duration_s, 180.0);
         assert_relative_eq!(s.cep50_m, 2.0, max_relative = 1e-3);
@@ -732,15 +1066,16 @@ mod tests {
     #[test]
     fn hostile_fixes_are_ignored() {
         let mut panel = FieldTestPanel::new();
-        panel.push_position(f64::NAN, 42.0, -71.0, None);
-        panel.push_position(1.0, f64::NAN, -71.0, None);
-        panel.push_position(1.0, 95.0, -71.0, None);
-        panel.push_position(1.0, 42.0, f64::INFINITY, None);
+        panel.push_sample(f64::NAN, None, 42.0, -71.0, None);
+        panel.push_sample(1.0, None, f64::NAN, -71.0, None);
+        panel.push_sample(1.0, None, 95.0, -71.0, None);
+        panel.push_sample(1.0, None, 42.0, f64::INFINITY, None);
         assert!(panel.latest.is_none());
-        panel.push_position(5.0, 42.0, -71.0, Some(f64::NAN));
-        panel.push_position(4.0, 42.0, -71.0, None);
+        panel.push_sample(5.0, Some(f64::NAN), 42.0, -71.0, Some(f64::NAN));
+        panel.push_sample(4.0, None, 42.0, -71.0, None);
         assert_eq!(panel.rejected, 5);
         assert_eq!(panel.latest.unwrap().speed_m_s, None);
+        assert_eq!(panel.latest.unwrap().tod_s, None, "a NaN receiver time is no time");
     }
 
     #[test]
@@ -794,5 +1129,117 @@ mod tests {
             10.0,
             max_relative = 1e-9
         );
+    }
+    /// Issue 15 fault 7: the drift test's time base is the receiver's UTC, not the arrival instants (a x10
+    /// replay), across midnight too; a fix without receiver time puts the test on the arrival clock.
+    #[test]
+    fn drift_runs_on_the_receiver_clock() {
+        let mut panel = FieldTestPanel::new();
+        panel.drift.target_s = 300.0;
+        let tod0 = DAY_S - 100.0; // midnight falls 100 s into the test
+        panel.push_sample(0.0, Some(tod0), C.lat_deg, C.lon_deg, Some(0.0));
+        panel.start_drift();
+        for k in 0..=200 {
+            let k = f64::from(k);
+            panel.push_sample(0.1 * k, Some((tod0 + k) % DAY_S), C.lat_deg, C.lon_deg, Some(0.0));
+        }
+        assert_eq!(panel.drift.rec.clock, Some(Clock::Receiver));
+        assert_eq!(panel.rejected, 0);
+        let s = panel.drift.stats.as_ref().unwrap();
+        assert_eq!(s.fixes, 201);
+        assert_relative_eq!(s.duration_s, 200.0, max_relative = 1e-9);
+        assert_eq!(panel.drift.phase, Phase::Running, "200 s of a 300 s target");
+        panel.procedure = Procedure::Drift;
+        let json: serde_json::Value = serde_json::from_slice(&panel.report_json().unwrap()).unwrap();
+        assert_eq!(json["clock"], "receiver");
+        assert_relative_eq!(json["duration_s"].as_f64().unwrap(), 200.0, max_relative = 1e-9);
+        // The receiver stops sending time: the whole test is re-timed on arrival (0 .. 20.1 s).
+        panel.push_sample(20.1, None, C.lat_deg, C.lon_deg, Some(0.0));
+        assert_eq!(panel.drift.rec.clock, Some(Clock::Arrival));
+        assert_relative_eq!(panel.drift.elapsed_s(), 20.1, max_relative = 1e-9);
+    }
+
+    /// Issue 15 fault 7: a receiver carried at walking pace during a drift test raises the warning, from
+    /// the reported speed or, without one, from its displacement; a still receiver does not.
+    #[test]
+    fn a_walking_receiver_warns_during_a_drift_test() {
+        for reports_speed in [true, false] {
+            let mut panel = FieldTestPanel::new();
+            let speed = |v: f64| reports_speed.then_some(v);
+            panel.push_sample(0.0, Some(0.0), C.lat_deg, C.lon_deg, speed(0.0));
+            panel.start_drift();
+            // Still for 10 s (a few centimetres of noise).
+            for k in 0..10 {
+                let p = at(0.03 * f64::from(k % 3), 0.0);
+                panel.push_sample(f64::from(k), Some(f64::from(k)), p.lat_deg, p.lon_deg, speed(0.05));
+            }
+            assert_eq!(panel.drift.walking_now_m_s, None, "a still receiver");
+            // Carried north at 1.2 m/s for 8 s.
+            for k in 1..=8 {
+                let p = at(1.2 * f64::from(k), 0.0);
+                let t = 9.0 + f64::from(k);
+                panel.push_sample(t, Some(t), p.lat_deg, p.lon_deg, speed(1.2));
+            }
+            let v = panel.drift.walking_now_m_s.expect("walking warning");
+            assert_relative_eq!(v, 1.2, max_relative = 0.01);
+            assert!(panel.drift.walked.is_some());
+            // Put down again: the live warning ends once the window has passed, the note stays.
+            for k in 1..=8 {
+                let p = at(9.6, 0.0);
+                let t = 17.0 + f64::from(k);
+                panel.push_sample(t, Some(t), p.lat_deg, p.lon_deg, speed(0.0));
+            }
+            assert_eq!(panel.drift.walking_now_m_s, None);
+            assert!(panel.drift.walked.is_some_and(|(at_s, _)| at_s > 10.0 && at_s < 17.0));
+        }
+    }
+
+    /// Issue 15 fault 4: drift and cone exports have their own paths, and an existing file is kept until
+    /// the operator confirms **Overwrite**.
+    #[test]
+    fn exports_have_separate_paths_and_ask_before_overwriting() {
+        use egui_kittest::Harness;
+        use egui_kittest::kittest::Queryable as _;
+        let panel = FieldTestPanel::new();
+        assert_ne!(
+            panel.drift_exporter.target(ExportFormat::Json),
+            panel.cones_exporter.target(ExportFormat::Json)
+        );
+        let dir = std::env::temp_dir().join(format!("vestnav-ft-export-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("drift.json");
+        std::fs::write(&path, "keep me").unwrap();
+        let mut panel = panel;
+        panel.drift_exporter.path = path.display().to_string();
+        push(&mut panel, 0.0, C, None);
+        panel.start_drift();
+        push(&mut panel, 1.0, C, None);
+        push(&mut panel, 2.0, C, None);
+        let mut h = Harness::new_ui_state(
+            |ui, p: &mut FieldTestPanel| {
+                let _ = p.ui(ui);
+            },
+            panel,
+        );
+        h.set_size(egui::vec2(1200.0, 900.0));
+        h.run();
+        h.get_by_label("Save JSON").click();
+        h.run();
+        assert!(h.query_by_label_contains("already exists").is_some());
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), "keep me");
+        h.get_by_label("Cancel").click();
+        h.run();
+        assert!(h.query_by_label_contains("already exists").is_none());
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), "keep me");
+        h.get_by_label("Save JSON").click();
+        h.run();
+        h.get_by_label("Overwrite").click();
+        h.step(); // the export runs on its thread (a spinner keeps repainting)
+        h.state_mut().drift_exporter.wait();
+        let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+        assert_eq!(json["test"], "drift");
+        assert_eq!(json["fixes"], 2);
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -23,6 +23,7 @@ pub mod guidance;
 pub mod hardware;
 pub mod log_viewer;
 pub mod map_panel;
+pub mod pattern_editor;
 pub mod route;
 mod sim_panel;
 pub mod vest_panel;

@@ -595,18 +595,18 @@ impl MapView {
                     Err(e) => *status = format!("GPX import failed: {e}"),
                 }
             }
+            // Exports never replace a file (route.rs); GPX keeps the track's segments.
             if ui.button("Export GPX").clicked() {
-                let path = self.gpx_path.trim().to_owned();
-                *status = match crate::route::write_gpx(&self.route_name, &self.waypoints, &self.track)
-                    .and_then(|t| std::fs::write(&path, t).map_err(|e| e.to_string()))
-                {
-                    Ok(()) => format!(
-                        "wrote {} waypoints and {} track points to {path}",
-                        self.waypoints.len(),
-                        self.track.len()
-                    ),
-                    Err(e) => format!("GPX export failed: {e}"),
-                };
+                let path = std::path::PathBuf::from(self.gpx_path.trim());
+                let segments = self.track_segments();
+                *status = crate::route::export_gpx(&path, &self.route_name, &self.waypoints, &segments)
+                    .unwrap_or_else(|e| format!("GPX export failed: {e}"));
+            }
+            if ui.button("Export GeoJSON").on_hover_text("the path with .geojson, for QGIS").clicked() {
+                let path = std::path::PathBuf::from(self.gpx_path.trim());
+                let segments = self.track_segments();
+                *status = crate::route::export_geojson(&path, &self.route_name, &self.waypoints, &segments)
+                    .unwrap_or_else(|e| format!("GeoJSON export failed: {e}"));
             }
             if ui.button("Clear track").clicked() {
                 self.track.clear();

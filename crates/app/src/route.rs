@@ -7,6 +7,11 @@
 //! The route autosave ([`Autosave`]): the route being edited (name, waypoints, next waypoint) is written
 //! as GPX through `route_file` whenever it changes, atomically (a temp file, then a rename), and read back
 //! at start-up ([`read_autosave`]).
+//!
+//! Exports ([`export_gpx`], [`export_geojson`]) never replace a file: an existing file is refused with a
+//! message naming it. GPX has one `<trkseg>` per track segment of the map (a new segment after a GPS source
+//! change or an implausible jump); `GeoJSON` (RFC 7946, for QGIS) has the route as a `LineString`, each waypoint
+//! as a `Point` and the track as a `MultiLineString` of its segments, positions as `[lon, lat]`.
 
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -48,26 +53,136 @@ pub fn read_gpx(path: &Path) -> Result<GpxContent, String> {
     route_file::read_gpx(path).map(|f| GpxContent::from_file(&f)).map_err(|e| e.to_string())
 }
 
-/// The route (and the track, when there is one) as a GPX file.
-pub fn to_route_file(name: &str, waypoints: &[Waypoint], track: &[(f64, f64)]) -> RouteFile {
+/// The route and the track (one `<trkseg>` per non-empty segment, `(lat_deg, lon_deg)` points) as a GPX file.
+pub fn to_route_file(name: &str, waypoints: &[Waypoint], segments: &[&[(f64, f64)]]) -> RouteFile {
     let mut file = RouteFile::from_route(name, waypoints.to_vec());
-    if !track.is_empty() {
-        file.tracks.push(Track {
-            name: Some(format!("{name} track")),
-            segments: vec![
-                track
-                    .iter()
-                    .map(|&(lat_deg, lon_deg)| TrackPoint { lat_deg, lon_deg, ele_m: None, time: None })
-                    .collect(),
-            ],
-        });
+    let segments: Vec<Vec<TrackPoint>> = segments
+        .iter()
+        .filter(|s| !s.is_empty())
+        .map(|s| {
+            s.iter()
+                .map(|&(lat_deg, lon_deg)| TrackPoint { lat_deg, lon_deg, ele_m: None, time: None })
+                .collect()
+        })
+        .collect();
+    if !segments.is_empty() {
+        file.tracks.push(Track { name: Some(format!("{name} track")), segments });
     }
     file
 }
 
-/// GPX 1.1 text of the route and track.
-pub fn write_gpx(name: &str, waypoints: &[Waypoint], track: &[(f64, f64)]) -> Result<String, String> {
-    Ok(route_file::to_gpx(&to_route_file(name, waypoints, track)))
+/// GPX 1.1 text of the route and the track's segments.
+pub fn write_gpx(name: &str, waypoints: &[Waypoint], segments: &[&[(f64, f64)]]) -> Result<String, String> {
+    Ok(route_file::to_gpx(&to_route_file(name, waypoints, segments)))
+}
+
+/// A `GeoJSON` position (RFC 7946 §3.1.1): longitude first.
+fn position(lat_deg: f64, lon_deg: f64) -> serde_json::Value {
+    serde_json::json!([lon_deg, lat_deg])
+}
+
+/// The route and track as a `GeoJSON` `FeatureCollection` (RFC 7946): the route as a `LineString` (when it
+/// has two points or more), each waypoint as a `Point` (`name`, 1-based `index`), and the track as one
+/// `MultiLineString` with a line per segment (segments of one point are left out: a line needs two). Every
+/// feature has a `kind` property: `route`, `waypoint` or `track`.
+pub fn geojson(name: &str, waypoints: &[Waypoint], segments: &[&[(f64, f64)]]) -> serde_json::Value {
+    let mut features = Vec::new();
+    if waypoints.len() >= 2 {
+        features.push(serde_json::json!({
+            "type": "Feature",
+            "properties": { "kind": "route", "name": name },
+            "geometry": {
+                "type": "LineString",
+                "coordinates": waypoints.iter().map(|w| position(w.lat_deg, w.lon_deg)).collect::<Vec<_>>(),
+            },
+        }));
+    }
+    for (k, w) in waypoints.iter().enumerate() {
+        features.push(serde_json::json!({
+            "type": "Feature",
+            "properties": { "kind": "waypoint", "name": w.name, "index": k + 1 },
+            "geometry": { "type": "Point", "coordinates": position(w.lat_deg, w.lon_deg) },
+        }));
+    }
+    let lines: Vec<Vec<serde_json::Value>> = segments
+        .iter()
+        .filter(|s| s.len() >= 2)
+        .map(|s| s.iter().map(|&(lat, lon)| position(lat, lon)).collect())
+        .collect();
+    if !lines.is_empty() {
+        features.push(serde_json::json!({
+            "type": "Feature",
+            "properties": { "kind": "track", "name": format!("{name} track") },
+            "geometry": { "type": "MultiLineString", "coordinates": lines },
+        }));
+    }
+    serde_json::json!({ "type": "FeatureCollection", "name": name, "features": features })
+}
+
+/// `GeoJSON` text of the route and track (see [`geojson`]).
+pub fn to_geojson(name: &str, waypoints: &[Waypoint], segments: &[&[(f64, f64)]]) -> Result<String, String> {
+    serde_json::to_string_pretty(&geojson(name, waypoints, segments))
+        .map_err(|e| format!("cannot encode GeoJSON: {e}"))
+}
+
+/// Writes `text` to a new file at `path`: an existing file is never replaced (the error names it). The
+/// check and the creation are one step (`create_new`), so no other writer can slip in between.
+pub fn write_new(path: &Path, text: &str) -> Result<(), String> {
+    use std::io::Write as _;
+    let mut f = match std::fs::OpenOptions::new().write(true).create_new(true).open(path) {
+        Ok(f) => f,
+        Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
+            return Err(format!(
+                "{} already exists: not overwritten (type another name, or delete the file first)",
+                path.display()
+            ));
+        }
+        Err(e) => return Err(format!("cannot write {}: {e}", path.display())),
+    };
+    f.write_all(text.as_bytes())
+        .and_then(|()| f.sync_all())
+        .map_err(|e| format!("cannot write {}: {e}", path.display()))
+}
+
+/// Exports the route and track as GPX to `path` (never replacing a file); returns what was written.
+pub fn export_gpx(
+    path: &Path,
+    name: &str,
+    waypoints: &[Waypoint],
+    segments: &[&[(f64, f64)]],
+) -> Result<String, String> {
+    if path.as_os_str().is_empty() {
+        return Err("type a file path first".to_owned());
+    }
+    write_new(path, &write_gpx(name, waypoints, segments)?)?;
+    Ok(format!(
+        "wrote {} waypoints and {} track points in {} segments to {}",
+        waypoints.len(),
+        segments.iter().map(|s| s.len()).sum::<usize>(),
+        segments.iter().filter(|s| !s.is_empty()).count(),
+        path.display()
+    ))
+}
+
+/// The `GeoJSON` file for a typed path: its extension replaced by `.geojson`.
+pub fn geojson_path(path: &Path) -> PathBuf {
+    path.with_extension("geojson")
+}
+
+/// Exports the route and track as `GeoJSON` to [`geojson_path`] of `path` (never replacing a file); returns
+/// what was written.
+pub fn export_geojson(
+    path: &Path,
+    name: &str,
+    waypoints: &[Waypoint],
+    segments: &[&[(f64, f64)]],
+) -> Result<String, String> {
+    if path.as_os_str().is_empty() {
+        return Err("type a file path first".to_owned());
+    }
+    let path = geojson_path(path);
+    write_new(&path, &to_geojson(name, waypoints, segments)?)?;
+    Ok(format!("wrote {} waypoints and the track as GeoJSON to {}", waypoints.len(), path.display()))
 }
 
 /// The route as the operator edits it: what the autosave keeps and an undo step restores.
@@ -230,7 +345,7 @@ mod tests {
         let c = parse_gpx(DEMO_GPX).unwrap();
         assert_eq!(c.waypoints.len(), 7);
         assert_eq!(c.waypoints[0].name, "Start (SE gate)");
-        let text = write_gpx("demo", &c.waypoints, &[(42.0, -71.0), (42.1, -71.1)]).unwrap();
+        let text = write_gpx("demo", &c.waypoints, &[&[(42.0, -71.0), (42.1, -71.1)]]).unwrap();
         let back = parse_gpx(&text).unwrap();
         assert_eq!(back.waypoints, c.waypoints);
         assert_eq!(back.track, vec![(42.0, -71.0), (42.1, -71.1)]);
@@ -274,6 +389,78 @@ mod tests {
         // A plain GPX file is a route too.
         assert_eq!(parse_autosave(DEMO_GPX).unwrap().waypoints.len(), 7);
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    type Line = Vec<(f64, f64)>;
+
+    fn segs() -> (Line, Line) {
+        (
+            vec![(42.3571, -71.1012), (42.35712, -71.10118), (42.35715, -71.10114)],
+            vec![(-33.868_82, 151.209_29), (-33.868_9, 151.2094)],
+        )
+    }
+
+    /// Issue 15: GPX export has one `<trkseg>` per map segment, read back by `route_file`'s reader.
+    #[test]
+    fn gpx_export_keeps_the_segments_and_refuses_to_overwrite() {
+        let dir = std::env::temp_dir().join(format!("vestnav-route-export-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("walk.gpx");
+        let wps = vec![Waypoint { name: "A".into(), lat_deg: 42.1, lon_deg: -71.2 }];
+        let (a, b) = segs();
+        let msg = export_gpx(&path, "walk", &wps, &[&a, &b]).unwrap();
+        assert!(msg.contains("2 segments"), "{msg}");
+        let back = route_file::read_gpx(&path).unwrap();
+        let got: Vec<Vec<(f64, f64)>> = back.tracks[0]
+            .segments
+            .iter()
+            .map(|s| s.iter().map(|p| (p.lat_deg, p.lon_deg)).collect())
+            .collect();
+        assert_eq!(got, vec![a.clone(), b.clone()]);
+        assert_eq!(back.routes[0].points, wps);
+        let before = std::fs::read(&path).unwrap();
+        let e = export_gpx(&path, "other", &[], &[&b]).unwrap_err();
+        assert!(e.contains(&path.display().to_string()) && e.contains("not overwritten"), "{e}");
+        assert_eq!(std::fs::read(&path).unwrap(), before, "the file is untouched");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// Issue 15: `GeoJSON` (RFC 7946) positions are `[lon, lat]` of the points given.
+    #[test]
+    fn geojson_has_lon_lat_route_points_and_track_segments() {
+        let wps = vec![
+            Waypoint { name: "A".into(), lat_deg: 42.1, lon_deg: -71.2 },
+            Waypoint { name: "B".into(), lat_deg: 42.3, lon_deg: -71.4 },
+        ];
+        let (a, b) = segs();
+        let text = to_geojson("walk", &wps, &[&a, &[(1.0, 2.0)], &b]).unwrap();
+        let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+        assert_eq!(v["type"], "FeatureCollection");
+        let features = v["features"].as_array().unwrap();
+        let of = |kind: &str| features.iter().filter(|f| f["properties"]["kind"] == kind).collect::<Vec<_>>();
+        let pair = |c: &serde_json::Value| (c[0].as_f64().unwrap(), c[1].as_f64().unwrap());
+        let route = of("route");
+        assert_eq!(route[0]["geometry"]["type"], "LineString");
+        let line: Vec<(f64, f64)> =
+            route[0]["geometry"]["coordinates"].as_array().unwrap().iter().map(pair).collect();
+        assert_eq!(line, wps.iter().map(|w| (w.lon_deg, w.lat_deg)).collect::<Vec<_>>());
+        let points = of("waypoint");
+        assert_eq!(points.len(), 2);
+        assert_eq!(points[1]["geometry"]["type"], "Point");
+        assert_eq!(pair(&points[1]["geometry"]["coordinates"]), (-71.4, 42.3));
+        assert_eq!(points[1]["properties"]["name"], "B");
+        let track = of("track");
+        assert_eq!(track[0]["geometry"]["type"], "MultiLineString");
+        let lines: Vec<Vec<(f64, f64)>> = track[0]["geometry"]["coordinates"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|l| l.as_array().unwrap().iter().map(pair).collect())
+            .collect();
+        let swap = |s: &[(f64, f64)]| s.iter().map(|&(lat, lon)| (lon, lat)).collect::<Vec<_>>();
+        assert_eq!(lines, vec![swap(&a), swap(&b)], "one line per segment of two points or more");
+        assert_eq!(geojson_path(Path::new("out/walk.gpx")), PathBuf::from("out/walk.geojson"));
     }
 
     #[test]

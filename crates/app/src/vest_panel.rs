@@ -3,6 +3,7 @@
 //! Grid buttons are labelled `T0`..`T15` with the numbering of `vestnav_core::vest` (seen from behind the
 //! wearer, row-major from the top-left). A click fires that tactor for the configured on-time; with
 //! "Multi-select" on (or Ctrl held), clicks toggle a selection that "Fire selected" sends at once.
+//! "Pattern editor..." opens [`crate::pattern_editor`] in its own window.
 
 use egui::{Color32, RichText, vec2};
 use vestnav_core::vest::{Cue, Frame, GRID, Pattern, TactorMask};
@@ -219,6 +220,19 @@ fn patterns_ui(c: &mut Console, ui: &mut egui::Ui) {
             c.vest.new_pattern_name.clear();
         }
     });
+    let label = if c.pattern_editor.open { "Close pattern editor" } else { "Pattern editor..." };
+    if ui
+        .button(label)
+        .on_hover_text("Frames on a timeline, painted on the grid, intensities, preview, files")
+        .clicked()
+    {
+        c.pattern_editor.open = !c.pattern_editor.open;
+    }
+    if c.pattern_editor.open {
+        let mut editor = std::mem::take(&mut c.pattern_editor);
+        editor.window(c, ui.ctx());
+        c.pattern_editor = editor;
+    }
 }
 
 fn describe(p: &Pattern) -> String {

@@ -1003,3 +1003,279 @@ fn a_corrupt_autosave_gives_a_message_and_the_console_still_starts() {
     drop(h);
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// Opens the pattern editor from the Vest panel.
+fn open_pattern_editor(h: &mut Harness<'static, Console>) {
+    h.get_by_label("Pattern editor...").click();
+    h.run_steps(2);
+    assert!(h.state().pattern_editor.open);
+}
+
+fn paint(h: &mut Harness<'static, Console>, tactors: &[usize]) {
+    for t in tactors {
+        h.get_by_label(&format!("Paint T{t}")).click();
+        h.run_steps(1);
+    }
+}
+
+fn set_frame_duration(h: &mut Harness<'static, Console>, frame: usize, duration_ms: u16) {
+    h.get_by_role_and_label(egui::accesskit::Role::SpinButton, &format!("Frame {frame} duration"))
+        .set_value_accesskit(f64::from(duration_ms));
+    h.run_steps(2);
+}
+
+fn disabled(h: &Harness<'static, Console>, label: &str) -> bool {
+    use egui_kittest::kittest::NodeT as _;
+    h.get_by_label(label).accesskit_node().is_disabled()
+}
+
+fn plays(fake: &Fake) -> Vec<Request> {
+    fake.sent().into_iter().filter(|r| matches!(r, Request::Play { .. })).collect()
+}
+
+/// Issue 15, pattern editor: what is painted on two frames is exactly what the unit is told to play.
+/// Truth: the tactors and durations the test painted and typed.
+#[test]
+fn the_pattern_editor_previews_exactly_the_painted_frames() {
+    let fake = Fake::default();
+    let mut h = harness(&fake);
+    open_pattern_editor(&mut h);
+    paint(&mut h, &[0, 5]);
+    set_frame_duration(&mut h, 1, 300);
+    h.get_by_label("Add frame").click();
+    h.run_steps(2);
+    paint(&mut h, &[10, 15]);
+    set_frame_duration(&mut h, 2, 700);
+    h.get_by_label("Preview").click();
+    settle(&mut h, |_| !plays(&fake).is_empty());
+    let frame = |tactors: [usize; 2], duration_ms| vestnav_core::vest::Frame {
+        mask: TactorMask::from_indices(tactors),
+        duration_ms,
+    };
+    assert_eq!(
+        plays(&fake),
+        vec![Request::Play { frames: vec![frame([0, 5], 300), frame([10, 15], 700)], repeats: 1 }]
+    );
+}
+
+/// Issue 15, pattern editor: a pattern outside the limits says why and cannot be previewed. Truth: the
+/// limits of `vestnav_device::wtcu::limits` (8 tactors at once, 2000 ms continuous).
+#[test]
+fn an_invalid_pattern_shows_the_reason_and_preview_is_disabled() {
+    let fake = Fake::default();
+    let mut h = harness(&fake);
+    open_pattern_editor(&mut h);
+    paint(&mut h, &[0, 1, 2, 3, 4, 5, 6, 7, 8]);
+    h.run_steps(1);
+    assert!(h.query_by_label_contains("9 tactors at once").is_some());
+    assert!(disabled(&h, "Preview"));
+    assert!(disabled(&h, "Save to file"));
+    paint(&mut h, &[8]);
+    h.run_steps(1);
+    assert!(h.query_by_label_contains("Refused").is_none());
+    assert!(!disabled(&h, "Preview"));
+    set_frame_duration(&mut h, 1, 2500);
+    assert!(h.query_by_label_contains("2500 ms exceeds the limit of 2000 ms").is_some());
+    assert!(disabled(&h, "Preview"));
+    h.get_by_label("Preview").click();
+    h.run_steps(2);
+    std::thread::sleep(Duration::from_millis(50));
+    h.run_steps(1);
+    assert!(plays(&fake).is_empty(), "{:?}", fake.sent());
+}
+
+/// Issue 15, pattern editor: a pattern saved to a file loads back equal, and saving again does not replace
+/// the file without asking. Truth: the pattern the test built.
+#[test]
+fn a_saved_pattern_loads_back_equal_and_is_not_overwritten_unasked() {
+    let fake = Fake::default();
+    let mut h = harness(&fake);
+    open_pattern_editor(&mut h);
+    paint(&mut h, &[3, 6]);
+    h.get_by_label("Duplicate frame").click();
+    h.run_steps(2);
+    paint(&mut h, &[6, 9]);
+    let path = test_dir("pattern-editor").join("sweep.json");
+    {
+        let ed = &mut h.state_mut().pattern_editor;
+        ed.pattern.name = "diagonal".into();
+        ed.pattern.repeats = 2;
+        ed.path = path.display().to_string();
+    }
+    h.run_steps(1);
+    let saved = h.state().pattern_editor.pattern.clone();
+    assert_eq!(saved.frames.len(), 2);
+    assert_eq!(saved.frames[1].mask, TactorMask::from_indices([3, 9]));
+    h.get_by_label("Save to file").click();
+    h.run_steps(2);
+    assert!(path.exists(), "{:?}", h.state().pattern_editor.message);
+    let on_disk = std::fs::read_to_string(&path).unwrap();
+
+    // Change it, save again: the file stays as it was until replacing is confirmed.
+    h.state_mut().pattern_editor.pattern.repeats = 1;
+    h.get_by_label("Save to file").click();
+    h.run_steps(2);
+    assert!(h.query_by_label("Replace file").is_some());
+    assert_eq!(std::fs::read_to_string(&path).unwrap(), on_disk);
+    h.get_by_label("Cancel").click();
+    h.run_steps(2);
+    assert_eq!(std::fs::read_to_string(&path).unwrap(), on_disk);
+
+    h.get_by_label("Load file").click();
+    h.run_steps(2);
+    assert_eq!(h.state().pattern_editor.pattern, saved);
+
+    // Confirmed, the file is replaced.
+    h.state_mut().pattern_editor.pattern.repeats = 1;
+    h.get_by_label("Save to file").click();
+    h.run_steps(2);
+    h.get_by_label("Replace file").click();
+    h.run_steps(2);
+    h.get_by_label("Load file").click();
+    h.run_steps(2);
+    assert_eq!(h.state().pattern_editor.pattern, vestnav_core::vest::Pattern { repeats: 1, ..saved });
+    let _ = std::fs::remove_dir_all(path.parent().unwrap());
+}
+
+/// Issue 15, pattern editor: per-tactor intensity goes to the unit as `SET_INTENSITY` before the PLAY.
+/// Truth: the levels the test set.
+#[test]
+fn intensity_is_sent_before_the_play() {
+    let fake = Fake::default();
+    let mut h = harness(&fake);
+    open_pattern_editor(&mut h);
+    paint(&mut h, &[1, 2]);
+    h.state_mut().pattern_editor.levels[2] = 80;
+    h.run_steps(1);
+    h.get_by_label("Preview").click();
+    settle(&mut h, |_| !plays(&fake).is_empty());
+    assert_eq!(
+        fake.sent(),
+        vec![
+            Request::SetIntensity { mask: TactorMask::from_indices([1]), level: 255 },
+            Request::SetIntensity { mask: TactorMask::from_indices([2]), level: 80 },
+            Request::Play {
+                frames: vec![vestnav_core::vest::Frame {
+                    mask: TactorMask::from_indices([1, 2]),
+                    duration_ms: 500
+                }],
+                repeats: 1
+            },
+        ]
+    );
+}
+
+/// A fix of [`fix`] whose receiver UTC time of day is `tod_s` seconds after midnight, moving at `speed`.
+fn timed_fix(lat: f64, lon: f64, tod_s: f64, speed_m_s: Option<f64>) -> Fix {
+    let secs = tod_s.floor();
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss, reason = "a time of day in a test")]
+    let time_of_day =
+        chrono::NaiveTime::from_num_seconds_from_midnight_opt(secs as u32, ((tod_s - secs) * 1e9) as u32);
+    Fix { time_of_day, speed_m_s, ..fix(lat, lon, Duration::ZERO) }
+}
+
+/// Sends `f` and waits until the console has taken it (the `n`-th positioned fix).
+fn send_fix(h: &mut Harness<'static, Console>, fake: &Fake, f: Fix, n: u64) {
+    fake.gps(&GpsEvent::Fix(Box::new(f)));
+    settle(h, |c| c.gps.fixes == n);
+}
+
+/// A point `north_m` metres north of `(lat, lon)` (spherical, enough for tens of metres).
+fn north_of(lat: f64, lon: f64, north_m: f64) -> (f64, f64) {
+    (lat + (north_m / 6_371_000.0).to_degrees(), lon)
+}
+
+/// Fault 7 of issue 15: a drift test fed fixes whose receiver times span 200 s, arriving within a few
+/// seconds (a fast replay), reports 200 s and says it is on the receiver's clock. Truth: the receiver
+/// times the test set, and the wall clock measured around the feed.
+#[test]
+fn the_drift_test_runs_on_the_receiver_clock() {
+    let fake = Fake::default();
+    let mut h = harness(&fake);
+    h.get_by_label("Field tests").click();
+    h.run_steps(2);
+    h.get_by_label("duration target").set_value_accesskit(5.0);
+    h.run_steps(2);
+    let (lat, lon) = (42.3575, -71.1010);
+    let tod0 = 12.0 * 3600.0;
+    send_fix(&mut h, &fake, timed_fix(lat, lon, tod0 - 1.0, Some(0.0)), 1);
+    h.run_steps(1);
+    h.get_by_label("Start drift test").click();
+    h.run_steps(2);
+    let started = Instant::now();
+    let (n, span_s) = (201_u64, 200.0);
+    for k in 0..n {
+        #[allow(clippy::cast_precision_loss, reason = "k < 201")]
+        let tod = tod0 + span_s * k as f64 / (n - 1) as f64;
+        send_fix(&mut h, &fake, timed_fix(lat, lon, tod, Some(0.0)), k + 2);
+    }
+    let wall_s = started.elapsed().as_secs_f64();
+    assert!(wall_s < 20.0, "the fixes arrived within {wall_s:.1} s");
+    h.run_steps(2);
+    let want = format!("{n} fixes over {span_s:.0} s");
+    assert!(h.query_by_label(&want).is_some(), "{want:?} shown");
+    assert!(h.query_by_label_contains("time base: receiver UTC").is_some());
+    assert!(h.query_by_label_contains("walking speed").is_none(), "a still receiver");
+}
+
+/// Fault 7 of issue 15: a receiver carried at walking speed during a stationary drift test raises the
+/// warning. Truth: the 1.3 m/s walk the test feeds.
+#[test]
+fn a_walking_receiver_warns_during_the_drift_test() {
+    let fake = Fake::default();
+    let mut h = harness(&fake);
+    h.get_by_label("Field tests").click();
+    h.run_steps(2);
+    let (lat, lon) = (42.3575, -71.1010);
+    send_fix(&mut h, &fake, timed_fix(lat, lon, 100.0, Some(0.0)), 1);
+    h.run_steps(1);
+    h.get_by_label("Start drift test").click();
+    h.run_steps(2);
+    let mut n = 1;
+    for k in 0..5 {
+        n += 1;
+        send_fix(&mut h, &fake, timed_fix(lat, lon, 101.0 + f64::from(k), Some(0.0)), n);
+    }
+    h.run_steps(1);
+    assert!(h.query_by_label_contains("walking speed").is_none(), "still so far");
+    for k in 1..=8 {
+        n += 1;
+        let (la, lo) = north_of(lat, lon, 1.3 * f64::from(k));
+        send_fix(&mut h, &fake, timed_fix(la, lo, 105.0 + f64::from(k), Some(1.3)), n);
+    }
+    h.run_steps(2);
+    assert!(
+        h.query_by_label_contains("moving at 1.3 m/s (walking speed)").is_some(),
+        "the walk's speed shown"
+    );
+}
+
+/// Fault 7 of issue 15: while a cone test runs the mark count is a live count, not a "missed or marked
+/// twice" alarm; finishing with fewer marks than cones gives the verdict. Truth: 2 marks for 10 cones.
+#[test]
+fn the_cone_test_does_not_cry_missed_while_running() {
+    let fake = Fake::default();
+    let mut h = harness(&fake);
+    h.get_by_label("Field tests").click();
+    h.run_steps(2);
+    h.get_by_label("Cone test").click();
+    h.run_steps(2);
+    let (lat, lon) = (42.3575, -71.1010);
+    send_fix(&mut h, &fake, timed_fix(lat, lon, 200.0, Some(1.5)), 1);
+    h.run_steps(1);
+    h.get_by_label("Start cone test").click();
+    h.run_steps(2);
+    for (k, north_m) in [0.0, 10.0].into_iter().enumerate() {
+        let (la, lo) = north_of(lat, lon, north_m);
+        #[allow(clippy::cast_precision_loss, reason = "k < 2")]
+        send_fix(&mut h, &fake, timed_fix(la, lo, 201.0 + 7.0 * k as f64, Some(1.5)), k as u64 + 2);
+        h.run_steps(1);
+        h.get_by_label_contains(&format!("Mark cone {}", k + 1)).click();
+        h.run_steps(2);
+    }
+    assert!(h.query_by_label("2 of 10 cones marked").is_some(), "the live count");
+    assert!(h.query_by_label_contains("missed").is_none(), "no alarm while running");
+    h.get_by_label("Finish").click();
+    h.run_steps(2);
+    assert!(h.query_by_label_contains("2 marks for 10 cones").is_some(), "the verdict once finished");
+}

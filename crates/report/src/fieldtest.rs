@@ -46,6 +46,10 @@ pub struct DriftReport {
     pub error: Option<String>,
     /// The positioned fixes analysed.
     pub track: Vec<TimedFix>,
+    /// The clock of the times (`t_s`, `duration_s`): `receiver` (the fixes' UTC) or `arrival` (when the
+    /// console received them; the receiver sent no time). Set by the console; absent for logs.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub clock: Option<String>,
 }
 
 impl DriftReport {
@@ -61,7 +65,16 @@ impl DriftReport {
             Ok(s) => (Some(s), None),
             Err(e) => (None, Some(e)),
         };
-        Self { test: "drift".to_string(), source, earth, target_s, stats, error, track: track.to_vec() }
+        Self {
+            test: "drift".to_string(),
+            source,
+            earth,
+            target_s,
+            stats,
+            error,
+            track: track.to_vec(),
+            clock: None,
+        }
     }
 }
 
