@@ -152,7 +152,7 @@ fn fast_settings() -> WorkerSettings {
     }
 }
 
-fn pty_connector(path: Arc<Mutex<String>>) -> Connector {
+pub(super) fn pty_connector(path: Arc<Mutex<String>>) -> Connector {
     Box::new(move || {
         let p = path.lock().unwrap().clone();
         // The worker's poll interval bounds how late it picks up a command.
@@ -163,18 +163,18 @@ fn pty_connector(path: Arc<Mutex<String>>) -> Connector {
 }
 
 /// A worker with one receiver of its events, sending as the operator.
-struct Vest {
+pub(super) struct Vest {
     handle: VestHandle,
     rx: std::sync::mpsc::Receiver<VestEvent>,
 }
 
 impl Vest {
-    fn spawn(connector: Connector, settings: WorkerSettings) -> Self {
+    pub(super) fn spawn(connector: Connector, settings: WorkerSettings) -> Self {
         let (handle, rx) = VestHandle::spawn_with_receiver(connector, settings).unwrap();
         Self { handle, rx }
     }
 
-    fn send(&self, command: VestCommand) -> Result<(), VestSendError> {
+    pub(super) fn send(&self, command: VestCommand) -> Result<(), VestSendError> {
         self.handle.send(command, CommandOrigin::Manual)
     }
 
@@ -182,13 +182,13 @@ impl Vest {
         self.rx.recv_timeout(timeout).ok()
     }
 
-    fn stop(self) -> bool {
+    pub(super) fn stop(self) -> bool {
         self.handle.stop()
     }
 }
 
 /// Collects events until `pred` holds for one of them (returns it) or `timeout` passes (panics).
-fn wait_for(
+pub(super) fn wait_for(
     vest: &Vest,
     seen: &mut Vec<VestEvent>,
     timeout: Duration,

@@ -4,6 +4,7 @@
 //! vectors come from a separate Python framing, the emulated wearer's true heading minus the WMM
 //! declination is what an ideal sensor must report.
 
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use vestnav_core::compass::Calibration;
@@ -17,9 +18,9 @@ use vestnav_device::wtcu::message::{
     CalibrationWire, Capabilities, DeviceInfo, FirmwareVersion, HeadingReport, NakReason, Packet, Reply,
     Request,
 };
-use vestnav_device::wtcu::worker::{
-    CommandOrigin, Connector, Transport, VestCommand, VestEvent, VestHandle, WorkerSettings,
-};
+use vestnav_device::wtcu::worker::{VestCommand, VestEvent, WorkerSettings};
+
+use super::wtcu::{Vest, pty_connector, wait_for};
 
 const DOC: &str = include_str!("../../docs/wtcu-protocol.md");
 
@@ -271,32 +272,6 @@ fn a_full_unread_queue_drops_headings_first_and_keeps_answers() {
 // ---------------------------------------------------------------------------------------------------------
 // Over real pseudo-terminals: the worker against the emulator program's engine.
 
-fn pty_connector(path: String) -> Connector {
-    Box::new(move || {
-        let poll = WorkerSettings::default().io_poll;
-        let port = vestnav_device::serial::open(&path, 115_200, poll).map_err(std::io::Error::other)?;
-        Ok(Box::new(port) as Box<dyn Transport>)
-    })
-}
-
-fn wait_for(
-    rx: &std::sync::mpsc::Receiver<VestEvent>,
-    seen: &mut Vec<VestEvent>,
-    timeout: Duration,
-    pred: impl Fn(&VestEvent) -> bool,
-) -> VestEvent {
-    let deadline = Instant::now() + timeout;
-    while Instant::now() < deadline {
-        if let Ok(e) = rx.recv_timeout(Duration::from_millis(20)) {
-            seen.push(e.clone());
-            if pred(&e) {
-                return e;
-            }
-        }
-    }
-    panic!("timed out; events: {seen:#?}");
-}
-
 #[test]
 fn pty_heading_stream_reaches_the_console_and_a_v1_emulator_still_works() {
     // v2 unit, wearer turning in place at 30°/s: the readings follow the turn, received-at stamped.
@@ -307,19 +282,18 @@ fn pty_heading_stream_reaches_the_console_and_a_v1_emulator_still_works() {
         seed: 3,
     };
     let emu = PtyEmulator::spawn(EngineConfig { compass: Some(setup), ..EngineConfig::default() }).unwrap();
-    let (vest, rx) =
-        VestHandle::spawn_with_receiver(pty_connector(emu.path().to_owned()), WorkerSettings::default())
-            .unwrap();
+    let vest =
+        Vest::spawn(pty_connector(Arc::new(Mutex::new(emu.path().to_owned()))), WorkerSettings::default());
     let mut seen = Vec::new();
     let s = Duration::from_secs(3);
-    let id = wait_for(&rx, &mut seen, s, |e| matches!(e, VestEvent::Identified(_)));
+    let id = wait_for(&vest, &mut seen, s, |e| matches!(e, VestEvent::Identified(_)));
     assert!(matches!(id, VestEvent::Identified(d) if d.protocol_version == 2));
-    wait_for(&rx, &mut seen, s, |e| matches!(e, VestEvent::State(LinkState::Ready)));
-    vest.send(VestCommand::HeadingStart { rate_hz: 10 }, CommandOrigin::Manual).unwrap();
+    wait_for(&vest, &mut seen, s, |e| matches!(e, VestEvent::State(LinkState::Ready)));
+    vest.send(VestCommand::HeadingStart { rate_hz: 10 }).unwrap();
     let mut readings = Vec::new();
     let start = Instant::now();
     while readings.len() < 15 && start.elapsed() < Duration::from_secs(4) {
-        if let VestEvent::Heading(a) = wait_for(&rx, &mut seen, s, |e| matches!(e, VestEvent::Heading(_))) {
+        if let VestEvent::Heading(a) = wait_for(&vest, &mut seen, s, |e| matches!(e, VestEvent::Heading(_))) {
             assert!(a.validate().is_ok());
             assert_eq!((a.origin, a.reference), (HeadingOrigin::Vest, HeadingReference::Magnetic));
             assert!(a.received_at >= start && a.received_at <= Instant::now());
@@ -337,21 +311,16 @@ fn pty_heading_stream_reaches_the_console_and_a_v1_emulator_still_works() {
 
     // A v1 unit: the console falls back, cues work, and asking for heading is refused with a reason.
     let emu = PtyEmulator::spawn(EngineConfig { protocol_version: 1, ..EngineConfig::default() }).unwrap();
-    let (vest, rx) =
-        VestHandle::spawn_with_receiver(pty_connector(emu.path().to_owned()), WorkerSettings::default())
-            .unwrap();
+    let vest =
+        Vest::spawn(pty_connector(Arc::new(Mutex::new(emu.path().to_owned()))), WorkerSettings::default());
     let mut seen = Vec::new();
-    let id = wait_for(&rx, &mut seen, s, |e| matches!(e, VestEvent::Identified(_)));
+    let id = wait_for(&vest, &mut seen, s, |e| matches!(e, VestEvent::Identified(_)));
     assert!(matches!(id, VestEvent::Identified(d) if d.protocol_version == 1));
-    wait_for(&rx, &mut seen, s, |e| matches!(e, VestEvent::State(LinkState::Ready)));
-    vest.send(
-        VestCommand::Fire { mask: vestnav_core::vest::TactorMask::CORNERS, duration_ms: 200 },
-        CommandOrigin::Manual,
-    )
-    .unwrap();
-    wait_for(&rx, &mut seen, s, |e| matches!(e, VestEvent::Acked { .. }));
-    vest.send(VestCommand::HeadingStart { rate_hz: 5 }, CommandOrigin::Manual).unwrap();
-    let refused = wait_for(&rx, &mut seen, s, |e| matches!(e, VestEvent::Rejected { .. }));
+    wait_for(&vest, &mut seen, s, |e| matches!(e, VestEvent::State(LinkState::Ready)));
+    vest.send(VestCommand::Fire { mask: vestnav_core::vest::TactorMask::CORNERS, duration_ms: 200 }).unwrap();
+    wait_for(&vest, &mut seen, s, |e| matches!(e, VestEvent::Acked { .. }));
+    vest.send(VestCommand::HeadingStart { rate_hz: 5 }).unwrap();
+    let refused = wait_for(&vest, &mut seen, s, |e| matches!(e, VestEvent::Rejected { .. }));
     assert!(
         matches!(&refused, VestEvent::Rejected { reason, .. } if reason.contains("heading")),
         "{refused:?}"

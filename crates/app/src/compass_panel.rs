@@ -13,7 +13,7 @@ use std::time::{Duration, Instant};
 
 use egui::{Color32, RichText};
 use vestnav_core::compass::{Calibration, FieldReference, FitReport, fit_calibration, heading_coverage};
-use vestnav_core::geo::{LatLon, declination_deg, magnetic_field_ned_ut, true_from_magnetic_deg};
+use vestnav_core::geo::{LatLon, magnetic_field_ned_ut, true_from_magnetic_deg};
 use vestnav_device::heading::{Attitude, HeadingReference};
 use vestnav_device::wtcu::VestCommand;
 use vestnav_device::wtcu::message::Capabilities;
@@ -67,14 +67,6 @@ pub fn unit_key(c: &Console) -> String {
     }
 }
 
-/// Declination at the wearer's last position today, from the World Magnetic Model \[deg, east +\].
-pub fn declination_here(c: &Console) -> Option<(f64, LatLon)> {
-    let f = c.gps.last_position.as_ref()?;
-    let p = LatLon::new(f.lat_deg?, f.lon_deg?);
-    let (y, m, d) = today();
-    declination_deg(p, f.alt_m.unwrap_or(0.0), y, m, d).ok().map(|dec| (dec, p))
-}
-
 fn today() -> (i32, u8, u8) {
     use chrono::Datelike as _;
     let t = chrono::Utc::now().date_naive();
@@ -113,12 +105,14 @@ pub fn show(c: &mut Console, ui: &mut egui::Ui) {
                 HeadingReference::Magnetic => format!("magnetic {magnetic:.1}°"),
                 HeadingReference::True => format!("true {magnetic:.1}°"),
             };
+            // The declination guidance applies (WMM at the wearer's position, computed once there), so the
+            // true heading shown is the one guidance steers by.
             if a.reference == HeadingReference::Magnetic
-                && let Some((dec, _)) = declination_here(c)
+                && let Some(dec) = c.guidance.as_ref().and_then(|g| g.declination_deg)
             {
                 let _ = write!(
                     text,
-                    ", true {:.1}° (declination {dec:+.1}°, WMM here today)",
+                    ", true {:.1}° (declination {dec:+.1}°, WMM, as guidance applies it)",
                     true_from_magnetic_deg(magnetic, dec)
                 );
             }

@@ -197,6 +197,7 @@ pub fn spawn(
             halted: None,
             last_fix: None,
             compass: None,
+            true_heading: None,
             declination: None,
             ui,
             log,
@@ -234,6 +235,8 @@ struct GuidanceWorker {
     last_fix: Option<Fix>,
     /// Latest magnetic heading reading (the vest's compass, or an NMEA/gpsd compass).
     compass: Option<Attitude>,
+    /// Latest true heading reading (gpsd's ATT), kept apart so neither kind hides the other.
+    true_heading: Option<Attitude>,
     /// The WMM declination in force and the place it was computed for.
     declination: Option<(f64, LatLon)>,
     ui: Outbox<GuidanceStatus>,
@@ -366,7 +369,7 @@ impl GuidanceWorker {
     fn input(&self, fix: &Fix, now: Instant) -> NavInput {
         let mut input = nav_input(fix, now);
         if input.true_heading_deg.is_none()
-            && let Some(a) = self.compass.filter(|a| a.reference == HeadingReference::True)
+            && let Some(a) = self.true_heading
             && a.age(now) <= COMPASS_MAX_AGE
         {
             input.true_heading_deg = Some(a.heading_deg);
@@ -377,7 +380,10 @@ impl GuidanceWorker {
     /// Keeps the newest heading reading (the age is judged at each update from its arrival instant).
     fn take_heading(&mut self, a: Attitude) {
         if a.validate().is_ok() {
-            self.compass = Some(a);
+            match a.reference {
+                HeadingReference::Magnetic => self.compass = Some(a),
+                HeadingReference::True => self.true_heading = Some(a),
+            }
         }
     }
 
@@ -425,12 +431,11 @@ impl GuidanceWorker {
 
     fn update(&mut self, input: &NavInput, now: Instant, now_s: f64) {
         let hold = self.hold_reason();
-        let compass =
-            self.compass.filter(|a| a.reference == HeadingReference::Magnetic).map(|a| CompassReading {
-                magnetic_deg: a.heading_deg,
-                age_s: a.age(now).as_secs_f64(),
-                quality_pct: a.quality_pct,
-            });
+        let compass = self.compass.map(|a| CompassReading {
+            magnetic_deg: a.heading_deg,
+            age_s: a.age(now).as_secs_f64(),
+            quality_pct: a.quality_pct,
+        });
         let declination = self.declination.map(|(d, _)| d);
         let Some(g) = &mut self.engine else { return };
         let d = g.update_with_compass(input, compass, now_s);
