@@ -40,13 +40,20 @@ pub struct Cli {
     /// Console only: the GPS to connect at start, winning over the saved settings for this run.
     /// One of gpsd://HOST:PORT, serial:PATH[@BAUD] (no @BAUD: detected), replay:FILE[@SPEED]
     /// (SPEED 0 = as fast as possible), sim[:ROUTE.gpx] (the simulator walking ROUTE, also loaded as the
-    /// route to guide along).
+    /// route to guide along), vest[@BAUD] (the receiver on the vest unit's second UART, forwarded inside
+    /// the vest's link; default 9600 baud).
     #[arg(long, value_name = "SPEC", value_parser = parse_gps)]
     pub gps: Option<vestnav_app::config::GpsSpec>,
     /// Console only: the vest to connect at start, winning over the saved settings for this run.
     /// One of emulated, serial:PATH (a WTCU on a serial or Bluetooth SPP port such as /dev/rfcomm0).
     #[arg(long, value_name = "SPEC", value_parser = parse_vest)]
     pub vest: Option<vestnav_app::config::VestSourceConfig>,
+    /// Console only: the map's tile source for this run (the saved setting otherwise). One of osm (the
+    /// default), xyz:URL or a bare http(s) URL with {z}, {x}, {y} (an API key may be in the query),
+    /// pmtiles:FILE, mbtiles:FILE, folder:DIR (holding {z}/{x}/{y}.png), or a path ending in .pmtiles or
+    /// .mbtiles, or a folder.
+    #[arg(long, value_name = "SOURCE", value_parser = parse_tiles)]
+    pub tiles: Option<vestnav_app::tiles::TileSourceConfig>,
     /// What to run; none opens the console.
     #[command(subcommand)]
     pub command: Option<Command>,
@@ -54,6 +61,10 @@ pub struct Cli {
 
 fn parse_gps(s: &str) -> Result<vestnav_app::config::GpsSpec, String> {
     vestnav_app::config::parse_gps_spec(s)
+}
+
+fn parse_tiles(s: &str) -> Result<vestnav_app::tiles::TileSourceConfig, String> {
+    vestnav_app::tiles::parse_tiles_spec(s)
 }
 
 fn parse_vest(s: &str) -> Result<vestnav_app::config::VestSourceConfig, String> {

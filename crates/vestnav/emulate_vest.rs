@@ -8,6 +8,7 @@
 
 use std::fmt::Write as _;
 use std::io::{self, IsTerminal, Read, Write};
+use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::Ordering;
 use std::sync::mpsc::{Receiver, RecvTimeoutError, SyncSender, TrySendError};
@@ -22,6 +23,7 @@ use vestnav_device::wtcu::emulator::{
     CompassSetup, EmulatorControl, SERVE_POLL, ServeEnd, WearerMotion, describe, serve,
 };
 use vestnav_device::wtcu::engine::{Engine, EngineConfig, EngineEvent, battery_pct_from_mv};
+use vestnav_device::wtcu::firmware_sim::{FirmwareSim, FirmwareSimConfig, SimEvent, field_for_heading};
 use vestnav_device::wtcu::limits::Limits;
 use vestnav_device::wtcu::message::CommandKind;
 
@@ -65,11 +67,29 @@ pub struct VestArgs {
     /// An ideal magnetometer (no hard/soft iron, no noise) instead of a typical uncalibrated one.
     #[arg(long)]
     pub ideal_compass: bool,
+    /// Give the unit a GPS receiver on its second UART that sends this NMEA file in a loop (protocol v2,
+    /// forwarded inside the link when the console asks: GPS source "through the vest unit").
+    #[arg(long, value_name = "FILE")]
+    pub gps_nmea: Option<PathBuf>,
+    /// Run the reference firmware image (e.g. `firmware/build/wtcu-mega.elf`) in simavr instead of the
+    /// built-in emulator: the same bytes a board would be flashed with, paced to real time.
+    #[arg(long, value_name = "ELF", conflicts_with_all = ["stdio", "protocol", "no_intensity", "watchdog_ms", "max_simultaneous", "turn_deg_s", "steel_east_m", "ideal_compass"])]
+    pub firmware: Option<PathBuf>,
+    /// The simavr harness for `--firmware` (default: `wtcu-sim` beside the ELF; `make -C firmware/sim`).
+    #[arg(long, value_name = "PATH", requires = "firmware")]
+    pub harness: Option<PathBuf>,
+    /// Baud rate of the GPS receiver (`--gps-nmea`) on the unit's UART.
+    #[arg(long, default_value_t = 9600)]
+    pub gps_baud: u32,
 }
 
 impl VestArgs {
-    fn engine_config(&self) -> EngineConfig {
-        EngineConfig {
+    fn engine_config(&self) -> anyhow::Result<EngineConfig> {
+        let gps_nmea = match &self.gps_nmea {
+            Some(path) => Some(read_nmea(path)?),
+            None => None,
+        };
+        Ok(EngineConfig {
             limits: Limits { max_simultaneous: self.max_simultaneous, ..Limits::default() },
             watchdog_ms: self.watchdog_ms,
             intensity: !self.no_intensity,
@@ -85,14 +105,33 @@ impl VestArgs {
                 ideal: self.ideal_compass,
                 seed: 1,
             }),
+            gps_nmea,
             ..EngineConfig::default()
-        }
+        })
     }
+}
+
+/// Most NMEA a looped receiver file may hold.
+const MAX_GPS_FILE: u64 = 16 << 20;
+
+/// The file a simulated receiver sends, checked: readable, not empty, bounded.
+fn read_nmea(path: &std::path::Path) -> anyhow::Result<Arc<[u8]>> {
+    let name = path.display();
+    let len = std::fs::metadata(path).with_context(|| format!("{name}"))?.len();
+    anyhow::ensure!(len > 0, "{name}: empty file");
+    anyhow::ensure!(
+        len <= MAX_GPS_FILE,
+        "{name}: {len} bytes, more than the {MAX_GPS_FILE} a looped receiver file may hold"
+    );
+    Ok(std::fs::read(path).with_context(|| format!("{name}"))?.into())
 }
 
 /// Runs `vestnav emulate vest` until Ctrl-C, or EOF on an interactive stdin (or on stdin in `--stdio` mode).
 pub fn run(args: &VestArgs) -> anyhow::Result<()> {
-    let mut engine = Engine::new(args.engine_config());
+    if let Some(elf) = &args.firmware {
+        return run_firmware(elf, args);
+    }
+    let mut engine = Engine::new(args.engine_config()?);
     let control = Arc::new(EmulatorControl::default());
     spawn_drop_reporter(control.clone())?;
     if args.stdio {
@@ -135,6 +174,56 @@ fn run_pty(engine: &mut Engine, control: &Arc<EmulatorControl>, args: &VestArgs)
 #[cfg(not(unix))]
 fn run_pty(_: &mut Engine, _: &Arc<EmulatorControl>, _: &VestArgs) -> anyhow::Result<()> {
     anyhow::bail!("pseudo-terminals need a Unix system; use --stdio")
+}
+
+/// Runs the firmware image in simavr and shows what its tactor pins do, until Ctrl-C or EOF on an
+/// interactive stdin.
+fn run_firmware(elf: &std::path::Path, args: &VestArgs) -> anyhow::Result<()> {
+    if let Some(path) = &args.gps_nmea {
+        read_nmea(path)?;
+    }
+    let mut config = FirmwareSimConfig::new(elf);
+    config.harness.clone_from(&args.harness);
+    config.battery_mv = args.battery_mv;
+    config.gps_nmea.clone_from(&args.gps_nmea);
+    config.gps_baud = args.gps_baud;
+    // A mid-latitude field (20 µT horizontal, 45 µT down) with the wearer facing --heading-deg (magnetic).
+    config.mag_ut = (!args.no_compass).then(|| field_for_heading(args.heading_deg, 20.0, 45.0));
+    let mut sim = FirmwareSim::spawn(&config).map_err(anyhow::Error::msg)?;
+    let mut out = io::stdout();
+    writeln!(out, "WTCU firmware {} (simavr, {}) on {}", elf.display(), sim.mcu().name(), sim.path())?;
+    writeln!(out, "open it from the console like a Bluetooth serial port; Ctrl-C (or EOF) ends")?;
+    out.flush()?;
+    let stop = Arc::new(std::sync::atomic::AtomicBool::new(false));
+    if io::stdin().is_terminal() {
+        let s = stop.clone();
+        // Detached: it blocks on stdin until EOF; the process ends with it either way.
+        std::thread::Builder::new().name("stdin-eof".to_owned()).spawn(move || {
+            let mut sink = Vec::new();
+            let _ = io::stdin().lock().read_to_end(&mut sink);
+            s.store(true, Ordering::Relaxed);
+        })?;
+    }
+    while !stop.load(Ordering::Relaxed) {
+        let Some(event) = sim.next_event(Duration::from_millis(100)) else { continue };
+        let line = match event {
+            SimEvent::Pins { sim_us, mask } => {
+                let on: Vec<String> = mask.indices().map(|i| i.to_string()).collect();
+                format!("{:10.3} s  pins: {} on [{}]", sim_us as f64 / 1e6, mask.count(), on.join(" "))
+            }
+            SimEvent::Reset(sim_us) => format!("{:10.3} s  watchdog reset of the MCU", sim_us as f64 / 1e6),
+            SimEvent::Rx(_) | SimEvent::Tx(_) => continue,
+            SimEvent::Unparsed(line) => format!("harness said: {line}"),
+            SimEvent::Ended => {
+                writeln!(out, "the simulation ended")?;
+                break;
+            }
+        };
+        writeln!(out, "{line}")?;
+        out.flush()?;
+    }
+    sim.shutdown();
+    Ok(())
 }
 
 /// Says on stderr, at most once a second, how many replies were dropped because nobody read them.

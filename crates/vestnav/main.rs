@@ -76,7 +76,11 @@ fn quiet_on_broken_pipe() {
 
 fn run(cli: Cli) -> anyhow::Result<()> {
     let Some(command) = cli.command else {
-        return vestnav_app::run(vestnav_app::console::DeviceOverrides { gps: cli.gps, vest: cli.vest });
+        return vestnav_app::run(vestnav_app::console::DeviceOverrides {
+            gps: cli.gps,
+            vest: cli.vest,
+            tiles: cli.tiles,
+        });
     };
     match command {
         Command::Sim(SimCommand::Tactor(a)) => sim_tactor::run_tactor(&a),

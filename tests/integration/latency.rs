@@ -244,8 +244,13 @@ fn nmea_fix_to_vest_play_latency_p50_p99() {
         ConsoleOptions { cfg, log_dir: Some(log_dir.clone()), ..ConsoleOptions::default() },
     );
     console.map.waypoints = vec![
-        Waypoint { name: "start".into(), lat_deg: START.lat_deg, lon_deg: START.lon_deg },
-        Waypoint { name: "end".into(), lat_deg: end.lat_deg, lon_deg: end.lon_deg },
+        Waypoint {
+            name: "start".into(),
+            lat_deg: START.lat_deg,
+            lon_deg: START.lon_deg,
+            arrival_radius_m: None,
+        },
+        Waypoint { name: "end".into(), lat_deg: end.lat_deg, lon_deg: end.lon_deg, arrival_radius_m: None },
     ];
     console.map.next = 1;
     console.push_route();

@@ -14,6 +14,8 @@ mod sim_wave;
 // neither module compiles elsewhere. `latency` and `safety` gate themselves (`#![cfg(unix)]`).
 #[cfg(unix)]
 mod wtcu;
+#[cfg(unix)]
+mod wtcu_gps;
 mod wtcu_pair;
 #[cfg(unix)]
 mod wtcu_v2;

@@ -276,6 +276,9 @@ fn pty_port_vanishing_mid_frame_then_returning() {
     let s = Duration::from_secs(3);
     wait_for(&vest, &mut seen, s, |e| matches!(e, VestEvent::State(LinkState::Ready)));
     emu.vanish_mid_frame().unwrap();
+    // The kernel may hand the freed /dev/pts number to another test's PTY at once; a vanished Bluetooth
+    // port has no node at all, so the connector is pointed at one that cannot exist.
+    *path.lock().unwrap() = "/dev/pts/vestnav-port-gone".to_owned();
     wait_for(&vest, &mut seen, s, |e| matches!(e, VestEvent::State(LinkState::Lost { .. })));
     // Reconnect attempts are visible while the port is gone.
     wait_for(

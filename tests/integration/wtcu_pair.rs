@@ -129,6 +129,8 @@ fn frame_kind(bytes: &[u8]) -> Option<u8> {
         Request::SetIntensity { .. } => 5,
         Request::StopAll => 6,
         Request::GetStatus => 7,
+        Request::GpsStart { .. } => 11,
+        Request::GpsStop => 12,
     })
 }
 

@@ -148,6 +148,7 @@ fn bench(cr: &mut Criterion) {
                 name: format!("W{k}"),
                 lat_deg: 42.3572 + 0.0015 * a.sin(),
                 lon_deg: -71.1 + 0.002 * a.cos(),
+                arrival_radius_m: None,
             }
         })
         .collect();

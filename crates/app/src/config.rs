@@ -37,6 +37,12 @@ pub enum GpsSourceConfig {
         /// TCP port (gpsd's default is 2947).
         port: u16,
     },
+    /// The receiver on the vest unit's second UART, forwarded inside the vest's link (protocol v2 units
+    /// with a GPS receiver, e.g. the reference firmware's Mega build).
+    ThroughVest {
+        /// The receiver's baud rate on the unit's UART.
+        baud: u32,
+    },
 }
 
 /// Where the vest is.
@@ -78,8 +84,16 @@ pub struct Config {
     pub manual_hold_s: f64,
     /// Walking speed assumed for time-to-go when the GPS speed is too low [m/s].
     pub walking_speed_m_s: f64,
-    /// Download OpenStreetMap tiles (cached on disk); off = local metric grid only.
+    /// Draw map tiles; off = local metric grid only.
     pub map_tiles: bool,
+    /// Where the tiles come from (`vestnav --tiles SOURCE` overrides it for one run).
+    pub tiles: crate::tiles::TileSourceConfig,
+    /// Size limit of the tile cache [MB]; the least recently used tiles are pruned above it.
+    pub tile_cache_mb: u64,
+    /// Tile cache folder; `None` = the platform cache folder (`crate::tiles::cache::default_root`).
+    pub tile_cache_dir: Option<PathBuf>,
+    /// Parallel downloads of the offline prefetch.
+    pub prefetch_parallelism: usize,
     /// Keep the map centred on the wearer.
     pub follow: bool,
     /// Fix age after which the GPS is called stale [s].
@@ -115,6 +129,10 @@ impl Default for Config {
             manual_hold_s: 10.0,
             walking_speed_m_s: 1.3,
             map_tiles: true,
+            tiles: crate::tiles::TileSourceConfig::Osm,
+            tile_cache_mb: crate::tiles::cache::DEFAULT_LIMIT_MB,
+            tile_cache_dir: None,
+            prefetch_parallelism: crate::tiles::prefetch::DEFAULT_PARALLELISM,
             follow: true,
             stale_after_s: 3.0,
             lost_after_s: 10.0,
@@ -183,6 +201,9 @@ impl Config {
         self.walking_speed_m_s = fix(self.walking_speed_m_s, 0.2, 5.0, d.walking_speed_m_s);
         self.stale_after_s = fix(self.stale_after_s, 1.0, 60.0, d.stale_after_s);
         self.lost_after_s = fix(self.lost_after_s, self.stale_after_s, 600.0, d.lost_after_s);
+        self.tile_cache_mb = self.tile_cache_mb.clamp(10, 100_000);
+        self.prefetch_parallelism =
+            self.prefetch_parallelism.clamp(1, crate::tiles::prefetch::MAX_PARALLELISM);
         if let GpsSourceConfig::Replay { speed, .. } = &mut self.gps {
             *speed = fix(*speed, 0.0, 1000.0, 1.0);
         }
@@ -202,12 +223,12 @@ pub struct GpsSpec {
 
 /// The forms `--gps` takes, for messages.
 pub const GPS_SPEC_FORMS: &str =
-    "gpsd://HOST:PORT | serial:PATH[@BAUD] | replay:FILE[@SPEED] | sim[:ROUTE.gpx]";
+    "gpsd://HOST:PORT | serial:PATH[@BAUD] | replay:FILE[@SPEED] | sim[:ROUTE.gpx] | vest[@BAUD]";
 /// The forms `--vest` takes, for messages.
 pub const VEST_SPEC_FORMS: &str = "emulated | serial:PATH";
 
-/// Parses a `--gps` value: `gpsd://HOST:PORT`, `serial:PATH[@BAUD]`, `replay:FILE[@SPEED]` or
-/// `sim[:ROUTE.gpx]`. A `@` suffix is only taken as a baud or speed when it parses as one, so paths with
+/// Parses a `--gps` value: `gpsd://HOST:PORT`, `serial:PATH[@BAUD]`, `replay:FILE[@SPEED]`,
+/// `sim[:ROUTE.gpx]` or `vest[@BAUD]` (the receiver on the vest unit's second UART, default 9600 baud). A `@` suffix is only taken as a baud or speed when it parses as one, so paths with
 /// `@` in them still work; a serial port without `@BAUD` detects the baud rate.
 pub fn parse_gps_spec(spec: &str) -> Result<GpsSpec, String> {
     let bad = |why: &str| format!("--gps {spec:?}: {why} (expected {GPS_SPEC_FORMS})");
@@ -253,6 +274,19 @@ pub fn parse_gps_spec(spec: &str) -> Result<GpsSpec, String> {
     }
     if spec == "sim" {
         return Ok(GpsSpec { source: GpsSourceConfig::Simulator, route: None });
+    }
+    if spec == "vest" || spec.starts_with("vest@") {
+        let baud = match spec.strip_prefix("vest@") {
+            None => 9600,
+            Some(b) => b
+                .parse::<u32>()
+                .ok()
+                .filter(|b| vestnav_device::wtcu::message::GPS_BAUDS.contains(b))
+                .ok_or_else(|| {
+                    bad("the vest unit's receiver baud must be 4800, 9600, 19200, 38400, 57600 or 115200")
+                })?,
+        };
+        return Ok(GpsSpec { source: GpsSourceConfig::ThroughVest { baud }, route: None });
     }
     if let Some(route) = spec.strip_prefix("sim:") {
         if route.is_empty() {
@@ -306,6 +340,9 @@ mod tests {
             GpsSourceConfig::Replay { path: "a@b.nmea".into(), speed: 1.0 }
         );
         assert_eq!(g("sim").unwrap(), (GpsSourceConfig::Simulator, None));
+        assert_eq!(g("vest").unwrap().0, GpsSourceConfig::ThroughVest { baud: 9600 });
+        assert_eq!(g("vest@38400").unwrap().0, GpsSourceConfig::ThroughVest { baud: 38_400 });
+        assert!(g("vest@1234").unwrap_err().contains("4800"));
         assert_eq!(g("sim:r.gpx").unwrap(), (GpsSourceConfig::Simulator, Some("r.gpx".into())));
         for bad in [
             "gpsd://host",

@@ -229,6 +229,8 @@ pub struct DeviceOverrides {
     pub gps: Option<GpsSpec>,
     /// `--vest`.
     pub vest: Option<VestSourceConfig>,
+    /// `--tiles`: the map's tile source for this run.
+    pub tiles: Option<crate::tiles::TileSourceConfig>,
 }
 
 /// The console.
@@ -239,6 +241,8 @@ pub struct Console {
     cfg_saved: Config,
     /// Device settings as read from the config file, written back instead of command-line overrides.
     file_devices: (GpsSourceConfig, VestSourceConfig),
+    /// The tile source as read from the config file, written back instead of a `--tiles` override.
+    file_tiles: crate::tiles::TileSourceConfig,
     overrides: DeviceOverrides,
     factory: Box<dyn DeviceFactory>,
     /// Active central tab.
@@ -337,6 +341,11 @@ impl Console {
         if let Some(v) = &devices.vest {
             cfg.vest = v.clone();
         }
+        let file_tiles = cfg.tiles.clone();
+        if let Some(t) = &devices.tiles {
+            cfg.tiles = t.clone();
+            cfg.map_tiles = true;
+        }
 
         let mut map = MapView::new(cfg.follow);
         let cli_route = devices.gps.as_ref().and_then(|g| g.route.clone());
@@ -360,6 +369,7 @@ impl Console {
             cfg,
             cfg_path,
             file_devices,
+            file_tiles,
             overrides: devices,
             factory,
             tab: Tab::Map,
@@ -783,6 +793,9 @@ impl Console {
         }
         if self.overrides.vest.as_ref().is_some_and(|v| *v == on_disk.vest) {
             on_disk.vest = self.file_devices.1.clone();
+        }
+        if self.overrides.tiles.as_ref().is_some_and(|t| *t == on_disk.tiles) {
+            on_disk.tiles = self.file_tiles.clone();
         }
         if let Err(e) = on_disk.save(p) {
             self.status = format!("cannot save settings to {}: {e}", p.display());

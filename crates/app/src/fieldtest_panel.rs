@@ -317,6 +317,9 @@ struct Latest {
     speed_m_s: Option<f64>,
 }
 
+/// Drift-test fixes the map draws at most (the newest).
+pub const MAP_DRIFT_POINTS: usize = 5000;
+
 /// Guided drift and cone tests fed with every GPS fix.
 pub struct FieldTestPanel {
     procedure: Procedure,
@@ -371,6 +374,20 @@ impl FieldTestPanel {
             cones_exporter: Exporter::new(CONES_EXPORT_PATH),
             overwrite: None,
         }
+    }
+
+    /// What the map draws while a test runs: the cone test's marks, the drift test's newest fixes (at most
+    /// [`MAP_DRIFT_POINTS`]). Nothing for a test that is not running.
+    pub fn map_overlay(&self) -> crate::map_tools::FieldOverlay {
+        let mut o = crate::map_tools::FieldOverlay::default();
+        if self.cones.phase == Phase::Running {
+            o.cones = self.cones.marks.iter().map(|m| (m.label.clone(), m.pos)).collect();
+        }
+        if self.drift.phase == Phase::Running {
+            let f = &self.drift.rec.fixes;
+            o.drift = f[f.len().saturating_sub(MAP_DRIFT_POINTS)..].iter().map(|f| f.pos).collect();
+        }
+        o
     }
 
     /// Feeds one fix from the GPS: `arrival_s` is when it reached the console [s] (any origin, increasing);

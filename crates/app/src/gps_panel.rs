@@ -28,6 +28,8 @@ pub enum SourceKind {
     Replay,
     /// gpsd over TCP.
     Gpsd,
+    /// The receiver forwarded by the vest unit.
+    ThroughVest,
 }
 
 /// The editable fields of the source picker (kept while the operator switches kinds).
@@ -47,6 +49,8 @@ pub struct SourcePicker {
     pub gpsd_host: String,
     /// gpsd port.
     pub gpsd_port: u16,
+    /// Baud of the receiver on the vest unit's UART.
+    pub vest_gps_baud: u32,
     /// Ports found by the last scan.
     pub ports: Vec<PortInfo>,
     /// A port scan was done.
@@ -56,8 +60,13 @@ pub struct SourcePicker {
 impl SourcePicker {
     /// The picker showing `cfg`.
     pub fn from_config(cfg: &GpsSourceConfig) -> Self {
-        let mut p =
-            Self { replay_speed: 1.0, gpsd_host: "127.0.0.1".into(), gpsd_port: 2947, ..Self::default() };
+        let mut p = Self {
+            replay_speed: 1.0,
+            gpsd_host: "127.0.0.1".into(),
+            gpsd_port: 2947,
+            vest_gps_baud: 9600,
+            ..Self::default()
+        };
         match cfg {
             GpsSourceConfig::Simulator => p.kind = SourceKind::Simulator,
             GpsSourceConfig::Serial { port, baud } => {
@@ -74,6 +83,10 @@ impl SourcePicker {
                 p.kind = SourceKind::Gpsd;
                 p.gpsd_host.clone_from(host);
                 p.gpsd_port = *port;
+            }
+            GpsSourceConfig::ThroughVest { baud } => {
+                p.kind = SourceKind::ThroughVest;
+                p.vest_gps_baud = *baud;
             }
         }
         p
@@ -96,6 +109,7 @@ impl SourcePicker {
             SourceKind::Gpsd => {
                 Ok(GpsSourceConfig::Gpsd { host: self.gpsd_host.trim().to_owned(), port: self.gpsd_port })
             }
+            SourceKind::ThroughVest => Ok(GpsSourceConfig::ThroughVest { baud: self.vest_gps_baud }),
         }
     }
 }
@@ -292,9 +306,16 @@ fn picker_ui(c: &mut Console, ui: &mut egui::Ui) {
         SourceKind::Serial => "Serial / Bluetooth port",
         SourceKind::Replay => "NMEA file replay",
         SourceKind::Gpsd => "gpsd",
+        SourceKind::ThroughVest => "Through the vest unit",
     };
     egui::ComboBox::from_label("GPS source").selected_text(label(p.kind)).show_ui(ui, |ui| {
-        for k in [SourceKind::Simulator, SourceKind::Serial, SourceKind::Replay, SourceKind::Gpsd] {
+        for k in [
+            SourceKind::Simulator,
+            SourceKind::Serial,
+            SourceKind::Replay,
+            SourceKind::Gpsd,
+            SourceKind::ThroughVest,
+        ] {
             ui.selectable_value(&mut p.kind, k, label(k));
         }
     });
@@ -359,6 +380,24 @@ fn picker_ui(c: &mut Console, ui: &mut egui::Ui) {
                 ui.label("Port");
                 ui.add(egui::DragValue::new(&mut p.gpsd_port).range(1..=65535));
             });
+        }
+        SourceKind::ThroughVest => {
+            egui::ComboBox::from_label("Receiver baud").selected_text(p.vest_gps_baud.to_string()).show_ui(
+                ui,
+                |ui| {
+                    for b in vestnav_device::wtcu::message::GPS_BAUDS {
+                        ui.selectable_value(&mut p.vest_gps_baud, b, b.to_string());
+                    }
+                },
+            );
+            ui.label(
+                RichText::new(
+                    "the receiver wired to the vest unit's second UART, its bytes carried inside the vest's \
+                     link (needs a protocol v2 unit with a GPS receiver and a connected vest)",
+                )
+                .small()
+                .weak(),
+            );
         }
     }
 }
@@ -585,6 +624,7 @@ mod tests {
             GpsSourceConfig::Serial { port: "/dev/rfcomm0".into(), baud: None },
             GpsSourceConfig::Replay { path: "a.nmea".into(), speed: 4.0 },
             GpsSourceConfig::Gpsd { host: "h".into(), port: 1234 },
+            GpsSourceConfig::ThroughVest { baud: 38_400 },
         ] {
             assert_eq!(SourcePicker::from_config(&src).to_config().unwrap(), src);
         }

@@ -45,7 +45,8 @@ pub const TICK: Duration = Duration::from_millis(250);
 pub struct GuidanceSettings {
     /// Send cues automatically.
     pub auto: bool,
-    /// A waypoint counts as reached inside this radius [m].
+    /// A waypoint counts as reached inside this radius [m], unless it has its own
+    /// (`route::Waypoint::arrival_radius_m`, edited per waypoint on the map).
     pub arrival_radius_m: f64,
     /// Minimum time before the same cue is repeated [s] (forward: at least 10 s).
     pub cue_interval_s: f64,
@@ -318,7 +319,10 @@ impl GuidanceWorker {
         let wps: Vec<CoreWaypoint> = self
             .waypoints
             .iter()
-            .map(|w| CoreWaypoint::new(w.name.clone(), LatLon::new(w.lat_deg, w.lon_deg)))
+            .map(|w| {
+                CoreWaypoint::new(w.name.clone(), LatLon::new(w.lat_deg, w.lon_deg))
+                    .with_arrival_radius_m(w.arrival_radius_m)
+            })
             .collect();
         let halted = self.engine.as_ref().is_some_and(Guidance::is_halted);
         self.engine = match Route::new(wps, rcfg) {
@@ -534,7 +538,7 @@ mod tests {
         in_tx.send(GuidanceInput::Vest(VestEvent::State(LinkState::Ready))).unwrap();
         in_tx.send(GuidanceInput::VestLink(Some(vest), Duration::ZERO)).unwrap();
         // One waypoint 100 m due north; the wearer walks due east: a turn is wanted at once.
-        let wp = Waypoint { name: "N".into(), lat_deg: 42.0009, lon_deg: -71.0 };
+        let wp = Waypoint { name: "N".into(), lat_deg: 42.0009, lon_deg: -71.0, arrival_radius_m: None };
         in_tx.send(GuidanceInput::Route { waypoints: vec![wp], next: 0 }).unwrap();
         let fix = Fix {
             lat_deg: Some(42.0),

@@ -10,10 +10,12 @@
 use std::time::Duration;
 
 use vestnav_core::gnss_sim::GnssErrorModel;
+use vestnav_device::gps::through_vest::{VestGpsReader, VestGpsWriter, vest_gps_pipe};
 use vestnav_device::gps::{GpsEvent, GpsSource, SourceConfig};
 use vestnav_device::heading::SharedTruth;
 use vestnav_device::outbox::Outbox;
 use vestnav_device::wtcu::emulator::{CompassSetup, WearerMotion};
+use vestnav_device::wtcu::worker::WorkerSettings;
 use vestnav_device::wtcu::{self, VestEvent, VestHandle};
 
 use crate::config::{GpsSourceConfig, VestSourceConfig};
@@ -31,9 +33,19 @@ pub const SIM_PACE_M_S: f64 = 1.4;
 /// The simulated GPS and the emulated vest it starts see one simulated wearer: the simulator publishes the
 /// walker's true position, course and pace ([`SharedTruth`]) and the emulated unit's compass measures that
 /// body (`WearerMotion::Follow`), so the compass and the GPS course agree as they would on a real walk.
-#[derive(Debug, Default)]
+///
+/// A GPS receiver "through the vest unit" reaches its GPS source through one pipe the factory keeps: the
+/// vest worker writes the unit's forwarded bytes into it, the GPS source reads them.
+#[derive(Debug)]
 pub struct Hardware {
     truth: SharedTruth,
+    vest_gps: (VestGpsWriter, VestGpsReader),
+}
+
+impl Default for Hardware {
+    fn default() -> Self {
+        Self { truth: SharedTruth::default(), vest_gps: vest_gps_pipe() }
+    }
 }
 
 impl DeviceFactory for Hardware {
@@ -43,7 +55,12 @@ impl DeviceFactory for Hardware {
         route: &[Waypoint],
         outputs: Vec<Outbox<GpsEvent>>,
     ) -> Result<Box<dyn GpsWorker>, String> {
-        let mut config = device_config(source, route, 2026)?;
+        let mut config = match source {
+            GpsSourceConfig::ThroughVest { baud } => {
+                SourceConfig::ThroughVest { reader: self.vest_gps.1.clone(), baud: *baud }
+            }
+            _ => device_config(source, route, 2026)?,
+        };
         if let SourceConfig::Simulator { truth, .. } = &mut config {
             *truth = Some(self.truth.clone());
         }
@@ -72,7 +89,9 @@ impl DeviceFactory for Hardware {
                 wtcu::VestConfig::Serial { port: port.trim().to_owned(), baud: WTCU_BAUD }
             }
         };
-        VestHandle::spawn(config, outputs).map_err(|e| format!("cannot start the vest worker: {e}"))
+        let settings = WorkerSettings { gps: Some(self.vest_gps.0.clone()), ..WorkerSettings::default() };
+        VestHandle::spawn_configured(config, settings, outputs)
+            .map_err(|e| format!("cannot start the vest worker: {e}"))
     }
 }
 
@@ -105,6 +124,9 @@ pub fn device_config(
             SourceConfig::Replay { path: path.clone(), speed: (*speed > 0.0).then_some(*speed) }
         }
         GpsSourceConfig::Gpsd { host, port } => SourceConfig::Gpsd { host: host.clone(), port: *port },
+        GpsSourceConfig::ThroughVest { .. } => {
+            return Err("a receiver through the vest unit needs the console's vest link".into());
+        }
     })
 }
 

@@ -23,9 +23,12 @@ pub mod guidance;
 pub mod hardware;
 pub mod log_viewer;
 pub mod map_panel;
+pub mod map_tools;
 pub mod pattern_editor;
 pub mod route;
+pub mod route_import;
 mod sim_panel;
+pub mod tiles;
 pub mod vest_panel;
 
 use console::{Console, ConsoleOptions, DeviceOverrides, EXIT_STOP_WAIT, ExitGuard, Liveness};

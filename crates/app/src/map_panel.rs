@@ -1,5 +1,6 @@
-//! The map: OpenStreetMap tiles (walkers, cached on disk) or a local metric grid, the wearer with an
-//! accuracy circle, the track, waypoints and route, and the mouse editing of waypoints.
+//! The map: tiles of the configured source (`crate::tiles`; OpenStreetMap by default) or a local metric
+//! grid, the wearer with an accuracy circle, the track, waypoints and route, and the mouse editing of
+//! waypoints.
 //!
 //! Mouse: drag the map to pan (leaves follow mode), Ctrl+wheel or pinch to zoom; drag a waypoint to move
 //! it; right-click a waypoint for delete / move earlier / move later / make next; right-click the map to add
@@ -16,10 +17,12 @@ use std::rc::Rc;
 use std::time::Instant;
 
 use egui::{Color32, Key, KeyboardShortcut, Modifiers, Pos2, RichText, Stroke, vec2};
-use walkers::{HttpOptions, HttpTiles, MapMemory, Position, Projector, TileId, TilePiece, Tiles, lat_lon};
+use walkers::{MapMemory, Position, Projector, TileId, TilePiece, Tiles, lat_lon};
 
 use crate::config::Config;
+use crate::map_tools::{self, MapTools};
 use crate::route::{RouteState, Waypoint, decimation_stride};
+use crate::route_import::{ImportChoice, ImportDialog};
 use vestnav_core::geo::{DVec2, Earth, LatLon, LocalFrame};
 use vestnav_device::gps::Fix;
 
@@ -151,7 +154,8 @@ pub fn leg_summary(distance_m: f64, bearing_deg: Option<f64>, speed_m_s: f64) ->
 pub struct MapView {
     /// walkers' view state (centre, zoom).
     pub memory: MapMemory,
-    tiles: Option<HttpTiles>,
+    /// The tile source, its indicator, the Tiles window and the offline prefetch.
+    pub tiles: crate::tiles::MapTiles,
     tile_hits: Rc<Cell<u32>>,
     tile_misses: Rc<Cell<u32>>,
     /// UI time since which no tile has been available although tiles are on [s].
@@ -192,6 +196,10 @@ pub struct MapView {
     pub editor: Option<WaypointEditor>,
     /// The waypoint being dragged and the route before the drag began (one drag is one undo step).
     drag_before: Option<(usize, RouteState)>,
+    /// The map tools: coordinates under the mouse, go-to, measuring, field-test overlay.
+    pub tools: MapTools,
+    /// The import dialog, when a GPX file offered more than one thing to import.
+    pub import: Option<ImportDialog>,
 }
 
 /// One step of the undo (or redo) history: the route to go back to.
@@ -217,6 +225,8 @@ pub struct WaypointEditor {
     pub lat: String,
     /// Longitude in decimal degrees, as typed.
     pub lon: String,
+    /// The waypoint's own arrival radius in metres, as typed (empty: guidance's global radius).
+    pub radius: String,
     /// Why the last Apply was refused (names the field).
     pub error: Option<String>,
 }
@@ -278,7 +288,7 @@ fn waypoint_coords(p: Position) -> (f64, f64) {
 
 /// A [`Tiles`] wrapper that counts tiles found and missing, to tell "offline" from "loading".
 struct CountingTiles<'a> {
-    inner: &'a mut HttpTiles,
+    inner: &'a mut crate::tiles::SourceTiles,
     hits: Rc<Cell<u32>>,
     misses: Rc<Cell<u32>>,
 }
@@ -334,7 +344,7 @@ impl MapView {
         }
         Self {
             memory,
-            tiles: None,
+            tiles: crate::tiles::MapTiles::default(),
             tile_hits: Rc::default(),
             tile_misses: Rc::default(),
             no_tiles_since_s: None,
@@ -357,6 +367,8 @@ impl MapView {
             notice: None,
             editor: None,
             drag_before: None,
+            tools: MapTools::default(),
+            import: None,
         }
     }
 
@@ -450,6 +462,25 @@ impl MapView {
     /// Renames waypoint `i` and sets its position from typed text (decimal degrees): one undo step.
     /// Errors name the field (`Name`, `Latitude`, `Longitude`) and change nothing.
     pub fn edit_waypoint(&mut self, i: usize, name: &str, lat: &str, lon: &str) -> Result<(), String> {
+        let radius = self.waypoints.get(i).and_then(|w| w.arrival_radius_m);
+        self.edit_waypoint_with_radius(i, name, lat, lon, radius)
+    }
+
+    /// Like [`Self::edit_waypoint`], also setting the waypoint's own arrival radius [m] (`None`: guidance's
+    /// global radius). A radius that is not a positive finite number is refused, naming the field.
+    pub fn edit_waypoint_with_radius(
+        &mut self,
+        i: usize,
+        name: &str,
+        lat: &str,
+        lon: &str,
+        radius_m: Option<f64>,
+    ) -> Result<(), String> {
+        if radius_m.is_some_and(|r| !(r.is_finite() && r > 0.0)) {
+            return Err(
+                "Arrival radius: must be a positive number of metres (empty: the global radius)".into()
+            );
+        }
         let name = name.trim();
         if name.is_empty() {
             return Err("Name: must not be empty".to_owned());
@@ -460,14 +491,16 @@ impl MapView {
             return Err(format!("waypoint {} no longer exists", i + 1));
         };
         let moved = old.lat_deg.to_bits() != lat_deg.to_bits() || old.lon_deg.to_bits() != lon_deg.to_bits();
-        let what = match (old.name != name, moved) {
-            (true, false) => format!("rename {} to {name}", old.name),
-            (false, true) => format!("move {} to typed coordinates", old.name),
+        let radius_changed = old.arrival_radius_m != radius_m;
+        let what = match (old.name != name, moved, radius_changed) {
+            (true, false, false) => format!("rename {} to {name}", old.name),
+            (false, true, false) => format!("move {} to typed coordinates", old.name),
+            (false, false, true) => format!("arrival radius of {}", old.name),
             _ => format!("edit {}", old.name),
         };
         let before = self.route_state();
         if let Some(w) = self.waypoints.get_mut(i) {
-            *w = Waypoint { name: name.to_owned(), lat_deg, lon_deg };
+            *w = Waypoint { name: name.to_owned(), lat_deg, lon_deg, arrival_radius_m: radius_m };
         }
         self.commit(what, before);
         Ok(())
@@ -480,6 +513,7 @@ impl MapView {
             name: w.name.clone(),
             lat: w.lat_deg.to_string(),
             lon: w.lon_deg.to_string(),
+            radius: w.arrival_radius_m.map_or_else(String::new, |r| r.to_string()),
             error: None,
         });
     }
@@ -553,6 +587,11 @@ impl MapView {
             });
         }
         changed |= self.toolbar(ui, cfg, status);
+        changed |= self.import_dialog(ui, status);
+        if let Some(e) = &self.tools.goto_error {
+            ui.label(RichText::new(format!("Go to: {e}")).color(ui.visuals().error_fg_color));
+        }
+        self.tools_line(ui);
         let speed_m_s = fix.and_then(|f| f.speed_m_s);
         self.next_info(ui, fix, guidance, speed_m_s, walking_m_s);
         egui::Panel::right("waypoint-list").default_size(290.0).show(ui, |ui| {
@@ -576,21 +615,62 @@ impl MapView {
             if ui.button(" - ").on_hover_text("Zoom out").clicked() {
                 let _ = self.memory.zoom_out();
             }
-            ui.checkbox(&mut cfg.map_tiles, "OSM tiles");
+            self.tiles.toolbar(ui, cfg, &self.waypoints);
+            ui.separator();
+            if ui
+                .toggle_value(&mut self.tools.measuring, "Measure")
+                .on_hover_text("Click two points on the map: geodesic distance and bearing")
+                .changed()
+            {
+                self.tools.measure_points.clear();
+            }
+            let goto = ui.add(
+                egui::TextEdit::singleline(&mut self.tools.goto_text)
+                    .hint_text("42.3573, -71.1010 / DMS / UTM / MGRS")
+                    .desired_width(200.0),
+            );
+            let enter = goto.lost_focus() && ui.input(|i| i.key_pressed(Key::Enter));
+            if ui.button("Go to").on_hover_text("Centre the map on the typed position").clicked() || enter {
+                match map_tools::parse_position(&self.tools.goto_text) {
+                    Ok(p) => {
+                        self.memory.center_at(lat_lon(p.lat_deg, p.lon_deg));
+                        cfg.follow = false;
+                        self.tools.goto_error = None;
+                        *status = format!("map centred on {}", map_tools::format_decimal(p));
+                    }
+                    Err(e) => self.tools.goto_error = Some(e),
+                }
+            }
             ui.separator();
             ui.add(egui::TextEdit::singleline(&mut self.gpx_path).hint_text("file.gpx").desired_width(160.0));
             if ui.button("Import GPX").clicked() {
-                match crate::route::read_gpx(std::path::Path::new(self.gpx_path.trim())) {
-                    Ok(c) => {
-                        let (nw, nt) = (c.waypoints.len(), c.track.len());
-                        if nw > 0 {
-                            self.replace_route(c.name.unwrap_or_else(|| "imported".into()), c.waypoints);
-                            changed = true;
-                        }
+                let path = self.gpx_path.trim().to_owned();
+                match vestnav_device::route_file::read_gpx(std::path::Path::new(&path)) {
+                    Ok(file) => {
+                        let track: Vec<(f64, f64)> = file
+                            .tracks
+                            .iter()
+                            .flat_map(vestnav_device::route_file::Track::points)
+                            .map(|p| (p.lat_deg, p.lon_deg))
+                            .collect();
+                        let nt = track.len();
                         if nt > 0 {
-                            self.replay = Some((c.track, usize::MAX));
+                            self.replay = Some((track, usize::MAX));
                         }
-                        *status = format!("imported {nw} waypoints and {nt} track points");
+                        let mut choices = crate::route_import::choices(&file);
+                        match choices.len() {
+                            0 => *status = format!("{path} holds no waypoint, route or track"),
+                            1 => {
+                                let c = choices.remove(0);
+                                *status = format!("imported {}", c.label);
+                                self.import_choice(c);
+                                changed = true;
+                            }
+                            _ => {
+                                *status = format!("{path} holds {} things: choose one", choices.len());
+                                self.import = Some(ImportDialog { path, choices });
+                            }
+                        }
                     }
                     Err(e) => *status = format!("GPX import failed: {e}"),
                 }
@@ -616,6 +696,56 @@ impl MapView {
             }
         });
         changed
+    }
+
+    /// The measuring tool's result and the coordinates under the mouse, in one line each.
+    fn tools_line(&self, ui: &mut egui::Ui) {
+        if self.tools.measuring {
+            let text = match (self.tools.measurement(), self.tools.measure_points.len()) {
+                (Some(m), _) => format!("Measured: {}", map_tools::measurement_text(&m)),
+                (None, 1) => "Measure: click the second point".to_owned(),
+                _ => "Measure: click the first point".to_owned(),
+            };
+            ui.label(RichText::new(text).strong());
+        }
+        // Always one line, so the map below does not move when the mouse enters or leaves it.
+        let text = self.tools.pointer.map_or_else(
+            || "Mouse: move over the map for its coordinates".to_owned(),
+            |p| map_tools::coordinate_lines(p).join("   "),
+        );
+        ui.label(RichText::new(text).small().monospace());
+    }
+
+    /// Replaces the route with an imported choice (one undo step).
+    pub fn import_choice(&mut self, c: ImportChoice) {
+        self.replace_route(c.name, c.waypoints);
+        self.import = None;
+    }
+
+    /// The import dialog (when open): one button per thing the file holds; returns whether the route
+    /// changed.
+    fn import_dialog(&mut self, ui: &mut egui::Ui, status: &mut String) -> bool {
+        let Some(dialog) = &self.import else { return false };
+        let mut picked = None;
+        let mut close = false;
+        egui::Window::new("Import from GPX").collapsible(false).resizable(false).show(ui.ctx(), |ui| {
+            ui.label(format!("{} holds:", dialog.path));
+            for (k, c) in dialog.choices.iter().enumerate() {
+                if ui.button(&c.label).clicked() {
+                    picked = Some(k);
+                }
+            }
+            close = ui.button("Cancel").clicked();
+        });
+        if close {
+            self.import = None;
+        }
+        let Some(c) = picked.and_then(|k| self.import.as_mut().map(|d| d.choices.swap_remove(k))) else {
+            return false;
+        };
+        *status = format!("imported {}", c.label);
+        self.import_choice(c);
+        true
     }
 
     /// The line about the next waypoint. Distance and bearing are core guidance's (the one home of the
@@ -740,6 +870,7 @@ impl MapView {
                     ("Name", &mut ed.name),
                     ("Latitude (deg)", &mut ed.lat),
                     ("Longitude (deg)", &mut ed.lon),
+                    ("Arrival radius (m)", &mut ed.radius),
                 ] {
                     let l = ui.label(label);
                     let r = ui.add(egui::TextEdit::singleline(text).desired_width(150.0)).labelled_by(l.id);
@@ -763,7 +894,15 @@ impl MapView {
             return false;
         }
         let ed = ed.clone();
-        match self.edit_waypoint(ed.index, &ed.name, &ed.lat, &ed.lon) {
+        let radius = match ed.radius.trim() {
+            "" => Ok(None),
+            t => t.replace(',', ".").parse::<f64>().map(Some).map_err(|_| {
+                format!("Arrival radius: '{t}' is not a number of metres (empty: the global radius)")
+            }),
+        };
+        let result =
+            radius.and_then(|r| self.edit_waypoint_with_radius(ed.index, &ed.name, &ed.lat, &ed.lon, r));
+        match result {
             Ok(()) => {
                 self.editor = None;
                 true
@@ -817,7 +956,7 @@ impl MapView {
         let before = self.route_state();
         let n = self.waypoints.len() + 1;
         let (lat_deg, lon_deg) = waypoint_coords(pos);
-        let w = Waypoint { name: format!("WP{n}"), lat_deg, lon_deg };
+        let w = Waypoint::new(format!("WP{n}"), lat_deg, lon_deg);
         let what = format!("add {}", w.name);
         if as_next && self.next <= self.waypoints.len() {
             self.waypoints.insert(self.next, w);
@@ -836,15 +975,6 @@ impl MapView {
         cfg: &mut Config,
     ) -> bool {
         let mut changed = false;
-        if cfg.map_tiles && self.tiles.is_none() {
-            let options = HttpOptions {
-                cache: Some(crate::config::data_dir().join("tiles")),
-                user_agent: Some(walkers::HeaderValue::from_static("vestnav-console/0.1")),
-                ..HttpOptions::default()
-            };
-            self.tiles =
-                Some(HttpTiles::with_options(walkers::sources::OpenStreetMap, options, ui.ctx().clone()));
-        }
         let wearer = fix.and_then(|f| f.lat_deg.zip(f.lon_deg)).map(|(la, lo)| lat_lon(la, lo));
         let marker =
             fix.filter(|_| wearer.is_some()).map(|f| wearer_marker(f, Instant::now(), cfg.stale_after_s));
@@ -853,14 +983,12 @@ impl MapView {
         let my_position = wearer.unwrap_or_else(|| lat_lon(anchor.0, anchor.1));
         self.tile_hits.set(0);
         self.tile_misses.set(0);
-        let mut counting = match (&mut self.tiles, cfg.map_tiles) {
-            (Some(t), true) => Some(CountingTiles {
-                inner: t,
-                hits: self.tile_hits.clone(),
-                misses: self.tile_misses.clone(),
-            }),
-            _ => None,
-        };
+        let tile_notes = (self.tiles.note(cfg, false), self.tiles.note(cfg, true));
+        let mut counting = self.tiles.active(cfg, ui.ctx()).map(|t| CountingTiles {
+            inner: t,
+            hits: self.tile_hits.clone(),
+            misses: self.tile_misses.clone(),
+        });
         let tiles_dyn = counting.as_mut().map(|t| t as &mut dyn Tiles);
         let now_s = ui.input(|i| i.time);
         let tiles_missing_s = self.no_tiles_since_s.map_or(0.0, |t| now_s - t);
@@ -871,7 +999,10 @@ impl MapView {
         let track = &self.track;
         let track_breaks = &self.track_breaks;
         let replay = &self.replay;
-        let add_mode = self.add_mode;
+        let add_mode = self.add_mode && !self.tools.measuring;
+        let measuring = self.tools.measuring;
+        let measure_points = self.tools.measure_points.clone();
+        let field = &self.tools.field;
         let right_click_at = &mut self.right_click_at;
         let menu_wp = &mut self.menu_wp;
         let route_name = &self.route_name;
@@ -1070,6 +1201,92 @@ impl MapView {
                 }
             }
 
+            // The measuring tool's line, its ends and its result at the second point.
+            let accent = Color32::from_rgb(230, 30, 140);
+            let ends: Vec<Pos2> = measure_points
+                .iter()
+                .map(|p| to_pos2(projector.project(lat_lon(p.lat_deg, p.lon_deg))))
+                .collect();
+            if let [a, b] = ends.as_slice() {
+                painter.line_segment([*a, *b], Stroke::new(2.5, accent));
+            }
+            for e in &ends {
+                painter.circle(*e, 4.5, accent, Stroke::new(1.5, Color32::WHITE));
+            }
+            if let ([a, b], [_, pb]) = (measure_points.as_slice(), ends.as_slice()) {
+                let m = map_tools::measure(*a, *b);
+                painter.text(
+                    *pb + vec2(10.0, 10.0),
+                    egui::Align2::LEFT_TOP,
+                    map_tools::measurement_text(&m),
+                    font.clone(),
+                    ui.visuals().strong_text_color(),
+                );
+            }
+
+            // Field tests running: drift fixes (small dots) and cone marks (labelled triangles).
+            let cone_color = Color32::from_rgb(255, 120, 0);
+            let drift_color = Color32::from_rgb(0, 150, 140);
+            for p in &field.drift {
+                painter.circle_filled(
+                    to_pos2(projector.project(lat_lon(p.lat_deg, p.lon_deg))),
+                    2.5,
+                    drift_color,
+                );
+            }
+            for (label, p) in &field.cones {
+                let c = to_pos2(projector.project(lat_lon(p.lat_deg, p.lon_deg)));
+                let tri = vec![c + vec2(0.0, -8.0), c + vec2(6.0, 5.0), c + vec2(-6.0, 5.0)];
+                painter.add(egui::Shape::convex_polygon(tri, cone_color, Stroke::new(1.0, Color32::WHITE)));
+                painter.text(
+                    c + vec2(8.0, 4.0),
+                    egui::Align2::LEFT_TOP,
+                    label,
+                    font.clone(),
+                    ui.visuals().strong_text_color(),
+                );
+            }
+
+            // North arrow (the map is always north up) and the legend of what is drawn.
+            let panel = ui.visuals().panel_fill.gamma_multiply(0.85);
+            let ink = ui.visuals().strong_text_color();
+            map_tools::draw_north_arrow(&painter, rect, ink, panel);
+            let mut legend: Vec<map_tools::LegendItem> = vec![
+                (Color32::from_rgb(240, 140, 0), "next waypoint"),
+                (Color32::from_rgb(60, 120, 220), "route"),
+                (Color32::from_rgb(220, 50, 50), "track"),
+                (Color32::from_rgb(20, 90, 200), "wearer (ring: 1-sigma accuracy)"),
+            ];
+            if replay.is_some() {
+                legend.push((Color32::from_rgb(150, 60, 200), "replayed track"));
+            }
+            if !field.cones.is_empty() {
+                legend.push((cone_color, "cone marks"));
+            }
+            if !field.drift.is_empty() {
+                legend.push((drift_color, "drift-test fixes"));
+            }
+            if !measure_points.is_empty() {
+                legend.push((accent, "measured line"));
+            }
+            map_tools::draw_legend(&painter, rect, &legend, ink, panel);
+
+            // The position under the mouse.
+            let pointer_at = response
+                .hover_pos()
+                .map(|p| projector.unproject(p.to_vec2()))
+                .map(|p| LatLon::new(p.y(), p.x()));
+
+            // Measuring clicks.
+            let mut measure_click = None;
+            if measuring
+                && response.clicked()
+                && let Some(pos) = response.interact_pointer_pos()
+            {
+                let p = projector.unproject(pos.to_vec2());
+                measure_click = Some(LatLon::new(p.y(), p.x()));
+            }
+
             // Adding waypoints.
             let mut add_click = None;
             if add_mode
@@ -1119,15 +1336,7 @@ impl MapView {
                 font.clone(),
                 ink,
             );
-            let note = if offline {
-                if tiles_on {
-                    "tiles unavailable (offline?): local grid"
-                } else {
-                    "local metric grid (tiles off)"
-                }
-            } else {
-                "© OpenStreetMap contributors"
-            };
+            let note = if offline { &tile_notes.1 } else { &tile_notes.0 };
             painter.text(
                 rect.right_bottom() - vec2(6.0, 4.0),
                 egui::Align2::RIGHT_BOTTOM,
@@ -1136,9 +1345,14 @@ impl MapView {
                 ink,
             );
 
-            (action, add_here, add_click, dragging)
+            (action, add_here, add_click, dragging, measure_click, pointer_at, rect)
         });
-        let (action, add_here, add_click, dragging) = resp.inner;
+        let (action, add_here, add_click, dragging, measure_click, pointer_at, map_rect) = resp.inner;
+        self.tools.pointer = pointer_at;
+        self.tools.map_rect = Some(map_rect);
+        if let Some(p) = measure_click {
+            self.tools.measure_click(p);
+        }
         // A drag is one undo step, recorded when it ends.
         if !dragging && let Some((i, before)) = self.drag_before.take() {
             let name = self.waypoints.get(i).map_or_else(|| format!("WP{}", i + 1), |w| w.name.clone());

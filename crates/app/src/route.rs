@@ -363,8 +363,13 @@ mod tests {
         let state = RouteState {
             name: "Loop & back".into(),
             waypoints: vec![
-                Waypoint { name: "A".into(), lat_deg: 42.1, lon_deg: -71.2 },
-                Waypoint { name: "B <2>".into(), lat_deg: -0.000_001, lon_deg: 179.9 },
+                Waypoint { name: "A".into(), lat_deg: 42.1, lon_deg: -71.2, arrival_radius_m: None },
+                Waypoint {
+                    name: "B <2>".into(),
+                    lat_deg: -0.000_001,
+                    lon_deg: 179.9,
+                    arrival_radius_m: None,
+                },
             ],
             next: 1,
         };
@@ -407,7 +412,7 @@ mod tests {
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(&dir).unwrap();
         let path = dir.join("walk.gpx");
-        let wps = vec![Waypoint { name: "A".into(), lat_deg: 42.1, lon_deg: -71.2 }];
+        let wps = vec![Waypoint { name: "A".into(), lat_deg: 42.1, lon_deg: -71.2, arrival_radius_m: None }];
         let (a, b) = segs();
         let msg = export_gpx(&path, "walk", &wps, &[&a, &b]).unwrap();
         assert!(msg.contains("2 segments"), "{msg}");
@@ -430,8 +435,8 @@ mod tests {
     #[test]
     fn geojson_has_lon_lat_route_points_and_track_segments() {
         let wps = vec![
-            Waypoint { name: "A".into(), lat_deg: 42.1, lon_deg: -71.2 },
-            Waypoint { name: "B".into(), lat_deg: 42.3, lon_deg: -71.4 },
+            Waypoint { name: "A".into(), lat_deg: 42.1, lon_deg: -71.2, arrival_radius_m: None },
+            Waypoint { name: "B".into(), lat_deg: 42.3, lon_deg: -71.4, arrival_radius_m: None },
         ];
         let (a, b) = segs();
         let text = to_geojson("walk", &wps, &[&a, &[(1.0, 2.0)], &b]).unwrap();

@@ -495,8 +495,8 @@ fn an_absurdly_far_waypoint_warns_instead_of_a_time_to_go() {
     let mut h = harness(&fake);
     let far_lon = (15_000_000.0_f64 / 6_378_137.0).to_degrees();
     h.state_mut().map.waypoints = vec![
-        Waypoint { name: "Far".into(), lat_deg: 0.0, lon_deg: far_lon },
-        Waypoint { name: "Farther".into(), lat_deg: 0.0, lon_deg: far_lon + 1.0 },
+        Waypoint { name: "Far".into(), lat_deg: 0.0, lon_deg: far_lon, arrival_radius_m: None },
+        Waypoint { name: "Farther".into(), lat_deg: 0.0, lon_deg: far_lon + 1.0, arrival_radius_m: None },
     ];
     h.state_mut().map.next = 0;
     h.state_mut().push_route();
@@ -581,9 +581,9 @@ fn test_dir(name: &str) -> std::path::PathBuf {
 /// Three waypoints with coordinates the tests compare against.
 fn three_waypoints() -> Vec<Waypoint> {
     vec![
-        Waypoint { name: "Alpha".into(), lat_deg: 42.3571, lon_deg: -71.1012 },
-        Waypoint { name: "Bravo".into(), lat_deg: 42.3577, lon_deg: -71.1003 },
-        Waypoint { name: "Charlie".into(), lat_deg: 42.3581, lon_deg: -71.0995 },
+        Waypoint { name: "Alpha".into(), lat_deg: 42.3571, lon_deg: -71.1012, arrival_radius_m: None },
+        Waypoint { name: "Bravo".into(), lat_deg: 42.3577, lon_deg: -71.1003, arrival_radius_m: None },
+        Waypoint { name: "Charlie".into(), lat_deg: 42.3581, lon_deg: -71.0995, arrival_radius_m: None },
     ]
 }
 
@@ -964,7 +964,8 @@ fn rename_and_typed_coordinates_change_the_waypoint_and_can_be_undone() {
     h.run_steps(2);
     h.get_by_label("Apply").click();
     h.run_steps(2);
-    let edited = Waypoint { name: "Gate 2".into(), lat_deg: 42.35795, lon_deg: -71.0987 };
+    let edited =
+        Waypoint { name: "Gate 2".into(), lat_deg: 42.35795, lon_deg: -71.0987, arrival_radius_m: None };
     assert_eq!(h.state().map.waypoints[1], edited);
     assert!(h.query_by_label_contains("Gate 2").is_some(), "the list shows the new name");
     h.get_by_label("Undo").click();

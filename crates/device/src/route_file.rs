@@ -41,7 +41,22 @@ pub struct Waypoint {
     pub lat_deg: f64,
     /// Longitude [deg].
     pub lon_deg: f64,
+    /// Its own arrival radius [m] (`None`: guidance's global one). Kept in GPX as a vestnav extension
+    /// (see [`VESTNAV_GPX_NS`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub arrival_radius_m: Option<f64>,
 }
+
+impl Waypoint {
+    /// A waypoint without its own arrival radius.
+    pub fn new(name: impl Into<String>, lat_deg: f64, lon_deg: f64) -> Self {
+        Self { name: name.into(), lat_deg, lon_deg, arrival_radius_m: None }
+    }
+}
+
+/// The XML namespace of vestnav's GPX extensions: `<extensions><vestnav:arrival_radius_m>` on a `wpt` or
+/// `rtept` holds that waypoint's arrival radius in metres. Other readers skip it, as GPX 1.1 intends.
+pub const VESTNAV_GPX_NS: &str = "urn:vestnav:gpx:1";
 
 /// A point of a recorded track.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -157,11 +172,7 @@ impl RouteFile {
             waypoints: t
                 .points()
                 .enumerate()
-                .map(|(k, p)| Waypoint {
-                    name: format!("T{}", k + 1),
-                    lat_deg: p.lat_deg,
-                    lon_deg: p.lon_deg,
-                })
+                .map(|(k, p)| Waypoint::new(format!("T{}", k + 1), p.lat_deg, p.lon_deg))
                 .collect(),
         })
     }
@@ -318,14 +329,22 @@ pub fn parse_gpx_bytes(bytes: &[u8]) -> Result<RouteFile, GpxError> {
     let mut to_waypoint = |element: usize, w: &gpx::Waypoint, k: usize| -> Result<Waypoint, GpxError> {
         let (lat_deg, lon_deg) = check(element, w)?;
         let name = w.name.clone().unwrap_or_else(|| format!("WP{}", k + 1));
-        Ok(Waypoint { name, lat_deg, lon_deg })
+        Ok(Waypoint::new(name, lat_deg, lon_deg))
     };
-    let waypoints =
+    let [wpt_radii, rtept_radii] = arrival_radii(bytes)?;
+    let mut waypoints =
         g.waypoints.iter().enumerate().map(|(k, w)| to_waypoint(0, w, k)).collect::<Result<Vec<_>, _>>()?;
+    for (w, r) in waypoints.iter_mut().zip(&wpt_radii) {
+        w.arrival_radius_m = *r;
+    }
     let mut routes = Vec::with_capacity(g.routes.len());
+    let mut rtept_radii = rtept_radii.into_iter();
     for r in &g.routes {
-        let points =
+        let mut points =
             r.points.iter().enumerate().map(|(k, w)| to_waypoint(1, w, k)).collect::<Result<Vec<_>, _>>()?;
+        for p in &mut points {
+            p.arrival_radius_m = rtept_radii.next().flatten();
+        }
         routes.push(Route { name: r.name.clone(), points });
     }
     let mut tracks = Vec::with_capacity(g.tracks.len());
@@ -350,6 +369,66 @@ pub fn parse_gpx_bytes(bytes: &[u8]) -> Result<RouteFile, GpxError> {
 }
 
 const ELEMENTS: [&str; 3] = ["wpt", "rtept", "trkpt"];
+
+/// The vestnav arrival radius of every `wpt` and every `rtept` (all routes, in file order), read from
+/// their `<extensions>` (the `gpx` crate skips extensions). A file without vestnav's namespace costs no
+/// second pass. A radius that is not a positive finite number is an error naming the point.
+fn arrival_radii(bytes: &[u8]) -> Result<[Vec<Option<f64>>; 2], GpxError> {
+    let mut radii = [Vec::new(), Vec::new()];
+    let ns = VESTNAV_GPX_NS.as_bytes();
+    if !bytes.windows(ns.len()).any(|w| w == ns) {
+        return Ok(radii);
+    }
+    let mut path: Vec<String> = Vec::new();
+    // Which list the innermost open wpt/rtept belongs to, while inside one.
+    let mut point: Option<usize> = None;
+    let mut text = String::new();
+    for event in xml::reader::EventReader::new(bytes) {
+        match event.map_err(|e| GpxError::Syntax(e.to_string()))? {
+            xml::reader::XmlEvent::StartElement { name, .. } => {
+                if let Some(k) = ["wpt", "rtept"].iter().position(|n| *n == name.local_name) {
+                    radii[k].push(None);
+                    point = Some(k);
+                }
+                text.clear();
+                path.push(if name.namespace.as_deref() == Some(VESTNAV_GPX_NS) {
+                    format!("vestnav:{}", name.local_name)
+                } else {
+                    name.local_name
+                });
+            }
+            xml::reader::XmlEvent::Characters(t) => text.push_str(&t),
+            xml::reader::XmlEvent::EndElement { .. } => {
+                let closed = path.pop().unwrap_or_default();
+                let in_extensions = path.last().is_some_and(|p| p == "extensions");
+                if closed == "vestnav:arrival_radius_m"
+                    && in_extensions
+                    && let Some(k) = point
+                {
+                    let number = radii[k].len();
+                    let r = text.trim().parse::<f64>().ok().filter(|r| r.is_finite() && *r > 0.0);
+                    let Some(r) = r else {
+                        let shown: String = text.trim().chars().take(40).collect();
+                        return Err(GpxError::BadPoint {
+                            element: ELEMENTS[k],
+                            number,
+                            line: None,
+                            problem: format!("arrival radius '{shown}' is not a positive number of metres"),
+                        });
+                    };
+                    if let Some(slot) = radii[k].last_mut() {
+                        *slot = Some(r);
+                    }
+                }
+                if closed == "wpt" || closed == "rtept" {
+                    point = None;
+                }
+            }
+            _ => {}
+        }
+    }
+    Ok(radii)
+}
 
 /// What is wrong with a position, by the GPX 1.1 schema: latitude in [-90, 90], longitude in [-180, 180).
 fn coordinate_problem(lat: f64, lon: f64) -> Option<String> {
@@ -433,6 +512,7 @@ pub fn to_gpx(file: &RouteFile) -> String {
     out.push_str("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n");
     out.push_str(
         "<gpx version=\"1.1\" creator=\"vestnav\" xmlns=\"http://www.topografix.com/GPX/1/1\" \
+         xmlns:vestnav=\"urn:vestnav:gpx:1\" \
          xmlns:xsi=\"http://www.w3.org/2001/XMLSchema-instance\" \
          xsi:schemaLocation=\"http://www.topografix.com/GPX/1/1 http://www.topografix.com/GPX/1/1/gpx.xsd\">\n",
     );
@@ -440,13 +520,21 @@ pub fn to_gpx(file: &RouteFile) -> String {
         let _ = writeln!(out, "  <metadata>\n    <name>{}</name>\n  </metadata>", escape(name));
     }
     let point = |out: &mut String, indent: &str, element: &str, w: &Waypoint| {
-        let _ = writeln!(
+        let _ = write!(
             out,
-            "{indent}<{element} lat=\"{}\" lon=\"{}\"><name>{}</name></{element}>",
+            "{indent}<{element} lat=\"{}\" lon=\"{}\"><name>{}</name>",
             w.lat_deg,
             w.lon_deg,
             escape(&w.name)
         );
+        // wptType: extensions come last.
+        if let Some(r) = w.arrival_radius_m.filter(|r| r.is_finite() && *r > 0.0) {
+            let _ = write!(
+                out,
+                "<extensions><vestnav:arrival_radius_m>{r}</vestnav:arrival_radius_m></extensions>"
+            );
+        }
+        let _ = writeln!(out, "</{element}>");
     };
     for w in &file.waypoints {
         point(&mut out, "  ", "wpt", w);
@@ -518,7 +606,7 @@ mod tests {
     use super::*;
 
     fn wp(name: &str, lat_deg: f64, lon_deg: f64) -> Waypoint {
-        Waypoint { name: name.into(), lat_deg, lon_deg }
+        Waypoint::new(name, lat_deg, lon_deg)
     }
 
     #[test]
@@ -573,6 +661,25 @@ mod tests {
         write_gpx(&path, &file).unwrap();
         assert_eq!(read_gpx(&path).unwrap(), file);
         std::fs::remove_file(&path).unwrap();
+    }
+
+    /// vestnav's extension carries each waypoint's arrival radius through a write and a read; a GPX file
+    /// from another program with its own extensions reads as before, and a bad radius names the point.
+    #[test]
+    fn arrival_radii_round_trip_as_a_gpx_extension() {
+        let mut file = RouteFile::from_route("r", vec![wp("a", 1.0, 2.0), wp("b", 3.0, 4.0)]);
+        file.routes[0].points[1].arrival_radius_m = Some(12.5);
+        file.waypoints = vec![Waypoint { arrival_radius_m: Some(3.0), ..wp("w", 5.0, 6.0) }];
+        let text = to_gpx(&file);
+        assert!(text.contains("<vestnav:arrival_radius_m>12.5</vestnav:arrival_radius_m>"), "{text}");
+        assert_eq!(parse_gpx(&text).unwrap(), file);
+        let foreign = "<?xml version=\"1.0\"?><gpx version=\"1.1\" creator=\"x\" xmlns:o=\"urn:other\">\
+            <rte><rtept lat=\"1\" lon=\"2\"><extensions><o:arrival_radius_m>9</o:arrival_radius_m></extensions>\
+            </rtept></rte></gpx>";
+        assert_eq!(parse_gpx(foreign).unwrap().routes[0].points[0].arrival_radius_m, None);
+        let bad = text.replace(">12.5<", ">-4<");
+        let e = parse_gpx(&bad).unwrap_err();
+        assert!(e.to_string().contains("rtept #2") && e.to_string().contains("arrival radius"), "{e}");
     }
 
     #[test]

@@ -104,6 +104,7 @@ impl Console {
             Tab::Map => {
                 let fix = self.gps.last_position.clone();
                 let walking = self.cfg.walking_speed_m_s;
+                self.map.tools.field = self.field_panel.map_overlay();
                 let changed = self.map.ui(
                     ui,
                     fix.as_ref(),

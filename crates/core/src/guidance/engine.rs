@@ -356,7 +356,7 @@ impl Guidance {
         let speed = input.speed_m_s.filter(|s| s.is_finite());
         let standing = self.config.turn_in_place && speed.is_none_or(|s| s < self.config.cog_min_speed_m_s);
         d.standing = standing;
-        if standing && self.route.is_armed() && distance_m <= self.route.config().arrival_radius_m {
+        if standing && self.route.is_armed() && distance_m <= self.route.active_radii_m().0 {
             // On the waypoint its bearing is GPS noise: no turning on the spot toward it while arrival is
             // being confirmed (the next update after arrival aims at the next waypoint).
             d.reason =

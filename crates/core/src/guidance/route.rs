@@ -32,12 +32,22 @@ pub struct Waypoint {
     pub name: String,
     /// Position.
     pub pos: LatLon,
+    /// This waypoint's own arrival radius [m]; `None` uses the route's [`RouteConfig::arrival_radius_m`].
+    #[serde(default)]
+    pub arrival_radius_m: Option<f64>,
 }
 
 impl Waypoint {
-    /// A waypoint named `name` at `pos`.
+    /// A waypoint named `name` at `pos`, arrived at within the route's radius.
     pub fn new(name: impl Into<String>, pos: LatLon) -> Self {
-        Self { name: name.into(), pos }
+        Self { name: name.into(), pos, arrival_radius_m: None }
+    }
+
+    /// The same waypoint with its own arrival radius [m] (`None`: the route's).
+    #[must_use]
+    pub fn with_arrival_radius_m(mut self, radius_m: Option<f64>) -> Self {
+        self.arrival_radius_m = radius_m;
+        self
     }
 }
 
@@ -107,6 +117,9 @@ impl Route {
                 name: w.name.clone(),
                 source,
             })?;
+            if w.arrival_radius_m.is_some_and(|r| !(r.is_finite() && r > 0.0)) {
+                return Err(RouteError::BadConfig("a waypoint's arrival radius must be positive"));
+            }
         }
         let positive = |x: f64| x.is_finite() && x > 0.0;
         if !positive(config.arrival_radius_m)
@@ -157,6 +170,22 @@ impl Route {
     /// Completed laps of a looped route.
     pub fn laps(&self) -> u32 {
         self.laps
+    }
+
+    /// The radii that apply at the active waypoint [m]: `(arrival, rearm, pass)`.
+    ///
+    /// A waypoint with its own arrival radius `r_w` scales the route's re-arm and pass radii by
+    /// `r_w / arrival_radius_m`, keeping the hysteresis in the proportions the route set (1.5x and 2x by
+    /// default); a waypoint without one uses the route's three radii.
+    pub fn active_radii_m(&self) -> (f64, f64, f64) {
+        let c = &self.config;
+        match self.active().arrival_radius_m {
+            Some(r) => {
+                let k = r / c.arrival_radius_m;
+                (r, c.rearm_radius_m * k, c.pass_radius_m * k)
+            }
+            None => (c.arrival_radius_m, c.rearm_radius_m, c.pass_radius_m),
+        }
     }
 
     /// Whether the active waypoint is armed: arrival at it is being watched for (false after [`Route::back`]
@@ -214,7 +243,7 @@ impl Route {
     ///
     /// Arrival: `d <= arrival_radius` for `confirm_fixes` consecutive fixes while armed. Passing: the fix is
     /// past the waypoint along the active leg (`along > leg length`) and within `pass_radius`. Re-arming:
-    /// `d > rearm_radius`.
+    /// `d > rearm_radius`. The radii are the active waypoint's ([`Route::active_radii_m`]).
     pub fn observe(&mut self, earth: Earth, pos: LatLon) -> Option<RouteEvent> {
         if self.finished {
             return None;
@@ -222,13 +251,14 @@ impl Route {
         let index = self.active;
         let target = self.active().pos;
         let d = earth.distance_m(pos, target);
+        let (arrival_m, rearm_m, pass_m) = self.active_radii_m();
         if !self.armed {
-            if d > self.config.rearm_radius_m {
+            if d > rearm_m {
                 self.armed = true;
             }
             return None;
         }
-        if d <= self.config.arrival_radius_m {
+        if d <= arrival_m {
             self.inside_count += 1;
             if self.inside_count >= self.config.confirm_fixes {
                 return Some(self.advance().unwrap_or(RouteEvent::Arrived(index)));
@@ -238,10 +268,7 @@ impl Route {
         self.inside_count = 0;
         if let Some(prev) = self.previous().map(|w| w.pos) {
             let off = leg_offset(earth, prev, target, pos);
-            if off.leg_length_m > 0.0
-                && off.along_track_m > off.leg_length_m
-                && d <= self.config.pass_radius_m
-            {
+            if off.leg_length_m > 0.0 && off.along_track_m > off.leg_length_m && d <= pass_m {
                 return Some(self.advance().map_or(RouteEvent::Passed(index), |_| RouteEvent::Finished));
             }
         }

@@ -205,6 +205,25 @@ fn arrival_needs_confirmation_and_back_rearms() {
 }
 
 #[test]
+fn a_waypoints_own_radius_decides_its_arrival() {
+    // Waypoint 0 with its own 30 m radius: a fix 20 m away arrives (the route's 8 m would not), and the
+    // re-arm radius scales with it (12 m x 30/8 = 45 m). Waypoint 1 keeps the route's 8 m.
+    let cfg = RouteConfig { confirm_fixes: 1, ..RouteConfig::default() };
+    let wps = vec![
+        Waypoint::new("wide", O).with_arrival_radius_m(Some(30.0)),
+        Waypoint::new("plain", Earth::Wgs84.direct(O, 90.0, 200.0)),
+    ];
+    let mut route = Route::new(wps, cfg).unwrap();
+    assert_eq!(route.active_radii_m(), (30.0, 45.0, 60.0));
+    assert_eq!(route.observe(Earth::Wgs84, at(0.0, 20.0)), Some(RouteEvent::Arrived(0)));
+    assert_eq!(route.active_radii_m(), (8.0, 12.0, 16.0));
+    let near1 = Earth::Wgs84.direct(O, 90.0, 180.0); // 20 m before waypoint 1
+    assert_eq!(route.observe(Earth::Wgs84, near1), None);
+    let bad = vec![Waypoint::new("w", O).with_arrival_radius_m(Some(-1.0))];
+    assert!(Route::new(bad, cfg).is_err());
+}
+
+#[test]
 fn passing_abeam_advances() {
     let mut route = route_line(3, 100.0, 90.0, RouteConfig::default());
     route.skip(); // active = w1 at 100 m east; leg w0 -> w1

@@ -31,6 +31,7 @@ pub mod record;
 mod sentence;
 pub mod sim;
 pub mod source;
+pub mod through_vest;
 #[cfg(test)]
 mod truth_tests;
 

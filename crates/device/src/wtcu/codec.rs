@@ -17,8 +17,8 @@ use vestnav_core::vest::{Frame, TactorMask};
 
 use super::limits::Limits;
 use super::message::{
-    CalibrationWire, Capabilities, DeviceInfo, Faults, FirmwareVersion, HeadingReport, NakReason, Packet,
-    Reply, Request, UnitStatus,
+    CalibrationWire, Capabilities, DeviceInfo, Faults, FirmwareVersion, HeadingReport, MAX_GPS_CHUNK,
+    NakReason, Packet, Reply, Request, UnitStatus,
 };
 
 /// The newest protocol version this build speaks (written in every header unless a peer negotiated lower).
@@ -67,6 +67,12 @@ pub mod msg_type {
     pub const SET_CALIBRATION: u8 = 0x0A;
     /// Unit (v2): one heading reading.
     pub const HEADING: u8 = 0x86;
+    /// Console (v2): start forwarding the unit's GPS receiver.
+    pub const GPS_START: u8 = 0x0B;
+    /// Console (v2): stop forwarding the GPS receiver.
+    pub const GPS_STOP: u8 = 0x0C;
+    /// Unit (v2): a chunk of the GPS receiver's bytes.
+    pub const GPS_DATA: u8 = 0x87;
     /// Unit: unsolicited change of the running tactors.
     pub const REPORT: u8 = 0x85;
 }
@@ -360,6 +366,16 @@ impl Reader<'_> {
         self.u16().map(u16::cast_signed)
     }
 
+    fn u32(&mut self) -> Option<u32> {
+        let lo = self.u16()?;
+        let hi = self.u16()?;
+        Some(u32::from(lo) | (u32::from(hi) << 16))
+    }
+
+    fn rest(&mut self) -> &[u8] {
+        std::mem::take(&mut self.data)
+    }
+
     fn done(&self) -> Option<()> {
         self.data.is_empty().then_some(())
     }
@@ -369,8 +385,8 @@ impl Reader<'_> {
 #[allow(clippy::option_option)]
 fn parse_request(version: u8, kind: u8, payload: &[u8]) -> Option<Option<Request>> {
     use msg_type::{
-        FIRE, GET_STATUS, HEADING_START, HEADING_STOP, HEARTBEAT, HELLO, PLAY, SET_CALIBRATION,
-        SET_INTENSITY, STOP_ALL,
+        FIRE, GET_STATUS, GPS_START, GPS_STOP, HEADING_START, HEADING_STOP, HEARTBEAT, HELLO, PLAY,
+        SET_CALIBRATION, SET_INTENSITY, STOP_ALL,
     };
     let mut r = Reader { data: payload };
     let v2 = version >= 2;
@@ -400,6 +416,8 @@ fn parse_request(version: u8, kind: u8, payload: &[u8]) -> Option<Option<Request
             c.field_dut = r.u16()?;
             Request::SetCalibration(c)
         }
+        GPS_START if v2 => Request::GpsStart { baud: r.u32()? },
+        GPS_STOP if v2 => Request::GpsStop,
         _ => return Some(None),
     };
     r.done()?;
@@ -408,7 +426,7 @@ fn parse_request(version: u8, kind: u8, payload: &[u8]) -> Option<Option<Request
 
 #[allow(clippy::option_option)]
 fn parse_reply(version: u8, kind: u8, payload: &[u8]) -> Option<Option<Reply>> {
-    use msg_type::{ACK, HEADING, IDENTIFY, NAK, REPORT, STATUS};
+    use msg_type::{ACK, GPS_DATA, HEADING, IDENTIFY, NAK, REPORT, STATUS};
     let mut r = Reader { data: payload };
     let reply = match kind {
         IDENTIFY => {
@@ -457,6 +475,15 @@ fn parse_reply(version: u8, kind: u8, payload: &[u8]) -> Option<Option<Reply>> {
             }
             Reply::Heading(report)
         }
+        GPS_DATA if version >= 2 => {
+            let lost = r.u16()?;
+            let data = r.rest().to_vec();
+            // An empty chunk says nothing; a longer one cannot come from a conforming unit.
+            if data.is_empty() || data.len() > MAX_GPS_CHUNK {
+                return None;
+            }
+            Reply::GpsData { lost, data }
+        }
         _ => return Some(None),
     };
     r.done()?;
@@ -482,8 +509,8 @@ fn decode_block<M>(
 impl WireCodec for FrameCodec {
     fn encode_request(&self, seq: u8, request: &Request) -> Result<Vec<u8>, EncodeError> {
         use msg_type::{
-            FIRE, GET_STATUS, HEADING_START, HEADING_STOP, HEARTBEAT, HELLO, PLAY, SET_CALIBRATION,
-            SET_INTENSITY, STOP_ALL,
+            FIRE, GET_STATUS, GPS_START, GPS_STOP, HEADING_START, HEADING_STOP, HEARTBEAT, HELLO, PLAY,
+            SET_CALIBRATION, SET_INTENSITY, STOP_ALL,
         };
         let mut p = Vec::new();
         let kind = match request {
@@ -523,6 +550,11 @@ impl WireCodec for FrameCodec {
                 p.extend_from_slice(&c.field_dut.to_le_bytes());
                 SET_CALIBRATION
             }
+            Request::GpsStart { baud } => {
+                p.extend_from_slice(&baud.to_le_bytes());
+                GPS_START
+            }
+            Request::GpsStop => GPS_STOP,
         };
         if p.len() > MAX_PAYLOAD {
             return Err(EncodeError { len: p.len() });
@@ -531,7 +563,7 @@ impl WireCodec for FrameCodec {
     }
 
     fn encode_reply(&self, seq: u8, reply: &Reply) -> Vec<u8> {
-        use msg_type::{ACK, HEADING, IDENTIFY, NAK, REPORT, STATUS};
+        use msg_type::{ACK, GPS_DATA, HEADING, IDENTIFY, NAK, REPORT, STATUS};
         let mut p = Vec::new();
         let kind = match reply {
             Reply::Identify(info) => {
@@ -578,6 +610,12 @@ impl WireCodec for FrameCodec {
                     p.extend_from_slice(&v.to_le_bytes());
                 }
                 HEADING
+            }
+            Reply::GpsData { lost, data } => {
+                p.extend_from_slice(&lost.to_le_bytes());
+                // A unit never builds a longer chunk; cut rather than exceed the frame limit.
+                p.extend_from_slice(&data[..data.len().min(MAX_GPS_CHUNK)]);
+                GPS_DATA
             }
         };
         frame(self.version, kind, seq, &p)

@@ -28,8 +28,8 @@ use vestnav_core::compass::{Calibration, tilt_compensated_heading};
 use super::emulator::{CompassSetup, SimulatedCompass};
 
 use super::message::{
-    Capabilities, CommandKind, DeviceInfo, Faults, FirmwareVersion, HeadingReport, NakReason, Packet, Reply,
-    Request, UnitStatus,
+    Capabilities, CommandKind, DeviceInfo, Faults, FirmwareVersion, GPS_BAUDS, HeadingReport, NakReason,
+    Packet, Reply, Request, UnitStatus,
 };
 
 /// The unit's magnetometer and accelerometer, sampled by the engine for its heading stream (protocol v2).
@@ -73,7 +73,25 @@ enum OutKind {
     Report,
     /// A HEADING reading: an unsent one is superseded by the next, dropped first.
     Heading,
+    /// A `GPS_DATA` chunk of this many receiver bytes: never superseded, dropped after HEADINGs (its bytes
+    /// counted as lost in the next chunk).
+    Gps(u16),
 }
+
+impl OutKind {
+    /// Whether an unsent frame of this kind says nothing a newer one of the same kind does not.
+    fn superseded_by_newer(self) -> bool {
+        matches!(self, Self::Report | Self::Heading)
+    }
+}
+
+/// A `GPS_DATA` chunk is sent at a line feed, at this many bytes, or [`GPS_CHUNK_AGE`] after its first byte.
+pub const GPS_CHUNK_BYTES: usize = 64;
+/// The oldest a buffered receiver byte gets before its chunk is sent.
+pub const GPS_CHUNK_AGE: Duration = Duration::from_millis(50);
+/// Receiver bytes a unit buffers at most; bytes due beyond it (a unit that was not run for a while) are
+/// dropped and counted as lost, as a real UART buffer overflows.
+pub const GPS_BUFFER_BYTES: u64 = 1024;
 
 /// Fastest heading stream a unit runs (reports per second).
 pub const MAX_HEADING_RATE_HZ: u8 = 10;
@@ -102,6 +120,9 @@ pub struct EngineConfig {
     pub protocol_version: u8,
     /// The unit's magnetometer (v2 only), or none.
     pub compass: Option<CompassSetup>,
+    /// What the GPS receiver on the unit's second UART sends, played in a loop at the requested baud (v2
+    /// only, [`Capabilities::GPS`]), or none: the unit has no receiver.
+    pub gps_nmea: Option<std::sync::Arc<[u8]>>,
 }
 
 impl Default for EngineConfig {
@@ -114,6 +135,7 @@ impl Default for EngineConfig {
             battery_mv: 3900,
             protocol_version: PROTOCOL_VERSION,
             compass: Some(CompassSetup::default()),
+            gps_nmea: None,
         }
     }
 }
@@ -197,6 +219,40 @@ pub struct Engine<C: WireCodec = FrameCodec> {
     /// Protocol version of the current session (that of its HELLO).
     session_version: u8,
     heading: HeadingState,
+    gps: GpsState,
+}
+
+/// The forwarded GPS receiver's state.
+#[derive(Debug, Default)]
+struct GpsState {
+    /// What the receiver sends, looped; none: no receiver.
+    source: Option<std::sync::Arc<[u8]>>,
+    /// While forwarding: the baud and when it started.
+    running: Option<(u32, Instant)>,
+    /// Receiver bytes produced since forwarding started.
+    emitted: u64,
+    /// Where in `source` the next byte comes from.
+    pos: usize,
+    /// Bytes not yet sent, and when the first of them arrived.
+    pending: Vec<u8>,
+    pending_since: Option<Instant>,
+    /// Bytes dropped since the last chunk.
+    lost: u64,
+}
+
+impl GpsState {
+    /// The instant the `n`-th receiver byte (1-based) since the start has fully arrived.
+    fn byte_time(start: Instant, baud: u32, n: u64) -> Instant {
+        start + Duration::from_micros(n * 10 * 1_000_000 / u64::from(baud))
+    }
+
+    /// Stops forwarding; bytes not yet sent are dropped.
+    fn stop(&mut self) {
+        self.running = None;
+        self.pending.clear();
+        self.pending_since = None;
+        self.lost = 0;
+    }
 }
 
 /// The heading stream's state.
@@ -215,7 +271,8 @@ impl Engine<FrameCodec> {
     pub fn new(config: EngineConfig) -> Self {
         let compass = config.compass.clone().filter(|_| config.protocol_version >= 2);
         let codec = FrameCodec::with_max_version(config.protocol_version);
-        let engine = Self::with_codec(config, codec);
+        let mut engine = Self::with_codec(config, codec);
+        engine.gps.source = engine.config.gps_nmea.clone().filter(|b| !b.is_empty());
         match compass {
             Some(setup) => engine.with_heading_sensor(Box::new(SimulatedCompass::new(&setup))),
             None => engine,
@@ -244,6 +301,7 @@ impl<C: WireCodec> Engine<C> {
             stats: EngineStats::default(),
             session_version: MIN_PROTOCOL_VERSION,
             heading: HeadingState::default(),
+            gps: GpsState::default(),
         }
     }
 
@@ -258,6 +316,11 @@ impl<C: WireCodec> Engine<C> {
     /// The heading stream's rate, while it runs.
     pub fn heading_rate_hz(&self) -> Option<u8> {
         self.heading.rate_hz
+    }
+
+    /// The GPS forwarding's baud, while it runs.
+    pub fn gps_baud(&self) -> Option<u32> {
+        self.gps.running.map(|(baud, _)| baud)
     }
 
     /// The calibration loaded by the console (the identity, with no reference field, until one is).
@@ -278,6 +341,9 @@ impl<C: WireCodec> Engine<C> {
         }
         if self.heading.sensor.is_some() && self.session_version >= 2 {
             capabilities = capabilities | Capabilities::HEADING;
+        }
+        if self.gps.source.is_some() && self.session_version >= 2 {
+            capabilities = capabilities | Capabilities::GPS;
         }
         DeviceInfo {
             protocol_version: self.session_version,
@@ -351,7 +417,7 @@ impl<C: WireCodec> Engine<C> {
 
     /// Queues a frame for the console, keeping the queue bounded (see the module doc).
     fn push_out(&mut self, frame: Vec<u8>, kind: OutKind) {
-        if kind != OutKind::Answer
+        if kind.superseded_by_newer()
             && let Some(last) = self.out.iter_mut().rev().find(|(k, _)| *k == kind)
         {
             // A REPORT carries the whole state, a HEADING the latest reading: an unsent older one says
@@ -360,11 +426,17 @@ impl<C: WireCodec> Engine<C> {
             return;
         }
         if self.out.len() >= MAX_QUEUED_FRAMES {
-            let victim = [OutKind::Heading, OutKind::Report]
-                .iter()
-                .find_map(|want| self.out.iter().position(|(k, _)| k == want))
-                .unwrap_or(0);
-            self.out.remove(victim);
+            let rank = |k: &OutKind| match k {
+                OutKind::Heading => 0,
+                OutKind::Gps(_) => 1,
+                OutKind::Report => 2,
+                OutKind::Answer => 3,
+            };
+            let victim =
+                (0..4).find_map(|want| self.out.iter().position(|(k, _)| rank(k) == want)).unwrap_or(0);
+            if let Some((OutKind::Gps(bytes), _)) = self.out.remove(victim) {
+                self.gps.lost += u64::from(bytes);
+            }
             self.stats.frames_dropped += 1;
         }
         self.out.push_back((kind, frame));
@@ -377,7 +449,8 @@ impl<C: WireCodec> Engine<C> {
 
     /// When [`Self::handle_timeout`] must be called next (a pattern step, a fire's end, the watchdog).
     pub fn poll_timeout(&self) -> Option<Instant> {
-        [self.timeline.next_change(), self.watchdog_deadline(), self.heading.next_at]
+        let gps_flush = self.gps.pending_since.map(|t| t + GPS_CHUNK_AGE);
+        [self.timeline.next_change(), self.watchdog_deadline(), self.heading.next_at, gps_flush]
             .into_iter()
             .flatten()
             .min()
@@ -410,6 +483,7 @@ impl<C: WireCodec> Engine<C> {
         }
         self.step(now, true);
         self.stream_heading(now);
+        self.pump_gps(now);
     }
 
     /// Feeds bytes received from the console at `now`.
@@ -510,6 +584,7 @@ impl<C: WireCodec> Engine<C> {
             self.replace(Schedule::Idle, now, false);
             self.heading.rate_hz = None;
             self.heading.next_at = None;
+            self.gps.stop();
             self.identified = true;
             self.events.push_back(EngineEvent::SessionStarted);
             return Ok(Reply::Identify(self.device_info()));
@@ -564,6 +639,19 @@ impl<C: WireCodec> Engine<C> {
                 self.heading.rate_hz = None;
                 self.heading.next_at = None;
             }
+            Request::GpsStart { baud } => {
+                if self.gps.source.is_none() {
+                    return Err((NakReason::NotSupported, "this unit has no GPS receiver".to_owned()));
+                }
+                if !GPS_BAUDS.contains(baud) {
+                    return Err((NakReason::Malformed, format!("{baud} baud is not one of {GPS_BAUDS:?}")));
+                }
+                if self.gps.running.map(|(b, _)| b) != Some(*baud) {
+                    self.gps.running = Some((*baud, now));
+                    self.gps.emitted = 0;
+                }
+            }
+            Request::GpsStop => self.gps.stop(),
             Request::SetCalibration(c) => {
                 if self.heading.sensor.is_none() {
                     return Err((NakReason::NotSupported, "this unit has no magnetometer".to_owned()));
@@ -600,6 +688,51 @@ impl<C: WireCodec> Engine<C> {
         self.report_seq = self.report_seq.wrapping_add(1);
         let frame = self.codec.encode_reply(self.report_seq, &Reply::Heading(report));
         self.push_out(frame, OutKind::Heading);
+    }
+
+    /// Plays the receiver's bytes due by `now` into chunks: one at every line feed or
+    /// [`GPS_CHUNK_BYTES`], and whatever is buffered once its first byte is [`GPS_CHUNK_AGE`] old.
+    fn pump_gps(&mut self, now: Instant) {
+        let (Some(source), Some((baud, start))) = (self.gps.source.clone(), self.gps.running) else {
+            return;
+        };
+        let due = (now.saturating_duration_since(start).as_micros() as u64) * u64::from(baud) / 10_000_000;
+        if due > self.gps.emitted + GPS_BUFFER_BYTES {
+            // The unit was not run for a while: its UART buffer overflowed.
+            let skipped = due - GPS_BUFFER_BYTES - self.gps.emitted;
+            self.gps.lost += skipped;
+            self.gps.pos = ((self.gps.pos as u64 + skipped) % source.len() as u64) as usize;
+            self.gps.emitted += skipped;
+        }
+        while self.gps.emitted < due {
+            let byte = source[self.gps.pos];
+            self.gps.pos = (self.gps.pos + 1) % source.len();
+            self.gps.emitted += 1;
+            if self.gps.pending.is_empty() {
+                self.gps.pending_since = Some(GpsState::byte_time(start, baud, self.gps.emitted));
+            }
+            self.gps.pending.push(byte);
+            if byte == b'\n' || self.gps.pending.len() >= GPS_CHUNK_BYTES {
+                self.flush_gps();
+            }
+        }
+        if self.gps.pending_since.is_some_and(|t| t + GPS_CHUNK_AGE <= now) {
+            self.flush_gps();
+        }
+    }
+
+    fn flush_gps(&mut self) {
+        self.gps.pending_since = None;
+        if self.gps.pending.is_empty() {
+            return;
+        }
+        let data = std::mem::take(&mut self.gps.pending);
+        let lost = u16::try_from(self.gps.lost).unwrap_or(u16::MAX);
+        self.gps.lost = 0;
+        let bytes = data.len() as u16;
+        self.report_seq = self.report_seq.wrapping_add(1);
+        let frame = self.codec.encode_reply(self.report_seq, &Reply::GpsData { lost, data });
+        self.push_out(frame, OutKind::Gps(bytes));
     }
 
     fn close_segment(&mut self, mask: TactorMask, now: Instant) {

@@ -146,6 +146,13 @@ pub enum LinkEvent {
     Status(UnitStatus),
     /// A reading of the unit's heading stream (protocol v2).
     Heading(HeadingReport),
+    /// Bytes of the GPS receiver the unit forwards (protocol v2), in order.
+    GpsData {
+        /// Receiver bytes the unit dropped before these.
+        lost: u16,
+        /// The bytes.
+        data: Vec<u8>,
+    },
 }
 
 /// A command the link refused to send.
@@ -493,6 +500,11 @@ impl<C: WireCodec> Link<C> {
                     self.events.push_back(LinkEvent::Heading(report));
                 }
             }
+            Reply::GpsData { lost, data } => {
+                if self.state == LinkState::Ready {
+                    self.events.push_back(LinkEvent::GpsData { lost, data });
+                }
+            }
         }
     }
 
@@ -520,6 +532,29 @@ impl<C: WireCodec> Link<C> {
         self.require_heading()?;
         let out = self.outgoing(Request::SetCalibration(calibration))?;
         self.enqueue(out, now)
+    }
+
+    /// Asks the unit to forward its GPS receiver at `baud` (protocol v2 units with [`Capabilities::GPS`]).
+    pub fn gps_start(&mut self, baud: u32, now: Instant) -> Result<u8, CommandError> {
+        self.require_gps()?;
+        let out = self.outgoing(Request::GpsStart { baud })?;
+        self.enqueue(out, now)
+    }
+
+    /// Stops the unit's GPS forwarding.
+    pub fn gps_stop(&mut self, now: Instant) -> Result<u8, CommandError> {
+        self.require_gps()?;
+        let out = self.outgoing(Request::GpsStop)?;
+        self.enqueue(out, now)
+    }
+
+    fn require_gps(&self) -> Result<(), CommandError> {
+        self.require_ready()?;
+        if self.device.is_some_and(|d| d.capabilities.contains(Capabilities::GPS)) {
+            Ok(())
+        } else {
+            Err(CommandError::NotSupported("GPS forwarding (needs a protocol v2 unit with a GPS receiver)"))
+        }
     }
 
     fn require_heading(&self) -> Result<(), CommandError> {
@@ -769,7 +804,9 @@ fn schedule_of(request: &Request, start: Instant) -> Option<Schedule> {
         | Request::GetStatus
         | Request::HeadingStart { .. }
         | Request::HeadingStop
-        | Request::SetCalibration(_) => None,
+        | Request::SetCalibration(_)
+        | Request::GpsStart { .. }
+        | Request::GpsStop => None,
     }
 }
 

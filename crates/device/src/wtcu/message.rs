@@ -52,7 +52,21 @@ pub enum Request {
     /// Protocol v2: loads a hard/soft-iron calibration into the unit's magnetometer processing (kept until
     /// the next one or a power cycle).
     SetCalibration(CalibrationWire),
+    /// Protocol v2: opens the unit's GPS receiver UART at `baud` and starts forwarding its bytes as
+    /// [`Reply::GpsData`] (units with [`Capabilities::GPS`] only).
+    GpsStart {
+        /// The receiver's baud rate, one of [`GPS_BAUDS`].
+        baud: u32,
+    },
+    /// Protocol v2: stops the GPS forwarding.
+    GpsStop,
 }
+
+/// The GPS receiver baud rates a unit accepts in [`Request::GpsStart`].
+pub const GPS_BAUDS: [u32; 6] = [4800, 9600, 19_200, 38_400, 57_600, 115_200];
+
+/// Most receiver bytes in one [`Reply::GpsData`] (the payload's 200 bytes minus the `lost` counter).
+pub const MAX_GPS_CHUNK: usize = 198;
 
 /// A magnetometer calibration in the protocol's fixed-point form (`h = W (m - b)`; see
 /// `docs/wtcu-protocol.md`). Its one home is `vestnav_core::compass`, with the conversions.
@@ -113,6 +127,8 @@ impl Request {
             Self::HeadingStart { .. } => CommandKind::HeadingStart,
             Self::HeadingStop => CommandKind::HeadingStop,
             Self::SetCalibration(_) => CommandKind::SetCalibration,
+            Self::GpsStart { .. } => CommandKind::GpsStart,
+            Self::GpsStop => CommandKind::GpsStop,
         }
     }
 
@@ -145,6 +161,10 @@ pub enum CommandKind {
     HeadingStop,
     /// [`Request::SetCalibration`].
     SetCalibration,
+    /// [`Request::GpsStart`].
+    GpsStart,
+    /// [`Request::GpsStop`].
+    GpsStop,
 }
 
 impl CommandKind {
@@ -161,6 +181,8 @@ impl CommandKind {
             Self::HeadingStart => "heading start",
             Self::HeadingStop => "heading stop",
             Self::SetCalibration => "set calibration",
+            Self::GpsStart => "GPS start",
+            Self::GpsStop => "GPS stop",
         }
     }
 }
@@ -195,6 +217,14 @@ pub enum Reply {
     /// Protocol v2, unsolicited: one reading of the heading stream ([`Request::HeadingStart`]). Never
     /// answered; an unsent one is superseded by the next.
     Heading(HeadingReport),
+    /// Protocol v2, unsolicited: bytes of the GPS receiver on the unit's second UART, in order
+    /// ([`Request::GpsStart`]). Never answered, never superseded.
+    GpsData {
+        /// Receiver bytes the unit dropped since the previous chunk (saturating).
+        lost: u16,
+        /// The receiver's bytes, 1..=[`MAX_GPS_CHUNK`] of them.
+        data: Vec<u8>,
+    },
 }
 
 /// What a unit says about itself in [`Reply::Identify`].
@@ -242,6 +272,8 @@ impl Capabilities {
     pub const PATTERNS: Self = Self(0x02);
     /// The unit has a tilt-compensated magnetometer and streams [`Reply::Heading`] (protocol v2).
     pub const HEADING: Self = Self(0x04);
+    /// The unit forwards a GPS receiver on its second UART ([`Request::GpsStart`], protocol v2).
+    pub const GPS: Self = Self(0x08);
 
     /// Whether every bit of `other` is set.
     pub fn contains(self, other: Self) -> bool {

@@ -32,6 +32,7 @@
 pub mod codec;
 pub mod emulator;
 pub mod engine;
+pub mod firmware_sim;
 pub mod limits;
 pub mod link;
 pub mod message;

@@ -33,7 +33,8 @@ use vestnav_core::vest::{Pattern, TactorMask};
 use super::emulator::is_timeout;
 use super::engine::EngineConfig;
 use super::link::{Backoff, CommandError, Link, LinkConfig, LinkEvent, LinkState};
-use super::message::{CalibrationWire, CommandKind, DeviceInfo, UnitStatus};
+use super::message::{CalibrationWire, Capabilities, CommandKind, DeviceInfo, UnitStatus};
+use crate::gps::through_vest::{ForwardingState, VestGpsWriter};
 use crate::heading::Attitude;
 use crate::outbox::Outbox;
 
@@ -201,6 +202,11 @@ pub struct WorkerSettings {
     pub command_capacity: usize,
     /// How long the worker waits for the STOP ALL acknowledgement when shutting down.
     pub shutdown_grace: Duration,
+    /// Where a GPS receiver forwarded by the unit goes (protocol v2), if anywhere: while a GPS source reads
+    /// the other end of this pipe ([`crate::gps::through_vest`]), the worker asks a unit with
+    /// [`Capabilities::GPS`] to forward its receiver at the baud the source wants and writes every chunk
+    /// into the pipe.
+    pub gps: Option<VestGpsWriter>,
 }
 
 impl Default for WorkerSettings {
@@ -213,6 +219,7 @@ impl Default for WorkerSettings {
             // Exit must stop the vest within 200 ms of a signal: STOP ALL's round trip at 115200 baud is
             // a few ms; this leaves room for a retransmission.
             shutdown_grace: Duration::from_millis(150),
+            gps: None,
         }
     }
 }
@@ -396,7 +403,16 @@ impl Drop for Heartbeat {
 impl VestHandle {
     /// Starts the worker for `config`; every event goes to every outbox of `events`.
     pub fn spawn(config: VestConfig, events: Vec<Outbox<VestEvent>>) -> io::Result<Self> {
-        let settings = WorkerSettings::default();
+        Self::spawn_configured(config, WorkerSettings::default(), events)
+    }
+
+    /// [`Self::spawn`] with `settings` (e.g. a GPS receiver forwarded by the unit,
+    /// [`WorkerSettings::gps`]).
+    pub fn spawn_configured(
+        config: VestConfig,
+        settings: WorkerSettings,
+        events: Vec<Outbox<VestEvent>>,
+    ) -> io::Result<Self> {
         let connector: Connector = match config {
             VestConfig::Serial { port, baud } => {
                 let poll = settings.io_poll;
@@ -454,6 +470,7 @@ impl VestHandle {
             commands: cmd_rx,
             events,
             shared: shared.clone(),
+            gps_requested: None,
         };
         let thread = std::thread::Builder::new().name("vest-worker".to_owned()).spawn(move || {
             worker.shared.thread.get_or_init(std::thread::current);
@@ -560,6 +577,8 @@ struct Worker {
     commands: Receiver<Queued>,
     events: Vec<Outbox<VestEvent>>,
     shared: Arc<Shared>,
+    /// The baud GPS forwarding was requested at in this session, if it was.
+    gps_requested: Option<u32>,
 }
 
 impl Worker {
@@ -669,8 +688,37 @@ impl Worker {
                 self.wake();
             }
             if matches!(self.link.state(), LinkState::Lost { .. }) {
+                self.gps_requested = None;
+                if let Some(g) = &self.settings.gps {
+                    g.set_state(ForwardingState::NoLink);
+                }
                 return SessionEnd::Lost { was_ready };
             }
+            self.sync_gps(Instant::now());
+        }
+    }
+
+    /// Starts or stops the unit's GPS forwarding as the GPS source wants it (never before the link is ready).
+    fn sync_gps(&mut self, now: Instant) {
+        let Some(g) = self.settings.gps.clone() else { return };
+        let Some(info) = self.link.device().copied().filter(|_| self.link.is_ready()) else { return };
+        if !info.capabilities.contains(Capabilities::GPS) {
+            g.set_state(ForwardingState::Unsupported(format!(
+                "this unit (firmware {}, protocol v{}) has no GPS receiver to forward",
+                info.firmware, info.protocol_version
+            )));
+            return;
+        }
+        match (g.wanted(), self.gps_requested) {
+            (Some(baud), requested) if requested != Some(baud) && self.link.gps_start(baud, now).is_ok() => {
+                self.gps_requested = Some(baud);
+                g.set_state(ForwardingState::Requested { baud });
+            }
+            (None, Some(_)) if self.link.gps_stop(now).is_ok() => {
+                self.gps_requested = None;
+                g.set_state(ForwardingState::NoLink);
+            }
+            _ => {}
         }
     }
 
@@ -831,7 +879,24 @@ impl Worker {
                     if kind == CommandKind::StopAll {
                         self.shared.stop_acked.store(true, Ordering::SeqCst);
                     }
+                    if kind == CommandKind::GpsStart
+                        && let (Some(g), Some(baud)) = (&self.settings.gps, self.gps_requested)
+                    {
+                        g.set_state(ForwardingState::Forwarding { baud });
+                    }
                     VestEvent::Acked { seq, kind }
+                }
+                LinkEvent::Rejected { kind, reason, .. } if kind == CommandKind::GpsStart => {
+                    if let Some(g) = &self.settings.gps {
+                        g.set_state(ForwardingState::Unsupported(format!(
+                            "the unit refused to forward its receiver: {reason}"
+                        )));
+                    }
+                    VestEvent::Rejected {
+                        kind,
+                        origin: None,
+                        reason: format!("the unit refused {}: {reason}", kind.name()),
+                    }
                 }
                 LinkEvent::Rejected { kind, reason, .. } => VestEvent::Rejected {
                     kind,
@@ -851,6 +916,13 @@ impl Worker {
                 LinkEvent::Status(s) => VestEvent::Status(s),
                 // The link reports events right after the bytes that carried them were fed in.
                 LinkEvent::Heading(report) => VestEvent::Heading(report.to_attitude(Instant::now())),
+                // Receiver bytes go to the GPS source's pipe, not to the event consumers.
+                LinkEvent::GpsData { lost, data } => {
+                    if let Some(g) = &self.settings.gps {
+                        g.write(lost, &data);
+                    }
+                    continue;
+                }
             };
             self.emit(event);
         }

@@ -30,6 +30,7 @@ mod serial;
 mod simulator;
 #[cfg(test)]
 mod tests;
+mod through_vest;
 
 pub use replay::replay_lines;
 pub use serial::{detect_baud, score_baud};
@@ -38,6 +39,7 @@ use gpsd::run_gpsd;
 use replay::run_replay;
 use serial::run_serial;
 use simulator::{SimParams, run_sim};
+use through_vest::run_through_vest;
 
 /// Bauds tried by automatic detection, most likely first (`SiRF` III default 4800, u-blox 9600/38400).
 pub const DETECT_BAUDS: [u32; 6] = [4800, 9600, 38400, 115_200, 19200, 57600];
@@ -93,6 +95,14 @@ pub enum SourceConfig {
         /// Where to publish the walker's true position, course and pace every epoch (for an emulated vest's
         /// compass to measure the same wearer), if anywhere.
         truth: Option<crate::heading::SharedTruth>,
+    },
+    /// The receiver on the vest unit's second UART, forwarded inside the vest's link (protocol v2): its
+    /// bytes come from the vest worker through this pipe.
+    ThroughVest {
+        /// The pipe from the vest worker.
+        reader: super::through_vest::VestGpsReader,
+        /// The receiver's baud rate on the unit's UART (one of `wtcu::message::GPS_BAUDS`).
+        baud: u32,
     },
 }
 
@@ -257,6 +267,7 @@ impl GpsSource {
             SourceConfig::Replay { .. } => "gps-replay",
             SourceConfig::Gpsd { .. } => "gps-gpsd",
             SourceConfig::Simulator { .. } => "gps-sim",
+            SourceConfig::ThroughVest { .. } => "gps-vest",
         };
         let thread = std::thread::Builder::new().name(name.into()).spawn(move || {
             match config {
@@ -267,6 +278,7 @@ impl GpsSource {
                     let p = SimParams { route: &route, pace_m_s, model, seed, period, looped, truth };
                     run_sim(&worker, &p);
                 }
+                SourceConfig::ThroughVest { reader, baud } => run_through_vest(&worker, &reader, baud),
             }
             for o in &worker.outputs {
                 o.try_send(GpsEvent::State(SourceState::Stopped));

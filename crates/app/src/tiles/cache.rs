@@ -1,0 +1,163 @@
+//! The on-disk cache of downloaded tiles: one folder per source under the platform cache folder
+//! (`directories::ProjectDirs::cache_dir()/tiles`, on Linux `~/.cache/vestnav/tiles`), laid out as
+//! `{source}/{z}/{x}/{y}.png` (the name says `.png` whatever the format: the content is sniffed on read).
+//!
+//! A tile's modification time is when it was downloaded (it decides staleness); its access time is set
+//! explicitly whenever the map uses it, so pruning can drop the least recently used files first when the
+//! cache is over its size limit ([`prune`]).
+
+use std::path::{Path, PathBuf};
+use std::time::SystemTime;
+
+use super::{TileKey, TileSourceConfig, stable_hash};
+
+/// Default size limit of the tile cache [MB].
+pub const DEFAULT_LIMIT_MB: u64 = 500;
+
+/// The platform cache folder for tiles (falls back to the temporary folder without a home directory).
+pub fn default_root() -> PathBuf {
+    directories::ProjectDirs::from("org", "vestnav", "vestnav")
+        .map_or_else(|| std::env::temp_dir().join("vestnav-cache"), |d| d.cache_dir().to_path_buf())
+        .join("tiles")
+}
+
+/// The cache folder of one HTTP source: `osm` for OpenStreetMap, `xyz-<hash of the URL template>` for
+/// others (the template may hold an API key, so it is hashed rather than spelled out).
+pub fn source_dir(root: &Path, source: &TileSourceConfig) -> PathBuf {
+    match source {
+        TileSourceConfig::Xyz { url, .. } => root.join(format!("xyz-{}", stable_hash(url))),
+        _ => root.join("osm"),
+    }
+}
+
+/// Where tile `key` lives in a source's cache folder.
+pub fn tile_path(dir: &Path, key: TileKey) -> PathBuf {
+    dir.join(key.z.to_string()).join(key.x.to_string()).join(format!("{}.png", key.y))
+}
+
+/// Marks a cached tile as just used (its access time), for the least-recently-used pruning.
+pub fn touch(path: &Path) {
+    if let Ok(f) = std::fs::File::options().write(true).open(path) {
+        // Best effort: a cache on a read-only disk still serves tiles, it only prunes by download time.
+        let _ = f.set_times(std::fs::FileTimes::new().set_accessed(SystemTime::now()));
+    }
+}
+
+/// Writes a tile atomically (temporary file, then rename), so a killed prefetch never leaves half a tile.
+pub fn store(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    if let Some(dir) = path.parent() {
+        std::fs::create_dir_all(dir)?;
+    }
+    let tmp = path.with_extension(format!("tmp{}", std::process::id()));
+    std::fs::write(&tmp, bytes)?;
+    std::fs::rename(&tmp, path)
+}
+
+/// One cached file.
+#[derive(Debug, Clone)]
+struct CachedFile {
+    path: PathBuf,
+    bytes: u64,
+    used: SystemTime,
+}
+
+fn walk(dir: &Path, out: &mut Vec<CachedFile>, depth: usize) {
+    let Ok(rd) = std::fs::read_dir(dir) else { return };
+    for e in rd.filter_map(Result::ok) {
+        let Ok(m) = e.metadata() else { continue };
+        if m.is_dir() && depth < 4 {
+            walk(&e.path(), out, depth + 1);
+        } else if m.is_file() {
+            let used = m.accessed().or_else(|_| m.modified()).unwrap_or(SystemTime::UNIX_EPOCH);
+            out.push(CachedFile { path: e.path(), bytes: m.len(), used });
+        }
+    }
+}
+
+/// Size of the cache under `root` [bytes] and its number of files.
+pub fn usage(root: &Path) -> (u64, usize) {
+    let mut files = Vec::new();
+    walk(root, &mut files, 0);
+    (files.iter().map(|f| f.bytes).sum(), files.len())
+}
+
+/// What [`prune`] did.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct PruneReport {
+    /// Size before [bytes].
+    pub before_bytes: u64,
+    /// Size after [bytes].
+    pub after_bytes: u64,
+    /// Files removed.
+    pub removed: usize,
+}
+
+/// Removes the least recently used files under `root` until it holds at most `limit_bytes`.
+pub fn prune(root: &Path, limit_bytes: u64) -> PruneReport {
+    let mut files = Vec::new();
+    walk(root, &mut files, 0);
+    let before_bytes: u64 = files.iter().map(|f| f.bytes).sum();
+    let mut total = before_bytes;
+    let mut removed = 0;
+    if total > limit_bytes {
+        files.sort_by_key(|f| f.used);
+        for f in files {
+            if total <= limit_bytes {
+                break;
+            }
+            if std::fs::remove_file(&f.path).is_ok() {
+                total -= f.bytes;
+                removed += 1;
+            }
+        }
+    }
+    PruneReport { before_bytes, after_bytes: total, removed }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::time::Duration;
+
+    #[test]
+    fn prune_drops_least_recently_used_first() {
+        let root = std::env::temp_dir().join(format!("vestnav-tilecache-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&root);
+        let dir = source_dir(&root, &TileSourceConfig::Osm);
+        let t0 = SystemTime::now() - Duration::from_secs(1000);
+        for i in 0..5u32 {
+            let p = tile_path(&dir, TileKey::new(3, i, 1).unwrap());
+            store(&p, &[0u8; 100]).unwrap();
+            let f = std::fs::File::options().write(true).open(&p).unwrap();
+            // Tile 0 used most recently, then 1, ... tile 4 least recently.
+            f.set_times(std::fs::FileTimes::new().set_accessed(t0 - Duration::from_secs(u64::from(i) * 10)))
+                .unwrap();
+        }
+        assert_eq!(usage(&root), (500, 5));
+        let r = prune(&root, 250);
+        assert_eq!(r, PruneReport { before_bytes: 500, after_bytes: 200, removed: 3 });
+        for i in 0..5u32 {
+            let exists = tile_path(&dir, TileKey::new(3, i, 1).unwrap()).exists();
+            assert_eq!(exists, i < 2, "tile {i}");
+        }
+        assert_eq!(prune(&root, 250).removed, 0);
+        std::fs::remove_dir_all(&root).unwrap();
+    }
+
+    #[test]
+    fn source_folders_hide_keys() {
+        let root = Path::new("/c");
+        let x = TileSourceConfig::Xyz {
+            url: "https://a/{z}/{x}/{y}?key=SECRET".into(),
+            attribution: String::new(),
+            allows_bulk: true,
+        };
+        let d = source_dir(root, &x);
+        assert!(!d.to_string_lossy().contains("SECRET"));
+        assert_eq!(source_dir(root, &TileSourceConfig::Osm), Path::new("/c/osm"));
+        assert_eq!(
+            tile_path(Path::new("/c/osm"), TileKey::new(2, 1, 3).unwrap()),
+            Path::new("/c/osm/2/1/3.png")
+        );
+    }
+}

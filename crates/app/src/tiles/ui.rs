@@ -1,0 +1,446 @@
+//! The map's "Tiles" controls: the on/off switch, the indicator of where tiles come from (and how many
+//! are cached, stale, missing), and the Tiles window: the source picker, the cache's size limit, and the
+//! prefetch of the route's area.
+
+use std::path::PathBuf;
+
+use egui::{Color32, RichText};
+
+use super::prefetch::{self, Prefetch, PrefetchRequest};
+use super::{BBox, SourceTiles, TileSourceConfig, cache, check_url_template};
+use crate::config::Config;
+use crate::route::Waypoint;
+
+/// The source picker's choice.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Kind {
+    Osm,
+    Xyz,
+    PmTiles,
+    MbTiles,
+    Folder,
+}
+
+/// What the cache thread reports: a message (after a prune) and the cache's size [bytes] and file count.
+type CacheReport = (Option<String>, (u64, usize));
+
+/// Tile state of the map: the active source's tiles, the Tiles window and a prefetch job.
+pub struct MapTiles {
+    active: Option<SourceTiles>,
+    /// The Tiles window is open.
+    pub window_open: bool,
+    kind: Kind,
+    url: String,
+    attribution: String,
+    allows_bulk: bool,
+    path: String,
+    /// Why the last Apply was refused.
+    pub source_error: Option<String>,
+    /// Margin around the route for the prefetch [m].
+    pub margin_m: f64,
+    /// Lowest prefetch zoom.
+    pub z0: u8,
+    /// Highest prefetch zoom.
+    pub z1: u8,
+    /// The running or last prefetch.
+    pub prefetch: Option<Prefetch>,
+    /// A message about the last prefetch or prune.
+    pub message: Option<String>,
+    pruned: bool,
+    usage: Option<(u64, usize)>,
+    /// What a "Prune now" or "Measure" on the worker thread found: (message, usage).
+    cache_job: Option<std::sync::mpsc::Receiver<CacheReport>>,
+}
+
+impl Default for MapTiles {
+    fn default() -> Self {
+        Self {
+            active: None,
+            window_open: false,
+            kind: Kind::Osm,
+            url: String::new(),
+            attribution: String::new(),
+            allows_bulk: false,
+            path: String::new(),
+            source_error: None,
+            margin_m: 300.0,
+            z0: 12,
+            z1: 17,
+            prefetch: None,
+            message: None,
+            pruned: false,
+            usage: None,
+            cache_job: None,
+        }
+    }
+}
+
+/// The cache root the config names, or the platform's.
+pub fn cache_root(cfg: &Config) -> PathBuf {
+    cfg.tile_cache_dir.clone().unwrap_or_else(cache::default_root)
+}
+
+fn mb(bytes: u64) -> String {
+    format!("{:.1} MB", bytes as f64 / 1e6)
+}
+
+impl MapTiles {
+    /// The tiles to draw this frame (`None` with tiles off): (re)starts the source when the setting
+    /// changed, and prunes the cache once per run, on a worker thread.
+    pub fn active(&mut self, cfg: &Config, ctx: &egui::Context) -> Option<&mut SourceTiles> {
+        if !cfg.map_tiles {
+            self.active = None;
+            return None;
+        }
+        if self.active.as_ref().is_none_or(|t| t.source() != &cfg.tiles) {
+            self.active = Some(SourceTiles::new(cfg.tiles.clone(), &cache_root(cfg), ctx.clone()));
+        }
+        if !self.pruned {
+            self.pruned = true;
+            let (root, limit) = (cache_root(cfg), cfg.tile_cache_mb.saturating_mul(1_000_000));
+            // Pruning walks the whole cache: never on the UI thread. It reports nothing back; the cache
+            // usage shown in the Tiles window is measured when asked.
+            let _ = std::thread::Builder::new()
+                .name("tiles-prune".into())
+                .spawn(move || cache::prune(&root, limit));
+        }
+        let t = self.active.as_mut()?;
+        t.begin_frame();
+        Some(t)
+    }
+
+    /// The note at the map's bottom right: the attribution with tiles, "no tiles: metric grid" (and why)
+    /// without.
+    pub fn note(&self, cfg: &Config, offline: bool) -> String {
+        if !cfg.map_tiles {
+            return "no tiles: metric grid (tiles off)".into();
+        }
+        let Some(t) = &self.active else { return "no tiles: metric grid".into() };
+        if offline {
+            return match t.open_state() {
+                Some(Err(e)) => format!("no tiles: metric grid ({e})"),
+                _ => format!("no tiles: metric grid ({} has none here)", t.source().label()),
+            };
+        }
+        let a = t.attribution_text();
+        if a.is_empty() { t.source().label() } else { a }
+    }
+
+    /// The indicator's text and colour: the source and the tiles of the last frame by state.
+    pub fn indicator(&self, cfg: &Config) -> (String, Color32) {
+        if !cfg.map_tiles {
+            return ("no tiles: metric grid".into(), Color32::GRAY);
+        }
+        let Some(t) = &self.active else { return (cfg.tiles.label(), Color32::GRAY) };
+        if let Some(Err(e)) = t.open_state() {
+            return (format!("{}: {e}", t.source().label()), Color32::from_rgb(220, 80, 60));
+        }
+        let c = t.counts();
+        let mut parts = Vec::new();
+        for (n, what) in [
+            (c.local, "local"),
+            (c.cached, "cached"),
+            (c.downloaded, "downloaded"),
+            (c.stale, "stale"),
+            (c.loading, "loading"),
+            (c.missing, "missing"),
+        ] {
+            if n > 0 {
+                parts.push(format!("{n} {what}"));
+            }
+        }
+        let colour = if c.missing > 0 && c.shown() == 0 {
+            Color32::from_rgb(220, 80, 60)
+        } else if c.missing > 0 || c.stale > 0 || c.loading > 0 {
+            Color32::from_rgb(220, 170, 40)
+        } else {
+            Color32::from_rgb(70, 170, 90)
+        };
+        (
+            format!(
+                "{}: {}",
+                t.source().label(),
+                if parts.is_empty() { "—".into() } else { parts.join(" · ") }
+            ),
+            colour,
+        )
+    }
+
+    /// The map toolbar's tile controls and, when open, the Tiles window.
+    pub fn toolbar(&mut self, ui: &mut egui::Ui, cfg: &mut Config, waypoints: &[Waypoint]) {
+        ui.checkbox(&mut cfg.map_tiles, "Tiles");
+        let (text, colour) = self.indicator(cfg);
+        let hover = self
+            .active
+            .as_ref()
+            .and_then(SourceTiles::last_error)
+            .unwrap_or_else(|| "where the map's tiles come from".into());
+        ui.label(RichText::new(text).color(colour).small()).on_hover_text(hover);
+        if ui.button("Tiles…").on_hover_text("Tile source, cache and offline prefetch").clicked() {
+            self.window_open = !self.window_open;
+            if self.window_open {
+                self.load_fields(&cfg.tiles);
+            }
+        }
+        if let Some(p) = &self.prefetch
+            && !p.snapshot().finished
+        {
+            ui.ctx().request_repaint_after(std::time::Duration::from_millis(200));
+        }
+        let mut open = self.window_open;
+        egui::Window::new("Tiles").open(&mut open).resizable(true).default_width(460.0).show(
+            ui.ctx(),
+            |ui| {
+                self.window(ui, cfg, waypoints);
+            },
+        );
+        self.window_open &= open;
+    }
+
+    fn load_fields(&mut self, source: &TileSourceConfig) {
+        self.source_error = None;
+        match source {
+            TileSourceConfig::Osm => self.kind = Kind::Osm,
+            TileSourceConfig::Xyz { url, attribution, allows_bulk } => {
+                self.kind = Kind::Xyz;
+                self.url.clone_from(url);
+                self.attribution.clone_from(attribution);
+                self.allows_bulk = *allows_bulk;
+            }
+            TileSourceConfig::PmTiles(p) | TileSourceConfig::MbTiles(p) | TileSourceConfig::Folder(p) => {
+                self.kind = match source {
+                    TileSourceConfig::PmTiles(_) => Kind::PmTiles,
+                    TileSourceConfig::MbTiles(_) => Kind::MbTiles,
+                    _ => Kind::Folder,
+                };
+                self.path = p.display().to_string();
+            }
+        }
+    }
+
+    /// The source the picker's fields describe, or why they do not describe one.
+    fn picked(&self) -> Result<TileSourceConfig, String> {
+        let path = || {
+            let p = self.path.trim();
+            if p.is_empty() { Err("enter the file or folder path".to_owned()) } else { Ok(PathBuf::from(p)) }
+        };
+        Ok(match self.kind {
+            Kind::Osm => TileSourceConfig::Osm,
+            Kind::Xyz => {
+                let url = self.url.trim().to_owned();
+                check_url_template(&url)?;
+                let attribution = if self.attribution.trim().is_empty() {
+                    format!("tiles: {}", super::url_host(&url))
+                } else {
+                    self.attribution.trim().to_owned()
+                };
+                TileSourceConfig::Xyz { url, attribution, allows_bulk: self.allows_bulk }
+            }
+            Kind::PmTiles => TileSourceConfig::PmTiles(path()?),
+            Kind::MbTiles => TileSourceConfig::MbTiles(path()?),
+            Kind::Folder => TileSourceConfig::Folder(path()?),
+        })
+    }
+
+    fn window(&mut self, ui: &mut egui::Ui, cfg: &mut Config, waypoints: &[Waypoint]) {
+        ui.heading("Source");
+        ui.horizontal_wrapped(|ui| {
+            ui.radio_value(&mut self.kind, Kind::Osm, "OpenStreetMap");
+            ui.radio_value(&mut self.kind, Kind::Xyz, "XYZ URL");
+            ui.radio_value(&mut self.kind, Kind::PmTiles, "PMTiles file");
+            ui.radio_value(&mut self.kind, Kind::MbTiles, "MBTiles file");
+            ui.radio_value(&mut self.kind, Kind::Folder, "Tile folder");
+        });
+        match self.kind {
+            Kind::Osm => {
+                ui.label(
+                    "The public OpenStreetMap server, cached on disk. Its policy forbids bulk download.",
+                );
+            }
+            Kind::Xyz => {
+                ui.add(
+                    egui::TextEdit::singleline(&mut self.url)
+                        .hint_text("https://…/{z}/{x}/{y}.png?key=…")
+                        .desired_width(420.0),
+                );
+                ui.add(
+                    egui::TextEdit::singleline(&mut self.attribution)
+                        .hint_text("attribution text")
+                        .desired_width(420.0),
+                );
+                ui.checkbox(&mut self.allows_bulk, "The provider's terms allow bulk/offline download");
+            }
+            Kind::PmTiles | Kind::MbTiles | Kind::Folder => {
+                let hint = match self.kind {
+                    Kind::PmTiles => "/path/area.pmtiles",
+                    Kind::MbTiles => "/path/area.mbtiles",
+                    _ => "/path/tiles (holding {z}/{x}/{y}.png)",
+                };
+                ui.add(egui::TextEdit::singleline(&mut self.path).hint_text(hint).desired_width(420.0));
+            }
+        }
+        ui.horizontal(|ui| {
+            if ui.button("Use this source").clicked() {
+                match self.picked() {
+                    Ok(s) => {
+                        cfg.tiles = s;
+                        self.source_error = None;
+                    }
+                    Err(e) => self.source_error = Some(e),
+                }
+            }
+            ui.label(format!("now: {}", cfg.tiles.label()));
+        });
+        if let Some(e) = &self.source_error {
+            ui.colored_label(ui.visuals().error_fg_color, e);
+        }
+
+        ui.separator();
+        ui.heading("Cache");
+        let root = cache_root(cfg);
+        ui.label(format!("Downloaded tiles are kept in {}", root.display()));
+        if let Some(rx) = &self.cache_job
+            && let Ok((message, usage)) = rx.try_recv()
+        {
+            self.message = message.or(self.message.take());
+            self.usage = Some(usage);
+            self.cache_job = None;
+        }
+        ui.horizontal(|ui| {
+            ui.label("Size limit");
+            ui.add(egui::DragValue::new(&mut cfg.tile_cache_mb).range(10..=100_000).suffix(" MB"));
+            let idle = self.cache_job.is_none();
+            let prune = ui
+                .add_enabled(idle, egui::Button::new("Prune now"))
+                .on_hover_text("Remove the least recently used tiles above the limit")
+                .clicked();
+            let measure = ui.add_enabled(idle, egui::Button::new("Measure")).clicked();
+            if prune || measure {
+                // Walking the cache takes a while when it is large: never on the UI thread.
+                let (tx, rx) = std::sync::mpsc::channel();
+                let (root, limit, ctx) =
+                    (root.clone(), cfg.tile_cache_mb.saturating_mul(1_000_000), ui.ctx().clone());
+                let spawned = std::thread::Builder::new().name("tiles-prune".into()).spawn(move || {
+                    let message = prune.then(|| {
+                        let r = cache::prune(&root, limit);
+                        format!("pruned {} tiles: {} → {}", r.removed, mb(r.before_bytes), mb(r.after_bytes))
+                    });
+                    // The window may have been closed and the receiver dropped: nothing left to tell.
+                    let _ = tx.send((message, cache::usage(&root)));
+                    ctx.request_repaint();
+                });
+                match spawned {
+                    Ok(_) => self.cache_job = Some(rx),
+                    Err(e) => self.message = Some(format!("cannot start the cache thread: {e}")),
+                }
+            }
+            if self.cache_job.is_some() {
+                ui.spinner();
+            } else if let Some((b, n)) = self.usage {
+                ui.label(format!("{n} tiles, {}", mb(b)));
+            }
+        });
+
+        ui.separator();
+        ui.heading("Make this area available offline");
+        self.prefetch_ui(ui, cfg, waypoints);
+        if let Some(m) = &self.message {
+            ui.label(m);
+        }
+    }
+
+    fn prefetch_ui(&mut self, ui: &mut egui::Ui, cfg: &mut Config, waypoints: &[Waypoint]) {
+        if let Err(why) = cfg.tiles.bulk_download_allowed() {
+            ui.label(RichText::new(why).color(ui.visuals().warn_fg_color));
+            return;
+        }
+        let running = self.prefetch.as_ref().is_some_and(|p| !p.snapshot().finished);
+        ui.add_enabled_ui(!running, |ui| {
+            ui.horizontal(|ui| {
+                ui.label("Margin around the route");
+                ui.add(egui::DragValue::new(&mut self.margin_m).range(0.0..=20_000.0).suffix(" m"));
+            });
+            ui.horizontal(|ui| {
+                ui.label("Zooms");
+                ui.add(egui::DragValue::new(&mut self.z0).range(0..=super::MAX_ZOOM));
+                ui.label("to");
+                ui.add(egui::DragValue::new(&mut self.z1).range(0..=super::MAX_ZOOM));
+                ui.label("Parallel downloads");
+                ui.add(
+                    egui::DragValue::new(&mut cfg.prefetch_parallelism).range(1..=prefetch::MAX_PARALLELISM),
+                );
+            });
+        });
+        let bbox = BBox::around(waypoints.iter().map(|w| (w.lat_deg, w.lon_deg)), self.margin_m);
+        let Some(bbox) = bbox else {
+            ui.label("Add waypoints first: the area is the route's box plus the margin.");
+            return;
+        };
+        let (z0, z1) = (self.z0.min(self.z1), self.z0.max(self.z1));
+        let est = prefetch::estimate(&bbox, z0, z1);
+        ui.label(format!(
+            "{} tiles at zooms {z0}–{z1}, about {} (estimated at {} kB a tile); tiles already on disk are skipped.",
+            est.tiles,
+            mb(est.bytes),
+            prefetch::EST_TILE_BYTES / 1000
+        ));
+        if let Some(p) = &self.prefetch {
+            let s = p.snapshot();
+            let frac = if s.total == 0 { 1.0 } else { s.done() as f32 / s.total as f32 };
+            ui.add(egui::ProgressBar::new(frac).show_percentage().text(format!(
+                "{}/{} tiles",
+                s.done(),
+                s.total
+            )));
+            ui.label(format!(
+                "{} downloaded ({}), {} already on disk, {} absent on the server, {} failed{}",
+                s.fetched,
+                mb(s.bytes),
+                s.skipped,
+                s.missing,
+                s.failed,
+                if s.finished { if p.cancelled() { " — cancelled" } else { " — done" } } else { "" }
+            ));
+            if let Some(e) = &s.last_error {
+                ui.colored_label(ui.visuals().warn_fg_color, format!("last error: {e}"));
+            }
+        }
+        ui.horizontal(|ui| {
+            if running {
+                if ui.button("Cancel").clicked()
+                    && let Some(p) = &self.prefetch
+                {
+                    p.cancel();
+                }
+            } else if ui
+                .add_enabled(est.tiles <= prefetch::MAX_PREFETCH_TILES, egui::Button::new("Download"))
+                .clicked()
+            {
+                let req = PrefetchRequest {
+                    source: cfg.tiles.clone(),
+                    bbox,
+                    z0,
+                    z1,
+                    parallelism: cfg.prefetch_parallelism,
+                    cache_root: cache_root(cfg),
+                };
+                match Prefetch::start(&req, Some(ui.ctx())) {
+                    Ok(p) => {
+                        self.prefetch = Some(p);
+                        self.message = None;
+                    }
+                    Err(e) => self.message = Some(e),
+                }
+            }
+            if est.tiles > prefetch::MAX_PREFETCH_TILES {
+                ui.colored_label(
+                    ui.visuals().warn_fg_color,
+                    format!(
+                        "over the limit of {} tiles: lower the highest zoom",
+                        prefetch::MAX_PREFETCH_TILES
+                    ),
+                );
+            }
+        });
+    }
+}

@@ -1,0 +1,544 @@
+//! Tile sources end to end, without the network: a PMTiles archive, an MBTiles file and a tile folder
+//! made here are drawn by the console's map (the painted meshes sampled for a tile's colour), and the
+//! offline prefetch runs against a tile server on 127.0.0.1 started by the test.
+#![allow(clippy::unwrap_used)]
+
+use std::collections::{BTreeSet, HashMap};
+use std::io::{BufRead, BufReader, Write};
+use std::net::TcpListener;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use egui::{Color32, TextureId};
+use egui_kittest::Harness;
+use egui_kittest::kittest::Queryable as _;
+use vestnav_app::config::{Config, GpsSourceConfig, VestSourceConfig};
+use vestnav_app::console::{Console, ConsoleOptions};
+use vestnav_app::devices::{DeviceFactory, GpsWorker};
+use vestnav_app::route::Waypoint;
+use vestnav_app::tiles::pmtiles::{Entry, HEADER_LEN, Header, write_directory, write_header, zxy_to_tile_id};
+use vestnav_app::tiles::prefetch::{Prefetch, PrefetchRequest};
+use vestnav_app::tiles::store::TileStore as _;
+use vestnav_app::tiles::{BBox, TileKey, TileSourceConfig, cache};
+use vestnav_device::gps::GpsEvent;
+use vestnav_device::outbox::Outbox;
+use vestnav_device::wtcu::{VestEvent, VestHandle};
+
+/// No devices: the map needs none.
+struct NoDevices;
+struct Idle;
+impl GpsWorker for Idle {
+    fn stop(&mut self) {}
+}
+impl DeviceFactory for NoDevices {
+    fn open_gps(
+        &self,
+        _: &GpsSourceConfig,
+        _: &[Waypoint],
+        _: Vec<Outbox<GpsEvent>>,
+    ) -> Result<Box<dyn GpsWorker>, String> {
+        Ok(Box::new(Idle))
+    }
+    fn open_vest(&self, _: &VestSourceConfig, _: Vec<Outbox<VestEvent>>) -> Result<VestHandle, String> {
+        Err("no vest in this test".into())
+    }
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("vestnav-tiles-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// A 256×256 PNG of one colour.
+fn solid_png(c: [u8; 3]) -> Vec<u8> {
+    let img = image::RgbaImage::from_pixel(256, 256, image::Rgba([c[0], c[1], c[2], 255]));
+    let mut out = std::io::Cursor::new(Vec::new());
+    img.write_to(&mut out, image::ImageFormat::Png).unwrap();
+    out.into_inner()
+}
+
+type Textures = Arc<Mutex<HashMap<TextureId, Arc<egui::ColorImage>>>>;
+
+/// The test's renderer: keeps every texture the console uploads, so the painted meshes can be sampled
+/// as a GPU would (`egui_kittest` hands texture uploads to its renderer, not to the output).
+struct TextureRecorder(Textures);
+
+impl egui_kittest::TestRenderer for TextureRecorder {
+    fn handle_delta(&mut self, delta: &mut egui::TexturesDelta) {
+        let mut t = self.0.lock().unwrap();
+        for (id, ds) in &delta.set {
+            for d in ds {
+                if let egui::ImageData::Color(img) = &d.image
+                    && d.pos.is_none()
+                {
+                    t.insert(*id, img.clone());
+                }
+            }
+        }
+        for id in &delta.free {
+            t.remove(id);
+        }
+        // Applied: nothing is left for a GPU to do.
+        delta.clear();
+    }
+}
+
+fn console(cfg: Config) -> (Harness<'static, Console>, Textures) {
+    let console = Console::new(Box::new(NoDevices), ConsoleOptions { cfg, ..ConsoleOptions::default() });
+    let textures = Textures::default();
+    let h = Harness::builder()
+        .with_size(egui::vec2(1200.0, 800.0))
+        .renderer(TextureRecorder(textures.clone()))
+        .build_ui_state(|ui, c: &mut Console| c.ui(ui), console);
+    (h, textures)
+}
+
+/// The colour the map painted for every tile mesh (texture named `tile-…`) at its first triangle's
+/// centre: texel times vertex colour, as the GPU draws it.
+fn tile_colours(h: &Harness<'static, Console>, textures: &Textures) -> Vec<Color32> {
+    let mut out = Vec::new();
+    let mut meshes = Vec::new();
+    for cs in &h.output().shapes {
+        flatten(&cs.shape, &mut meshes);
+    }
+    let textures = textures.lock().unwrap();
+    let tex = h.ctx.tex_manager();
+    for m in meshes {
+        let named_tile = tex.read().meta(m.texture_id).is_some_and(|meta| meta.name.starts_with("tile-"));
+        let (Some(img), true) = (textures.get(&m.texture_id), named_tile) else { continue };
+        let Some(tri) = m.indices.get(0..3) else { continue };
+        let v: Vec<&egui::epaint::Vertex> = tri.iter().map(|i| &m.vertices[*i as usize]).collect();
+        let u = (v[0].uv.x + v[1].uv.x + v[2].uv.x) / 3.0;
+        let w = (v[0].uv.y + v[1].uv.y + v[2].uv.y) / 3.0;
+        let px = ((u * img.size[0] as f32) as usize).min(img.size[0] - 1);
+        let py = ((w * img.size[1] as f32) as usize).min(img.size[1] - 1);
+        let texel = img.pixels[py * img.size[0] + px];
+        out.push(texel * v[0].color);
+    }
+    out
+}
+
+fn flatten(s: &egui::Shape, out: &mut Vec<egui::Mesh>) {
+    match s {
+        egui::Shape::Mesh(m) => out.push((**m).clone()),
+        egui::Shape::Vec(v) => v.iter().for_each(|s| flatten(s, out)),
+        _ => {}
+    }
+}
+
+/// Runs frames until the map paints tile meshes whose tiles all came from the local source (loader
+/// threads read and decode off the UI thread); returns their colours.
+fn painted_tiles(h: &mut Harness<'static, Console>, textures: &Textures) -> Vec<Color32> {
+    let mut colours = Vec::new();
+    for _ in 0..300 {
+        h.step();
+        colours = tile_colours(h, textures);
+        let (text, _) = h.state().map.tiles.indicator(&h.state().cfg);
+        if !colours.is_empty() && text.contains("local") && !text.contains("loading") {
+            return colours;
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    colours
+}
+
+fn map_cfg(tiles: TileSourceConfig) -> Config {
+    Config {
+        map_tiles: true,
+        tiles,
+        guidance_auto: false,
+        auto_connect: false,
+        // Never the user's cache folder (the console prunes it at start).
+        tile_cache_dir: Some(
+            std::env::temp_dir().join(format!("vestnav-tiles-nocache-{}", std::process::id())),
+        ),
+        ..Config::default()
+    }
+}
+
+const RED: [u8; 3] = [200, 30, 40];
+const GREEN: [u8; 3] = [20, 180, 60];
+const BLUE: [u8; 3] = [30, 60, 210];
+const MAGENTA: [u8; 3] = [230, 0, 230];
+
+fn c32(c: [u8; 3]) -> Color32 {
+    Color32::from_rgb(c[0], c[1], c[2])
+}
+
+/// A raster PMTiles v3 archive holding every tile of zooms 0–3, all `tile`, with uncompressed
+/// directories; the zoom-3 tiles sit in a leaf directory.
+fn write_pmtiles(path: &Path, tile: &[u8]) {
+    let len = u32::try_from(tile.len()).unwrap();
+    // Tiles of zooms 0-2 (ids 0..21) in the root as one run; zoom 3 (ids 21..85) through a leaf, one
+    // entry per tile, all pointing at the same bytes.
+    let leaf: Vec<Entry> = (0..8u32)
+        .flat_map(|x| (0..8u32).map(move |y| zxy_to_tile_id(TileKey::new(3, x, y).unwrap())))
+        .collect::<BTreeSet<u64>>()
+        .into_iter()
+        .map(|id| Entry { tile_id: id, offset: 0, length: len, run_length: 1 })
+        .collect();
+    let leaf_bytes = write_directory(&leaf);
+    let root = vec![
+        Entry { tile_id: 0, offset: 0, length: len, run_length: 21 },
+        Entry { tile_id: 21, offset: 0, length: u32::try_from(leaf_bytes.len()).unwrap(), run_length: 0 },
+    ];
+    let root_bytes = write_directory(&root);
+    let root_at = HEADER_LEN as u64;
+    let leaves_at = root_at + root_bytes.len() as u64;
+    let data_at = leaves_at + leaf_bytes.len() as u64;
+    let h = Header {
+        root: (root_at, root_bytes.len() as u64),
+        metadata: (leaves_at, 0),
+        leaves: (leaves_at, leaf_bytes.len() as u64),
+        data: (data_at, tile.len() as u64),
+        internal_compression: 1,
+        tile_compression: 1,
+        tile_type: 2,
+        min_zoom: 0,
+        max_zoom: 3,
+    };
+    let mut f = write_header(&h);
+    f.extend_from_slice(&root_bytes);
+    f.extend_from_slice(&leaf_bytes);
+    f.extend_from_slice(tile);
+    std::fs::write(path, f).unwrap();
+}
+
+#[test]
+fn pmtiles_archive_is_drawn() {
+    let dir = temp_dir("pm");
+    let path = dir.join("area.pmtiles");
+    write_pmtiles(&path, &solid_png(RED));
+    let mut r = vestnav_app::tiles::pmtiles::PmTilesReader::open(&path).unwrap();
+    assert!(r.tile(TileKey::new(3, 2, 2).unwrap()).unwrap().is_some());
+    assert!(r.tile(TileKey::new(4, 2, 2).unwrap()).unwrap().is_none());
+    let (mut h, tex) = console(map_cfg(TileSourceConfig::PmTiles(path)));
+    let colours = painted_tiles(&mut h, &tex);
+    assert!(
+        !colours.is_empty(),
+        "no tile drawn; indicator: {:?}",
+        h.state().map.tiles.indicator(&h.state().cfg)
+    );
+    assert!(colours.iter().all(|c| *c == c32(RED)), "{colours:?}");
+    assert!(h.state().map.tiles.indicator(&h.state().cfg).0.starts_with("PMTiles area.pmtiles"));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn mbtiles_file_is_drawn_with_tms_rows() {
+    let dir = temp_dir("mb");
+    let path = dir.join("area.mbtiles");
+    let conn = rusqlite::Connection::open(&path).unwrap();
+    conn.execute_batch(
+        "CREATE TABLE metadata (name TEXT, value TEXT);
+         CREATE TABLE tiles (zoom_level INTEGER, tile_column INTEGER, tile_row INTEGER, tile_data BLOB);
+         INSERT INTO metadata VALUES ('format', 'png'), ('minzoom', '0'), ('maxzoom', '2'),
+                                     ('attribution', 'test tiles by vestnav');",
+    )
+    .unwrap();
+    let (green, magenta) = (solid_png(GREEN), solid_png(MAGENTA));
+    // Zoom 2: the row holding latitudes 0-66° N (y = 1, where the demo route lies) is green, every other
+    // row magenta; rows stored in TMS order, so a missing flip would draw magenta.
+    for z in 0..=2u8 {
+        let n = 1u32 << z;
+        for x in 0..n {
+            for y in 0..n {
+                let data = if z < 2 || y == 1 { &green } else { &magenta };
+                let tms_row = n - 1 - y;
+                conn.execute(
+                    "INSERT INTO tiles VALUES (?1, ?2, ?3, ?4)",
+                    rusqlite::params![z, x, tms_row, data],
+                )
+                .unwrap();
+            }
+        }
+    }
+    drop(conn);
+    let (mut h, tex) = console(map_cfg(TileSourceConfig::MbTiles(path)));
+    let colours = painted_tiles(&mut h, &tex);
+    assert!(!colours.is_empty());
+    assert!(colours.iter().all(|c| *c == c32(GREEN)), "{colours:?}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn tile_folder_is_drawn_and_bad_tiles_are_named() {
+    let dir = temp_dir("folder");
+    let blue = solid_png(BLUE);
+    for z in 0..=3u8 {
+        let n = 1u32 << z;
+        for x in 0..n {
+            for y in 0..n {
+                let p = dir.join(format!("{z}/{x}/{y}.png"));
+                std::fs::create_dir_all(p.parent().unwrap()).unwrap();
+                std::fs::write(p, &blue).unwrap();
+            }
+        }
+    }
+    let (mut h, tex) = console(map_cfg(TileSourceConfig::Folder(dir.clone())));
+    let colours = painted_tiles(&mut h, &tex);
+    assert!(!colours.is_empty());
+    assert!(colours.iter().all(|c| *c == c32(BLUE)), "{colours:?}");
+
+    // Hostile files: not an image, and too large; errors name the file, nothing panics.
+    let mut store = vestnav_app::tiles::store::FolderStore::open(&dir).unwrap();
+    std::fs::write(dir.join("3/1/1.png"), b"<html>not a tile</html>").unwrap();
+    let e = store.get(TileKey::new(3, 1, 1).unwrap()).unwrap_err().to_string();
+    assert!(e.contains("3/1/1.png") && e.contains("not a PNG"), "{e}");
+    std::fs::write(dir.join("3/1/2.png"), vec![0x89u8; 2 << 20]).unwrap();
+    let e = store.get(TileKey::new(3, 1, 2).unwrap()).unwrap_err().to_string();
+    assert!(e.contains("3/1/2.png") && e.contains("limit"), "{e}");
+    // A file that is not a PMTiles archive or MBTiles database.
+    let junk = dir.join("junk.pmtiles");
+    std::fs::write(&junk, b"hello").unwrap();
+    let e = vestnav_app::tiles::store::open(&TileSourceConfig::PmTiles(junk.clone()), &dir)
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(e.contains("junk.pmtiles"), "{e}");
+    let e =
+        vestnav_app::tiles::store::open(&TileSourceConfig::MbTiles(junk), &dir).err().unwrap().to_string();
+    assert!(e.contains("junk.pmtiles"), "{e}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A tile server on 127.0.0.1: answers `GET /{z}/{x}/{y}.png` with a generated PNG after a short delay
+/// (so that parallel requests overlap), one request per connection; counts requests per tile and the
+/// most requests in flight at once.
+struct TileServer {
+    port: u16,
+    requests: Arc<Mutex<Vec<(u8, u32, u32)>>>,
+    in_flight: Arc<AtomicUsize>,
+    max_in_flight: Arc<AtomicUsize>,
+    stop: Arc<AtomicBool>,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+impl TileServer {
+    fn start() -> Self {
+        let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+        listener.set_nonblocking(true).unwrap();
+        let port = listener.local_addr().unwrap().port();
+        let requests = Arc::new(Mutex::new(Vec::new()));
+        let in_flight = Arc::new(AtomicUsize::new(0));
+        let max_in_flight = Arc::new(AtomicUsize::new(0));
+        let stop = Arc::new(AtomicBool::new(false));
+        let png = Arc::new(solid_png([250, 160, 20]));
+        let (rq, inf, mx, st) = (requests.clone(), in_flight.clone(), max_in_flight.clone(), stop.clone());
+        let thread = std::thread::spawn(move || {
+            while !st.load(Ordering::SeqCst) {
+                let Ok((stream, _)) = listener.accept() else {
+                    std::thread::sleep(Duration::from_millis(2));
+                    continue;
+                };
+                let (rq, inf, mx, png) = (rq.clone(), inf.clone(), mx.clone(), png.clone());
+                std::thread::spawn(move || {
+                    stream.set_nonblocking(false).unwrap();
+                    let mut reader = BufReader::new(stream.try_clone().unwrap());
+                    let mut line = String::new();
+                    if reader.read_line(&mut line).is_err() {
+                        return;
+                    }
+                    let now = inf.fetch_add(1, Ordering::SeqCst) + 1;
+                    mx.fetch_max(now, Ordering::SeqCst);
+                    loop {
+                        let mut h = String::new();
+                        if reader.read_line(&mut h).map_or(true, |n| n == 0) || h == "\r\n" {
+                            break;
+                        }
+                    }
+                    let path = line.split_whitespace().nth(1).unwrap_or("");
+                    let path = path.split('?').next().unwrap_or("");
+                    let parts: Vec<&str> =
+                        path.trim_start_matches('/').trim_end_matches(".png").split('/').collect();
+                    let key = (parts.len() == 3)
+                        .then(|| {
+                            Some((parts[0].parse().ok()?, parts[1].parse().ok()?, parts[2].parse().ok()?))
+                        })
+                        .flatten();
+                    std::thread::sleep(Duration::from_millis(15));
+                    let mut s = stream;
+                    match key {
+                        Some(k) => {
+                            rq.lock().unwrap().push(k);
+                            let head = format!(
+                                "HTTP/1.1 200 OK\r\nContent-Type: image/png\r\nContent-Length: {}\r\nConnection: close\r\n\r\n",
+                                png.len()
+                            );
+                            let _ = s.write_all(head.as_bytes()).and_then(|()| s.write_all(&png));
+                        }
+                        None => {
+                            let _ = s.write_all(
+                                b"HTTP/1.1 404 Not Found\r\nContent-Length: 0\r\nConnection: close\r\n\r\n",
+                            );
+                        }
+                    }
+                    let _ = s.flush();
+                    inf.fetch_sub(1, Ordering::SeqCst);
+                });
+            }
+        });
+        Self { port, requests, in_flight, max_in_flight, stop, thread: Some(thread) }
+    }
+
+    fn requested(&self) -> Vec<(u8, u32, u32)> {
+        self.requests.lock().unwrap().clone()
+    }
+
+    fn stop(&mut self) {
+        self.stop.store(true, Ordering::SeqCst);
+        if let Some(t) = self.thread.take() {
+            t.join().unwrap();
+        }
+        while self.in_flight.load(Ordering::SeqCst) > 0 {
+            std::thread::sleep(Duration::from_millis(5));
+        }
+    }
+}
+
+/// The tiles of a box over a zoom range, by the closed-form slippy-map formulas, written out here
+/// independently of the console's code.
+fn expected_tiles(b: &BBox, z0: u8, z1: u8) -> BTreeSet<(u8, u32, u32)> {
+    let mut out = BTreeSet::new();
+    for z in z0..=z1 {
+        let n = f64::from(1u32 << z);
+        let col = |lon: f64| (((lon + 180.0) / 360.0 * n).floor()).clamp(0.0, n - 1.0) as u32;
+        let row = |lat: f64| {
+            let r = lat.to_radians();
+            (((1.0 - r.tan().asinh() / std::f64::consts::PI) / 2.0 * n).floor()).clamp(0.0, n - 1.0) as u32
+        };
+        for x in col(b.min_lon)..=col(b.max_lon) {
+            for y in row(b.max_lat)..=row(b.min_lat) {
+                out.insert((z, x, y));
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn prefetch_fetches_the_box_resumes_respects_parallelism_and_serves_offline() {
+    let root = temp_dir("prefetch");
+    let mut server = TileServer::start();
+    let source = TileSourceConfig::Xyz {
+        url: format!("http://127.0.0.1:{}/{{z}}/{{x}}/{{y}}.png?key=SECRET", server.port),
+        attribution: "test server".into(),
+        allows_bulk: true,
+    };
+    // The area: the console's own route (the demo route) plus 150 m; tiles off, so that the console
+    // fetches nothing itself.
+    let (mut h, _) = console(Config { map_tiles: false, ..map_cfg(source.clone()) });
+    h.step();
+    let pts: Vec<(f64, f64)> = h.state().map.waypoints.iter().map(|w| (w.lat_deg, w.lon_deg)).collect();
+    assert!(!pts.is_empty());
+    let bbox = BBox::around(pts, 150.0).unwrap();
+    let (z0, z1) = (14, 17);
+    let expected = expected_tiles(&bbox, z0, z1);
+    assert!(expected.len() > 12, "{}", expected.len());
+    drop(h);
+
+    let req =
+        PrefetchRequest { source: source.clone(), bbox, z0, z1, parallelism: 2, cache_root: root.clone() };
+    // First run, cancelled part-way (as a kill would stop it: tiles are written atomically).
+    let job = Prefetch::start(&req, None).unwrap();
+    for _ in 0..2000 {
+        if job.snapshot().fetched >= 6 {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    job.cancel();
+    let first = job.join();
+    assert!(first.fetched >= 6 && first.fetched < expected.len() as u64, "{first:?}");
+    let first_set: BTreeSet<_> = server.requested().into_iter().collect();
+    assert_eq!(first_set.len(), server.requested().len(), "a tile was requested twice");
+    assert!(first_set.is_subset(&expected));
+    assert!(server.max_in_flight.load(Ordering::SeqCst) <= 2);
+
+    // Second run: only the rest.
+    server.requests.lock().unwrap().clear();
+    let second = Prefetch::start(&req, None).unwrap().join();
+    let second_req = server.requested();
+    let second_set: BTreeSet<_> = second_req.iter().copied().collect();
+    assert_eq!(second_set.len(), second_req.len(), "a tile was requested twice");
+    assert!(first_set.is_disjoint(&second_set));
+    let all: BTreeSet<_> = first_set.union(&second_set).copied().collect();
+    assert_eq!(all, expected, "the tiles fetched are exactly the box's");
+    assert_eq!(second.skipped, first_set.len() as u64);
+    assert_eq!(second.failed, 0);
+
+    // Parallelism 3 on a fresh cache: never more than 3 requests in flight, and more than 1.
+    let root3 = temp_dir("prefetch3");
+    server.max_in_flight.store(0, Ordering::SeqCst);
+    let third =
+        Prefetch::start(&PrefetchRequest { parallelism: 3, cache_root: root3.clone(), ..req.clone() }, None)
+            .unwrap()
+            .join();
+    assert_eq!(third.fetched, expected.len() as u64);
+    let m = server.max_in_flight.load(Ordering::SeqCst);
+    assert!((2..=3).contains(&m), "max in flight {m}");
+
+    // The server stops; the console shows the tiles from the cache.
+    server.stop();
+    let dir = cache::source_dir(&root, &source);
+    assert!(
+        expected.iter().all(|&(z, x, y)| cache::tile_path(&dir, TileKey::new(z, x, y).unwrap()).is_file())
+    );
+    assert!(!dir.to_string_lossy().contains("SECRET"));
+    let mut cfg = map_cfg(source);
+    cfg.tile_cache_dir = Some(root.clone());
+    let (mut h, tex) = console(cfg);
+    let mut colours = Vec::new();
+    for _ in 0..300 {
+        h.step();
+        colours = tile_colours(&h, &tex);
+        if h.state().map.tiles.indicator(&h.state().cfg).0.contains("cached") && !colours.is_empty() {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    let (text, _) = h.state().map.tiles.indicator(&h.state().cfg);
+    assert!(text.contains("cached"), "{text}");
+    assert!(colours.contains(&Color32::from_rgb(250, 160, 20)), "{colours:?}");
+    drop(h);
+    std::fs::remove_dir_all(&root).unwrap();
+    std::fs::remove_dir_all(&root3).unwrap();
+}
+
+/// The Tiles window: the public OpenStreetMap server is refused for bulk download (and the window says
+/// why and where to go instead), a source without a path is refused with a message, and picking a source
+/// changes the setting.
+#[test]
+fn tiles_window_refuses_osm_prefetch_and_switches_source() {
+    let dir = temp_dir("window");
+    let (mut h, _) = console(map_cfg(TileSourceConfig::Osm));
+    h.state_mut().cfg.map_tiles = false; // OpenStreetMap is not reached from the tests
+    h.step();
+    h.get_by_label("Tiles…").click();
+    h.run_ok();
+    assert!(
+        h.query_by_label_contains("usage policy forbids bulk download").is_some(),
+        "the OSM refusal is shown"
+    );
+    assert!(h.query_by_label_contains("self-hosted tile server").is_some());
+    assert!(h.query_by_label("Download").is_none(), "no download button for OSM");
+    h.get_by_label("Tile folder").click();
+    h.run_ok();
+    h.get_by_label("Use this source").click();
+    h.run_ok();
+    assert!(h.query_by_label_contains("enter the file or folder path").is_some());
+    assert_eq!(h.state().cfg.tiles, TileSourceConfig::Osm);
+    // A folder given on the command line, then back to OpenStreetMap from the window.
+    h.state_mut().cfg.tiles = TileSourceConfig::Folder(dir.clone());
+    h.get_by_label("OpenStreetMap").click();
+    h.run_ok();
+    h.get_by_label("Use this source").click();
+    h.run_ok();
+    assert_eq!(h.state().cfg.tiles, TileSourceConfig::Osm);
+    drop(h);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
