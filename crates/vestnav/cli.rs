@@ -4,7 +4,9 @@
 
 use clap::{Parser, Subcommand};
 
-use crate::{analyze, completions, emulate_gps, emulate_vest, fieldtest, nav, nmea, sim_tactor, sim_wave};
+use crate::{
+    analyze, completions, emulate_gps, emulate_vest, fieldtest, nav, nmea, sim_tactor, sim_wave, tiles,
+};
 
 /// One line: `-h`, and the NAME of the man page.
 const ABOUT: &str = "Navigation console for a 16-tactor haptic vest, and the thesis physics behind it";
@@ -54,6 +56,13 @@ pub struct Cli {
     /// .mbtiles, or a folder.
     #[arg(long, value_name = "SOURCE", value_parser = parse_tiles)]
     pub tiles: Option<vestnav_app::tiles::TileSourceConfig>,
+    /// Console only: save a PNG of the window after --screenshot-after seconds, then close it (the vest is
+    /// stopped first, as on any close). For documentation and bug reports; works under Xvfb.
+    #[arg(long, value_name = "FILE.png")]
+    pub screenshot: Option<std::path::PathBuf>,
+    /// Console only: how long the console runs before --screenshot is taken [s].
+    #[arg(long = "screenshot-after", value_name = "SECONDS", default_value_t = 5.0, value_parser = parse_screenshot_after)]
+    pub screenshot_after_s: f64,
     /// What to run; none opens the console.
     #[command(subcommand)]
     pub command: Option<Command>,
@@ -61,6 +70,13 @@ pub struct Cli {
 
 fn parse_gps(s: &str) -> Result<vestnav_app::config::GpsSpec, String> {
     vestnav_app::config::parse_gps_spec(s)
+}
+
+fn parse_screenshot_after(s: &str) -> Result<f64, String> {
+    s.parse::<f64>()
+        .ok()
+        .filter(|v| v.is_finite() && (0.0..=3600.0).contains(v))
+        .ok_or_else(|| format!("{s:?}: seconds from 0 to 3600"))
 }
 
 fn parse_tiles(s: &str) -> Result<vestnav_app::tiles::TileSourceConfig, String> {
@@ -92,6 +108,9 @@ pub enum Command {
     /// GPS field tests: stationary drift and the cone test (thesis §5).
     #[command(subcommand)]
     Fieldtest(FieldtestCommand),
+    /// Map tiles: make an area available offline (the console's prefetch, headless).
+    #[command(subcommand)]
+    Tiles(TilesCommand),
     /// Print a shell completion script for vestnav to standard output.
     #[command(hide = true)]
     Completions(completions::CompletionsArgs),
@@ -154,4 +173,12 @@ pub enum FieldtestCommand {
     Drift(fieldtest::DriftArgs),
     /// Cone test: consecutive distances between operator marks against the nominal spacing.
     Cones(fieldtest::ConesArgs),
+}
+
+/// `vestnav tiles ...`
+#[derive(Debug, Subcommand)]
+pub enum TilesCommand {
+    /// Download the tiles of a route's or a box's area over a zoom range into the tile cache or an
+    /// MBTiles file (resumable; tiles already there are skipped).
+    Prefetch(tiles::PrefetchArgs),
 }

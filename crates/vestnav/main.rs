@@ -12,11 +12,13 @@ mod nav;
 mod nmea;
 mod sim_tactor;
 mod sim_wave;
+mod tiles;
 
 use clap::Parser;
 
 use cli::{
     AnalyzeCommand, Cli, Command, EmulateCommand, FieldtestCommand, NavCommand, NmeaCommand, SimCommand,
+    TilesCommand,
 };
 
 fn main() -> std::process::ExitCode {
@@ -76,11 +78,14 @@ fn quiet_on_broken_pipe() {
 
 fn run(cli: Cli) -> anyhow::Result<()> {
     let Some(command) = cli.command else {
-        return vestnav_app::run(vestnav_app::console::DeviceOverrides {
-            gps: cli.gps,
-            vest: cli.vest,
-            tiles: cli.tiles,
+        let screenshot = cli.screenshot.map(|path| vestnav_app::Screenshot {
+            path,
+            after: std::time::Duration::from_secs_f64(cli.screenshot_after_s),
         });
+        return vestnav_app::run(
+            vestnav_app::console::DeviceOverrides { gps: cli.gps, vest: cli.vest, tiles: cli.tiles },
+            screenshot,
+        );
     };
     match command {
         Command::Sim(SimCommand::Tactor(a)) => sim_tactor::run_tactor(&a),
@@ -96,6 +101,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Nav(NavCommand::Simulate(a)) => nav::run_simulate(&a),
         Command::Fieldtest(FieldtestCommand::Drift(a)) => fieldtest::run_drift(&a),
         Command::Fieldtest(FieldtestCommand::Cones(a)) => fieldtest::run_cones(&a),
+        Command::Tiles(TilesCommand::Prefetch(a)) => tiles::run_prefetch(&a),
         Command::Completions(a) => completions::run_completions(&a),
         Command::Man => completions::run_man(),
     }

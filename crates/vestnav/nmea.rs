@@ -185,7 +185,12 @@ fn decode_stream(mut reader: impl Read, out: &mut impl Write, json: bool) -> any
                 GpsEvent::Mark(m) => write_mark(out, &m, json)?,
                 // `nmea decode` prints one line per epoch; HDG compass readings (GpsEvent::Attitude) are
                 // counted in the stats but not printed.
-                GpsEvent::Attitude(_) | GpsEvent::Stats(_) | GpsEvent::State(_) | GpsEvent::Notice(_) => {}
+                GpsEvent::Attitude(_)
+                | GpsEvent::Stats(_)
+                | GpsEvent::State(_)
+                | GpsEvent::Notice(_)
+                | GpsEvent::Raw(_)
+                | GpsEvent::Discontinuity(_) => {}
             }
         }
     }

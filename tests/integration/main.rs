@@ -10,6 +10,7 @@ mod nav;
 mod safety;
 mod sim_tactor;
 mod sim_wave;
+mod tiles_cli;
 // Several tests of each serve the emulated unit on a PTY (`PtyEmulator::spawn` exists on Unix only), so
 // neither module compiles elsewhere. `latency` and `safety` gate themselves (`#![cfg(unix)]`).
 #[cfg(unix)]

@@ -112,6 +112,12 @@ pub struct Config {
     pub light_theme: bool,
     /// Larger text everywhere (View menu): body text 18 pt instead of 13.
     pub large_text: bool,
+    /// Ring the terminal bell once when the GPS fix or the vest link is lost (View menu).
+    pub audible_alarm: bool,
+    /// The GPS panel's satellite table is open (closed at first: open, it pushes the vest grid down).
+    pub show_satellite_table: bool,
+    /// The last files used, per kind, and the folder relative typed paths are taken in.
+    pub recent: crate::file_dialog::RecentFiles,
 }
 
 impl Default for Config {
@@ -142,6 +148,9 @@ impl Default for Config {
             compass_calibrations: std::collections::BTreeMap::new(),
             light_theme: false,
             large_text: false,
+            audible_alarm: true,
+            show_satellite_table: false,
+            recent: crate::file_dialog::RecentFiles::default(),
         }
     }
 }
@@ -204,6 +213,7 @@ impl Config {
         self.tile_cache_mb = self.tile_cache_mb.clamp(10, 100_000);
         self.prefetch_parallelism =
             self.prefetch_parallelism.clamp(1, crate::tiles::prefetch::MAX_PARALLELISM);
+        self.recent = std::mem::take(&mut self.recent).sanitized();
         if let GpsSourceConfig::Replay { speed, .. } = &mut self.gps {
             *speed = fix(*speed, 0.0, 1000.0, 1.0);
         }

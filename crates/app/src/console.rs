@@ -86,6 +86,10 @@ pub struct GpsView {
     pub alarm_silenced: bool,
     /// Editor state of the source picker.
     pub picker: crate::gps_panel::SourcePicker,
+    /// The raw sentence monitor (the last sentences received).
+    pub monitor: crate::gps_panel::RawMonitor,
+    /// The Record toggle: the source's sentences to a file (kept across reconnections).
+    pub recording: crate::gps_panel::RecordUi,
 }
 
 /// Why the GPS alarm is on.
@@ -282,6 +286,8 @@ pub struct Console {
     pub log_viewer: crate::log_viewer::LogViewer,
     /// The route autosave (`None`: the route is not autosaved).
     route_autosave: Option<crate::route::Autosave>,
+    /// The audible alarm on fix loss and vest loss (`console/frame.rs`).
+    alarm: frame::AudibleAlarm,
 }
 
 /// Options for [`Console::new`].
@@ -396,6 +402,7 @@ impl Console {
             sim_panel: SimPanel::new(),
             field_panel: FieldTestPanel::new(),
             log_viewer: crate::log_viewer::LogViewer::default(),
+            alarm: frame::AudibleAlarm::default(),
             route_autosave: None,
         };
         console.route_autosave =
@@ -443,16 +450,34 @@ impl Console {
                 true
             }));
         }
-        self.gps = GpsView { picker: std::mem::take(&mut self.gps.picker), ..GpsView::default() };
+        // The recording tap records whatever source runs; it outlives the connection like the picker.
+        outputs.push(self.gps.recording.tap.outbox());
+        self.gps = GpsView {
+            picker: std::mem::take(&mut self.gps.picker),
+            recording: std::mem::take(&mut self.gps.recording),
+            monitor: self.gps.monitor.emptied(),
+            ..GpsView::default()
+        };
         // A new source: its first position must not be joined to the old source's last one.
         self.map.break_track();
         match self.factory.open_gps(&self.cfg.gps, &self.map.waypoints, outputs) {
-            Ok(w) => self.gps_worker = Some(w),
+            Ok(w) => {
+                if let GpsSourceConfig::Replay { path, .. } = &self.cfg.gps {
+                    // Relative replay paths are ignored by the list (it holds absolute paths only).
+                    self.cfg.recent.push(crate::file_dialog::RecentKind::Nmea, path);
+                }
+                self.gps_worker = Some(w);
+            }
             Err(e) => {
                 self.gps.state = Some(SourceState::Lost { reason: e.clone() });
                 self.status = format!("GPS: {e}");
             }
         }
+    }
+
+    /// The pause/seek/progress controls of the running GPS source when it is a replay.
+    pub fn gps_replay(&self) -> Option<std::sync::Arc<vestnav_device::gps::ReplayControl>> {
+        self.gps_worker.as_ref()?.replay_control()
     }
 
     /// Stops the GPS source (never waits long on its IO).
@@ -669,15 +694,25 @@ impl Console {
         let mut fixes = Vec::new();
         drain_within(&self.gps_rx, DRAIN_BUDGET, |ev| match ev {
             GpsEvent::State(s) => self.gps.state = Some(s),
-            GpsEvent::Fix(f) => fixes.push(*f),
+            GpsEvent::Fix(f) => fixes.push(Some(*f)),
             GpsEvent::Stats(s) => self.gps.stats = Some(s),
             GpsEvent::Mark(m) => {
                 self.gps.notice = Some(format!("mark {} {} in the input", m.number, m.label));
             }
             GpsEvent::Notice(n) => self.gps.notice = Some(n),
             GpsEvent::Attitude(a) => self.gps.attitude = Some(a),
+            GpsEvent::Raw(line) => self.gps.monitor.push(line, Instant::now()),
+            GpsEvent::Discontinuity(n) => {
+                // A replay seek: the next position must not be joined to the last one (`None` below).
+                fixes.push(None);
+                self.gps.notice = Some(n);
+            }
         });
         for f in fixes {
+            let Some(f) = f else {
+                self.map.break_track();
+                continue;
+            };
             if f.has_position() {
                 self.gps.fixes += 1;
                 self.gps.alarm_silenced = false;
@@ -895,7 +930,9 @@ fn gps_log_entry(ev: &GpsEvent) -> Option<LogEntry> {
         GpsEvent::State(s) => {
             Some(LogEntry::Note { text: format!("gps {}", crate::gps_panel::state_label(Some(s))) })
         }
-        GpsEvent::Notice(n) => Some(LogEntry::Note { text: format!("gps: {n}") }),
+        GpsEvent::Notice(n) | GpsEvent::Discontinuity(n) => {
+            Some(LogEntry::Note { text: format!("gps: {n}") })
+        }
         GpsEvent::Attitude(a) => Some(LogEntry::heading(a)),
         _ => None,
     }

@@ -17,11 +17,20 @@ use crate::route::Waypoint;
 pub trait GpsWorker: Send {
     /// Asks the source to stop and release its device.
     fn stop(&mut self);
+
+    /// The pause/seek/progress controls when the source is a replay.
+    fn replay_control(&self) -> Option<std::sync::Arc<vestnav_device::gps::ReplayControl>> {
+        None
+    }
 }
 
 impl GpsWorker for GpsHandle {
     fn stop(&mut self) {
         GpsHandle::stop(self);
+    }
+
+    fn replay_control(&self) -> Option<std::sync::Arc<vestnav_device::gps::ReplayControl>> {
+        GpsHandle::replay_control(self)
     }
 }
 

@@ -24,8 +24,9 @@
 //! was missed or marked twice is judged only when the test is finished.
 //!
 //! **Exports.** The drift and cone tests each have their own export path (`vestnav-drift.*`,
-//! `vestnav-cones.*`), and an export never replaces an existing file silently: the panel asks first
-//! (**Overwrite** / **Cancel**), naming the file.
+//! `vestnav-cones.*`), a relative one taken in the folder of the last file used (else the documents
+//! folder) and shown as the absolute path it uses, **Browse…** for the desktop's save dialog; an export
+//! never replaces an existing file silently: the panel asks "Replace X?" first (**Replace** / **Cancel**).
 //!
 //! Both warn when the receiver looks pinned: `SiRF` Star III "static navigation" holds the position while the
 //! speed is below about 1.2 m/s (physics.md §5), which flatters a drift test and distorts cone marks.
@@ -336,7 +337,18 @@ pub struct FieldTestPanel {
     cones_exporter: Exporter,
     /// An export waiting for the operator's go-ahead because its file exists.
     overwrite: Option<PendingOverwrite>,
+    /// Where a relative export path is taken (the console sets `cfg.recent.base()` each frame).
+    pub base: PathBuf,
+    /// The "Browse…" dialog of the export path.
+    browse: crate::file_dialog::Browse,
 }
+
+/// The export path's dialog (the extension follows the button pressed).
+const EXPORT_SAVE: crate::file_dialog::DialogSpec = crate::file_dialog::DialogSpec {
+    mode: crate::file_dialog::Mode::Save,
+    title: "Export the field test to",
+    filter: ("JSON or PNG", &["json", "png"]),
+};
 
 /// An export the operator must confirm: its file exists.
 #[derive(Debug, Clone, PartialEq)]
@@ -373,6 +385,8 @@ impl FieldTestPanel {
             drift_exporter: Exporter::new(DRIFT_EXPORT_PATH),
             cones_exporter: Exporter::new(CONES_EXPORT_PATH),
             overwrite: None,
+            base: crate::file_dialog::documents_dir(),
+            browse: crate::file_dialog::Browse::default(),
         }
     }
 
@@ -856,9 +870,16 @@ impl FieldTestPanel {
             return;
         }
         let pressed = self.exporter_mut(procedure).ui(ui, &[ExportFormat::Json, ExportFormat::Png]);
+        self.export_path_row(ui, procedure);
         if let Some(format) = pressed {
             self.overwrite = None;
-            match self.exporter_mut(procedure).target(format) {
+            let base = self.base.clone();
+            let exporter = self.exporter_mut(procedure);
+            // The typed path becomes the absolute one shown under it: never the working directory.
+            if let Some(abs) = crate::file_dialog::resolve(&exporter.path, &base) {
+                exporter.path = abs.display().to_string();
+            }
+            match exporter.target(format) {
                 Some(path) if path.exists() => {
                     self.overwrite = Some(PendingOverwrite { procedure, format, path });
                 }
@@ -866,19 +887,14 @@ impl FieldTestPanel {
             }
         }
         if let Some(p) = self.overwrite.clone().filter(|p| p.procedure == procedure) {
-            ui.horizontal_wrapped(|ui| {
-                ui.colored_label(
-                    ui.visuals().warn_fg_color,
-                    format!("{} already exists: overwrite it?", p.path.display()),
-                );
-                if ui.button("Overwrite").clicked() {
+            match crate::file_dialog::confirm_replace(ui.ctx(), &p.path) {
+                Some(crate::file_dialog::Answer::Replace) => {
                     self.overwrite = None;
                     self.start_export(ui.ctx(), p.format, true);
                 }
-                if ui.button("Cancel").clicked() {
-                    self.overwrite = None;
-                }
-            });
+                Some(crate::file_dialog::Answer::Cancel) => self.overwrite = None,
+                None => {}
+            }
         }
         let id = match procedure {
             Procedure::Drift => "fieldtest-drift",
@@ -886,6 +902,34 @@ impl FieldTestPanel {
         };
         let figure = self.figure().clone();
         egui::ScrollArea::vertical().id_salt(id).show(ui, |ui| figure_grid(ui, id, &figure, 260.0));
+    }
+
+    /// Under the export row: **Browse…** (the desktop's save dialog) and the absolute path the export uses.
+    fn export_path_row(&mut self, ui: &mut egui::Ui, procedure: Procedure) {
+        let base = self.base.clone();
+        if let Some(crate::file_dialog::Picked::File(p)) = self.browse.poll() {
+            self.exporter_mut(procedure).path = p.display().to_string();
+        }
+        let resolved = crate::file_dialog::resolve(&self.exporter_mut(procedure).path, &base);
+        ui.horizontal(|ui| {
+            if ui
+                .add_enabled(!self.browse.is_open(), egui::Button::new("Browse…"))
+                .on_hover_text("Choose the export file in the desktop's file dialog")
+                .clicked()
+            {
+                let dir = resolved.as_deref().and_then(std::path::Path::parent).filter(|d| d.is_dir());
+                let name = resolved.as_deref().and_then(std::path::Path::file_name);
+                let name = name.map(|n| n.to_string_lossy().into_owned());
+                self.browse.start(ui.ctx(), EXPORT_SAVE, dir.unwrap_or(&base), name.as_deref());
+            }
+            if self.browse.is_open() {
+                ui.spinner();
+            }
+            crate::file_dialog::uses_label(ui, resolved.as_deref());
+        });
+        if let Some(note) = &self.browse.note {
+            ui.label(egui::RichText::new(note).small().color(ui.visuals().warn_fg_color));
+        }
     }
 
     fn exporter_mut(&mut self, procedure: Procedure) -> &mut Exporter {
@@ -1212,7 +1256,7 @@ mod tests {
     }
 
     /// Issue 15 fault 4: drift and cone exports have their own paths, and an existing file is kept until
-    /// the operator confirms **Overwrite**.
+    /// the operator answers **Replace** to "Replace X?".
     #[test]
     fn exports_have_separate_paths_and_ask_before_overwriting() {
         use egui_kittest::Harness;
@@ -1241,17 +1285,18 @@ mod tests {
         );
         h.set_size(egui::vec2(1200.0, 900.0));
         h.run();
+        let question = format!("Replace {}?", path.display());
         h.get_by_label("Save JSON").click();
         h.run();
-        assert!(h.query_by_label_contains("already exists").is_some());
+        assert!(h.query_by_label(&question).is_some());
         assert_eq!(std::fs::read_to_string(&path).unwrap(), "keep me");
         h.get_by_label("Cancel").click();
         h.run();
-        assert!(h.query_by_label_contains("already exists").is_none());
+        assert!(h.query_by_label(&question).is_none());
         assert_eq!(std::fs::read_to_string(&path).unwrap(), "keep me");
         h.get_by_label("Save JSON").click();
         h.run();
-        h.get_by_label("Overwrite").click();
+        h.get_by_label("Replace").click();
         h.step(); // the export runs on its thread (a spinner keeps repainting)
         h.state_mut().drift_exporter.wait();
         let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();

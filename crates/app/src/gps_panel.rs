@@ -1,11 +1,14 @@
-//! The GPS panel: source picker, connection, the fix in numbers, sky plot, signal bars, alarm.
+//! The GPS panel: source picker, connection, replay controls, the fix in numbers, sky plot, signal bars,
+//! alarm, the raw sentence monitor and the Record toggle.
 
+use std::collections::VecDeque;
 use std::path::PathBuf;
 
 use std::time::Instant;
 
 use egui::{Color32, RichText, Stroke, vec2};
-use vestnav_device::gps::{Constellation, Fix, FixMode, Satellite, SourceState};
+use vestnav_device::gps::record::{RecordingStatus, RecordingTap, new_recording_path};
+use vestnav_device::gps::{Constellation, Fix, FixMode, RawLine, ReplayProgress, Satellite, SourceState};
 use vestnav_device::heading::{Attitude, HeadingOrigin, HeadingReference};
 use vestnav_device::serial::{PortInfo, PortKind};
 
@@ -114,6 +117,149 @@ impl SourcePicker {
     }
 }
 
+/// Sentences the raw monitor keeps (older ones are dropped).
+pub const MONITOR_LINES: usize = 500;
+
+/// One sentence in the raw monitor.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MonitorLine {
+    /// When its bytes arrived (wall clock, local time).
+    pub at: chrono::DateTime<chrono::Local>,
+    /// The sentence as received.
+    pub text: String,
+}
+
+/// The raw sentence monitor: the last [`MONITOR_LINES`] sentences, pausable, filtered by talker or type.
+#[derive(Debug, Clone, Default)]
+pub struct RawMonitor {
+    /// The sentences kept, oldest first.
+    pub lines: VecDeque<MonitorLine>,
+    /// Frozen: new sentences are counted, not kept.
+    pub paused: bool,
+    /// Shown only: sentences whose tag (`GPGGA` of `$GPGGA,...`) contains this, ignoring case.
+    pub filter: String,
+    /// Sentences that arrived while paused.
+    pub missed: u64,
+    /// The monitor (and the recording folder) is shown.
+    pub open: bool,
+}
+
+impl RawMonitor {
+    /// The same settings (pause, filter) with no lines: for a new source.
+    #[must_use]
+    pub fn emptied(&self) -> Self {
+        Self { paused: self.paused, filter: self.filter.clone(), open: self.open, ..Self::default() }
+    }
+
+    /// Keeps `line` (unless paused); `now` is the instant its arrival time is measured from.
+    pub fn push(&mut self, line: RawLine, now: Instant) {
+        if self.paused {
+            self.missed += 1;
+            return;
+        }
+        let ago =
+            chrono::Duration::from_std(now.saturating_duration_since(line.received_at)).unwrap_or_default();
+        self.lines.push_back(MonitorLine { at: chrono::Local::now() - ago, text: line.text });
+        while self.lines.len() > MONITOR_LINES {
+            self.lines.pop_front();
+        }
+    }
+
+    /// Whether `text` passes the filter: its tag (talker and type, e.g. `GPGGA`) contains the filter.
+    pub fn shows(&self, text: &str) -> bool {
+        let f = self.filter.trim();
+        if f.is_empty() {
+            return true;
+        }
+        let tag = text.trim_start_matches(['$', '!']).split([',', '*']).next().unwrap_or("");
+        tag.to_ascii_uppercase().contains(&f.to_ascii_uppercase())
+    }
+
+    /// The lines shown, oldest first.
+    pub fn visible(&self) -> impl Iterator<Item = &MonitorLine> {
+        self.lines.iter().filter(|l| self.shows(&l.text))
+    }
+}
+
+/// The Record toggle's state: the tap on the source's sentences, the folder new recordings go to, and
+/// the last error.
+#[derive(Debug, Clone)]
+pub struct RecordUi {
+    /// Records the running source's sentences (one more consumer of its events).
+    pub tap: RecordingTap,
+    /// Folder of new recordings (each gets a new timestamped name).
+    pub folder: String,
+    /// Why the last Record failed to start.
+    pub error: Option<String>,
+}
+
+impl Default for RecordUi {
+    fn default() -> Self {
+        Self {
+            tap: RecordingTap::default(),
+            folder: default_recording_folder().display().to_string(),
+            error: None,
+        }
+    }
+}
+
+/// Where recordings go by default: `recordings/` in the user's data directory (on Linux
+/// `~/.local/share/vestnav/recordings`), else in the documents folder, else the current directory.
+pub fn default_recording_folder() -> PathBuf {
+    if let Some(p) = directories::ProjectDirs::from("org", "vestnav", "vestnav") {
+        return p.data_dir().join("recordings");
+    }
+    directories::UserDirs::new()
+        .and_then(|u| u.document_dir().map(|d| d.join("vestnav-recordings")))
+        .unwrap_or_else(|| PathBuf::from("."))
+}
+
+impl RecordUi {
+    /// Starts a recording in a new file in the folder (created if missing); the error names the file.
+    pub fn start(&mut self) {
+        let folder = PathBuf::from(self.folder.trim());
+        if let Err(e) = std::fs::create_dir_all(&folder) {
+            self.error = Some(format!("{}: {e}", folder.display()));
+            return;
+        }
+        let path = new_recording_path(&folder, chrono::Local::now());
+        self.error = self.tap.start(&path).err();
+    }
+
+    /// The status line: file, sentences and bytes written, error.
+    pub fn status_text(status: &RecordingStatus) -> String {
+        let what = if status.active { "recording" } else { "recorded" };
+        let mut text = format!(
+            "{what} {}: {} sentences, {} bytes",
+            status.path.display(),
+            status.sentences,
+            status.bytes
+        );
+        if let Some(e) = &status.error {
+            text += " (stopped: ";
+            text += e;
+            text.push(')');
+        }
+        text
+    }
+}
+
+/// `ms` as `m:ss`.
+pub fn clock_text(ms: u64) -> String {
+    format!("{}:{:02}", ms / 60_000, (ms % 60_000) / 1000)
+}
+
+/// The replay's position in words: `1:05 / 10:00 (12 / 340 kB)`.
+pub fn replay_progress_text(p: &ReplayProgress) -> String {
+    format!(
+        "{} / {} ({} / {} kB)",
+        clock_text(p.position_ms),
+        clock_text(p.span_ms),
+        p.position_bytes / 1000,
+        p.total_bytes / 1000
+    )
+}
+
 /// Degrees as `42° 21' 22.32" N`.
 pub fn dms(value_deg: f64, pos: char, neg: char) -> String {
     let hemi = if value_deg < 0.0 { neg } else { pos };
@@ -183,10 +329,16 @@ pub fn show(c: &mut Console, ui: &mut egui::Ui, now: Instant) {
             c.disconnect_gps();
         }
         ui.label(RichText::new(state_label(c.gps.state.as_ref())).strong());
+        // Both on the connect row: closed, the monitor and the recording take no room above the vest grid.
+        record_toggle(c, ui);
+        ui.toggle_value(&mut c.gps.monitor.open, "NMEA monitor");
     });
     if let Some(n) = &c.gps.notice {
         ui.label(RichText::new(n).small().weak());
     }
+    replay_ui(c, ui);
+    record_ui(c, ui);
+    monitor_ui(c, ui);
 
     // The alarm itself (state, what to do, "Silence alarm") is the banner strip's GPS line.
     let alarm = c.gps_alarm(now);
@@ -241,8 +393,109 @@ pub fn show(c: &mut Console, ui: &mut egui::Ui, now: Instant) {
                     .weak(),
             );
         }
-        satellite_table(ui, &fix.satellites, fresh);
+        satellite_table(ui, &fix.satellites, fresh, &mut c.cfg.show_satellite_table);
     }
+}
+
+/// Pause/resume, the seek bar and elapsed/total time of a replay source.
+fn replay_ui(c: &mut Console, ui: &mut egui::Ui) {
+    let Some(ctl) = c.gps_replay() else { return };
+    let progress = ctl.progress();
+    ui.horizontal(|ui| {
+        let paused = ctl.is_paused();
+        if ui.button(if paused { "Resume replay" } else { "Pause replay" }).clicked() {
+            ctl.set_paused(!paused);
+        }
+        let mut fraction = progress.fraction();
+        let bar = ui.add(
+            egui::Slider::new(&mut fraction, 0.0..=1.0)
+                .show_value(false)
+                .text(replay_progress_text(&progress)),
+        );
+        // Seek once the operator lets go (or clicks), not at every pixel of a drag.
+        if bar.drag_stopped() || (bar.changed() && !bar.dragged()) {
+            ctl.seek_fraction(fraction);
+        }
+    });
+    if progress.position_bytes < progress.total_bytes || ctl.is_paused() {
+        ui.ctx().request_repaint_after(std::time::Duration::from_millis(250));
+    }
+}
+
+/// The Record toggle.
+fn record_toggle(c: &mut Console, ui: &mut egui::Ui) {
+    let r = &mut c.gps.recording;
+    let recording = r.tap.is_recording();
+    let mut on = recording;
+    if ui.toggle_value(&mut on, if recording { "Stop recording" } else { "Record NMEA" }).changed() {
+        if on {
+            r.start();
+        } else {
+            r.tap.stop();
+        }
+    }
+}
+
+/// The recording's folder (with the monitor open), the file being written, sentences and bytes, the error.
+fn record_ui(c: &mut Console, ui: &mut egui::Ui) {
+    let open = c.gps.monitor.open;
+    let r = &mut c.gps.recording;
+    let recording = r.tap.is_recording();
+    if open {
+        ui.horizontal(|ui| {
+            let label = ui.label("Folder");
+            ui.add_enabled(!recording, egui::TextEdit::singleline(&mut r.folder).desired_width(220.0))
+                .labelled_by(label.id);
+        });
+    }
+    if let Some(e) = &r.error {
+        ui.label(RichText::new(format!("cannot record: {e}")).color(ui.visuals().error_fg_color));
+    }
+    if let Some(st) = r.tap.status() {
+        let color = if st.error.is_some() { ui.visuals().error_fg_color } else { ui.visuals().text_color() };
+        ui.label(RichText::new(RecordUi::status_text(&st)).small().color(color));
+        if st.active {
+            ui.ctx().request_repaint_after(std::time::Duration::from_millis(500));
+        }
+    }
+}
+
+/// The raw sentence monitor: the last sentences with their arrival time, pausable, filtered.
+fn monitor_ui(c: &mut Console, ui: &mut egui::Ui) {
+    let m = &mut c.gps.monitor;
+    if !m.open {
+        return;
+    }
+    ui.group(|ui| {
+        ui.label(RichText::new(format!("NMEA monitor: last {} sentences", m.lines.len())).strong());
+        ui.horizontal(|ui| {
+            let label = if m.paused { "Resume monitor" } else { "Pause monitor" };
+            ui.toggle_value(&mut m.paused, label);
+            let label = ui.label("Filter");
+            ui.add(egui::TextEdit::singleline(&mut m.filter).hint_text("e.g. GGA").desired_width(80.0))
+                .labelled_by(label.id);
+            if ui.button("Clear").clicked() {
+                m.lines.clear();
+                m.missed = 0;
+            }
+            if m.paused && m.missed > 0 {
+                ui.label(RichText::new(format!("{} not shown (paused)", m.missed)).small().weak());
+            }
+        });
+        egui::ScrollArea::vertical()
+            .max_height(180.0)
+            .stick_to_bottom(!m.paused)
+            .auto_shrink([false, true])
+            .show(ui, |ui| {
+                for l in m.visible() {
+                    ui.label(
+                        RichText::new(format!("{}  {}", l.at.format("%H:%M:%S%.3f"), l.text))
+                            .monospace()
+                            .small(),
+                    );
+                }
+            });
+    });
 }
 
 /// A constellation's name as receivers' tools show it.
@@ -261,8 +514,9 @@ pub fn constellation_name(c: Constellation) -> &'static str {
 
 /// The satellite table as u-center and xgps show it: PRN, constellation, elevation, azimuth, SNR, used;
 /// sorted by constellation and PRN. Greyed under a "last known" heading when the epoch is not current.
-/// Collapsed at first (its header gives the count): open, it would push the vest grid below the fold.
-fn satellite_table(ui: &mut egui::Ui, sats: &[Satellite], fresh: Freshness) {
+/// Collapsed at first (its header gives the count): open, it would push the vest grid below the fold. Whether
+/// it is open is remembered (`open`, a setting).
+fn satellite_table(ui: &mut egui::Ui, sats: &[Satellite], fresh: Freshness, open: &mut bool) {
     let grey = matches!(fresh, Freshness::LastKnown { .. });
     let title = match fresh {
         Freshness::Current => format!("Satellites ({} in view)", sats.len()),
@@ -270,33 +524,37 @@ fn satellite_table(ui: &mut egui::Ui, sats: &[Satellite], fresh: Freshness) {
             format!("Satellites ({} in view, last known, {})", sats.len(), crate::map_panel::age_text(age_s))
         }
     };
-    egui::CollapsingHeader::new(title).id_salt("gps-satellites").default_open(false).show(ui, |ui| {
-        let mut rows: Vec<&Satellite> = sats.iter().collect();
-        rows.sort_by_key(|s| (s.constellation, s.prn));
-        let cell = |text: String| if grey { RichText::new(text).weak() } else { RichText::new(text) };
-        let deg = |v: Option<f64>| {
-            v.filter(|x| x.is_finite()).map_or_else(|| "—".to_owned(), |x| format!("{x:.0}°"))
-        };
-        egui::Grid::new("gps-satellites-grid").num_columns(6).striped(true).show(ui, |ui| {
-            for h in ["PRN", "System", "Elev.", "Azim.", "SNR dB-Hz", "Used"] {
-                ui.label(cell(h.to_owned()).strong());
-            }
-            ui.end_row();
-            for s in rows {
-                ui.label(cell(s.prn.to_string()));
-                ui.label(cell(constellation_name(s.constellation).to_owned()));
-                ui.label(cell(deg(s.elevation_deg)));
-                ui.label(cell(deg(s.azimuth_deg)));
-                let snr = s
-                    .snr_dbhz
-                    .filter(|x| x.is_finite())
-                    .map_or_else(|| "—".to_owned(), |x| format!("{x:.0}"));
-                ui.label(cell(snr).color(snr_color(s.snr_dbhz, true, grey)));
-                ui.label(cell(if s.used { "yes" } else { "no" }.to_owned()));
+    let shown =
+        egui::CollapsingHeader::new(title).id_salt("gps-satellites").open(Some(*open)).show(ui, |ui| {
+            let mut rows: Vec<&Satellite> = sats.iter().collect();
+            rows.sort_by_key(|s| (s.constellation, s.prn));
+            let cell = |text: String| if grey { RichText::new(text).weak() } else { RichText::new(text) };
+            let deg = |v: Option<f64>| {
+                v.filter(|x| x.is_finite()).map_or_else(|| "—".to_owned(), |x| format!("{x:.0}°"))
+            };
+            egui::Grid::new("gps-satellites-grid").num_columns(6).striped(true).show(ui, |ui| {
+                for h in ["PRN", "System", "Elev.", "Azim.", "SNR dB-Hz", "Used"] {
+                    ui.label(cell(h.to_owned()).strong());
+                }
                 ui.end_row();
-            }
+                for s in rows {
+                    ui.label(cell(s.prn.to_string()));
+                    ui.label(cell(constellation_name(s.constellation).to_owned()));
+                    ui.label(cell(deg(s.elevation_deg)));
+                    ui.label(cell(deg(s.azimuth_deg)));
+                    let snr = s
+                        .snr_dbhz
+                        .filter(|x| x.is_finite())
+                        .map_or_else(|| "—".to_owned(), |x| format!("{x:.0}"));
+                    ui.label(cell(snr).color(snr_color(s.snr_dbhz, true, grey)));
+                    ui.label(cell(if s.used { "yes" } else { "no" }.to_owned()));
+                    ui.end_row();
+                }
+            });
         });
-    });
+    if shown.header_response.clicked() {
+        *open = !*open;
+    }
 }
 
 fn picker_ui(c: &mut Console, ui: &mut egui::Ui) {

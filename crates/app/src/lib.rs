@@ -18,6 +18,7 @@ pub mod config;
 pub mod console;
 pub mod devices;
 mod fieldtest_panel;
+pub mod file_dialog;
 pub mod gps_panel;
 pub mod guidance;
 pub mod hardware;
@@ -42,7 +43,10 @@ use console::{Console, ConsoleOptions, DeviceOverrides, EXIT_STOP_WAIT, ExitGuar
 /// Every way out stops the vest first: closing the window, and SIGTERM, SIGINT or SIGHUP (a handler
 /// thread sends STOP ALL, waits at most [`EXIT_STOP_WAIT`] for the unit's acknowledgement, then closes the
 /// window; the process ends with status 128 + the signal's number, as a killed program would).
-pub fn run(devices: DeviceOverrides) -> anyhow::Result<()> {
+///
+/// With `screenshot`, the window saves a PNG of itself once `after` has passed and then closes as any close
+/// does (vest stopped first): the documentation's screenshots and bug reports come from the real window.
+pub fn run(devices: DeviceOverrides, screenshot: Option<Screenshot>) -> anyhow::Result<()> {
     let cfg_path = config::default_path();
     let (cfg, cfg_error) =
         cfg_path.as_deref().map_or_else(|| (config::Config::default(), None), config::Config::load);
@@ -79,7 +83,7 @@ pub fn run(devices: DeviceOverrides) -> anyhow::Result<()> {
             if let Some(e) = cfg_error {
                 console.status = e;
             }
-            Ok(Box::new(App(console)))
+            Ok(Box::new(App { console, screenshot: screenshot.map(ScreenshotState::new) }))
         }),
     )
     .map_err(|e| anyhow::anyhow!("cannot open the console window: {e}"))?;
@@ -116,21 +120,80 @@ fn stop_on_signals(exit: ExitGuard) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// A PNG of the window to save (`vestnav --screenshot`).
+#[derive(Debug, Clone)]
+pub struct Screenshot {
+    /// Where the PNG goes.
+    pub path: std::path::PathBuf,
+    /// How long the console runs first (devices connect, the simulator walks).
+    pub after: std::time::Duration,
+}
+
+/// Where a requested screenshot stands.
+struct ScreenshotState {
+    shot: Screenshot,
+    start: std::time::Instant,
+    /// The rendered pixels arrive here from the integration.
+    pixels: std::sync::mpsc::Receiver<std::sync::Arc<egui::ColorImage>>,
+    sender: Option<std::sync::mpsc::SyncSender<std::sync::Arc<egui::ColorImage>>>,
+}
+
+impl ScreenshotState {
+    fn new(shot: Screenshot) -> Self {
+        let (sender, pixels) = std::sync::mpsc::sync_channel(1);
+        Self { shot, start: std::time::Instant::now(), pixels, sender: Some(sender) }
+    }
+
+    /// Asks for the pixels once it is time, saves them when they come, then closes the window.
+    fn poll(&mut self, ctx: &egui::Context) {
+        if self.start.elapsed() >= self.shot.after
+            && let Some(sender) = self.sender.take()
+        {
+            ctx.request_screenshot(move |image| {
+                let _ = sender.try_send(image);
+            });
+        }
+        if let Ok(image) = self.pixels.try_recv() {
+            match save_png(&image, &self.shot.path) {
+                Ok(()) => eprintln!("vestnav: screenshot saved to {}", self.shot.path.display()),
+                Err(e) => eprintln!("vestnav: screenshot {}: {e}", self.shot.path.display()),
+            }
+            ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+        }
+    }
+}
+
+/// Writes `image` as an RGBA PNG.
+fn save_png(image: &egui::ColorImage, path: &std::path::Path) -> anyhow::Result<()> {
+    let [w, h] = image.size;
+    let bytes: Vec<u8> = image.pixels.iter().flat_map(egui::Color32::to_array).collect();
+    let buffer = image::RgbaImage::from_raw(u32::try_from(w)?, u32::try_from(h)?, bytes)
+        .ok_or_else(|| anyhow::anyhow!("{w}x{h} pixels do not fill the image"))?;
+    buffer.save_with_format(path, image::ImageFormat::Png)?;
+    Ok(())
+}
+
 /// eframe's view of the console.
-struct App(Console);
+struct App {
+    console: Console,
+    screenshot: Option<ScreenshotState>,
+}
 
 impl eframe::App for App {
     fn logic(&mut self, ctx: &egui::Context, _frame: &mut eframe::Frame) {
         // Runs even while the window is hidden: the heartbeat and the event drain go on.
-        self.0.tick();
+        self.console.tick();
+        if let Some(s) = &mut self.screenshot {
+            s.poll(ctx);
+        }
         ctx.request_repaint_after(std::time::Duration::from_millis(250));
     }
 
     fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
-        self.0.ui(ui);
+        self.console.ui(ui);
     }
 
     fn on_exit(&mut self, _gl: Option<&eframe::glow::Context>) {
-        self.0.shutdown();
+        self.console.shutdown();
     }
 }

@@ -4,6 +4,7 @@ use std::path::{Path, PathBuf};
 
 use egui::RichText;
 
+use crate::file_dialog::{self, RecentFiles, RecentKind};
 use crate::map_panel::MapView;
 use vestnav_device::heading::HeadingReference;
 use vestnav_device::session_log::{LogEntry, LogRecord, ReadStats, list_logs, read_log, track};
@@ -23,7 +24,16 @@ pub struct LogViewer {
     pub speed: f64,
     /// Error of the last load.
     pub error: Option<String>,
+    /// The "Browse…" dialog of the path field.
+    pub browse: crate::file_dialog::Browse,
 }
+
+/// The log viewer's open dialog.
+const LOG_OPEN: crate::file_dialog::DialogSpec = crate::file_dialog::DialogSpec {
+    mode: crate::file_dialog::Mode::Open,
+    title: "Open a session log",
+    filter: ("Session logs (JSON Lines)", &["jsonl", "json", "log"]),
+};
 
 impl LogViewer {
     /// Loads `path`.
@@ -41,16 +51,55 @@ impl LogViewer {
         }
     }
 
-    /// Draws the tab; the replayed track goes to `map` (shown on the Map tab).
-    pub fn ui(&mut self, ui: &mut egui::Ui, dir: &Path, current: Option<&Path>, map: &mut MapView) {
+    /// Loads `path` and, once read, puts it first in the recent logs.
+    fn open(&mut self, path: &Path, recent: &mut RecentFiles) {
+        self.load(path);
+        if self.error.is_none() {
+            recent.push(RecentKind::Logs, path);
+        }
+    }
+
+    /// The log file field (typed, Browse…, the absolute path it uses), Open and Recent.
+    fn file_row(&mut self, ui: &mut egui::Ui, recent: &mut RecentFiles) {
+        let base = recent.base();
         ui.horizontal(|ui| {
             ui.label("Log file");
-            ui.add(egui::TextEdit::singleline(&mut self.path).desired_width(380.0));
+            ui.vertical(|ui| {
+                if let Some(p) = file_dialog::path_field(
+                    ui,
+                    &mut self.path,
+                    &mut self.browse,
+                    LOG_OPEN,
+                    &base,
+                    "session.jsonl",
+                ) {
+                    self.open(&p, recent);
+                }
+            });
             if ui.button("Open").clicked() {
-                let p = PathBuf::from(self.path.trim());
-                self.load(&p);
+                match file_dialog::resolve(&self.path, &base) {
+                    Some(p) => self.open(&p, recent),
+                    None => self.error = Some("type a log file path or Browse… first".to_owned()),
+                }
+            }
+            if let Some(p) = file_dialog::recent_menu(ui, recent, RecentKind::Logs) {
+                self.path = p.display().to_string();
+                self.open(&p, recent);
             }
         });
+    }
+
+    /// Draws the tab; the replayed track goes to `map` (shown on the Map tab). A typed relative path is
+    /// taken in `recent.base()`; the log opened joins `recent`.
+    pub fn ui(
+        &mut self,
+        ui: &mut egui::Ui,
+        dir: &Path,
+        current: Option<&Path>,
+        map: &mut MapView,
+        recent: &mut RecentFiles,
+    ) {
+        self.file_row(ui, recent);
         ui.collapsing(format!("Logs in {}", dir.display()), |ui| {
             for p in list_logs(dir).into_iter().take(50) {
                 let cur = current.is_some_and(|c| c == p);
@@ -60,7 +109,7 @@ impl LogViewer {
                     .clicked()
                 {
                     self.path = p.display().to_string();
-                    self.load(&p);
+                    self.open(&p, recent);
                 }
             }
         });

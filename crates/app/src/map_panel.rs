@@ -13,6 +13,7 @@
 
 use std::cell::Cell;
 use std::collections::VecDeque;
+use std::path::{Path, PathBuf};
 use std::rc::Rc;
 use std::time::Instant;
 
@@ -180,8 +181,14 @@ pub struct MapView {
     pub add_mode: bool,
     /// Operator marks made with the M key.
     pub marks: u32,
-    /// GPX file path for import/export.
+    /// GPX file path for import/export, as typed (relative: in `cfg.recent.base()`).
     pub gpx_path: String,
+    /// The "Browse…" dialog of the route file field.
+    pub gpx_browse: crate::file_dialog::Browse,
+    /// The "Export as…" dialog.
+    pub export_browse: crate::file_dialog::Browse,
+    /// An export waiting for the operator's "Replace X?" answer: the typed file and what to write.
+    pub pending_replace: Option<(PathBuf, RouteExport)>,
     right_click_at: Option<Position>,
     menu_wp: Option<usize>,
     /// Undo steps, oldest first (at most [`UNDO_STEPS`]).
@@ -201,6 +208,27 @@ pub struct MapView {
     /// The import dialog, when a GPX file offered more than one thing to import.
     pub import: Option<ImportDialog>,
 }
+
+/// What a route export writes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RouteExport {
+    /// GPX at the typed path.
+    Gpx,
+    /// `GeoJSON` at the typed path with `.geojson`.
+    GeoJson,
+}
+
+/// The route file field's dialogs.
+const ROUTE_OPEN: crate::file_dialog::DialogSpec = crate::file_dialog::DialogSpec {
+    mode: crate::file_dialog::Mode::Open,
+    title: "Route file (GPX)",
+    filter: ("GPX", &["gpx"]),
+};
+const ROUTE_SAVE: crate::file_dialog::DialogSpec = crate::file_dialog::DialogSpec {
+    mode: crate::file_dialog::Mode::Save,
+    title: "Export the route as GPX",
+    filter: ("GPX", &["gpx"]),
+};
 
 /// One step of the undo (or redo) history: the route to go back to.
 #[derive(Debug, Clone)]
@@ -359,6 +387,9 @@ impl MapView {
             add_mode: false,
             marks: 0,
             gpx_path: String::new(),
+            gpx_browse: crate::file_dialog::Browse::default(),
+            export_browse: crate::file_dialog::Browse::default(),
+            pending_replace: None,
             right_click_at: None,
             menu_wp: None,
             undo: VecDeque::new(),
@@ -586,7 +617,8 @@ impl MapView {
                 }
             });
         }
-        changed |= self.toolbar(ui, cfg, status);
+        self.toolbar(ui, cfg, status);
+        changed |= self.file_row(ui, cfg, status);
         changed |= self.import_dialog(ui, status);
         if let Some(e) = &self.tools.goto_error {
             ui.label(RichText::new(format!("Go to: {e}")).color(ui.visuals().error_fg_color));
@@ -602,8 +634,7 @@ impl MapView {
         changed
     }
 
-    fn toolbar(&mut self, ui: &mut egui::Ui, cfg: &mut Config, status: &mut String) -> bool {
-        let mut changed = false;
+    fn toolbar(&mut self, ui: &mut egui::Ui, cfg: &mut Config, status: &mut String) {
         ui.horizontal_wrapped(|ui| {
             if ui.toggle_value(&mut cfg.follow, "Follow wearer").changed() && cfg.follow {
                 self.memory.follow_my_position();
@@ -642,52 +673,6 @@ impl MapView {
                 }
             }
             ui.separator();
-            ui.add(egui::TextEdit::singleline(&mut self.gpx_path).hint_text("file.gpx").desired_width(160.0));
-            if ui.button("Import GPX").clicked() {
-                let path = self.gpx_path.trim().to_owned();
-                match vestnav_device::route_file::read_gpx(std::path::Path::new(&path)) {
-                    Ok(file) => {
-                        let track: Vec<(f64, f64)> = file
-                            .tracks
-                            .iter()
-                            .flat_map(vestnav_device::route_file::Track::points)
-                            .map(|p| (p.lat_deg, p.lon_deg))
-                            .collect();
-                        let nt = track.len();
-                        if nt > 0 {
-                            self.replay = Some((track, usize::MAX));
-                        }
-                        let mut choices = crate::route_import::choices(&file);
-                        match choices.len() {
-                            0 => *status = format!("{path} holds no waypoint, route or track"),
-                            1 => {
-                                let c = choices.remove(0);
-                                *status = format!("imported {}", c.label);
-                                self.import_choice(c);
-                                changed = true;
-                            }
-                            _ => {
-                                *status = format!("{path} holds {} things: choose one", choices.len());
-                                self.import = Some(ImportDialog { path, choices });
-                            }
-                        }
-                    }
-                    Err(e) => *status = format!("GPX import failed: {e}"),
-                }
-            }
-            // Exports never replace a file (route.rs); GPX keeps the track's segments.
-            if ui.button("Export GPX").clicked() {
-                let path = std::path::PathBuf::from(self.gpx_path.trim());
-                let segments = self.track_segments();
-                *status = crate::route::export_gpx(&path, &self.route_name, &self.waypoints, &segments)
-                    .unwrap_or_else(|e| format!("GPX export failed: {e}"));
-            }
-            if ui.button("Export GeoJSON").on_hover_text("the path with .geojson, for QGIS").clicked() {
-                let path = std::path::PathBuf::from(self.gpx_path.trim());
-                let segments = self.track_segments();
-                *status = crate::route::export_geojson(&path, &self.route_name, &self.waypoints, &segments)
-                    .unwrap_or_else(|e| format!("GeoJSON export failed: {e}"));
-            }
             if ui.button("Clear track").clicked() {
                 self.track.clear();
                 self.track_breaks.clear();
@@ -695,7 +680,164 @@ impl MapView {
                 self.replay = None;
             }
         });
+    }
+
+    /// The route file: the typed path with Browse… and the path it uses, Recent, Import, the exports (each
+    /// asking "Replace X?" before writing over a file). Returns whether the route changed.
+    fn file_row(&mut self, ui: &mut egui::Ui, cfg: &mut Config, status: &mut String) -> bool {
+        use crate::file_dialog::{self as fd, RecentKind};
+        let mut changed = false;
+        let base = cfg.recent.base();
+        ui.horizontal(|ui| {
+            ui.label("Route file:");
+            ui.vertical(|ui| {
+                fd::path_field(ui, &mut self.gpx_path, &mut self.gpx_browse, ROUTE_OPEN, &base, "file.gpx");
+            });
+        });
+        if let Some(fd::Picked::File(p)) = self.export_browse.poll() {
+            self.gpx_path = p.display().to_string();
+            self.export(RouteExport::Gpx, p, false, cfg, status);
+        }
+        ui.horizontal_wrapped(|ui| {
+            if let Some(p) = fd::recent_menu(ui, &cfg.recent, RecentKind::Routes) {
+                self.gpx_path = p.display().to_string();
+                changed |= self.import_gpx(&p, cfg, status);
+            }
+            if ui.button("Import GPX").clicked() {
+                match fd::resolve(&self.gpx_path, &base) {
+                    Some(p) => changed |= self.import_gpx(&p, cfg, status),
+                    None => "GPX import: type a file path or Browse… first".clone_into(status),
+                }
+            }
+            for (label, kind) in [("Export GPX", RouteExport::Gpx), ("Export GeoJSON", RouteExport::GeoJson)]
+            {
+                let button = ui.button(label);
+                let button = if kind == RouteExport::GeoJson {
+                    button.on_hover_text("the path with .geojson, for QGIS")
+                } else {
+                    button
+                };
+                if button.clicked() {
+                    match fd::resolve(&self.gpx_path, &base) {
+                        Some(p) => self.export(kind, p, false, cfg, status),
+                        None => *status = format!("{label}: type a file path or Browse… first"),
+                    }
+                }
+            }
+            if ui
+                .add_enabled(!self.export_browse.is_open(), egui::Button::new("Export GPX as…"))
+                .on_hover_text("Name the GPX file in the desktop's file dialog")
+                .clicked()
+            {
+                let current = fd::resolve(&self.gpx_path, &base);
+                let dir = current.as_deref().and_then(Path::parent).filter(|d| d.is_dir()).unwrap_or(&base);
+                let name = current
+                    .as_deref()
+                    .and_then(Path::file_name)
+                    .map_or_else(|| format!("{}.gpx", self.route_name), |n| n.to_string_lossy().into_owned());
+                self.export_browse.start(ui.ctx(), ROUTE_SAVE, dir, Some(&name));
+            }
+        });
+        if let Some(note) = &self.export_browse.note {
+            ui.label(RichText::new(note).small().color(ui.visuals().warn_fg_color));
+        }
+        if let Some((path, kind)) = self.pending_replace.clone() {
+            let target = Self::export_target(kind, &path);
+            match fd::confirm_replace(ui.ctx(), &target) {
+                Some(fd::Answer::Replace) => {
+                    self.pending_replace = None;
+                    self.export(kind, path, true, cfg, status);
+                }
+                Some(fd::Answer::Cancel) => {
+                    self.pending_replace = None;
+                    *status = format!("{} left as it was", target.display());
+                }
+                None => {}
+            }
+        }
         changed
+    }
+
+    fn export_target(kind: RouteExport, path: &Path) -> PathBuf {
+        match kind {
+            RouteExport::Gpx => path.to_path_buf(),
+            RouteExport::GeoJson => crate::route::geojson_path(path),
+        }
+    }
+
+    /// Exports the route and track to `path` (absolute); an existing file is replaced only when `replace`,
+    /// else the operator is asked first. A GPX export joins the recent route files.
+    fn export(
+        &mut self,
+        kind: RouteExport,
+        path: PathBuf,
+        replace: bool,
+        cfg: &mut Config,
+        status: &mut String,
+    ) {
+        let target = Self::export_target(kind, &path);
+        if !replace && target.exists() {
+            self.pending_replace = Some((path, kind));
+            return;
+        }
+        let segments = self.track_segments();
+        let result = match kind {
+            RouteExport::Gpx => {
+                crate::route::export_gpx(&path, &self.route_name, &self.waypoints, &segments, replace)
+            }
+            RouteExport::GeoJson => {
+                crate::route::export_geojson(&path, &self.route_name, &self.waypoints, &segments, replace)
+            }
+        };
+        *status = match result {
+            Ok(msg) => {
+                match kind {
+                    RouteExport::Gpx => cfg.recent.push(crate::file_dialog::RecentKind::Routes, &target),
+                    RouteExport::GeoJson => cfg.recent.used(&target),
+                }
+                msg
+            }
+            Err(e) if kind == RouteExport::Gpx => format!("GPX export failed: {e}"),
+            Err(e) => format!("GeoJSON export failed: {e}"),
+        };
+    }
+
+    /// Imports the GPX file at `path`: straight away when it holds one thing, else through the import
+    /// dialog. The file joins the recent route files once read. Returns whether the route changed.
+    fn import_gpx(&mut self, path: &Path, cfg: &mut Config, status: &mut String) -> bool {
+        let file = match vestnav_device::route_file::read_gpx(path) {
+            Ok(file) => file,
+            Err(e) => {
+                *status = format!("GPX import failed: {e}");
+                return false;
+            }
+        };
+        cfg.recent.push(crate::file_dialog::RecentKind::Routes, path);
+        let track: Vec<(f64, f64)> = file
+            .tracks
+            .iter()
+            .flat_map(vestnav_device::route_file::Track::points)
+            .map(|p| (p.lat_deg, p.lon_deg))
+            .collect();
+        if !track.is_empty() {
+            self.replay = Some((track, usize::MAX));
+        }
+        let shown = path.display().to_string();
+        let mut choices = crate::route_import::choices(&file);
+        match choices.len() {
+            0 => *status = format!("{shown} holds no waypoint, route or track"),
+            1 => {
+                let c = choices.remove(0);
+                *status = format!("imported {}", c.label);
+                self.import_choice(c);
+                return true;
+            }
+            _ => {
+                *status = format!("{shown} holds {} things: choose one", choices.len());
+                self.import = Some(ImportDialog { path: shown, choices });
+            }
+        }
+        false
     }
 
     /// The measuring tool's result and the coordinates under the mouse, in one line each.

@@ -13,10 +13,14 @@
 //!   rules) with the console's limits tightened by the unit's ([`limits_in_force`]); while the pattern is
 //!   refused the reason is shown in red and Preview and Save are disabled.
 //! - **Files**: the pattern as JSON (serde of core's [`Pattern`]; the intensity levels are not part of
-//!   it). Paths are typed; a relative one is taken in [`patterns_dir`], not the working directory. Saving
-//!   never replaces a file without asking.
+//!   it). Paths are typed or chosen with **Browse…** (the desktop's dialog, `crate::file_dialog`); a
+//!   relative one is taken in [`patterns_dir`], not the working directory, and the field shows the absolute
+//!   path it uses. Files saved or loaded join the **Recent** menu. Saving never replaces a file without
+//!   asking "Replace X?".
 
 use std::path::{Path, PathBuf};
+
+use crate::file_dialog::{self, RecentFiles, RecentKind};
 
 use egui::{Color32, RichText, Sense, vec2};
 use vestnav_core::vest::{DEFAULT_ON_MS, Frame, GRID, Pattern, TACTOR_COUNT, TactorMask};
@@ -54,7 +58,16 @@ pub struct PatternEditor {
     pub confirm_replace: bool,
     /// While dragging on the grid: the state painted onto every tactor passed.
     paint: Option<bool>,
+    /// The "Browse…" dialog of the file field.
+    pub browse: crate::file_dialog::Browse,
 }
+
+/// The pattern file field's dialog (the field serves Save and Load: the save dialog can pick either).
+const PATTERN_FILE: crate::file_dialog::DialogSpec = crate::file_dialog::DialogSpec {
+    mode: crate::file_dialog::Mode::Save,
+    title: "Pattern file (JSON)",
+    filter: ("Pattern (JSON)", &["json"]),
+};
 
 impl Default for PatternEditor {
     fn default() -> Self {
@@ -72,6 +85,7 @@ impl Default for PatternEditor {
             confirm_overwrite: None,
             confirm_replace: false,
             paint: None,
+            browse: crate::file_dialog::Browse::default(),
         }
     }
 }
@@ -256,7 +270,7 @@ impl PatternEditor {
             }
         }
         self.actions_ui(c, ui, refused.is_none());
-        self.file_ui(ui, refused.is_none());
+        self.file_ui(ui, refused.is_none(), &mut c.cfg.recent);
         if let Some((text, error)) = &self.message {
             let text = RichText::new(text);
             ui.label(if *error { text.color(Color32::from_rgb(230, 60, 40)).strong() } else { text });
@@ -493,24 +507,35 @@ impl PatternEditor {
         self.message = Some((format!("'{name}' saved to my patterns"), false));
     }
 
-    fn file_ui(&mut self, ui: &mut egui::Ui, valid: bool) {
+    fn file_ui(&mut self, ui: &mut egui::Ui, valid: bool, recent: &mut RecentFiles) {
         let base = patterns_dir();
+        let before = self.path.clone();
         ui.horizontal(|ui| {
             ui.label("File");
-            let edit =
-                egui::TextEdit::singleline(&mut self.path).hint_text("sweep.json").desired_width(260.0);
-            if ui.add(edit).on_hover_text(format!("Relative names are taken in {}", base.display())).changed()
-            {
-                self.confirm_overwrite = None;
+            ui.vertical(|ui| {
+                file_dialog::path_field(
+                    ui,
+                    &mut self.path,
+                    &mut self.browse,
+                    PATTERN_FILE,
+                    &base,
+                    "sweep.json",
+                );
+            });
+            if let Some(p) = file_dialog::recent_menu(ui, recent, RecentKind::Patterns) {
+                self.path = p.display().to_string();
             }
         });
+        if self.path != before {
+            self.confirm_overwrite = None;
+        }
         ui.horizontal_wrapped(|ui| {
             if ui
                 .add_enabled(valid, egui::Button::new("Save to file"))
                 .on_disabled_hover_text("The pattern is outside the limits")
                 .clicked()
             {
-                self.save_file(&base, false);
+                self.save_file(&base, false, recent);
             }
             if ui.button("Load file").clicked() {
                 self.confirm_overwrite = None;
@@ -521,6 +546,7 @@ impl PatternEditor {
                         Ok((p, pattern)) => {
                             self.pattern = pattern;
                             self.selected = 0;
+                            recent.push(RecentKind::Patterns, &p);
                             (format!("loaded {}", p.display()), false)
                         }
                         Err(e) => (e, true),
@@ -528,9 +554,9 @@ impl PatternEditor {
                 );
             }
             if let Some(p) = self.confirm_overwrite.clone() {
-                ui.label(RichText::new(format!("{} exists.", p.display())).strong());
+                ui.label(RichText::new(format!("Replace {}?", p.display())).strong());
                 if ui.add_enabled(valid, egui::Button::new("Replace file")).clicked() {
-                    self.save_file(&base, true);
+                    self.save_file(&base, true, recent);
                 }
                 if ui.button("Cancel").clicked() {
                     self.confirm_overwrite = None;
@@ -540,7 +566,7 @@ impl PatternEditor {
         });
     }
 
-    fn save_file(&mut self, base: &Path, overwrite: bool) {
+    fn save_file(&mut self, base: &Path, overwrite: bool, recent: &mut RecentFiles) {
         let path = match resolve_path(&self.path, base) {
             Ok(p) => p,
             Err(e) => {
@@ -552,7 +578,10 @@ impl PatternEditor {
         let overwrite = overwrite && self.confirm_overwrite.as_deref() == Some(path.as_path());
         self.confirm_overwrite = None;
         self.message = Some(match save_pattern(&self.pattern, &path, overwrite) {
-            Ok(()) => (format!("saved {}", path.display()), false),
+            Ok(()) => {
+                recent.push(RecentKind::Patterns, &path);
+                (format!("saved {}", path.display()), false)
+            }
             Err(SaveError::Exists(p)) => {
                 let text = format!("{} exists: Replace file, or Cancel", p.display());
                 self.confirm_overwrite = Some(p);

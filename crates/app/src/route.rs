@@ -8,8 +8,8 @@
 //! as GPX through `route_file` whenever it changes, atomically (a temp file, then a rename), and read back
 //! at start-up ([`read_autosave`]).
 //!
-//! Exports ([`export_gpx`], [`export_geojson`]) never replace a file: an existing file is refused with a
-//! message naming it. GPX has one `<trkseg>` per track segment of the map (a new segment after a GPS source
+//! Exports ([`export_gpx`], [`export_geojson`]) replace an existing file only when told to (`replace`: the
+//! operator answered "Replace X?"); otherwise it is refused with a message naming it. GPX has one `<trkseg>` per track segment of the map (a new segment after a GPS source
 //! change or an implausible jump); `GeoJSON` (RFC 7946, for QGIS) has the route as a `LineString`, each waypoint
 //! as a `Point` and the track as a `MultiLineString` of its segments, positions as `[lon, lat]`.
 
@@ -144,17 +144,25 @@ pub fn write_new(path: &Path, text: &str) -> Result<(), String> {
         .map_err(|e| format!("cannot write {}: {e}", path.display()))
 }
 
-/// Exports the route and track as GPX to `path` (never replacing a file); returns what was written.
+/// Writes `text` to `path`: atomically over an existing file when `replace`, else only as a new file
+/// ([`write_new`]).
+pub fn write_export(path: &Path, text: &str, replace: bool) -> Result<(), String> {
+    if replace { write_atomically(path, text) } else { write_new(path, text) }
+}
+
+/// Exports the route and track as GPX to `path` (an existing file only when `replace`); returns what was
+/// written.
 pub fn export_gpx(
     path: &Path,
     name: &str,
     waypoints: &[Waypoint],
     segments: &[&[(f64, f64)]],
+    replace: bool,
 ) -> Result<String, String> {
     if path.as_os_str().is_empty() {
         return Err("type a file path first".to_owned());
     }
-    write_new(path, &write_gpx(name, waypoints, segments)?)?;
+    write_export(path, &write_gpx(name, waypoints, segments)?, replace)?;
     Ok(format!(
         "wrote {} waypoints and {} track points in {} segments to {}",
         waypoints.len(),
@@ -169,19 +177,20 @@ pub fn geojson_path(path: &Path) -> PathBuf {
     path.with_extension("geojson")
 }
 
-/// Exports the route and track as `GeoJSON` to [`geojson_path`] of `path` (never replacing a file); returns
-/// what was written.
+/// Exports the route and track as `GeoJSON` to [`geojson_path`] of `path` (an existing file only when
+/// `replace`); returns what was written.
 pub fn export_geojson(
     path: &Path,
     name: &str,
     waypoints: &[Waypoint],
     segments: &[&[(f64, f64)]],
+    replace: bool,
 ) -> Result<String, String> {
     if path.as_os_str().is_empty() {
         return Err("type a file path first".to_owned());
     }
     let path = geojson_path(path);
-    write_new(&path, &to_geojson(name, waypoints, segments)?)?;
+    write_export(&path, &to_geojson(name, waypoints, segments)?, replace)?;
     Ok(format!("wrote {} waypoints and the track as GeoJSON to {}", waypoints.len(), path.display()))
 }
 
@@ -414,7 +423,7 @@ mod tests {
         let path = dir.join("walk.gpx");
         let wps = vec![Waypoint { name: "A".into(), lat_deg: 42.1, lon_deg: -71.2, arrival_radius_m: None }];
         let (a, b) = segs();
-        let msg = export_gpx(&path, "walk", &wps, &[&a, &b]).unwrap();
+        let msg = export_gpx(&path, "walk", &wps, &[&a, &b], false).unwrap();
         assert!(msg.contains("2 segments"), "{msg}");
         let back = route_file::read_gpx(&path).unwrap();
         let got: Vec<Vec<(f64, f64)>> = back.tracks[0]
@@ -425,9 +434,12 @@ mod tests {
         assert_eq!(got, vec![a.clone(), b.clone()]);
         assert_eq!(back.routes[0].points, wps);
         let before = std::fs::read(&path).unwrap();
-        let e = export_gpx(&path, "other", &[], &[&b]).unwrap_err();
+        let e = export_gpx(&path, "other", &[], &[&b], false).unwrap_err();
         assert!(e.contains(&path.display().to_string()) && e.contains("not overwritten"), "{e}");
         assert_eq!(std::fs::read(&path).unwrap(), before, "the file is untouched");
+        // Replacing, once the operator said so.
+        export_gpx(&path, "other", &[], &[&b], true).unwrap();
+        assert_eq!(route_file::read_gpx(&path).unwrap().tracks[0].segments.len(), 1);
         std::fs::remove_dir_all(&dir).unwrap();
     }
 

@@ -19,7 +19,7 @@ use vestnav_app::console::{Console, ConsoleOptions};
 use vestnav_app::devices::{DeviceFactory, GpsWorker};
 use vestnav_app::route::Waypoint;
 use vestnav_app::tiles::pmtiles::{Entry, HEADER_LEN, Header, write_directory, write_header, zxy_to_tile_id};
-use vestnav_app::tiles::prefetch::{Prefetch, PrefetchRequest};
+use vestnav_app::tiles::prefetch::{Prefetch, PrefetchRequest, PrefetchTarget};
 use vestnav_app::tiles::store::TileStore as _;
 use vestnav_app::tiles::{BBox, TileKey, TileSourceConfig, cache};
 use vestnav_device::gps::GpsEvent;
@@ -421,6 +421,8 @@ fn expected_tiles(b: &BBox, z0: u8, z1: u8) -> BTreeSet<(u8, u32, u32)> {
 }
 
 #[test]
+// One server, one box: cache, resume, parallelism, MBTiles, then offline — one story, read top to bottom.
+#[allow(clippy::too_many_lines)]
 fn prefetch_fetches_the_box_resumes_respects_parallelism_and_serves_offline() {
     let root = temp_dir("prefetch");
     let mut server = TileServer::start();
@@ -441,8 +443,14 @@ fn prefetch_fetches_the_box_resumes_respects_parallelism_and_serves_offline() {
     assert!(expected.len() > 12, "{}", expected.len());
     drop(h);
 
-    let req =
-        PrefetchRequest { source: source.clone(), bbox, z0, z1, parallelism: 2, cache_root: root.clone() };
+    let req = PrefetchRequest {
+        source: source.clone(),
+        bbox,
+        z0,
+        z1,
+        parallelism: 2,
+        target: PrefetchTarget::Cache(root.clone()),
+    };
     // First run, cancelled part-way (as a kill would stop it: tiles are written atomically).
     let job = Prefetch::start(&req, None).unwrap();
     for _ in 0..2000 {
@@ -474,16 +482,44 @@ fn prefetch_fetches_the_box_resumes_respects_parallelism_and_serves_offline() {
     // Parallelism 3 on a fresh cache: never more than 3 requests in flight, and more than 1.
     let root3 = temp_dir("prefetch3");
     server.max_in_flight.store(0, Ordering::SeqCst);
-    let third =
-        Prefetch::start(&PrefetchRequest { parallelism: 3, cache_root: root3.clone(), ..req.clone() }, None)
-            .unwrap()
-            .join();
+    let third = Prefetch::start(
+        &PrefetchRequest { parallelism: 3, target: PrefetchTarget::Cache(root3.clone()), ..req.clone() },
+        None,
+    )
+    .unwrap()
+    .join();
     assert_eq!(third.fetched, expected.len() as u64);
     let m = server.max_in_flight.load(Ordering::SeqCst);
     assert!((2..=3).contains(&m), "max in flight {m}");
 
-    // The server stops; the console shows the tiles from the cache.
+    // Into an MBTiles file (the Tiles window's other target): the same tiles, TMS rows.
+    server.requests.lock().unwrap().clear();
+    let mb = root3.join("area.mbtiles");
+    let fourth = Prefetch::start(
+        &PrefetchRequest { target: PrefetchTarget::MbTiles(mb.clone()), ..req.clone() },
+        None,
+    )
+    .unwrap()
+    .join();
+    assert_eq!(fourth.fetched, expected.len() as u64, "{fourth:?}");
+    assert_eq!(server.requested().into_iter().collect::<BTreeSet<_>>(), expected);
+    let again = Prefetch::start(
+        &PrefetchRequest { target: PrefetchTarget::MbTiles(mb.clone()), ..req.clone() },
+        None,
+    )
+    .unwrap()
+    .join();
+    assert_eq!((again.fetched, again.skipped), (0, expected.len() as u64), "resumed: nothing to fetch");
+
+    // The server stops; the console shows the tiles from the cache, and from the MBTiles file.
     server.stop();
+    let mut cfg = map_cfg(TileSourceConfig::MbTiles(mb.clone()));
+    cfg.tile_cache_dir = Some(root3.clone());
+    let (mut h, tex) = console(cfg);
+    let colours = painted_tiles(&mut h, &tex);
+    assert!(colours.contains(&Color32::from_rgb(250, 160, 20)), "{colours:?}");
+    drop(h);
+
     let dir = cache::source_dir(&root, &source);
     assert!(
         expected.iter().all(|&(z, x, y)| cache::tile_path(&dir, TileKey::new(z, x, y).unwrap()).is_file())

@@ -5,6 +5,11 @@
 //! a strong colour, the state in capitals and what to do. [`Console::banners`] derives the lines each frame
 //! from the device events' state and timestamps (the vest's link state, the GPS alarm on fix ages, the
 //! guidance worker's latest status) — never from what an earlier frame showed.
+//!
+//! The audible alarm ([`AudibleAlarm`]): on the frame the GPS banner turns to FIX LOST, and on the frame the
+//! vest banner turns to VEST LOST, the terminal bell rings once (`BEL` written to stderr: no audio stack);
+//! it rings again only after the state has recovered and is lost anew. View > "Audible alarm" turns it off
+//! (remembered in the config). Tests hear it through [`Console::set_bell`].
 
 use std::time::{Duration, Instant};
 
@@ -62,7 +67,55 @@ impl Banner {
     }
 }
 
+/// Rings once per transition to GPS fix loss and to vest link loss (see the module doc).
+pub(crate) struct AudibleAlarm {
+    bell: Box<dyn FnMut() + Send>,
+    /// (fix lost, vest lost) on the last frame.
+    was: (bool, bool),
+}
+
+impl Default for AudibleAlarm {
+    fn default() -> Self {
+        Self { bell: Box::new(terminal_bell), was: (false, false) }
+    }
+}
+
+impl AudibleAlarm {
+    /// Takes this frame's states; rings when one of them has just become lost and `enabled`.
+    fn update(&mut self, now: (bool, bool), enabled: bool) {
+        let rising = (now.0 && !self.was.0) || (now.1 && !self.was.1);
+        self.was = now;
+        if rising && enabled {
+            (self.bell)();
+        }
+    }
+}
+
+/// The terminal bell: `BEL` on stderr (a terminal beeps or flashes; nothing happens without one).
+fn terminal_bell() {
+    use std::io::Write as _;
+    let mut err = std::io::stderr();
+    let _ = err.write_all(b"\x07").and_then(|()| err.flush());
+}
+
 impl Console {
+    /// Replaces what the audible alarm rings (the terminal bell) — tests count the rings.
+    pub fn set_bell(&mut self, bell: impl FnMut() + Send + 'static) {
+        self.alarm.bell = Box::new(bell);
+    }
+
+    /// Whether the GPS fix and the vest link are lost now: the same states the banners call FIX LOST and
+    /// VEST LOST.
+    fn lost_states(&self, now: Instant) -> (bool, bool) {
+        let fix_lost = matches!(self.gps_alarm(now), Some(GpsAlarm::Lost { .. }));
+        let vest_lost = matches!(
+            (&self.vest.state, &self.vest.lost),
+            (Some(LinkState::Lost { .. }), _)
+                | (Some(LinkState::Connecting { .. } | LinkState::Handshaking), Some(_))
+        );
+        (fix_lost, vest_lost)
+    }
+
     /// Draws one frame (also the entry point of the kittest tests).
     #[allow(clippy::too_many_lines)] // the frame's layout in one place: panels in the order they are drawn
     pub fn ui(&mut self, ui: &mut egui::Ui) {
@@ -74,6 +127,8 @@ impl Console {
 
         egui::Panel::top("vestnav-top").show(ui, |ui| self.top_bar(ui, now));
         let banners = self.banners(now);
+        let lost = self.lost_states(now);
+        self.alarm.update(lost, self.cfg.audible_alarm);
         if !banners.is_empty() {
             egui::Panel::top("vestnav-banners").show(ui, |ui| self.banner_strip(ui, &banners, anim_s));
         }
@@ -119,6 +174,7 @@ impl Console {
             }
             Tab::Simulation => self.sim_panel.ui(ui),
             Tab::FieldTests => {
+                self.field_panel.base = self.cfg.recent.base();
                 if let Some(FieldTestAction::Mark { label }) = self.field_panel.ui(ui) {
                     self.mark(&label);
                 }
@@ -126,7 +182,7 @@ impl Console {
             Tab::SessionLog => {
                 let dir = self.log_dir();
                 let current = self.log.as_ref().map(|l| l.path().to_path_buf());
-                self.log_viewer.ui(ui, &dir, current.as_deref(), &mut self.map);
+                self.log_viewer.ui(ui, &dir, current.as_deref(), &mut self.map, &mut self.cfg.recent);
             }
         });
 
@@ -201,6 +257,8 @@ impl Console {
                 ui.checkbox(&mut self.cfg.light_theme, "Light high-contrast theme")
                     .on_hover_text("Dark text on white, for sunlight");
                 ui.checkbox(&mut self.cfg.large_text, "Large text");
+                ui.checkbox(&mut self.cfg.audible_alarm, "Audible alarm")
+                    .on_hover_text("Ring the terminal bell once when the GPS fix or the vest link is lost");
             });
             ui.separator();
             ui.selectable_value(&mut self.tab, Tab::Map, "Map");

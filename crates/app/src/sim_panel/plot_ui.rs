@@ -57,12 +57,14 @@ fn markers(s: &Series, points: Vec<[f64; 2]>, color: egui::Color32) -> Points<'s
     Points::new(s.label.clone(), finite).shape(marker_shape(s.marker)).radius(2.5).color(color)
 }
 
-/// Draws a chart (pan/zoom; double-click resets).
+/// Draws a chart (drag pans, Ctrl + wheel zooms, double-click resets; the plain wheel scrolls the page the
+/// plots sit in, as it does everywhere else).
 fn show_chart(ui: &mut egui::Ui, c: &Chart, id_salt: &str, height: f32) {
     let (xs, ys) = (c.x_scale, c.y_scale);
     let at = move |x: f64, y: f64| [on_axis(xs, x), on_axis(ys, y)];
     ui.label(egui::RichText::new(&c.title).strong());
     let mut plot = Plot::new(id_salt)
+        .allow_scroll(false)
         .height(height)
         .legend(Legend::default())
         .x_axis_label(c.x_label.clone())
@@ -181,6 +183,7 @@ fn show_heatmap(ui: &mut egui::Ui, h: &Heatmap, id_salt: &str, height: f32) {
     }
     let valid = h.nx > 0 && h.values.len() == h.nx * h.ny;
     Plot::new(id_salt)
+        .allow_scroll(false)
         .height(height)
         .data_aspect(1.0)
         .x_axis_label(h.x_label.clone())

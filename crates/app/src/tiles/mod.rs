@@ -12,6 +12,7 @@
 
 pub mod cache;
 pub mod local;
+pub mod mbtiles;
 pub mod pmtiles;
 pub mod prefetch;
 pub mod store;
@@ -112,12 +113,21 @@ impl TileSourceConfig {
                  download. Tick \"terms allow bulk download\" only if the provider's terms permit offline \
                  use (a self-hosted server does)."
                 .into()),
+            Self::Xyz { url, .. } if is_osm_host(url) => Self::Osm.bulk_download_allowed(),
             Self::Xyz { allows_bulk: true, .. } => Ok(()),
             Self::PmTiles(_) | Self::MbTiles(_) | Self::Folder(_) => {
                 Err("This source is a local file: it is already available offline.".into())
             }
         }
     }
+}
+
+/// Whether `url` points at the public OpenStreetMap tile server (`tile.openstreetmap.org` or one of its
+/// `a.`/`b.`/`c.` aliases), whatever the source is called: its policy forbids bulk download.
+pub fn is_osm_host(url: &str) -> bool {
+    let host = url_host(url).rsplit_once('@').map_or(url_host(url), |(_, h)| h);
+    let host = host.split(':').next().unwrap_or(host).trim_end_matches('.').to_ascii_lowercase();
+    host == "tile.openstreetmap.org" || host.ends_with(".tile.openstreetmap.org")
 }
 
 /// Host part of a URL (no scheme, path, or query: the query may hold an API key).
@@ -526,5 +536,15 @@ mod tests {
         };
         assert!(x(false).bulk_download_allowed().is_err());
         assert!(x(true).bulk_download_allowed().is_ok());
+        // The OpenStreetMap server under an XYZ name is still the OpenStreetMap server.
+        for url in [
+            "https://tile.openstreetmap.org/{z}/{x}/{y}.png",
+            "https://b.Tile.OpenStreetMap.org:443/{z}/{x}/{y}.png",
+        ] {
+            let osm =
+                TileSourceConfig::Xyz { url: url.into(), attribution: String::new(), allows_bulk: true };
+            assert!(osm.bulk_download_allowed().unwrap_err().contains("forbids bulk download"), "{url}");
+        }
+        assert!(!is_osm_host("https://tile.openstreetmap.org.example.com/{z}/{x}/{y}.png"));
     }
 }

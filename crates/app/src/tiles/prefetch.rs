@@ -1,14 +1,23 @@
 //! "Make this area available offline": downloads every tile of a box over a zoom range from an XYZ
-//! source whose terms allow bulk download, into the on-disk cache the map reads. Worker threads (the
-//! configured parallelism, default 2) take tiles from one shared list; a tile already on disk is skipped,
-//! so a cancelled or killed run resumes where it stopped. Never runs on the UI thread.
+//! source whose terms allow bulk download, into the on-disk cache the map reads or into an MBTiles file
+//! ([`super::mbtiles`]). The console's Tiles window and `vestnav tiles prefetch` both start it here.
+//!
+//! A coordinator thread (`tiles-prefetch`) prepares the list and starts the download workers
+//! (`tiles-prefetch-N`, the configured parallelism, default 2), which take tiles from one shared list. A
+//! tile already stored is skipped, so a cancelled or killed run resumes where it stopped. Into the cache
+//! each tile is written atomically (temporary file, rename); into an MBTiles file the coordinator writes
+//! the tiles the workers hand it in batches, one SQLite transaction each, and a worker takes its next tile
+//! only once its last one is committed: at any instant at most `parallelism` tiles are downloaded but not
+//! stored, which is all a kill can lose. Never runs on the UI thread.
 
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
+use std::sync::mpsc;
 use std::sync::{Arc, Mutex, PoisonError};
 use std::thread::JoinHandle;
 
-use super::{BBox, TileSourceConfig, cache, store};
+use super::mbtiles::{MbTilesMeta, MbTilesWriter};
+use super::{BBox, TileKey, TileSourceConfig, cache, store};
 
 /// Most tiles one prefetch may download (z18 over a few km² is already ~10 000).
 pub const MAX_PREFETCH_TILES: u64 = 50_000;
@@ -19,6 +28,28 @@ pub const EST_TILE_BYTES: u64 = 25_000;
 pub const DEFAULT_PARALLELISM: usize = 2;
 /// Most parallel downloads the setting allows.
 pub const MAX_PARALLELISM: usize = 8;
+/// Most tiles written in one MBTiles transaction.
+pub const MAX_BATCH: usize = 64;
+
+/// Where the tiles go.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum PrefetchTarget {
+    /// The on-disk tile cache under this root (the console's `tile_cache_dir`), in the source's folder.
+    Cache(PathBuf),
+    /// An MBTiles file, created or resumed; it opens as a tile source (`mbtiles:FILE`).
+    MbTiles(PathBuf),
+}
+
+impl PrefetchTarget {
+    /// `FILE.mbtiles` is an MBTiles file, anything else a cache root folder.
+    pub fn from_path(path: PathBuf) -> Self {
+        if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("mbtiles")) {
+            Self::MbTiles(path)
+        } else {
+            Self::Cache(path)
+        }
+    }
+}
 
 /// What the operator asked to download.
 #[derive(Debug, Clone, PartialEq)]
@@ -33,8 +64,28 @@ pub struct PrefetchRequest {
     pub z1: u8,
     /// Parallel downloads (1..=[`MAX_PARALLELISM`]).
     pub parallelism: usize,
-    /// Root of the tile cache.
-    pub cache_root: PathBuf,
+    /// Where the tiles go.
+    pub target: PrefetchTarget,
+}
+
+impl PrefetchRequest {
+    /// Checks the request before anything is downloaded: the source's bulk policy
+    /// ([`TileSourceConfig::bulk_download_allowed`]), the zoom range and the tile limit. Returns the
+    /// tiles to fetch and the URL template.
+    pub fn check(&self) -> Result<(Vec<TileKey>, String), String> {
+        self.source.bulk_download_allowed()?;
+        let url = self.source.url_template().ok_or("not an HTTP source")?.to_owned();
+        if self.z0 > self.z1 || self.z1 > super::MAX_ZOOM {
+            return Err(format!("zoom range {}..{} is not valid (0..{})", self.z0, self.z1, super::MAX_ZOOM));
+        }
+        let tiles = self.bbox.tiles(self.z0, self.z1, MAX_PREFETCH_TILES).ok_or_else(|| {
+            format!(
+                "{} tiles is over the limit of {MAX_PREFETCH_TILES}: lower the highest zoom or the margin",
+                self.bbox.tile_count(self.z0, self.z1)
+            )
+        })?;
+        Ok((tiles, url))
+    }
 }
 
 /// Tile count and size estimate of a request, shown before it starts.
@@ -67,7 +118,7 @@ pub struct Progress {
     pub failed: AtomicU64,
     /// Bytes downloaded.
     pub bytes: AtomicU64,
-    /// Worker threads still running.
+    /// 1 while the prefetch runs (its coordinator thread), 0 once it has ended.
     pub running: AtomicUsize,
     /// The latest error (names the redacted URL).
     pub last_error: Mutex<Option<String>>,
@@ -105,85 +156,106 @@ impl Snapshot {
 pub struct Prefetch {
     progress: Arc<Progress>,
     cancel: Arc<AtomicBool>,
-    threads: Vec<JoinHandle<()>>,
+    coordinator: Option<JoinHandle<()>>,
 }
 
-impl Prefetch {
-    /// Checks the request (the source's bulk policy, the tile limit) and starts the workers. `waker` is
-    /// asked to repaint as tiles arrive.
-    pub fn start(req: &PrefetchRequest, waker: Option<&egui::Context>) -> Result<Self, String> {
-        req.source.bulk_download_allowed()?;
-        let url = req.source.url_template().ok_or("not an HTTP source")?.to_owned();
-        if req.z0 > req.z1 || req.z1 > super::MAX_ZOOM {
-            return Err(format!("zoom range {}..{} is not valid (0..{})", req.z0, req.z1, super::MAX_ZOOM));
+/// A downloaded tile handed to the MBTiles writer, with where to say it is committed.
+type ToWrite = (TileKey, Vec<u8>, mpsc::SyncSender<Result<(), String>>);
+
+/// What the workers share.
+struct Job {
+    progress: Arc<Progress>,
+    cancel: Arc<AtomicBool>,
+    tiles: Vec<TileKey>,
+    next: AtomicUsize,
+    url: String,
+    client: reqwest::blocking::Client,
+    waker: Option<egui::Context>,
+}
+
+impl Job {
+    fn error(&self, e: String) {
+        *self.progress.last_error.lock().unwrap_or_else(PoisonError::into_inner) = Some(e);
+    }
+
+    fn wake(&self) {
+        if let Some(w) = &self.waker {
+            w.request_repaint();
         }
-        let tiles = req.bbox.tiles(req.z0, req.z1, MAX_PREFETCH_TILES).ok_or_else(|| {
-            format!(
-                "{} tiles is over the limit of {MAX_PREFETCH_TILES}: lower the highest zoom or the margin",
-                req.bbox.tile_count(req.z0, req.z1)
-            )
-        })?;
-        let client = store::http_client().map_err(|e| e.to_string())?;
-        let dir = cache::source_dir(&req.cache_root, &req.source);
-        let progress = Arc::new(Progress::default());
-        progress.total.store(tiles.len() as u64, Ordering::SeqCst);
-        let cancel = Arc::new(AtomicBool::new(false));
-        let tiles = Arc::new(tiles);
-        let next = Arc::new(AtomicUsize::new(0));
-        let workers = req.parallelism.clamp(1, MAX_PARALLELISM);
-        progress.running.store(workers, Ordering::SeqCst);
-        let mut threads = Vec::new();
-        for i in 0..workers {
-            let (p, c, t, n) = (progress.clone(), cancel.clone(), tiles.clone(), next.clone());
-            let (client, dir, url, waker) = (client.clone(), dir.clone(), url.clone(), waker.cloned());
-            let spawned = std::thread::Builder::new().name(format!("tiles-prefetch-{i}")).spawn(move || {
-                while !c.load(Ordering::SeqCst) {
-                    let Some(&key) = t.get(n.fetch_add(1, Ordering::SeqCst)) else { break };
-                    let path = cache::tile_path(&dir, key);
-                    if store::read_capped(&path).is_ok_and(|b| b.is_some()) {
-                        p.skipped.fetch_add(1, Ordering::SeqCst);
-                        continue;
-                    }
-                    match store::download(&client, &key.url(&url)) {
-                        Ok(Some(b)) => match cache::store(&path, &b) {
-                            Ok(()) => {
-                                p.bytes.fetch_add(b.len() as u64, Ordering::SeqCst);
-                                p.fetched.fetch_add(1, Ordering::SeqCst);
-                            }
-                            Err(e) => {
-                                p.failed.fetch_add(1, Ordering::SeqCst);
-                                *p.last_error.lock().unwrap_or_else(PoisonError::into_inner) =
-                                    Some(format!("cannot write {}: {e}", path.display()));
-                            }
-                        },
-                        Ok(None) => {
-                            p.missing.fetch_add(1, Ordering::SeqCst);
+    }
+
+    /// One worker: downloads tiles until the list is done or cancelled; `store` writes one tile.
+    fn work(
+        &self,
+        cache_dir: Option<&std::path::Path>,
+        store: &dyn Fn(TileKey, Vec<u8>) -> Result<(), String>,
+    ) {
+        let p = &self.progress;
+        while !self.cancel.load(Ordering::SeqCst) {
+            let Some(&key) = self.tiles.get(self.next.fetch_add(1, Ordering::SeqCst)) else { break };
+            if let Some(dir) = cache_dir
+                && store::read_capped(&cache::tile_path(dir, key)).is_ok_and(|b| b.is_some())
+            {
+                p.skipped.fetch_add(1, Ordering::SeqCst);
+                continue;
+            }
+            match store::download(&self.client, &key.url(&self.url)) {
+                Ok(Some(b)) => {
+                    let n = b.len() as u64;
+                    match store(key, b) {
+                        Ok(()) => {
+                            p.bytes.fetch_add(n, Ordering::SeqCst);
+                            p.fetched.fetch_add(1, Ordering::SeqCst);
                         }
                         Err(e) => {
                             p.failed.fetch_add(1, Ordering::SeqCst);
-                            *p.last_error.lock().unwrap_or_else(PoisonError::into_inner) =
-                                Some(e.to_string());
+                            self.error(e);
                         }
                     }
-                    if let Some(w) = &waker {
-                        w.request_repaint();
-                    }
                 }
-                p.running.fetch_sub(1, Ordering::SeqCst);
-                if let Some(w) = &waker {
-                    w.request_repaint();
+                Ok(None) => {
+                    p.missing.fetch_add(1, Ordering::SeqCst);
                 }
-            });
-            match spawned {
-                Ok(h) => threads.push(h),
                 Err(e) => {
-                    progress.running.fetch_sub(1, Ordering::SeqCst);
-                    *progress.last_error.lock().unwrap_or_else(PoisonError::into_inner) =
-                        Some(format!("cannot start a prefetch thread: {e}"));
+                    p.failed.fetch_add(1, Ordering::SeqCst);
+                    self.error(e.to_string());
                 }
             }
+            self.wake();
         }
-        Ok(Self { progress, cancel, threads })
+    }
+}
+
+impl Prefetch {
+    /// Checks the request ([`PrefetchRequest::check`]) and starts the coordinator thread, which opens the
+    /// target and starts the workers. `waker` is asked to repaint as tiles arrive.
+    pub fn start(req: &PrefetchRequest, waker: Option<&egui::Context>) -> Result<Self, String> {
+        let (tiles, url) = req.check()?;
+        let client = store::http_client().map_err(|e| e.to_string())?;
+        let progress = Arc::new(Progress::default());
+        progress.total.store(tiles.len() as u64, Ordering::SeqCst);
+        progress.running.store(1, Ordering::SeqCst);
+        let cancel = Arc::new(AtomicBool::new(false));
+        let job = Job {
+            progress: progress.clone(),
+            cancel: cancel.clone(),
+            tiles,
+            next: AtomicUsize::new(0),
+            url,
+            client,
+            waker: waker.cloned(),
+        };
+        let req = req.clone();
+        let coordinator = std::thread::Builder::new()
+            .name("tiles-prefetch".into())
+            .spawn(move || {
+                let job = Arc::new(job);
+                run(&req, &job);
+                job.progress.running.store(0, Ordering::SeqCst);
+                job.wake();
+            })
+            .map_err(|e| format!("cannot start the prefetch thread: {e}"))?;
+        Ok(Self { progress, cancel, coordinator: Some(coordinator) })
     }
 
     /// Asks the workers to stop after the tile each is on (what is on disk stays; a re-run resumes).
@@ -214,11 +286,105 @@ impl Prefetch {
 
     /// Waits for the workers to end and returns the final counters.
     pub fn join(mut self) -> Snapshot {
-        for t in self.threads.drain(..) {
+        if let Some(t) = self.coordinator.take() {
             let _ = t.join();
         }
         self.snapshot()
     }
+}
+
+/// The coordinator: prepares the target, runs the workers, and (MBTiles) writes what they fetch.
+fn run(req: &PrefetchRequest, job: &Arc<Job>) {
+    let workers = req.parallelism.clamp(1, MAX_PARALLELISM);
+    match &req.target {
+        PrefetchTarget::Cache(root) => {
+            let dir = cache::source_dir(root, &req.source);
+            let threads = spawn_workers(job, workers, move |job| {
+                job.work(Some(&dir), &|key, b| {
+                    let path = cache::tile_path(&dir, key);
+                    cache::store(&path, &b).map_err(|e| format!("cannot write {}: {e}", path.display()))
+                });
+            });
+            for t in threads {
+                let _ = t.join();
+            }
+        }
+        PrefetchTarget::MbTiles(path) => {
+            let meta = MbTilesMeta {
+                name: req.source.label(),
+                bbox: req.bbox,
+                min_zoom: req.z0,
+                max_zoom: req.z1,
+                attribution: req.source.attribution(),
+            };
+            let opened = MbTilesWriter::open(path, &meta).and_then(|w| {
+                let present = w.present(&job.tiles)?;
+                Ok((w, present))
+            });
+            let (mut writer, present) = match opened {
+                Ok(o) => o,
+                Err(e) => return job.error(e.to_string()),
+            };
+            // Tiles already in the file are skipped before any worker starts (indices past them).
+            let job = if present.is_empty() {
+                job.clone()
+            } else {
+                job.progress.skipped.store(present.len() as u64, Ordering::SeqCst);
+                let tiles = job.tiles.iter().copied().filter(|k| !present.contains(k)).collect();
+                Arc::new(Job {
+                    progress: job.progress.clone(),
+                    cancel: job.cancel.clone(),
+                    tiles,
+                    next: AtomicUsize::new(0),
+                    url: job.url.clone(),
+                    client: job.client.clone(),
+                    waker: job.waker.clone(),
+                })
+            };
+            let (tx, rx) = mpsc::channel::<ToWrite>();
+            let threads = spawn_workers(&job, workers, move |job| {
+                let tx = tx.clone();
+                job.work(None, &|key, b| {
+                    let (ack_tx, ack_rx) = mpsc::sync_channel(1);
+                    tx.send((key, b, ack_tx)).map_err(|_| "the MBTiles writer has stopped".to_owned())?;
+                    ack_rx.recv().map_err(|_| "the MBTiles writer has stopped".to_owned())?
+                });
+            });
+            // Ends when every worker has ended (their senders dropped).
+            while let Ok(first) = rx.recv() {
+                let mut batch = vec![first];
+                while batch.len() < MAX_BATCH
+                    && let Ok(more) = rx.try_recv()
+                {
+                    batch.push(more);
+                }
+                let (tiles, acks): (Vec<_>, Vec<_>) = batch.into_iter().map(|(k, b, a)| ((k, b), a)).unzip();
+                let res = writer.write_batch(&tiles).map_err(|e| e.to_string());
+                for a in acks {
+                    let _ = a.send(res.clone());
+                }
+            }
+            for t in threads {
+                let _ = t.join();
+            }
+        }
+    }
+}
+
+/// Starts `n` workers running `f`; a thread that cannot start is reported, the others carry on.
+fn spawn_workers<F>(job: &Arc<Job>, n: usize, f: F) -> Vec<JoinHandle<()>>
+where
+    F: Fn(&Job) + Send + Clone + 'static,
+{
+    let mut threads = Vec::new();
+    for i in 0..n {
+        let (job2, f) = (job.clone(), f.clone());
+        match std::thread::Builder::new().name(format!("tiles-prefetch-{i}")).spawn(move || f(&job2)) {
+            Ok(h) => threads.push(h),
+            Err(e) => job.error(format!("cannot start a prefetch thread: {e}")),
+        }
+    }
+    threads
 }
 
 impl Drop for Prefetch {
@@ -241,7 +407,7 @@ mod tests {
             z0: 10,
             z1: 14,
             parallelism: 2,
-            cache_root: std::env::temp_dir(),
+            target: PrefetchTarget::Cache(std::env::temp_dir()),
         };
         assert!(Prefetch::start(&req, None).err().unwrap().contains("forbids bulk download"));
         let xyz = TileSourceConfig::Xyz {

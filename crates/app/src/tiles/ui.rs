@@ -6,7 +6,7 @@ use std::path::PathBuf;
 
 use egui::{Color32, RichText};
 
-use super::prefetch::{self, Prefetch, PrefetchRequest};
+use super::prefetch::{self, Prefetch, PrefetchRequest, PrefetchTarget};
 use super::{BBox, SourceTiles, TileSourceConfig, cache, check_url_template};
 use crate::config::Config;
 use crate::route::Waypoint;
@@ -19,6 +19,13 @@ enum Kind {
     PmTiles,
     MbTiles,
     Folder,
+}
+
+/// The prefetch's target choice.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum PrefetchInto {
+    Cache,
+    MbTiles,
 }
 
 /// What the cache thread reports: a message (after a prune) and the cache's size [bytes] and file count.
@@ -42,8 +49,14 @@ pub struct MapTiles {
     pub z0: u8,
     /// Highest prefetch zoom.
     pub z1: u8,
+    /// Where the prefetch writes.
+    prefetch_into: PrefetchInto,
+    /// The MBTiles file a prefetch writes (created, or resumed when it exists).
+    pub prefetch_mbtiles_path: String,
     /// The running or last prefetch.
     pub prefetch: Option<Prefetch>,
+    /// The MBTiles file the last prefetch wrote, offered as the source once it has ended.
+    prefetch_file: Option<PathBuf>,
     /// A message about the last prefetch or prune.
     pub message: Option<String>,
     pruned: bool,
@@ -66,7 +79,10 @@ impl Default for MapTiles {
             margin_m: 300.0,
             z0: 12,
             z1: 17,
+            prefetch_into: PrefetchInto::Cache,
+            prefetch_mbtiles_path: String::new(),
             prefetch: None,
+            prefetch_file: None,
             message: None,
             pruned: false,
             usage: None,
@@ -370,6 +386,18 @@ impl MapTiles {
                     egui::DragValue::new(&mut cfg.prefetch_parallelism).range(1..=prefetch::MAX_PARALLELISM),
                 );
             });
+            ui.horizontal(|ui| {
+                ui.label("Into");
+                ui.radio_value(&mut self.prefetch_into, PrefetchInto::Cache, "cache folder");
+                ui.radio_value(&mut self.prefetch_into, PrefetchInto::MbTiles, "MBTiles file");
+                if self.prefetch_into == PrefetchInto::MbTiles {
+                    ui.add(
+                        egui::TextEdit::singleline(&mut self.prefetch_mbtiles_path)
+                            .hint_text("/path/area.mbtiles")
+                            .desired_width(260.0),
+                    );
+                }
+            });
         });
         let bbox = BBox::around(waypoints.iter().map(|w| (w.lat_deg, w.lon_deg)), self.margin_m);
         let Some(bbox) = bbox else {
@@ -404,6 +432,13 @@ impl MapTiles {
             if let Some(e) = &s.last_error {
                 ui.colored_label(ui.visuals().warn_fg_color, format!("last error: {e}"));
             }
+            if s.finished
+                && let Some(file) = &self.prefetch_file
+                && cfg.tiles != TileSourceConfig::MbTiles(file.clone())
+                && ui.button("Use this MBTiles file as the source").clicked()
+            {
+                cfg.tiles = TileSourceConfig::MbTiles(file.clone());
+            }
         }
         ui.horizontal(|ui| {
             if running {
@@ -416,21 +451,7 @@ impl MapTiles {
                 .add_enabled(est.tiles <= prefetch::MAX_PREFETCH_TILES, egui::Button::new("Download"))
                 .clicked()
             {
-                let req = PrefetchRequest {
-                    source: cfg.tiles.clone(),
-                    bbox,
-                    z0,
-                    z1,
-                    parallelism: cfg.prefetch_parallelism,
-                    cache_root: cache_root(cfg),
-                };
-                match Prefetch::start(&req, Some(ui.ctx())) {
-                    Ok(p) => {
-                        self.prefetch = Some(p);
-                        self.message = None;
-                    }
-                    Err(e) => self.message = Some(e),
-                }
+                self.start_prefetch(ui.ctx(), cfg, bbox, (z0, z1));
             }
             if est.tiles > prefetch::MAX_PREFETCH_TILES {
                 ui.colored_label(
@@ -442,5 +463,39 @@ impl MapTiles {
                 );
             }
         });
+    }
+
+    /// Starts the prefetch the window's fields describe (the Download button).
+    fn start_prefetch(&mut self, ctx: &egui::Context, cfg: &Config, bbox: BBox, (z0, z1): (u8, u8)) {
+        let target = if self.prefetch_into == PrefetchInto::MbTiles {
+            let p = self.prefetch_mbtiles_path.trim();
+            if p.is_empty() { None } else { Some(PrefetchTarget::MbTiles(PathBuf::from(p))) }
+        } else {
+            Some(PrefetchTarget::Cache(cache_root(cfg)))
+        };
+        if let Some(target) = target {
+            let file = match &target {
+                PrefetchTarget::MbTiles(p) => Some(p.clone()),
+                PrefetchTarget::Cache(_) => None,
+            };
+            let req = PrefetchRequest {
+                source: cfg.tiles.clone(),
+                bbox,
+                z0,
+                z1,
+                parallelism: cfg.prefetch_parallelism,
+                target,
+            };
+            match Prefetch::start(&req, Some(ctx)) {
+                Ok(p) => {
+                    self.prefetch = Some(p);
+                    self.prefetch_file = file;
+                    self.message = None;
+                }
+                Err(e) => self.message = Some(e),
+            }
+        } else {
+            self.message = Some("enter the MBTiles file to write".into());
+        }
     }
 }

@@ -46,7 +46,7 @@ use crate::heading::Attitude;
 pub use assembly::{DecoderConfig, NmeaDecoder};
 pub use fix::{Constellation, ErrorEstimate, ErrorSource, Fix, FixCheck, FixMode, FixQuality, Satellite};
 pub use framing::{DecodeStats, MAX_SENTENCE_LEN};
-pub use source::{GpsHandle, GpsSource, SourceConfig, SourceState};
+pub use source::{GpsHandle, GpsSource, ReplayControl, ReplayProgress, SourceConfig, SourceState};
 
 /// User equivalent range error of an autonomous (SPS) fix, 1 sigma [m], used by the DOP error model
 /// `sigma_h = HDOP * UERE` when the receiver sends no GST. 5 m is the typical single-frequency SPS figure
@@ -90,6 +90,22 @@ pub enum GpsEvent {
     /// Something the operator should know that is neither a state change nor an error, as one line of
     /// text (e.g. a looped simulator starting its next lap).
     Notice(String),
+    /// One checksum-verified input sentence as received (for a raw monitor and a recorder); consumers
+    /// that do not want it drop it.
+    Raw(RawLine),
+    /// The input jumped in time (a replay was paused and sought): the next fix does not continue the last
+    /// one, so a track must start a new segment and nothing may be derived from the step between them.
+    /// The text says what happened, for the operator and the log.
+    Discontinuity(String),
+}
+
+/// One sentence as the source's framer delivered it (checksum verified; no line end).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct RawLine {
+    /// The sentence, `$` or `!` first, checksum last (e.g. `$GPGGA,...*47`).
+    pub text: String,
+    /// The instant its bytes arrived (the same clock as [`Fix::received_at`]).
+    pub received_at: Instant,
 }
 
 /// A heading reading of the GPS input with nothing but a heading: no pitch, roll, quality, field or raw
@@ -165,7 +181,12 @@ fn drain(decoder: &mut NmeaDecoder, fixes: &mut Vec<Fix>, marks: &mut Vec<Mark>)
             GpsEvent::Fix(f) => fixes.push(*f),
             GpsEvent::Mark(m) => marks.push(m),
             // A whole-file decode is about positions; attitude readings are for live consumers.
-            GpsEvent::Attitude(_) | GpsEvent::Stats(_) | GpsEvent::State(_) | GpsEvent::Notice(_) => {}
+            GpsEvent::Attitude(_)
+            | GpsEvent::Stats(_)
+            | GpsEvent::State(_)
+            | GpsEvent::Notice(_)
+            | GpsEvent::Raw(_)
+            | GpsEvent::Discontinuity(_) => {}
         }
     }
 }

@@ -7,10 +7,20 @@
 //! Timestamps are only inserted at line boundaries, so sentences are never split. Operator marks
 //! (`$PVNAV,MARK,<n>,<label>*hh`, the cone test's records) are inserted the same way: a mark that arrives
 //! while a received sentence is half written waits for the end of that line.
+//!
+//! [`RecordingTap`] records what a running source delivers: one more consumer of its events (an
+//! [`Outbox`] that writes each [`GpsEvent::Raw`] sentence on the source's own thread), started and
+//! stopped while the source runs — the console's Record toggle.
 
-use std::io::Write;
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex, PoisonError};
+use std::time::{Duration, Instant};
 
 use super::nmea_out::{mark_sentence, timestamp_sentence};
+use super::{GpsEvent, RawLine};
+use crate::outbox::Outbox;
 
 /// Writes received bytes to a recording, inserting timestamps at line boundaries.
 #[derive(Debug)]
@@ -89,6 +99,170 @@ impl<W: Write> Recorder<W> {
 /// Unix time now, in milliseconds.
 pub fn unix_ms_now() -> i64 {
     chrono::Utc::now().timestamp_millis()
+}
+
+/// A fresh recording name in `dir`, `vestnav-gps-<YYYYmmdd-HHMMSS>.nmea` at `now` (local time), with
+/// `-2`, `-3`, ... appended while that name exists: a new recording never replaces a file.
+pub fn new_recording_path(dir: &Path, now: chrono::DateTime<chrono::Local>) -> PathBuf {
+    let stem = format!("vestnav-gps-{}", now.format("%Y%m%d-%H%M%S"));
+    let mut path = dir.join(format!("{stem}.nmea"));
+    let mut n = 2;
+    while path.exists() {
+        path = dir.join(format!("{stem}-{n}.nmea"));
+        n += 1;
+    }
+    path
+}
+
+/// What a [`RecordingTap`] has written.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct RecordingStatus {
+    /// The file.
+    pub path: PathBuf,
+    /// Bytes written (sentences, line ends and timestamps).
+    pub bytes: u64,
+    /// Sentences written.
+    pub sentences: u64,
+    /// Still recording (false after [`RecordingTap::stop`] or an error).
+    pub active: bool,
+    /// The error that ended the recording, naming the file.
+    pub error: Option<String>,
+}
+
+/// How often a running recording is flushed to its file.
+const FLUSH_EVERY: Duration = Duration::from_secs(1);
+
+struct Active {
+    rec: Recorder<CountingWriter<BufWriter<File>>>,
+    last_flush: Instant,
+}
+
+#[derive(Default)]
+struct TapState {
+    active: Option<Active>,
+    status: Option<RecordingStatus>,
+}
+
+/// Counts the bytes that pass through.
+struct CountingWriter<W> {
+    inner: W,
+    bytes: u64,
+}
+
+impl<W: Write> Write for CountingWriter<W> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let n = self.inner.write(buf)?;
+        self.bytes += n as u64;
+        Ok(n)
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.inner.flush()
+    }
+}
+
+/// Records the raw sentences of a running source in the [recording format](self), on demand. Clones
+/// share one recording. Only NMEA sentences are written (`$`/`!` first): a gpsd source's JSON is not
+/// recorded, and the input's own `$PVNAV,TS` stamps are replaced by the recorder's.
+#[derive(Clone, Default)]
+pub struct RecordingTap {
+    state: Arc<Mutex<TapState>>,
+}
+
+impl std::fmt::Debug for RecordingTap {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("RecordingTap").field("status", &self.status()).finish()
+    }
+}
+
+impl RecordingTap {
+    fn lock(&self) -> std::sync::MutexGuard<'_, TapState> {
+        self.state.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+
+    /// Starts recording into a new file at `path` (stopping a recording in progress first). Refuses an
+    /// existing file: a recording never replaces one. The error names the file.
+    pub fn start(&self, path: &Path) -> Result<(), String> {
+        self.stop();
+        let file = File::options()
+            .write(true)
+            .create_new(true)
+            .open(path)
+            .map_err(|e| format!("{}: {e}", path.display()))?;
+        let mut st = self.lock();
+        st.active = Some(Active {
+            rec: Recorder::new(CountingWriter { inner: BufWriter::new(file), bytes: 0 }),
+            last_flush: Instant::now(),
+        });
+        st.status =
+            Some(RecordingStatus { path: path.to_owned(), active: true, ..RecordingStatus::default() });
+        Ok(())
+    }
+
+    /// Stops recording and flushes the file; returns what was written.
+    pub fn stop(&self) -> Option<RecordingStatus> {
+        let mut st = self.lock();
+        if let Some(mut a) = st.active.take()
+            && let Some(status) = st.status.as_mut()
+        {
+            status.active = false;
+            if let Err(e) = a.rec.flush() {
+                status.error = Some(format!("{}: {e}", status.path.display()));
+            }
+            status.bytes = a.rec.into_inner().bytes;
+        }
+        st.status.clone()
+    }
+
+    /// True while recording.
+    pub fn is_recording(&self) -> bool {
+        self.lock().active.is_some()
+    }
+
+    /// The current or last recording's counts and error.
+    pub fn status(&self) -> Option<RecordingStatus> {
+        self.lock().status.clone()
+    }
+
+    /// Records one sentence received at wall-clock `unix_ms` (nothing when not recording, or when it is
+    /// not an NMEA sentence or is a `$PVNAV,TS` stamp). A write error ends the recording and is kept in
+    /// the status.
+    pub fn record(&self, line: &RawLine, unix_ms: i64) {
+        let text = line.text.trim_end();
+        if !(text.starts_with('$') || text.starts_with('!')) || text.starts_with("$PVNAV,TS,") {
+            return;
+        }
+        let mut st = self.lock();
+        let st = &mut *st;
+        let (Some(a), Some(status)) = (st.active.as_mut(), st.status.as_mut()) else { return };
+        let mut result = a.rec.write(text.as_bytes(), unix_ms).and_then(|()| a.rec.write(b"\r\n", unix_ms));
+        if result.is_ok() && a.last_flush.elapsed() >= FLUSH_EVERY {
+            a.last_flush = Instant::now();
+            result = a.rec.flush();
+        }
+        match result {
+            Ok(()) => {
+                status.sentences += 1;
+                status.bytes = a.rec.out.bytes;
+            }
+            Err(e) => {
+                status.error = Some(format!("{}: {e}", status.path.display()));
+                status.active = false;
+                st.active = None;
+            }
+        }
+    }
+
+    /// A consumer for a source's outputs that records its [`GpsEvent::Raw`] sentences while a recording
+    /// runs, stamped with the wall-clock time they are handed over (on the source's thread).
+    pub fn outbox(&self) -> Outbox<GpsEvent> {
+        let tap = self.clone();
+        Outbox::sink(move |ev: GpsEvent| {
+            if let GpsEvent::Raw(line) = &ev {
+                tap.record(line, unix_ms_now());
+            }
+            true
+        })
+    }
 }
 
 #[cfg(test)]

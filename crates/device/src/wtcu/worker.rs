@@ -703,6 +703,11 @@ impl Worker {
         let Some(g) = self.settings.gps.clone() else { return };
         let Some(info) = self.link.device().copied().filter(|_| self.link.is_ready()) else { return };
         if !info.capabilities.contains(Capabilities::GPS) {
+            if self.gps_requested.is_some() || g.wanted().is_none() {
+                return;
+            }
+            // Said once per session (the marker keeps this turn's work to a load and a compare).
+            self.gps_requested = Some(0);
             g.set_state(ForwardingState::Unsupported(format!(
                 "this unit (firmware {}, protocol v{}) has no GPS receiver to forward",
                 info.firmware, info.protocol_version

@@ -187,6 +187,8 @@ pub struct NmeaDecoder {
     epochs: u64,
     /// What [`Fix::validate`] removed from the emitted fixes.
     checked: DecodeStats,
+    /// Emit every sentence as a [`GpsEvent::Raw`] too ([`Self::with_raw_lines`]).
+    raw_lines: bool,
 }
 
 impl Default for NmeaDecoder {
@@ -219,7 +221,16 @@ impl NmeaDecoder {
             last_timestamp_ms: None,
             epochs: 0,
             checked: DecodeStats::default(),
+            raw_lines: false,
         }
+    }
+
+    /// Also emits every checksum-verified sentence as a [`GpsEvent::Raw`] (before what it completes), for
+    /// a live source's raw monitor and recorder.
+    #[must_use]
+    pub fn with_raw_lines(mut self) -> Self {
+        self.raw_lines = true;
+        self
     }
 
     /// Counts of accepted and rejected input so far.
@@ -287,6 +298,11 @@ impl NmeaDecoder {
 
     /// Handles one checksum-verified sentence (`$...*hh`), as if it had come through the framer.
     fn handle_sentence(&mut self, line: &str, stats: &mut DecodeStats) {
+        if self.raw_lines
+            && let Some(now) = self.now
+        {
+            self.events.push_back(GpsEvent::Raw(super::RawLine { text: line.to_owned(), received_at: now }));
+        }
         let parsed = match sentence::parse(line) {
             Ok(p) => p,
             Err(Unused::Unsupported) => {

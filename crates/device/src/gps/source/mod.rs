@@ -24,6 +24,8 @@ use vestnav_core::gnss_sim::GnssErrorModel;
 use super::{GpsEvent, NmeaDecoder};
 use crate::outbox::{Outbox, Overflow, Waker};
 
+#[cfg(test)]
+mod control_tests;
 mod gpsd;
 mod replay;
 mod serial;
@@ -32,7 +34,7 @@ mod simulator;
 mod tests;
 mod through_vest;
 
-pub use replay::replay_lines;
+pub use replay::{ReplayControl, ReplayProgress, replay_lines};
 pub use serial::{detect_baud, score_baud};
 
 use gpsd::run_gpsd;
@@ -144,9 +146,15 @@ pub enum SourceState {
 pub struct GpsHandle {
     stop: Arc<AtomicBool>,
     thread: Option<JoinHandle<()>>,
+    replay: Option<Arc<ReplayControl>>,
 }
 
 impl GpsHandle {
+    /// The pause/seek/progress controls of a [`SourceConfig::Replay`] source (`None` for the others).
+    pub fn replay_control(&self) -> Option<Arc<ReplayControl>> {
+        self.replay.clone()
+    }
+
     /// True while the worker runs.
     pub fn is_running(&self) -> bool {
         self.thread.as_ref().is_some_and(|t| !t.is_finished())
@@ -262,6 +270,9 @@ impl GpsSource {
     pub fn spawn(config: SourceConfig, outputs: Vec<Outbox<GpsEvent>>) -> std::io::Result<GpsHandle> {
         let stop = Arc::new(AtomicBool::new(false));
         let worker = Worker { outputs, stop: stop.clone() };
+        let replay =
+            matches!(config, SourceConfig::Replay { .. }).then(|| Arc::new(ReplayControl::default()));
+        let ctl = replay.clone();
         let name = match &config {
             SourceConfig::Serial { .. } => "gps-serial",
             SourceConfig::Replay { .. } => "gps-replay",
@@ -272,7 +283,9 @@ impl GpsSource {
         let thread = std::thread::Builder::new().name(name.into()).spawn(move || {
             match config {
                 SourceConfig::Serial { port, baud } => run_serial(&worker, &port, baud),
-                SourceConfig::Replay { path, speed } => run_replay(&worker, &path, speed),
+                SourceConfig::Replay { path, speed } => {
+                    run_replay(&worker, &path, speed, ctl.as_deref().unwrap_or(&ReplayControl::default()));
+                }
                 SourceConfig::Gpsd { host, port } => run_gpsd(&worker, &host, port),
                 SourceConfig::Simulator { route, pace_m_s, model, seed, period, looped, truth } => {
                     let p = SimParams { route: &route, pace_m_s, model, seed, period, looped, truth };
@@ -284,7 +297,7 @@ impl GpsSource {
                 o.try_send(GpsEvent::State(SourceState::Stopped));
             }
         })?;
-        Ok(GpsHandle { stop, thread: Some(thread) })
+        Ok(GpsHandle { stop, thread: Some(thread), replay })
     }
 
     /// Starts a source with one lossless consumer: a channel of `capacity` events with

@@ -89,7 +89,7 @@ pub(super) fn run_serial(w: &Worker, port: &str, baud: Option<u32>) {
         if !w.state(SourceState::Live { detail: format!("{port} at {baud} baud") }) {
             return;
         }
-        let mut d = NmeaDecoder::new(DecoderConfig::live());
+        let mut d = NmeaDecoder::new(DecoderConfig::live()).with_raw_lines();
         d.handle_bytes(&first, Instant::now());
         let reason = read_loop(w, &mut d, |buf| p.read(buf));
         match reason {

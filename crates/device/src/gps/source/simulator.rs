@@ -34,7 +34,7 @@ pub(super) fn run_sim(w: &Worker, p: &SimParams<'_>) {
     if !w.state(SourceState::Live { detail: "simulator".into() }) {
         return;
     }
-    let mut d = NmeaDecoder::new(DecoderConfig::live());
+    let mut d = NmeaDecoder::new(DecoderConfig::live()).with_raw_lines();
     let start = Instant::now();
     let mut k: u32 = 0;
     let mut lap: u64 = 0;

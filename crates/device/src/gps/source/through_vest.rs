@@ -35,7 +35,7 @@ fn state_of(f: &ForwardingState) -> SourceState {
 }
 
 fn run(w: &Worker, reader: &VestGpsReader) {
-    let mut d = NmeaDecoder::new(DecoderConfig::live());
+    let mut d = NmeaDecoder::new(DecoderConfig::live()).with_raw_lines();
     let mut buf = [0u8; 4096];
     let mut seen_state = None;
     let mut forwarding = false;

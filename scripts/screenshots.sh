@@ -1,0 +1,34 @@
+#!/usr/bin/env bash
+# Regenerates the console screenshots in docs/ from the real window under Xvfb (software OpenGL), each
+# with its own throw-away settings so the user's are never touched. Needs: xvfb (xvfb-run), Mesa.
+#
+#   scripts/screenshots.sh                                   # all of them, release build
+#   VESTNAV_BIN=target/debug/vestnav scripts/screenshots.sh  # with a binary already built
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bin=${VESTNAV_BIN:-}
+if [ -z "$bin" ]; then
+    cargo build --release --locked --quiet
+    bin=target/release/vestnav
+fi
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+
+# shot NAME SECONDS CONFIG_JSON [console options...]
+shot() {
+    local name=$1 after=$2 config=$3
+    shift 3
+    local home="$work/$name"
+    mkdir -p "$home/config/vestnav" "$home/data" "$home/cache"
+    printf '%s\n' "$config" >"$home/config/vestnav/console.json"
+    XDG_CONFIG_HOME="$home/config" XDG_DATA_HOME="$home/data" XDG_CACHE_HOME="$home/cache" \
+        xvfb-run -a -s "-screen 0 1400x900x24" \
+        "$bin" --screenshot "docs/$name.png" --screenshot-after "$after" "$@"
+}
+
+# The default console in the light, high-contrast theme for sunlight (simulated GPS, emulated vest).
+shot screenshot-light 8 '{"light_theme": true, "map_tiles": false}'
+# Guidance on hold: the vest's port does not exist, so the hold banner says what is missing and what to do.
+shot screenshot-hold 6 '{"map_tiles": false}' --vest serial:/dev/vestnav-no-such-port
+# The GPS panel's satellite table (u-center/xgps style), open.
+shot screenshot-satellites 8 '{"map_tiles": false, "show_satellite_table": true}'
