@@ -4,10 +4,8 @@
 #![allow(clippy::unwrap_used)]
 
 use std::collections::{BTreeSet, HashMap};
-use std::io::{BufRead, BufReader, Write};
-use std::net::TcpListener;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::atomic::Ordering;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
@@ -25,6 +23,11 @@ use vestnav_app::tiles::{BBox, TileKey, TileSourceConfig, cache};
 use vestnav_device::gps::GpsEvent;
 use vestnav_device::outbox::Outbox;
 use vestnav_device::wtcu::{VestEvent, VestHandle};
+
+#[path = "../../../tests/support/tile_server.rs"]
+mod tile_server;
+
+use tile_server::{TileServer, expected_tiles, solid_png};
 
 /// No devices: the map needs none.
 struct NoDevices;
@@ -51,14 +54,6 @@ fn temp_dir(name: &str) -> PathBuf {
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
     d
-}
-
-/// A 256×256 PNG of one colour.
-fn solid_png(c: [u8; 3]) -> Vec<u8> {
-    let img = image::RgbaImage::from_pixel(256, 256, image::Rgba([c[0], c[1], c[2], 255]));
-    let mut out = std::io::Cursor::new(Vec::new());
-    img.write_to(&mut out, image::ImageFormat::Png).unwrap();
-    out.into_inner()
 }
 
 type Textures = Arc<Mutex<HashMap<TextureId, Arc<egui::ColorImage>>>>;
@@ -306,131 +301,14 @@ fn tile_folder_is_drawn_and_bad_tiles_are_named() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
-/// A tile server on 127.0.0.1: answers `GET /{z}/{x}/{y}.png` with a generated PNG after a short delay
-/// (so that parallel requests overlap), one request per connection; counts requests per tile and the
-/// most requests in flight at once.
-struct TileServer {
-    port: u16,
-    requests: Arc<Mutex<Vec<(u8, u32, u32)>>>,
-    in_flight: Arc<AtomicUsize>,
-    max_in_flight: Arc<AtomicUsize>,
-    stop: Arc<AtomicBool>,
-    thread: Option<std::thread::JoinHandle<()>>,
-}
-
-impl TileServer {
-    fn start() -> Self {
-        let listener = TcpListener::bind("127.0.0.1:0").unwrap();
-        listener.set_nonblocking(true).unwrap();
-        let port = listener.local_addr().unwrap().port();
-        let requests = Arc::new(Mutex::new(Vec::new()));
-        let in_flight = Arc::new(AtomicUsize::new(0));
-        let max_in_flight = Arc::new(AtomicUsize::new(0));
-        let stop = Arc::new(AtomicBool::new(false));
-        let png = Arc::new(solid_png([250, 160, 20]));
-        let (rq, inf, mx, st) = (requests.clone(), in_flight.clone(), max_in_flight.clone(), stop.clone());
-        let thread = std::thread::spawn(move || {
-            while !st.load(Ordering::SeqCst) {
-                let Ok((stream, _)) = listener.accept() else {
-                    std::thread::sleep(Duration::from_millis(2));
-                    continue;
-                };
-                let (rq, inf, mx, png) = (rq.clone(), inf.clone(), mx.clone(), png.clone());
-                std::thread::spawn(move || {
-                    stream.set_nonblocking(false).unwrap();
-                    let mut reader = BufReader::new(stream.try_clone().unwrap());
-                    let mut line = String::new();
-                    if reader.read_line(&mut line).is_err() {
-                        return;
-                    }
-                    let now = inf.fetch_add(1, Ordering::SeqCst) + 1;
-                    mx.fetch_max(now, Ordering::SeqCst);
-                    loop {
-                        let mut h = String::new();
-                        if reader.read_line(&mut h).map_or(true, |n| n == 0) || h == "\r\n" {
-                            break;
-                        }
-                    }
-                    let path = line.split_whitespace().nth(1).unwrap_or("");
-                    let path = path.split('?').next().unwrap_or("");
-                    let parts: Vec<&str> =
-                        path.trim_start_matches('/').trim_end_matches(".png").split('/').collect();
-                    let key = (parts.len() == 3)
-                        .then(|| {
-                            Some((parts[0].parse().ok()?, parts[1].parse().ok()?, parts[2].parse().ok()?))
-                        })
-                        .flatten();
-                    std::thread::sleep(Duration::from_millis(15));
-                    let mut s = stream;
-                    match key {
-                        Some(k) => {
-                            rq.lock().unwrap().push(k);
-                            let head = format!(
-                                "HTTP/1.1 200 OK\r\nContent-Type: image/png\r\nContent-Length: {}\r\nConnection: close\r\n\r\n",
-                                png.len()
-                            );
-                            let _ = s.write_all(head.as_bytes()).and_then(|()| s.write_all(&png));
-                        }
-                        None => {
-                            let _ = s.write_all(
-                                b"HTTP/1.1 404 Not Found\r\nContent-Length: 0\r\nConnection: close\r\n\r\n",
-                            );
-                        }
-                    }
-                    let _ = s.flush();
-                    inf.fetch_sub(1, Ordering::SeqCst);
-                });
-            }
-        });
-        Self { port, requests, in_flight, max_in_flight, stop, thread: Some(thread) }
-    }
-
-    fn requested(&self) -> Vec<(u8, u32, u32)> {
-        self.requests.lock().unwrap().clone()
-    }
-
-    fn stop(&mut self) {
-        self.stop.store(true, Ordering::SeqCst);
-        if let Some(t) = self.thread.take() {
-            t.join().unwrap();
-        }
-        while self.in_flight.load(Ordering::SeqCst) > 0 {
-            std::thread::sleep(Duration::from_millis(5));
-        }
-    }
-}
-
-/// The tiles of a box over a zoom range, by the closed-form slippy-map formulas, written out here
-/// independently of the console's code.
-fn expected_tiles(b: &BBox, z0: u8, z1: u8) -> BTreeSet<(u8, u32, u32)> {
-    let mut out = BTreeSet::new();
-    for z in z0..=z1 {
-        let n = f64::from(1u32 << z);
-        let col = |lon: f64| (((lon + 180.0) / 360.0 * n).floor()).clamp(0.0, n - 1.0) as u32;
-        let row = |lat: f64| {
-            let r = lat.to_radians();
-            (((1.0 - r.tan().asinh() / std::f64::consts::PI) / 2.0 * n).floor()).clamp(0.0, n - 1.0) as u32
-        };
-        for x in col(b.min_lon)..=col(b.max_lon) {
-            for y in row(b.max_lat)..=row(b.min_lat) {
-                out.insert((z, x, y));
-            }
-        }
-    }
-    out
-}
-
 #[test]
 // One server, one box: cache, resume, parallelism, MBTiles, then offline — one story, read top to bottom.
 #[allow(clippy::too_many_lines)]
 fn prefetch_fetches_the_box_resumes_respects_parallelism_and_serves_offline() {
     let root = temp_dir("prefetch");
-    let mut server = TileServer::start();
-    let source = TileSourceConfig::Xyz {
-        url: format!("http://127.0.0.1:{}/{{z}}/{{x}}/{{y}}.png?key=SECRET", server.port),
-        attribution: "test server".into(),
-        allows_bulk: true,
-    };
+    let mut server = TileServer::start(Duration::from_millis(15));
+    let source =
+        TileSourceConfig::Xyz { url: server.url(), attribution: "test server".into(), allows_bulk: true };
     // The area: the console's own route (the demo route) plus 150 m; tiles off, so that the console
     // fetches nothing itself.
     let (mut h, _) = console(Config { map_tiles: false, ..map_cfg(source.clone()) });
@@ -439,7 +317,7 @@ fn prefetch_fetches_the_box_resumes_respects_parallelism_and_serves_offline() {
     assert!(!pts.is_empty());
     let bbox = BBox::around(pts, 150.0).unwrap();
     let (z0, z1) = (14, 17);
-    let expected = expected_tiles(&bbox, z0, z1);
+    let expected = expected_tiles(bbox.min_lat, bbox.min_lon, bbox.max_lat, bbox.max_lon, z0, z1);
     assert!(expected.len() > 12, "{}", expected.len());
     drop(h);
 

@@ -1,6 +1,8 @@
 //! The console driven by label with `egui_kittest`, devices injected.
 #![allow(clippy::unwrap_used)]
 
+mod common;
+
 use std::io::{Read, Write};
 use std::sync::atomic::AtomicBool;
 use std::sync::{Arc, Mutex};
@@ -13,7 +15,7 @@ use vestnav_app::console::{Console, ConsoleOptions, GpsAlarm};
 use vestnav_app::devices::{DeviceFactory, GpsWorker};
 use vestnav_app::route::Waypoint;
 use vestnav_core::vest::TactorMask;
-use vestnav_device::gps::{ErrorEstimate, ErrorSource, Fix, FixMode, GpsEvent, SourceState};
+use vestnav_device::gps::{ErrorEstimate, ErrorSource, Fix, FixMode, GpsEvent};
 use vestnav_device::outbox::Outbox;
 use vestnav_device::session_log::LogEntry;
 use vestnav_device::wtcu::codec::{FrameCodec, WireCodec};
@@ -52,15 +54,11 @@ impl Write for RecordingUnit {
     }
 }
 
-struct Idle;
-impl GpsWorker for Idle {
-    fn stop(&mut self) {}
-}
-
+/// GPS: the shared test factory's injected events; vest: the emulated unit behind a recording transport.
 #[derive(Default, Clone)]
 struct Fake {
     sent: Arc<Mutex<Vec<Request>>>,
-    gps: Arc<Mutex<Vec<Outbox<GpsEvent>>>>,
+    gps: common::Devices,
     /// The emulated unit's magnetometer (none: the unit offers no heading, and the console sends none of
     /// the v2 heading requests).
     compass: Option<CompassSetup>,
@@ -72,24 +70,18 @@ impl Fake {
     }
 
     fn gps(&self, ev: &GpsEvent) {
-        for o in self.gps.lock().unwrap().iter() {
-            o.send(ev.clone(), &AtomicBool::new(false));
-        }
+        self.gps.gps(ev);
     }
 }
 
 impl DeviceFactory for Fake {
     fn open_gps(
         &self,
-        _s: &GpsSourceConfig,
-        _r: &[Waypoint],
+        s: &GpsSourceConfig,
+        r: &[Waypoint],
         out: Vec<Outbox<GpsEvent>>,
     ) -> Result<Box<dyn GpsWorker>, String> {
-        for o in &out {
-            o.send(GpsEvent::State(SourceState::Live { detail: "fake".into() }), &AtomicBool::new(false));
-        }
-        *self.gps.lock().unwrap() = out;
-        Ok(Box::new(Idle))
+        self.gps.open_gps(s, r, out)
     }
     fn open_vest(&self, _s: &VestSourceConfig, out: Vec<Outbox<VestEvent>>) -> Result<VestHandle, String> {
         let sent = self.sent.clone();

@@ -548,22 +548,22 @@ impl<C: WireCodec> Link<C> {
         self.enqueue(out, now)
     }
 
-    fn require_gps(&self) -> Result<(), CommandError> {
+    /// The link is ready and the unit said it has `capability`; otherwise `NotSupported(what)`.
+    fn require(&self, capability: Capabilities, what: &'static str) -> Result<(), CommandError> {
         self.require_ready()?;
-        if self.device.is_some_and(|d| d.capabilities.contains(Capabilities::GPS)) {
+        if self.device.is_some_and(|d| d.capabilities.contains(capability)) {
             Ok(())
         } else {
-            Err(CommandError::NotSupported("GPS forwarding (needs a protocol v2 unit with a GPS receiver)"))
+            Err(CommandError::NotSupported(what))
         }
     }
 
+    fn require_gps(&self) -> Result<(), CommandError> {
+        self.require(Capabilities::GPS, "GPS forwarding (needs a protocol v2 unit with a GPS receiver)")
+    }
+
     fn require_heading(&self) -> Result<(), CommandError> {
-        self.require_ready()?;
-        if self.device.is_some_and(|d| d.capabilities.contains(Capabilities::HEADING)) {
-            Ok(())
-        } else {
-            Err(CommandError::NotSupported("heading (needs a protocol v2 unit with a magnetometer)"))
-        }
+        self.require(Capabilities::HEADING, "heading (needs a protocol v2 unit with a magnetometer)")
     }
 
     /// Fires `mask` for `duration_ms`; returns the sequence number. Checked against the limits first.
@@ -583,10 +583,7 @@ impl<C: WireCodec> Link<C> {
 
     /// Plays `pattern` on the unit; returns the sequence number. Checked against the limits first.
     pub fn play(&mut self, pattern: &Pattern, now: Instant) -> Result<u8, CommandError> {
-        self.require_ready()?;
-        if !self.device.is_some_and(|d| d.capabilities.contains(Capabilities::PATTERNS)) {
-            return Err(CommandError::NotSupported("patterns"));
-        }
+        self.require(Capabilities::PATTERNS, "patterns")?;
         self.limits.check_pattern(&pattern.frames, pattern.repeats)?;
         self.check_runs(&leading_pattern_ms(&pattern.frames, pattern.repeats), now)?;
         self.check_duty(&planned_pattern_ms(&pattern.frames, pattern.repeats), now)?;
@@ -601,10 +598,7 @@ impl<C: WireCodec> Link<C> {
 
     /// Sets the drive level (0..=255) of `mask`; only on units with intensity support.
     pub fn set_intensity(&mut self, mask: TactorMask, level: u8, now: Instant) -> Result<u8, CommandError> {
-        self.require_ready()?;
-        if !self.device.is_some_and(|d| d.capabilities.contains(Capabilities::INTENSITY)) {
-            return Err(CommandError::NotSupported("intensity"));
-        }
+        self.require(Capabilities::INTENSITY, "intensity")?;
         let out = self.outgoing(Request::SetIntensity { mask, level })?;
         self.enqueue(out, now)
     }

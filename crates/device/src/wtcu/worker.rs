@@ -471,6 +471,7 @@ impl VestHandle {
             events,
             shared: shared.clone(),
             gps_requested: None,
+            gps_unsupported_said: false,
         };
         let thread = std::thread::Builder::new().name("vest-worker".to_owned()).spawn(move || {
             worker.shared.thread.get_or_init(std::thread::current);
@@ -579,6 +580,8 @@ struct Worker {
     shared: Arc<Shared>,
     /// The baud GPS forwarding was requested at in this session, if it was.
     gps_requested: Option<u32>,
+    /// This session's unit cannot forward a receiver, and the GPS source has been told so.
+    gps_unsupported_said: bool,
 }
 
 impl Worker {
@@ -689,6 +692,7 @@ impl Worker {
             }
             if matches!(self.link.state(), LinkState::Lost { .. }) {
                 self.gps_requested = None;
+                self.gps_unsupported_said = false;
                 if let Some(g) = &self.settings.gps {
                     g.set_state(ForwardingState::NoLink);
                 }
@@ -703,11 +707,11 @@ impl Worker {
         let Some(g) = self.settings.gps.clone() else { return };
         let Some(info) = self.link.device().copied().filter(|_| self.link.is_ready()) else { return };
         if !info.capabilities.contains(Capabilities::GPS) {
-            if self.gps_requested.is_some() || g.wanted().is_none() {
+            if self.gps_unsupported_said || g.wanted().is_none() {
                 return;
             }
-            // Said once per session (the marker keeps this turn's work to a load and a compare).
-            self.gps_requested = Some(0);
+            // Said once per session: every later turn costs a load and a compare.
+            self.gps_unsupported_said = true;
             g.set_state(ForwardingState::Unsupported(format!(
                 "this unit (firmware {}, protocol v{}) has no GPS receiver to forward",
                 info.firmware, info.protocol_version

@@ -1,0 +1,154 @@
+//! Test support shared by the tile tests of the console (`crates/app/tests/tiles.rs`) and of
+//! `vestnav tiles prefetch` (`tests/integration/tiles_cli.rs`): a generated solid-colour PNG, a tile server
+//! on 127.0.0.1 that counts what it is asked for, and the tiles of a box by the closed-form slippy-map
+//! formulas. Each test crate includes this file with `#[path]`.
+#![allow(dead_code, clippy::unwrap_used)]
+
+use std::collections::BTreeSet;
+use std::io::{BufRead, BufReader, Write};
+use std::net::TcpListener;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+/// A tile address: zoom, column, row (XYZ).
+pub type Tile = (u8, u32, u32);
+
+/// A 256×256 PNG of one colour.
+pub fn solid_png(c: [u8; 3]) -> Vec<u8> {
+    let img = image::RgbaImage::from_pixel(256, 256, image::Rgba([c[0], c[1], c[2], 255]));
+    let mut out = std::io::Cursor::new(Vec::new());
+    img.write_to(&mut out, image::ImageFormat::Png).unwrap();
+    out.into_inner()
+}
+
+/// A tile server on 127.0.0.1: answers `GET /{z}/{x}/{y}.png` with a generated PNG after `delay` (the
+/// throttle), one request per connection; records every tile requested and the most requests in flight.
+pub struct TileServer {
+    /// The port it listens on.
+    pub port: u16,
+    /// Every tile requested, in order (recorded when the request arrives, before the throttle).
+    pub requests: Arc<Mutex<Vec<Tile>>>,
+    in_flight: Arc<AtomicUsize>,
+    /// The most requests in flight at once.
+    pub max_in_flight: Arc<AtomicUsize>,
+    stop: Arc<AtomicBool>,
+    thread: Option<std::thread::JoinHandle<()>>,
+    /// The PNG every tile request gets.
+    pub png: Arc<Vec<u8>>,
+}
+
+impl TileServer {
+    pub fn start(delay: Duration) -> Self {
+        let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+        listener.set_nonblocking(true).unwrap();
+        let port = listener.local_addr().unwrap().port();
+        let requests = Arc::new(Mutex::new(Vec::new()));
+        let in_flight = Arc::new(AtomicUsize::new(0));
+        let max_in_flight = Arc::new(AtomicUsize::new(0));
+        let stop = Arc::new(AtomicBool::new(false));
+        let png = Arc::new(solid_png([250, 160, 20]));
+        let (rq, inf, mx, st, png2) =
+            (requests.clone(), in_flight.clone(), max_in_flight.clone(), stop.clone(), png.clone());
+        let thread = std::thread::spawn(move || {
+            while !st.load(Ordering::SeqCst) {
+                let Ok((stream, _)) = listener.accept() else {
+                    std::thread::sleep(Duration::from_millis(1));
+                    continue;
+                };
+                let (rq, inf, mx, png) = (rq.clone(), inf.clone(), mx.clone(), png2.clone());
+                std::thread::spawn(move || {
+                    stream.set_nonblocking(false).unwrap();
+                    let mut reader = BufReader::new(stream.try_clone().unwrap());
+                    let mut line = String::new();
+                    if reader.read_line(&mut line).is_err() {
+                        return;
+                    }
+                    let now = inf.fetch_add(1, Ordering::SeqCst) + 1;
+                    mx.fetch_max(now, Ordering::SeqCst);
+                    loop {
+                        let mut h = String::new();
+                        if reader.read_line(&mut h).map_or(true, |n| n == 0) || h == "\r\n" {
+                            break;
+                        }
+                    }
+                    let path = line.split_whitespace().nth(1).unwrap_or("");
+                    let path = path.split('?').next().unwrap_or("");
+                    let parts: Vec<&str> =
+                        path.trim_start_matches('/').trim_end_matches(".png").split('/').collect();
+                    let key: Option<Tile> = (parts.len() == 3)
+                        .then(|| {
+                            Some((parts[0].parse().ok()?, parts[1].parse().ok()?, parts[2].parse().ok()?))
+                        })
+                        .flatten();
+                    if let Some(k) = key {
+                        rq.lock().unwrap().push(k);
+                    }
+                    std::thread::sleep(delay);
+                    let mut s = stream;
+                    let _ = match key {
+                        Some(_) => {
+                            let head = format!(
+                                "HTTP/1.1 200 OK\r\nContent-Type: image/png\r\nContent-Length: {}\r\nConnection: close\r\n\r\n",
+                                png.len()
+                            );
+                            s.write_all(head.as_bytes()).and_then(|()| s.write_all(&png))
+                        }
+                        None => s.write_all(
+                            b"HTTP/1.1 404 Not Found\r\nContent-Length: 0\r\nConnection: close\r\n\r\n",
+                        ),
+                    };
+                    let _ = s.flush();
+                    inf.fetch_sub(1, Ordering::SeqCst);
+                });
+            }
+        });
+        Self { port, requests, in_flight, max_in_flight, stop, thread: Some(thread), png }
+    }
+
+    pub fn url(&self) -> String {
+        format!("http://127.0.0.1:{}/{{z}}/{{x}}/{{y}}.png?key=SECRET", self.port)
+    }
+
+    pub fn requested(&self) -> Vec<Tile> {
+        self.requests.lock().unwrap().clone()
+    }
+
+    pub fn stop(&mut self) {
+        self.stop.store(true, Ordering::SeqCst);
+        if let Some(t) = self.thread.take() {
+            t.join().unwrap();
+        }
+        let t0 = Instant::now();
+        while self.in_flight.load(Ordering::SeqCst) > 0 && t0.elapsed() < Duration::from_secs(5) {
+            std::thread::sleep(Duration::from_millis(5));
+        }
+    }
+}
+
+impl Drop for TileServer {
+    fn drop(&mut self) {
+        self.stop();
+    }
+}
+
+/// The tiles of a box (S, W, N, E) over zooms `z0..=z1`, by the closed-form slippy-map formulas
+/// (<https://wiki.openstreetmap.org/wiki/Slippy_map_tilenames>), written out here independently.
+pub fn expected_tiles(s: f64, w: f64, n: f64, e: f64, z0: u8, z1: u8) -> BTreeSet<Tile> {
+    let mut out = BTreeSet::new();
+    for z in z0..=z1 {
+        let k = f64::from(1u32 << z);
+        let col = |lon: f64| (((lon + 180.0) / 360.0 * k).floor()).clamp(0.0, k - 1.0) as u32;
+        let row = |lat: f64| {
+            let r = lat.to_radians();
+            (((1.0 - (r.tan() + 1.0 / r.cos()).ln() / std::f64::consts::PI) / 2.0 * k).floor())
+                .clamp(0.0, k - 1.0) as u32
+        };
+        for x in col(w)..=col(e) {
+            for y in row(n)..=row(s) {
+                out.insert((z, x, y));
+            }
+        }
+    }
+    out
+}
