@@ -171,6 +171,10 @@ pub enum ErrorSource {
     Gst,
     /// Garmin's `$PGRME` estimated position error.
     Pgrme,
+    /// u-blox UBX accuracy estimates (NAV-PVT / NAV-POSLLH `hAcc`, `vAcc`).
+    Ubx,
+    /// `SiRF` binary estimated horizontal/vertical position error (MID 41 `EHPE`, `EVPE`).
+    Sirf,
     /// gpsd's `eph`/`epv` (its own DOP model unless the receiver sent GST/PGRME; confidence unspecified).
     Gpsd,
     /// Our DOP model: `sigma_h = HDOP * UERE`, `sigma_v = VDOP * UERE` (see [`crate::gps::UERE_M`]).

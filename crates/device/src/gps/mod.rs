@@ -30,8 +30,10 @@ pub mod nmea_out;
 pub mod record;
 mod sentence;
 pub mod sim;
+pub mod sirf;
 pub mod source;
 pub mod through_vest;
+pub mod ubx;
 #[cfg(test)]
 mod truth_tests;
 
