@@ -5,7 +5,8 @@
 use clap::{Parser, Subcommand};
 
 use crate::{
-    analyze, completions, emulate_gps, emulate_vest, fieldtest, nav, nmea, sim_tactor, sim_wave, tiles,
+    analyze, completions, emulate_gps, emulate_vest, fieldtest, gps_configure, nav, nmea, sim_tactor,
+    sim_wave, tiles,
 };
 
 /// One line: `-h`, and the NAME of the man page.
@@ -99,6 +100,9 @@ pub enum Command {
     /// Decode and record NMEA 0183.
     #[command(subcommand)]
     Nmea(NmeaCommand),
+    /// Configure a GPS receiver on a serial port (rate, constellations, dynamic model, static hold).
+    #[command(subcommand)]
+    Gps(GpsCommand),
     /// Run a device emulator on a pseudo-terminal (the console connects to it like to hardware).
     #[command(subcommand)]
     Emulate(EmulateCommand),
@@ -148,6 +152,14 @@ pub enum NmeaCommand {
     Decode(nmea::DecodeArgs),
     /// Record raw NMEA from a serial port with timestamps.
     Record(nmea::RecordArgs),
+}
+
+/// `vestnav gps ...`
+#[derive(Debug, Subcommand)]
+pub enum GpsCommand {
+    /// Send a configuration to the receiver and report each command's acknowledgement (u-blox UBX CFG,
+    /// u-blox M9/F9 CFG-VALSET, `SiRF` static navigation); --dry-run prints the frames as hex.
+    Configure(gps_configure::ConfigureArgs),
 }
 
 /// `vestnav emulate ...`

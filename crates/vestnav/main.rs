@@ -8,6 +8,7 @@ mod completions;
 mod emulate_gps;
 mod emulate_vest;
 mod fieldtest;
+mod gps_configure;
 mod nav;
 mod nmea;
 mod sim_tactor;
@@ -17,8 +18,8 @@ mod tiles;
 use clap::Parser;
 
 use cli::{
-    AnalyzeCommand, Cli, Command, EmulateCommand, FieldtestCommand, NavCommand, NmeaCommand, SimCommand,
-    TilesCommand,
+    AnalyzeCommand, Cli, Command, EmulateCommand, FieldtestCommand, GpsCommand, NavCommand, NmeaCommand,
+    SimCommand, TilesCommand,
 };
 
 fn main() -> std::process::ExitCode {
@@ -96,6 +97,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Analyze(AnalyzeCommand::TactorData(a)) => analyze::run_tactor_data(&a),
         Command::Nmea(NmeaCommand::Decode(a)) => nmea::run_decode(&a),
         Command::Nmea(NmeaCommand::Record(a)) => nmea::run_record(&a),
+        Command::Gps(GpsCommand::Configure(a)) => gps_configure::run(&a),
         Command::Emulate(EmulateCommand::Vest(a)) => emulate_vest::run(&a),
         Command::Emulate(EmulateCommand::Gps(a)) => emulate_gps::run(&a),
         Command::Nav(NavCommand::Simulate(a)) => nav::run_simulate(&a),

@@ -160,8 +160,10 @@ fn check(input: &[u8], counts: &mut Counts) -> Result<(), String> {
     if stats.sentences > line_ends + 1 {
         return Err(format!("more sentences ({}) than lines ({})", stats.sentences, line_ends + 1));
     }
-    if fixes.len() as u64 > stats.sentences {
-        return Err(format!("fix count unbounded: {} fixes from {} sentences", fixes.len(), stats.sentences));
+    // Every fix comes from at least one verified sentence or binary frame (a UBX HNR-PVT is one frame).
+    let items = stats.sentences + stats.ubx_frames + stats.sirf_frames;
+    if fixes.len() as u64 > items {
+        return Err(format!("fix count unbounded: {} fixes from {items} sentences and frames", fixes.len()));
     }
     if stats.epochs != fixes.len() as u64 {
         return Err(format!("epoch count: stats say {}, {} fixes emitted", stats.epochs, fixes.len()));
@@ -224,11 +226,13 @@ fn check(input: &[u8], counts: &mut Counts) -> Result<(), String> {
     live.finish(t);
     drain(&mut live, &mut live_fixes);
     let lstats = live.stats();
-    if live_fixes.len() as u64 > lstats.sentences {
+    // One fix per epoch at most, and an epoch needs at least one sentence or binary frame.
+    let items = lstats.sentences + lstats.ubx_frames + lstats.sirf_frames;
+    if live_fixes.len() as u64 > items {
         return Err(format!(
-            "live fix count unbounded: {} fixes, {} sentences",
+            "live fix count unbounded: {} fixes, {} sentences and binary frames",
             live_fixes.len(),
-            lstats.sentences
+            items
         ));
     }
     for f in &live_fixes {

@@ -22,7 +22,7 @@ fn vestnav(args: &[&str]) -> String {
 }
 
 /// The subcommands a user types; each must be in the help, the completions and the man page.
-const SUBCOMMANDS: [&str; 7] = ["sim", "analyze", "nmea", "emulate", "nav", "fieldtest", "tiles"];
+const SUBCOMMANDS: [&str; 8] = ["sim", "analyze", "nmea", "gps", "emulate", "nav", "fieldtest", "tiles"];
 
 #[test]
 fn help_says_that_no_subcommand_opens_the_console() {

@@ -23,7 +23,7 @@ fn logs() -> PathBuf {
 }
 
 /// Kills the child (by its own handle) when dropped.
-struct Kill(Child);
+pub(crate) struct Kill(Child);
 impl Drop for Kill {
     fn drop(&mut self) {
         let _ = self.0.kill();
@@ -32,7 +32,8 @@ impl Drop for Kill {
 }
 
 /// Starts `vestnav emulate gps ... --pty` and returns it with the PTY path it printed.
-fn emulator(args: &[&str]) -> (Kill, String) {
+/// Starts `vestnav emulate gps --pty ARGS` and returns it (killed on drop) with the PTY path it printed.
+pub(crate) fn emulator(args: &[&str]) -> (Kill, String) {
     let mut child = Command::new(bin())
         .args(["emulate", "gps", "--pty"])
         .args(args)

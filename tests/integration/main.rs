@@ -5,6 +5,7 @@
 
 mod cli;
 mod gps;
+mod gps_config;
 mod latency;
 mod nav;
 mod safety;

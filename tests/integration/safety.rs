@@ -317,7 +317,7 @@ fn stop_all_reaches_the_vest_within_50_ms_whatever_gpsd_sends() {
         if mode == Hostile::Absurd {
             let shown = c.gps.last_position.as_ref().and_then(|f| f.lon_deg);
             assert!(shown.is_some_and(|lon| (-180.0..=180.0).contains(&lon)), "{shown:?}");
-            assert!(c.map.track.iter().all(|(la, lo)| la.abs() <= 90.0 && lo.abs() <= 180.0));
+            assert!(c.map.track.iter().all(|p| p.lat_deg.abs() <= 90.0 && p.lon_deg.abs() <= 180.0));
         }
         let t0 = Instant::now();
         c.disconnect_gps();

@@ -138,7 +138,8 @@ fn bench(cr: &mut Criterion) {
     c.map.track = (0..100_000)
         .filter_map(|k| {
             let f = fix(k);
-            f.lat_deg.zip(f.lon_deg)
+            let (lat_deg, lon_deg) = f.lat_deg.zip(f.lon_deg)?;
+            Some(vestnav_device::route_file::TrackPoint { lat_deg, lon_deg, ele_m: f.alt_m, time: f.time })
         })
         .collect();
     c.map.waypoints = (0..1000)

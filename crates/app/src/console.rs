@@ -90,6 +90,9 @@ pub struct GpsView {
     pub monitor: crate::gps_panel::RawMonitor,
     /// The Record toggle: the source's sentences to a file (kept across reconnections).
     pub recording: crate::gps_panel::RecordUi,
+    /// The Receiver section: the configuration to send and the last run's outcomes (kept across
+    /// reconnections).
+    pub receiver: crate::gps_receiver::ReceiverUi,
 }
 
 /// Why the GPS alarm is on.
@@ -455,6 +458,7 @@ impl Console {
         self.gps = GpsView {
             picker: std::mem::take(&mut self.gps.picker),
             recording: std::mem::take(&mut self.gps.recording),
+            receiver: std::mem::take(&mut self.gps.receiver),
             monitor: self.gps.monitor.emptied(),
             ..GpsView::default()
         };
@@ -478,6 +482,14 @@ impl Console {
     /// The pause/seek/progress controls of the running GPS source when it is a replay.
     pub fn gps_replay(&self) -> Option<std::sync::Arc<vestnav_device::gps::ReplayControl>> {
         self.gps_worker.as_ref()?.replay_control()
+    }
+
+    /// Sends a receiver configuration through the running GPS source (a direct serial port only).
+    pub fn gps_configure(
+        &self,
+        config: vestnav_device::gps::receiver_config::ReceiverConfig,
+    ) -> Result<vestnav_device::gps::receiver_config::ConfigTicket, String> {
+        self.gps_worker.as_ref().ok_or_else(|| "connect the GPS first".to_owned())?.configure(config)
     }
 
     /// Stops the GPS source (never waits long on its IO).

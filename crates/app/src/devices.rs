@@ -6,6 +6,7 @@
 //! ([`crate::hardware::Hardware`]) starts the device crate's workers; tests inject their own GPS and give
 //! the vest worker their own transport.
 
+use vestnav_device::gps::receiver_config::{ConfigTicket, ReceiverConfig};
 use vestnav_device::gps::{GpsEvent, GpsHandle};
 use vestnav_device::outbox::Outbox;
 use vestnav_device::wtcu::{VestEvent, VestHandle};
@@ -22,6 +23,13 @@ pub trait GpsWorker: Send {
     fn replay_control(&self) -> Option<std::sync::Arc<vestnav_device::gps::ReplayControl>> {
         None
     }
+
+    /// Sends a configuration to the receiver (a direct serial source only); the ticket reports each
+    /// command's outcome. Other sources say why they cannot.
+    fn configure(&self, config: ReceiverConfig) -> Result<ConfigTicket, String> {
+        let _ = config;
+        Err(vestnav_device::gps::source::CONFIG_NEEDS_SERIAL.to_owned())
+    }
 }
 
 impl GpsWorker for GpsHandle {
@@ -31,6 +39,10 @@ impl GpsWorker for GpsHandle {
 
     fn replay_control(&self) -> Option<std::sync::Arc<vestnav_device::gps::ReplayControl>> {
         GpsHandle::replay_control(self)
+    }
+
+    fn configure(&self, config: ReceiverConfig) -> Result<ConfigTicket, String> {
+        GpsHandle::configure(self, config)
     }
 }
 

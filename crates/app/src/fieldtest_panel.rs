@@ -43,7 +43,8 @@ use vestnav_device::gps::Fix;
 use vestnav_report::Figure;
 use vestnav_report::fieldtest::{ConesReport, DriftReport, Source, cones_figure, drift_figure, drift_rows};
 
-use crate::sim_panel::{ExportFormat, Exporter, figure_grid};
+use crate::export::{ExportFormat, ExportRequest, Exporter};
+use crate::sim_panel::figure_grid;
 
 /// Speed below which `SiRF` Star III static navigation may pin the position [m/s] (physics.md §5).
 pub const STATIC_NAV_SPEED_M_S: f64 = 1.2;
@@ -335,27 +336,8 @@ pub struct FieldTestPanel {
     drift_exporter: Exporter,
     /// The cone test's export path and state.
     cones_exporter: Exporter,
-    /// An export waiting for the operator's go-ahead because its file exists.
-    overwrite: Option<PendingOverwrite>,
     /// Where a relative export path is taken (the console sets `cfg.recent.base()` each frame).
     pub base: PathBuf,
-    /// The "Browse…" dialog of the export path.
-    browse: crate::file_dialog::Browse,
-}
-
-/// The export path's dialog (the extension follows the button pressed).
-const EXPORT_SAVE: crate::file_dialog::DialogSpec = crate::file_dialog::DialogSpec {
-    mode: crate::file_dialog::Mode::Save,
-    title: "Export the field test to",
-    filter: ("JSON or PNG", &["json", "png"]),
-};
-
-/// An export the operator must confirm: its file exists.
-#[derive(Debug, Clone, PartialEq)]
-struct PendingOverwrite {
-    procedure: Procedure,
-    format: ExportFormat,
-    path: PathBuf,
 }
 
 /// What the cached plots were derived from.
@@ -382,11 +364,9 @@ impl FieldTestPanel {
             drift: DriftTest::new(),
             cones: ConeTest::new(),
             plots: None,
-            drift_exporter: Exporter::new(DRIFT_EXPORT_PATH),
-            cones_exporter: Exporter::new(CONES_EXPORT_PATH),
-            overwrite: None,
+            drift_exporter: Exporter::new(DRIFT_EXPORT_PATH, "Export the drift test to"),
+            cones_exporter: Exporter::new(CONES_EXPORT_PATH, "Export the cone test to"),
             base: crate::file_dialog::documents_dir(),
-            browse: crate::file_dialog::Browse::default(),
         }
     }
 
@@ -869,32 +849,11 @@ impl FieldTestPanel {
         if !has_data {
             return;
         }
-        let pressed = self.exporter_mut(procedure).ui(ui, &[ExportFormat::Json, ExportFormat::Png]);
-        self.export_path_row(ui, procedure);
-        if let Some(format) = pressed {
-            self.overwrite = None;
-            let base = self.base.clone();
-            let exporter = self.exporter_mut(procedure);
-            // The typed path becomes the absolute one shown under it: never the working directory.
-            if let Some(abs) = crate::file_dialog::resolve(&exporter.path, &base) {
-                exporter.path = abs.display().to_string();
-            }
-            match exporter.target(format) {
-                Some(path) if path.exists() => {
-                    self.overwrite = Some(PendingOverwrite { procedure, format, path });
-                }
-                _ => self.start_export(ui.ctx(), format, false),
-            }
-        }
-        if let Some(p) = self.overwrite.clone().filter(|p| p.procedure == procedure) {
-            match crate::file_dialog::confirm_replace(ui.ctx(), &p.path) {
-                Some(crate::file_dialog::Answer::Replace) => {
-                    self.overwrite = None;
-                    self.start_export(ui.ctx(), p.format, true);
-                }
-                Some(crate::file_dialog::Answer::Cancel) => self.overwrite = None,
-                None => {}
-            }
+        let base = self.base.clone();
+        if let Some(request) =
+            self.exporter_mut(procedure).ui(ui, &[ExportFormat::Json, ExportFormat::Png], &base)
+        {
+            self.start_export(ui.ctx(), request);
         }
         let id = match procedure {
             Procedure::Drift => "fieldtest-drift",
@@ -904,34 +863,6 @@ impl FieldTestPanel {
         egui::ScrollArea::vertical().id_salt(id).show(ui, |ui| figure_grid(ui, id, &figure, 260.0));
     }
 
-    /// Under the export row: **Browse…** (the desktop's save dialog) and the absolute path the export uses.
-    fn export_path_row(&mut self, ui: &mut egui::Ui, procedure: Procedure) {
-        let base = self.base.clone();
-        if let Some(crate::file_dialog::Picked::File(p)) = self.browse.poll() {
-            self.exporter_mut(procedure).path = p.display().to_string();
-        }
-        let resolved = crate::file_dialog::resolve(&self.exporter_mut(procedure).path, &base);
-        ui.horizontal(|ui| {
-            if ui
-                .add_enabled(!self.browse.is_open(), egui::Button::new("Browse…"))
-                .on_hover_text("Choose the export file in the desktop's file dialog")
-                .clicked()
-            {
-                let dir = resolved.as_deref().and_then(std::path::Path::parent).filter(|d| d.is_dir());
-                let name = resolved.as_deref().and_then(std::path::Path::file_name);
-                let name = name.map(|n| n.to_string_lossy().into_owned());
-                self.browse.start(ui.ctx(), EXPORT_SAVE, dir.unwrap_or(&base), name.as_deref());
-            }
-            if self.browse.is_open() {
-                ui.spinner();
-            }
-            crate::file_dialog::uses_label(ui, resolved.as_deref());
-        });
-        if let Some(note) = &self.browse.note {
-            ui.label(egui::RichText::new(note).small().color(ui.visuals().warn_fg_color));
-        }
-    }
-
     fn exporter_mut(&mut self, procedure: Procedure) -> &mut Exporter {
         match procedure {
             Procedure::Drift => &mut self.drift_exporter,
@@ -939,16 +870,9 @@ impl FieldTestPanel {
         }
     }
 
-    /// Writes the current procedure's export in `format` on the exporter's thread. Unless `overwrite`, a
-    /// file that appeared at the target meanwhile is left alone and the export fails naming it.
-    fn start_export(&mut self, ctx: &egui::Context, format: ExportFormat, overwrite: bool) {
-        let procedure = self.procedure;
-        let Some(path) = self.exporter_mut(procedure).target(format) else {
-            // The exporter reports the missing path itself.
-            self.exporter_mut(procedure).start(ctx, format, || Err(String::new()));
-            return;
-        };
-        let bytes: Box<dyn FnOnce() -> Result<Vec<u8>, String> + Send> = match format {
+    /// Writes the current procedure's export the operator asked for on the exporter's thread.
+    fn start_export(&mut self, ctx: &egui::Context, request: ExportRequest) {
+        let bytes: Box<dyn FnOnce() -> Result<Vec<u8>, String> + Send> = match request.format {
             ExportFormat::Json => {
                 let json = self.report_json();
                 Box::new(move || json)
@@ -958,13 +882,7 @@ impl FieldTestPanel {
                 Box::new(move || figure.render_png().map_err(|e| format!("cannot render the figure: {e}")))
             }
         };
-        let format = if format == ExportFormat::Csv { ExportFormat::Png } else { format };
-        self.exporter_mut(procedure).start(ctx, format, move || {
-            if !overwrite && path.exists() {
-                return Err(format!("{} already exists: not overwritten", path.display()));
-            }
-            bytes()
-        });
+        self.exporter_mut(self.procedure).start(ctx, request, bytes);
     }
 }
 
@@ -1263,8 +1181,8 @@ mod tests {
         use egui_kittest::kittest::Queryable as _;
         let panel = FieldTestPanel::new();
         assert_ne!(
-            panel.drift_exporter.target(ExportFormat::Json),
-            panel.cones_exporter.target(ExportFormat::Json)
+            panel.drift_exporter.target(ExportFormat::Json, &panel.base),
+            panel.cones_exporter.target(ExportFormat::Json, &panel.base)
         );
         let dir = std::env::temp_dir().join(format!("vestnav-ft-export-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);

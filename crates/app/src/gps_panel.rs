@@ -14,6 +14,7 @@ use vestnav_device::serial::{PortInfo, PortKind};
 
 use crate::config::GpsSourceConfig;
 use crate::console::{Console, GpsAlarm};
+use crate::file_dialog::RecentKind;
 
 /// Baud rates offered (the BT-359 talks 4800 by default); `None` = automatic detection.
 pub const BAUDS: [Option<u32>; 7] =
@@ -34,6 +35,13 @@ pub enum SourceKind {
     /// The receiver forwarded by the vest unit.
     ThroughVest,
 }
+
+/// The replay file's dialog: an NMEA log (gpsd's `.log`, our recordings' `.nmea`) or any file.
+const NMEA_OPEN: crate::file_dialog::DialogSpec = crate::file_dialog::DialogSpec {
+    mode: crate::file_dialog::Mode::Open,
+    title: "Replay an NMEA log",
+    filter: ("NMEA logs", &["nmea", "log", "txt"]),
+};
 
 /// The editable fields of the source picker (kept while the operator switches kinds).
 #[derive(Debug, Clone, Default)]
@@ -56,6 +64,8 @@ pub struct SourcePicker {
     pub vest_gps_baud: u32,
     /// Ports found by the last scan.
     pub ports: Vec<PortInfo>,
+    /// The replay file's "Browse…" dialog.
+    pub replay_browse: crate::file_dialog::Browse,
     /// A port scan was done.
     pub scanned: bool,
 }
@@ -95,8 +105,9 @@ impl SourcePicker {
         p
     }
 
-    /// The source the picker describes, or why it is incomplete.
-    pub fn to_config(&self) -> Result<GpsSourceConfig, String> {
+    /// The source the picker describes, or why it is incomplete. A relative replay file is taken in `base`
+    /// (the last file's folder, else the documents folder), never in the working directory.
+    pub fn to_config(&self, base: &std::path::Path) -> Result<GpsSourceConfig, String> {
         match self.kind {
             SourceKind::Simulator => Ok(GpsSourceConfig::Simulator),
             SourceKind::Serial if self.port.trim().is_empty() => Err("pick a serial port".into()),
@@ -105,7 +116,8 @@ impl SourcePicker {
             }
             SourceKind::Replay if self.replay_path.trim().is_empty() => Err("enter an NMEA file".into()),
             SourceKind::Replay => Ok(GpsSourceConfig::Replay {
-                path: PathBuf::from(self.replay_path.trim()),
+                path: crate::file_dialog::resolve(&self.replay_path, base)
+                    .unwrap_or_else(|| PathBuf::from(self.replay_path.trim())),
                 speed: self.replay_speed,
             }),
             SourceKind::Gpsd if self.gpsd_host.trim().is_empty() => Err("enter the gpsd host".into()),
@@ -313,11 +325,12 @@ pub fn freshness(fix: &Fix, source_running: bool, now: Instant, stale_after_s: f
 
 /// Draws the GPS section; `now` is the clock fix ages are measured on.
 pub fn show(c: &mut Console, ui: &mut egui::Ui, now: Instant) {
-    picker_ui(c, ui);
-    ui.horizontal(|ui| {
+    let base = c.cfg.recent.base();
+    picker_ui(c, ui, &base);
+    ui.horizontal_wrapped(|ui| {
         let connected = c.gps_connected();
         if ui.add_enabled(!connected, egui::Button::new("Connect GPS")).clicked() {
-            match c.gps.picker.to_config() {
+            match c.gps.picker.to_config(&c.cfg.recent.base()) {
                 Ok(src) => {
                     c.cfg.gps = src;
                     c.connect_gps();
@@ -332,6 +345,8 @@ pub fn show(c: &mut Console, ui: &mut egui::Ui, now: Instant) {
         // Both on the connect row: closed, the monitor and the recording take no room above the vest grid.
         record_toggle(c, ui);
         ui.toggle_value(&mut c.gps.monitor.open, "NMEA monitor");
+        ui.toggle_value(&mut c.gps.receiver.open, "Receiver")
+            .on_hover_text("Configure the receiver: rate, constellations, dynamic model, static hold");
     });
     if let Some(n) = &c.gps.notice {
         ui.label(RichText::new(n).small().weak());
@@ -383,9 +398,11 @@ pub fn show(c: &mut Console, ui: &mut egui::Ui, now: Instant) {
     }
     if !fix.satellites.is_empty() {
         let grey = matches!(fresh, Freshness::LastKnown { .. });
+        // 110 points high: with the connect row's toggles on a second line at the side panel's 360 points,
+        // the vest grid still sits above the fold of a 1400x880 window.
         ui.horizontal(|ui| {
-            sky_plot(ui, &fix.satellites, 130.0, grey);
-            signal_bars(ui, &fix.satellites, vec2(170.0, 130.0), grey);
+            sky_plot(ui, &fix.satellites, SKY_HEIGHT_PT, grey);
+            signal_bars(ui, &fix.satellites, vec2(170.0, SKY_HEIGHT_PT), grey);
         });
         if let Freshness::LastKnown { age_s } = fresh {
             ui.label(
@@ -557,7 +574,7 @@ fn satellite_table(ui: &mut egui::Ui, sats: &[Satellite], fresh: Freshness, open
     }
 }
 
-fn picker_ui(c: &mut Console, ui: &mut egui::Ui) {
+fn picker_ui(c: &mut Console, ui: &mut egui::Ui, base: &std::path::Path) {
     let p = &mut c.gps.picker;
     let label = |k: SourceKind| match k {
         SourceKind::Simulator => "Simulator",
@@ -619,18 +636,7 @@ fn picker_ui(c: &mut Console, ui: &mut egui::Ui) {
                     }
                 });
         }
-        SourceKind::Replay => {
-            ui.horizontal(|ui| {
-                ui.label("File");
-                ui.text_edit_singleline(&mut p.replay_path);
-            });
-            ui.add(
-                egui::Slider::new(&mut p.replay_speed, 0.0..=100.0)
-                    .logarithmic(true)
-                    .text("speed ×")
-                    .custom_formatter(|v, _| if v <= 0.0 { "max".into() } else { format!("{v:.1}") }),
-            );
-        }
+        SourceKind::Replay => replay_picker(p, &c.cfg.recent, ui, base),
         SourceKind::Gpsd => {
             ui.horizontal(|ui| {
                 ui.label("Host");
@@ -658,6 +664,35 @@ fn picker_ui(c: &mut Console, ui: &mut egui::Ui) {
             );
         }
     }
+}
+
+/// The replay source's fields: the NMEA file (typed, Browse…, Recent) and the speed.
+fn replay_picker(
+    p: &mut SourcePicker,
+    recent: &crate::file_dialog::RecentFiles,
+    ui: &mut egui::Ui,
+    base: &std::path::Path,
+) {
+    ui.horizontal(|ui| {
+        ui.label("NMEA file");
+        if let Some(path) = crate::file_dialog::recent_menu(ui, recent, RecentKind::Nmea) {
+            p.replay_path = path.display().to_string();
+        }
+    });
+    crate::file_dialog::path_field(
+        ui,
+        &mut p.replay_path,
+        &mut p.replay_browse,
+        NMEA_OPEN,
+        base,
+        "walk.nmea",
+    );
+    ui.add(
+        egui::Slider::new(&mut p.replay_speed, 0.0..=100.0)
+            .logarithmic(true)
+            .text("speed ×")
+            .custom_formatter(|v, _| if v <= 0.0 { "max".into() } else { format!("{v:.1}") }),
+    );
 }
 
 /// The GPS input's latest heading reading (HDG compass or gpsd ATT) as one line, and whether it is stale
@@ -719,33 +754,40 @@ fn fix_grid(ui: &mut egui::Ui, f: &Fix, age_s: Option<f64>, fixes: u64, fresh: F
             .or_else(|| f.time_of_day.map(|t| t.format("%H:%M:%S%.3f").to_string()));
         ui.label(utc.as_deref().unwrap_or("—"));
         ui.end_row();
-        ui.label("Fix");
+        // Related values share a row (two labels each), so the grid stays short enough for the vest grid
+        // to sit above the fold.
+        ui.label("Fix · satellites");
         let mode = match f.mode {
             None | Some(FixMode::NoFix) => "no fix",
             Some(FixMode::Fix2D) => "2D",
             Some(FixMode::Fix3D) => "3D",
         };
         let quality = f.quality.map_or_else(|| "—".to_owned(), |q| format!("{q:?}"));
-        ui.label(live(format!("{mode} · {quality}")));
-        ui.end_row();
-        ui.label("Satellites");
         let n = |v: Option<u32>| v.map_or_else(|| "—".to_owned(), |v| v.to_string());
-        ui.label(live(format!("{} used / {} in view", n(f.sats_used), n(f.sats_visible))));
+        ui.horizontal(|ui| {
+            ui.label(live(format!("{mode} · {quality}")));
+            ui.label(live(format!("{} used / {} in view", n(f.sats_used), n(f.sats_visible))));
+        });
         ui.end_row();
-        ui.label("HDOP / PDOP");
-        ui.label(live(format!("{} / {}", opt(f.hdop, "", 1), opt(f.pdop, "", 1))));
-        ui.end_row();
-        ui.label("Error estimate");
-        ui.label(live(opt(f.error.map(|e| e.horizontal_m), "m", 1)));
+        ui.label("Error · HDOP / PDOP");
+        // The figure guidance uses, and whose it is: the receiver's own estimate when it sends one.
+        let error = match f.error {
+            Some(e) => format!("{} · {}", opt(Some(e.horizontal_m), "m", 1), e.source.describe()),
+            None => opt(None, "m", 1),
+        };
+        ui.horizontal(|ui| {
+            ui.label(live(error));
+            ui.label(live(format!("{} / {}", opt(f.hdop, "", 1), opt(f.pdop, "", 1))));
+        });
         ui.end_row();
         ui.label("Altitude");
         ui.label(opt(f.alt_m, "m", 1));
         ui.end_row();
-        ui.label("Speed");
-        ui.label(live(opt(f.speed_m_s, "m/s", 2)));
-        ui.end_row();
-        ui.label("Course");
-        ui.label(live(opt(f.course_deg, "°", 0)));
+        ui.label("Speed · course");
+        ui.horizontal(|ui| {
+            ui.label(live(opt(f.speed_m_s, "m/s", 2)));
+            ui.label(live(opt(f.course_deg, "°", 0)));
+        });
         ui.end_row();
         ui.label("Fix age");
         ui.label(format!("{} ({fixes} fixes)", opt(age_s, "s", 1)));
@@ -764,6 +806,9 @@ fn snr_color(snr: Option<f64>, used: bool, grey: bool) -> Color32 {
     };
     if used { base } else { base.gamma_multiply(0.45) }
 }
+
+/// Height of the sky plot and the signal bars [points].
+const SKY_HEIGHT_PT: f32 = 110.0;
 
 /// Polar sky plot: north up, elevation 90° at the centre, the horizon on the rim.
 fn sky_plot(ui: &mut egui::Ui, sats: &[Satellite], size: f32, grey: bool) {
@@ -884,7 +929,15 @@ mod tests {
             GpsSourceConfig::Gpsd { host: "h".into(), port: 1234 },
             GpsSourceConfig::ThroughVest { baud: 38_400 },
         ] {
-            assert_eq!(SourcePicker::from_config(&src).to_config().unwrap(), src);
+            let base = std::path::Path::new("/data/walks");
+            let back = SourcePicker::from_config(&src).to_config(base).unwrap();
+            match src {
+                // A relative replay file is taken in the base folder, not the working directory.
+                GpsSourceConfig::Replay { speed, .. } => {
+                    assert_eq!(back, GpsSourceConfig::Replay { path: base.join("a.nmea"), speed });
+                }
+                src => assert_eq!(back, src),
+            }
         }
     }
 }

@@ -161,7 +161,18 @@ impl LogViewer {
             ui.ctx().request_repaint();
         }
         let upto = track.partition_point(|p| p.0 <= self.cursor_s);
-        map.replay = Some((track.iter().map(|p| (p.1, p.2)).collect(), upto));
+        map.replay = Some((
+            track
+                .iter()
+                .map(|p| vestnav_device::route_file::TrackPoint {
+                    lat_deg: p.1,
+                    lon_deg: p.2,
+                    ele_m: None,
+                    time: None,
+                })
+                .collect(),
+            upto,
+        ));
         ui.label(RichText::new("The replayed track is drawn in purple on the Map tab.").weak());
         // The heading stream at the cursor: the newest heading record at or before it, with its age then.
         let heading_at = records[..records.partition_point(|r| r.t_s <= self.cursor_s)]

@@ -26,6 +26,7 @@ use crate::route::{RouteState, Waypoint, decimation_stride};
 use crate::route_import::{ImportChoice, ImportDialog};
 use vestnav_core::geo::{DVec2, Earth, LatLon, LocalFrame};
 use vestnav_device::gps::Fix;
+use vestnav_device::route_file::TrackPoint;
 
 use crate::guidance::GuidanceStatus;
 
@@ -167,8 +168,9 @@ pub struct MapView {
     pub waypoints: Vec<Waypoint>,
     /// Index of the next waypoint.
     pub next: usize,
-    /// The wearer's track, `(lat_deg, lon_deg)`, all segments one after the other.
-    pub track: Vec<(f64, f64)>,
+    /// The wearer's track, all segments one after the other: position, the fix's UTC time and altitude
+    /// (what a GPX export writes as `<time>` and `<ele>`).
+    pub track: Vec<TrackPoint>,
     /// Indices into `track` where a new segment starts (after a GPS source change or an implausible jump,
     /// see [`plausible_step`]); segments are drawn as separate lines.
     pub track_breaks: Vec<usize>,
@@ -176,7 +178,7 @@ pub struct MapView {
     /// How the wearer was drawn in the latest frame (`None`: no position), for tests and the status line.
     pub wearer_shown: Option<WearerMarker>,
     /// A track shown from a session log being replayed, and the replay cursor.
-    pub replay: Option<(Vec<(f64, f64)>, usize)>,
+    pub replay: Option<(Vec<TrackPoint>, usize)>,
     /// Left click adds a waypoint.
     pub add_mode: bool,
     /// Operator marks made with the M key.
@@ -562,7 +564,12 @@ impl MapView {
         {
             self.break_track();
         }
-        self.track.push(at);
+        self.track.push(TrackPoint {
+            lat_deg,
+            lon_deg,
+            ele_m: fix.alt_m.filter(|a| a.is_finite()),
+            time: fix.time,
+        });
         self.track_last = Some(TrackStamp { at, time: fix.time, received_at: fix.received_at });
     }
 
@@ -576,7 +583,7 @@ impl MapView {
     }
 
     /// The track's segments, oldest first, none empty.
-    pub fn track_segments(&self) -> Vec<&[(f64, f64)]> {
+    pub fn track_segments(&self) -> Vec<&[TrackPoint]> {
         segments(&self.track, &self.track_breaks).map(|r| &self.track[r]).collect()
     }
 
@@ -584,7 +591,7 @@ impl MapView {
         self.waypoints
             .first()
             .map(|w| (w.lat_deg, w.lon_deg))
-            .or_else(|| self.track.first().copied())
+            .or_else(|| self.track.first().map(|p| (p.lat_deg, p.lon_deg)))
             .unwrap_or((42.3573, -71.1010))
     }
 
@@ -813,12 +820,8 @@ impl MapView {
             }
         };
         cfg.recent.push(crate::file_dialog::RecentKind::Routes, path);
-        let track: Vec<(f64, f64)> = file
-            .tracks
-            .iter()
-            .flat_map(vestnav_device::route_file::Track::points)
-            .map(|p| (p.lat_deg, p.lon_deg))
-            .collect();
+        let track: Vec<TrackPoint> =
+            file.tracks.iter().flat_map(vestnav_device::route_file::Track::points).cloned().collect();
         if !track.is_empty() {
             self.replay = Some((track, usize::MAX));
         }
@@ -1186,9 +1189,9 @@ impl MapView {
                     &[],
                     Color32::from_rgb(150, 60, 200),
                 );
-                if let Some(&(la, lo)) = rt.get((*cursor).min(rt.len()).saturating_sub(1)) {
+                if let Some(p) = rt.get((*cursor).min(rt.len()).saturating_sub(1)) {
                     painter.circle_filled(
-                        to_pos2(projector.project(lat_lon(la, lo))),
+                        to_pos2(projector.project(lat_lon(p.lat_deg, p.lon_deg))),
                         6.0,
                         Color32::from_rgb(150, 60, 200),
                     );
@@ -1535,7 +1538,7 @@ pub fn age_text(age_s: Option<f64>) -> String {
 }
 
 /// The index ranges of the segments of a track of `n` points split at `breaks` (ascending), none empty.
-fn segments(track: &[(f64, f64)], breaks: &[usize]) -> impl Iterator<Item = std::ops::Range<usize>> {
+fn segments<T>(track: &[T], breaks: &[usize]) -> impl Iterator<Item = std::ops::Range<usize>> {
     let n = track.len();
     let starts = std::iter::once(0).chain(breaks.iter().copied().filter(move |&b| b < n));
     let ends = breaks.iter().copied().filter(move |&b| b < n).chain(std::iter::once(n));
@@ -1547,13 +1550,13 @@ fn segments(track: &[(f64, f64)], breaks: &[usize]) -> impl Iterator<Item = std:
 fn draw_track(
     painter: &egui::Painter,
     projector: &Projector,
-    track: &[(f64, f64)],
+    track: &[TrackPoint],
     breaks: &[usize],
     color: Color32,
 ) {
     let tail_start = track.len().saturating_sub(TRACK_TAIL);
     let stride = decimation_stride(tail_start, TRACK_DRAW_MAX - TRACK_TAIL);
-    let project = |&(la, lo): &(f64, f64)| to_pos2(projector.project(lat_lon(la, lo)));
+    let project = |p: &TrackPoint| to_pos2(projector.project(lat_lon(p.lat_deg, p.lon_deg)));
     for seg in segments(track, breaks) {
         let last = seg.end - 1;
         let pts: Vec<Pos2> = seg

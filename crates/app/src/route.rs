@@ -53,18 +53,12 @@ pub fn read_gpx(path: &Path) -> Result<GpxContent, String> {
     route_file::read_gpx(path).map(|f| GpxContent::from_file(&f)).map_err(|e| e.to_string())
 }
 
-/// The route and the track (one `<trkseg>` per non-empty segment, `(lat_deg, lon_deg)` points) as a GPX file.
-pub fn to_route_file(name: &str, waypoints: &[Waypoint], segments: &[&[(f64, f64)]]) -> RouteFile {
+/// The route and the track (one `<trkseg>` per non-empty segment; each point with the `<ele>` and `<time>`
+/// it has) as a GPX file.
+pub fn to_route_file(name: &str, waypoints: &[Waypoint], segments: &[&[TrackPoint]]) -> RouteFile {
     let mut file = RouteFile::from_route(name, waypoints.to_vec());
-    let segments: Vec<Vec<TrackPoint>> = segments
-        .iter()
-        .filter(|s| !s.is_empty())
-        .map(|s| {
-            s.iter()
-                .map(|&(lat_deg, lon_deg)| TrackPoint { lat_deg, lon_deg, ele_m: None, time: None })
-                .collect()
-        })
-        .collect();
+    let segments: Vec<Vec<TrackPoint>> =
+        segments.iter().filter(|s| !s.is_empty()).map(|s| s.to_vec()).collect();
     if !segments.is_empty() {
         file.tracks.push(Track { name: Some(format!("{name} track")), segments });
     }
@@ -72,7 +66,7 @@ pub fn to_route_file(name: &str, waypoints: &[Waypoint], segments: &[&[(f64, f64
 }
 
 /// GPX 1.1 text of the route and the track's segments.
-pub fn write_gpx(name: &str, waypoints: &[Waypoint], segments: &[&[(f64, f64)]]) -> Result<String, String> {
+pub fn write_gpx(name: &str, waypoints: &[Waypoint], segments: &[&[TrackPoint]]) -> Result<String, String> {
     Ok(route_file::to_gpx(&to_route_file(name, waypoints, segments)))
 }
 
@@ -84,8 +78,11 @@ fn position(lat_deg: f64, lon_deg: f64) -> serde_json::Value {
 /// The route and track as a `GeoJSON` `FeatureCollection` (RFC 7946): the route as a `LineString` (when it
 /// has two points or more), each waypoint as a `Point` (`name`, 1-based `index`), and the track as one
 /// `MultiLineString` with a line per segment (segments of one point are left out: a line needs two). Every
-/// feature has a `kind` property: `route`, `waypoint` or `track`.
-pub fn geojson(name: &str, waypoints: &[Waypoint], segments: &[&[(f64, f64)]]) -> serde_json::Value {
+/// feature has a `kind` property: `route`, `waypoint` or `track`. A track point's elevation becomes its
+/// position's third value (RFC 7946 §3.1.1) when every point of the track has one; the points' times go in
+/// the track's `coordTimes` property (ISO 8601 UTC, `null` where unknown; one array per line, the
+/// convention of GPX-to-GeoJSON converters such as Mapbox's `togeojson`), present when any point has one.
+pub fn geojson(name: &str, waypoints: &[Waypoint], segments: &[&[TrackPoint]]) -> serde_json::Value {
     let mut features = Vec::new();
     if waypoints.len() >= 2 {
         features.push(serde_json::json!({
@@ -104,15 +101,35 @@ pub fn geojson(name: &str, waypoints: &[Waypoint], segments: &[&[(f64, f64)]]) -
             "geometry": { "type": "Point", "coordinates": position(w.lat_deg, w.lon_deg) },
         }));
     }
-    let lines: Vec<Vec<serde_json::Value>> = segments
+    let drawn: Vec<&[TrackPoint]> = segments.iter().copied().filter(|s| s.len() >= 2).collect();
+    let with_ele = drawn.iter().flat_map(|s| s.iter()).all(|p| p.ele_m.is_some());
+    let lines: Vec<Vec<serde_json::Value>> = drawn
         .iter()
-        .filter(|s| s.len() >= 2)
-        .map(|s| s.iter().map(|&(lat, lon)| position(lat, lon)).collect())
+        .map(|s| {
+            s.iter()
+                .map(|p| match p.ele_m {
+                    Some(ele) if with_ele => serde_json::json!([p.lon_deg, p.lat_deg, ele]),
+                    _ => position(p.lat_deg, p.lon_deg),
+                })
+                .collect()
+        })
         .collect();
     if !lines.is_empty() {
+        let mut properties = serde_json::json!({ "kind": "track", "name": format!("{name} track") });
+        if drawn.iter().flat_map(|s| s.iter()).any(|p| p.time.is_some()) {
+            let times: Vec<Vec<Option<String>>> = drawn
+                .iter()
+                .map(|s| {
+                    s.iter()
+                        .map(|p| p.time.map(|t| t.to_rfc3339_opts(chrono::SecondsFormat::AutoSi, true)))
+                        .collect()
+                })
+                .collect();
+            properties["coordTimes"] = serde_json::json!(times);
+        }
         features.push(serde_json::json!({
             "type": "Feature",
-            "properties": { "kind": "track", "name": format!("{name} track") },
+            "properties": properties,
             "geometry": { "type": "MultiLineString", "coordinates": lines },
         }));
     }
@@ -120,7 +137,7 @@ pub fn geojson(name: &str, waypoints: &[Waypoint], segments: &[&[(f64, f64)]]) -
 }
 
 /// `GeoJSON` text of the route and track (see [`geojson`]).
-pub fn to_geojson(name: &str, waypoints: &[Waypoint], segments: &[&[(f64, f64)]]) -> Result<String, String> {
+pub fn to_geojson(name: &str, waypoints: &[Waypoint], segments: &[&[TrackPoint]]) -> Result<String, String> {
     serde_json::to_string_pretty(&geojson(name, waypoints, segments))
         .map_err(|e| format!("cannot encode GeoJSON: {e}"))
 }
@@ -156,7 +173,7 @@ pub fn export_gpx(
     path: &Path,
     name: &str,
     waypoints: &[Waypoint],
-    segments: &[&[(f64, f64)]],
+    segments: &[&[TrackPoint]],
     replace: bool,
 ) -> Result<String, String> {
     if path.as_os_str().is_empty() {
@@ -183,7 +200,7 @@ pub fn export_geojson(
     path: &Path,
     name: &str,
     waypoints: &[Waypoint],
-    segments: &[&[(f64, f64)]],
+    segments: &[&[TrackPoint]],
     replace: bool,
 ) -> Result<String, String> {
     if path.as_os_str().is_empty() {
@@ -354,7 +371,7 @@ mod tests {
         let c = parse_gpx(DEMO_GPX).unwrap();
         assert_eq!(c.waypoints.len(), 7);
         assert_eq!(c.waypoints[0].name, "Start (SE gate)");
-        let text = write_gpx("demo", &c.waypoints, &[&[(42.0, -71.0), (42.1, -71.1)]]).unwrap();
+        let text = write_gpx("demo", &c.waypoints, &[&pts(&[(42.0, -71.0), (42.1, -71.1)])]).unwrap();
         let back = parse_gpx(&text).unwrap();
         assert_eq!(back.waypoints, c.waypoints);
         assert_eq!(back.track, vec![(42.0, -71.0), (42.1, -71.1)]);
@@ -407,6 +424,13 @@ mod tests {
 
     type Line = Vec<(f64, f64)>;
 
+    /// Track points without time or elevation.
+    fn pts(line: &[(f64, f64)]) -> Vec<TrackPoint> {
+        line.iter()
+            .map(|&(lat_deg, lon_deg)| TrackPoint { lat_deg, lon_deg, ele_m: None, time: None })
+            .collect()
+    }
+
     fn segs() -> (Line, Line) {
         (
             vec![(42.3571, -71.1012), (42.35712, -71.10118), (42.35715, -71.10114)],
@@ -423,7 +447,15 @@ mod tests {
         let path = dir.join("walk.gpx");
         let wps = vec![Waypoint { name: "A".into(), lat_deg: 42.1, lon_deg: -71.2, arrival_radius_m: None }];
         let (a, b) = segs();
-        let msg = export_gpx(&path, "walk", &wps, &[&a, &b], false).unwrap();
+        // The first segment's points carry the fix's time and altitude: GPX 1.1 writes them as <ele>, then
+        // <time> (wptType's sequence).
+        let t0 = chrono::DateTime::parse_from_rfc3339("2026-05-01T14:03:07.2Z").unwrap().to_utc();
+        let mut timed = pts(&a);
+        for (k, p) in (0i32..).zip(timed.iter_mut()) {
+            p.time = Some(t0 + chrono::Duration::seconds(i64::from(k)));
+            p.ele_m = Some(12.5 + f64::from(k));
+        }
+        let msg = export_gpx(&path, "walk", &wps, &[&timed, &pts(&b)], false).unwrap();
         assert!(msg.contains("2 segments"), "{msg}");
         let back = route_file::read_gpx(&path).unwrap();
         let got: Vec<Vec<(f64, f64)>> = back.tracks[0]
@@ -432,13 +464,17 @@ mod tests {
             .map(|s| s.iter().map(|p| (p.lat_deg, p.lon_deg)).collect())
             .collect();
         assert_eq!(got, vec![a.clone(), b.clone()]);
+        assert_eq!(back.tracks[0].segments[0], timed, "time and elevation come back");
+        let text = std::fs::read_to_string(&path).unwrap();
+        assert!(text.contains("<ele>12.5</ele><time>2026-05-01T14:03:07.200Z</time>"), "{text}");
+        assert!(text.find("<rte>").unwrap() < text.find("<trk>").unwrap(), "GPX 1.1 order: wpt, rte, trk");
         assert_eq!(back.routes[0].points, wps);
         let before = std::fs::read(&path).unwrap();
-        let e = export_gpx(&path, "other", &[], &[&b], false).unwrap_err();
+        let e = export_gpx(&path, "other", &[], &[&pts(&b)], false).unwrap_err();
         assert!(e.contains(&path.display().to_string()) && e.contains("not overwritten"), "{e}");
         assert_eq!(std::fs::read(&path).unwrap(), before, "the file is untouched");
         // Replacing, once the operator said so.
-        export_gpx(&path, "other", &[], &[&b], true).unwrap();
+        export_gpx(&path, "other", &[], &[&pts(&b)], true).unwrap();
         assert_eq!(route_file::read_gpx(&path).unwrap().tracks[0].segments.len(), 1);
         std::fs::remove_dir_all(&dir).unwrap();
     }
@@ -451,7 +487,7 @@ mod tests {
             Waypoint { name: "B".into(), lat_deg: 42.3, lon_deg: -71.4, arrival_radius_m: None },
         ];
         let (a, b) = segs();
-        let text = to_geojson("walk", &wps, &[&a, &[(1.0, 2.0)], &b]).unwrap();
+        let text = to_geojson("walk", &wps, &[&pts(&a), &pts(&[(1.0, 2.0)]), &pts(&b)]).unwrap();
         let v: serde_json::Value = serde_json::from_str(&text).unwrap();
         assert_eq!(v["type"], "FeatureCollection");
         let features = v["features"].as_array().unwrap();
@@ -477,6 +513,21 @@ mod tests {
             .collect();
         let swap = |s: &[(f64, f64)]| s.iter().map(|&(lat, lon)| (lon, lat)).collect::<Vec<_>>();
         assert_eq!(lines, vec![swap(&a), swap(&b)], "one line per segment of two points or more");
+        assert!(track[0]["properties"].get("coordTimes").is_none(), "no times, no coordTimes");
+        // With elevation on every point: [lon, lat, ele]; times per line in coordTimes.
+        let t0 = chrono::DateTime::parse_from_rfc3339("2026-05-01T14:03:07Z").unwrap().to_utc();
+        let mut timed = pts(&a);
+        for p in &mut timed {
+            p.ele_m = Some(7.25);
+        }
+        timed[1].time = Some(t0);
+        let v = geojson("walk", &[], &[&timed]);
+        let track = &v["features"][0];
+        assert_eq!(track["geometry"]["coordinates"][0][0], serde_json::json!([a[0].1, a[0].0, 7.25]));
+        assert_eq!(
+            track["properties"]["coordTimes"],
+            serde_json::json!([[null, "2026-05-01T14:03:07Z", null]])
+        );
         assert_eq!(geojson_path(Path::new("out/walk.gpx")), PathBuf::from("out/walk.geojson"));
     }
 

@@ -228,9 +228,14 @@ fn patterns_ui(c: &mut Console, ui: &mut egui::Ui) {
     {
         c.pattern_editor.open = !c.pattern_editor.open;
     }
+}
+
+/// The pattern editor's window, when open. Drawn by the frame, not inside the Vest section, so collapsing
+/// the section (or scrolling it away) does not hide an open editor.
+pub fn pattern_editor_window(c: &mut Console, ctx: &egui::Context) {
     if c.pattern_editor.open {
         let mut editor = std::mem::take(&mut c.pattern_editor);
-        editor.window(c, ui.ctx());
+        editor.window(c, ctx);
         c.pattern_editor = editor;
     }
 }

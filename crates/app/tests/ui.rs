@@ -286,6 +286,9 @@ fn emulated_vest_reports_the_clicked_tactor_on_then_stop_all_clears_it() {
     let mut h = real_harness(Some(dir.clone()));
     settle(&mut h, |c| c.vest.state == Some(LinkState::Ready));
     assert_eq!(h.state().vest.state, Some(LinkState::Ready), "emulated vest did not come up");
+    // Above the fold of the 1400x900 window (the status bar takes the last ~25 points).
+    let t15 = h.get_by_label("T15").rect();
+    assert!(t15.bottom() <= 875.0, "the vest grid ends at y = {}", t15.bottom());
     h.get_by_label("T9").click();
     // The orange state comes from the unit's acks/status, not from what we sent.
     settle(&mut h, |c| on(c).contains(9));
@@ -529,7 +532,13 @@ fn the_track_starts_a_new_segment_on_a_jump_or_a_source_change() {
         fake.gps(&GpsEvent::Fix(Box::new(fix(p.0, p.1, Duration::ZERO))));
         settle(&mut h, |c| c.gps.fixes == k as u64 + 1);
     }
-    let segs: Vec<Vec<(f64, f64)>> = h.state().map.track_segments().iter().map(|s| s.to_vec()).collect();
+    let segs: Vec<Vec<(f64, f64)>> = h
+        .state()
+        .map
+        .track_segments()
+        .iter()
+        .map(|s| s.iter().map(|p| (p.lat_deg, p.lon_deg)).collect())
+        .collect();
     assert_eq!(
         segs,
         vec![vec![boston], vec![far, step]],
@@ -1051,6 +1060,31 @@ fn the_pattern_editor_previews_exactly_the_painted_frames() {
     );
 }
 
+/// Issue 15: an open pattern editor stays open and usable when the Vest section is collapsed (the window is
+/// the frame's, not the section's).
+#[test]
+fn the_pattern_editor_survives_collapsing_the_vest_section() {
+    let fake = Fake::default();
+    let mut h = harness(&fake);
+    open_pattern_editor(&mut h);
+    h.get_by_label("Vest").click();
+    h.run_steps(2);
+    assert!(h.query_by_label("Pattern editor...").is_none(), "the Vest section is collapsed");
+    paint(&mut h, &[3]);
+    h.get_by_label("Preview").click();
+    settle(&mut h, |_| !plays(&fake).is_empty());
+    assert_eq!(
+        plays(&fake),
+        vec![Request::Play {
+            frames: vec![vestnav_core::vest::Frame {
+                mask: TactorMask::from_indices([3]),
+                duration_ms: h.state().pattern_editor.pattern.frames[0].duration_ms,
+            }],
+            repeats: 1
+        }]
+    );
+}
+
 /// Issue 15, pattern editor: a pattern outside the limits says why and cannot be previewed. Truth: the
 /// limits of `vestnav_device::wtcu::limits` (8 tactors at once, 2000 ms continuous).
 #[test]
@@ -1271,4 +1305,97 @@ fn the_cone_test_does_not_cry_missed_while_running() {
     h.get_by_label("Finish").click();
     h.run_steps(2);
     assert!(h.query_by_label_contains("2 marks for 10 cones").is_some(), "the verdict once finished");
+}
+
+/// Issue 15 fault 5: at 1024x680 (a small laptop) nothing of any tab lies beyond the window's right edge,
+/// STOP ALL is on screen, and the Two-point view fits the width.
+#[test]
+fn every_tab_fits_a_1024_by_680_window() {
+    use egui_kittest::kittest::{NodeT as _, by};
+    let fake = Fake::default();
+    let console = Console::new(
+        Box::new(fake.clone()),
+        ConsoleOptions {
+            cfg: Config { map_tiles: false, guidance_auto: false, ..Config::default() },
+            ..ConsoleOptions::default()
+        },
+    );
+    let mut h = Harness::builder()
+        .with_size(egui::vec2(1024.0, 680.0))
+        .build_ui_state(|ui, c: &mut Console| c.ui(ui), console);
+    settle(&mut h, |c| c.vest.is_live());
+    let mut offenders = Vec::new();
+    let mut check = |h: &mut Harness<'static, Console>, what: &str| {
+        for _ in 0..30 {
+            h.step();
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        for node in h.query_all(by().predicate(|n| n.label().is_some_and(|l| !l.is_empty()))) {
+            let r = node.rect();
+            if r.right() > 1024.5 && r.width() > 0.0 {
+                offenders.push(format!(
+                    "{what}: {:?} {:?} ends at x = {}",
+                    node.accesskit_node().role(),
+                    node.accesskit_node().label(),
+                    r.right()
+                ));
+            }
+        }
+        if std::env::var("VESTNAV_DEBUG_LAYOUT").is_ok() {
+            for node in h.query_all(by().predicate(|n| n.label().is_some_and(|l| !l.is_empty()))) {
+                eprintln!(
+                    "{what}: {:?} {:?} {:?}",
+                    node.accesskit_node().role(),
+                    node.accesskit_node().label(),
+                    node.rect()
+                );
+            }
+        }
+        // The side panel's splitter: the tall one of the panels' resize handles.
+        let side = h
+            .query_all_by_label("Resize panel")
+            .map(|n| n.rect())
+            .find(|r| r.height() > r.width())
+            .expect("the side panel's splitter");
+        assert!(side.left() <= 400.0, "{what}: the side panel takes {} of 1024 points", side.left());
+        let stop = h.get_by_label_contains("STOP ALL").rect();
+        assert!(stop.bottom() <= 680.0 && stop.right() <= 1024.0, "{what}: STOP ALL at {stop:?}");
+    };
+    check(&mut h, "Map");
+    h.get_by_label("Simulation").click();
+    h.run_steps(2);
+    for view in ["Tactor model", "Damping sweep", "Skin waves", "Two-point"] {
+        h.get_by_label(view).click();
+        check(&mut h, view);
+    }
+    h.get_by_label("Field tests").click();
+    h.run_steps(2);
+    check(&mut h, "Field tests");
+    assert!(offenders.is_empty(), "{}", offenders.join("\n"));
+}
+
+/// Issue 13: the error figure on screen says whose it is — the receiver's own estimate (UBX hAcc here)
+/// when it sends one, else the DOP model.
+#[test]
+fn the_error_estimate_names_its_source() {
+    let fake = Fake::default();
+    let mut h = harness(&fake);
+    h.get_by_label("Connect GPS").click();
+    h.run_steps(2);
+    let mut f = fix(42.0, -71.0, Duration::ZERO);
+    f.error = Some(ErrorEstimate { horizontal_m: 1.25, vertical_m: Some(2.0), source: ErrorSource::Ubx });
+    fake.gps(&GpsEvent::Fix(Box::new(f)));
+    settle(&mut h, |c| c.gps.fixes >= 1);
+    h.run_steps(2);
+    assert!(h.query_by_label_contains("1.2 m · UBX hAcc").is_some());
+    let mut f = fix(42.0, -71.0, Duration::ZERO);
+    f.error = Some(ErrorEstimate {
+        horizontal_m: 7.5,
+        vertical_m: None,
+        source: ErrorSource::DopModel { uere_m: vestnav_device::gps::UERE_M },
+    });
+    fake.gps(&GpsEvent::Fix(Box::new(f)));
+    settle(&mut h, |c| c.gps.fixes >= 2);
+    h.run_steps(2);
+    assert!(h.query_by_label_contains("7.5 m · HDOP x 5 m").is_some());
 }

@@ -82,6 +82,8 @@ pub struct GnssErrorState {
     rng: StdRng,
     bias_m: DVec2,
     last_output_m: Option<DVec2>,
+    static_max_dist_m: Option<f64>,
+    pinned: bool,
 }
 
 impl GnssErrorState {
@@ -89,12 +91,26 @@ impl GnssErrorState {
     pub fn new(model: GnssErrorModel, seed: u64) -> Self {
         let mut rng = StdRng::seed_from_u64(seed);
         let bias_m = DVec2::new(normal(&mut rng), normal(&mut rng)) * model.bias_sigma_m;
-        Self { model, rng, bias_m, last_output_m: None }
+        Self { model, rng, bias_m, last_output_m: None, static_max_dist_m: None, pinned: false }
     }
 
     /// The model this state follows.
     pub fn model(&self) -> &GnssErrorModel {
         &self.model
+    }
+
+    /// Changes the static-navigation (static-hold) threshold while running, as a receiver configured by
+    /// its host does: `None` turns it off. `max_dist_m` is u-blox's `staticHoldMaxDist`: the hold is left
+    /// once the fresh solution is more than this far from the held one (`None`: no limit, as `SiRF`'s
+    /// static navigation).
+    pub fn set_static_hold(&mut self, threshold_m_s: Option<f64>, max_dist_m: Option<f64>) {
+        self.model.static_nav_threshold_m_s = threshold_m_s.filter(|t| t.is_finite() && *t > 0.0);
+        self.static_max_dist_m = max_dist_m.filter(|d| d.is_finite() && *d > 0.0);
+    }
+
+    /// Whether the last [`Self::apply`] repeated the previous report (static navigation holding it).
+    pub fn pinned(&self) -> bool {
+        self.pinned
     }
 
     /// The current bias (east, north) [m].
@@ -109,7 +125,8 @@ impl GnssErrorState {
     /// which keeps the stationary variance at `sigma_b^2` for any step (Brown & Hwang, *Introduction to
     /// Random Signals and Applied Kalman Filtering*, §4.2). The reported position is
     /// `p = true + b + sigma_n m_k`; with static navigation on and `speed_m_s` below the threshold the
-    /// previous report is repeated instead (thesis §5). Non-finite or negative `dt_s` is treated as 0.
+    /// previous report is repeated instead (thesis §5; with a `staticHoldMaxDist` set by
+    /// [`Self::set_static_hold`], only while the fresh solution stays that close). Non-finite or negative `dt_s` is treated as 0.
     pub fn apply(&mut self, dt_s: f64, true_en_m: DVec2, speed_m_s: f64) -> DVec2 {
         let dt_s = if dt_s.is_finite() && dt_s > 0.0 { dt_s } else { 0.0 };
         let tau_s = self.model.bias_tau_s.max(f64::MIN_POSITIVE);
@@ -119,10 +136,12 @@ impl GnssErrorState {
         let n_white = DVec2::new(normal(&mut self.rng), normal(&mut self.rng));
         self.bias_m = self.bias_m * phi + n_bias * drive;
         let fresh = true_en_m + self.bias_m + n_white * self.model.noise_sigma_m;
+        let within = |last: DVec2| self.static_max_dist_m.is_none_or(|d| (fresh - last).length() <= d);
         let out = match (self.model.static_nav_threshold_m_s, self.last_output_m) {
-            (Some(threshold), Some(last)) if speed_m_s < threshold => last,
+            (Some(threshold), Some(last)) if speed_m_s < threshold && within(last) => last,
             _ => fresh,
         };
+        self.pinned = self.last_output_m == Some(out) && self.model.static_nav_threshold_m_s.is_some();
         self.last_output_m = Some(out);
         out
     }

@@ -155,6 +155,8 @@ impl Console {
                 });
             });
         });
+        crate::vest_panel::pattern_editor_window(self, ui.ctx());
+        crate::gps_receiver::window(self, ui.ctx());
         egui::CentralPanel::default().show(ui, |ui| match self.tab {
             Tab::Map => {
                 let fix = self.gps.last_position.clone();
@@ -172,7 +174,10 @@ impl Console {
                     self.push_route();
                 }
             }
-            Tab::Simulation => self.sim_panel.ui(ui),
+            Tab::Simulation => {
+                self.sim_panel.base = self.cfg.recent.base();
+                self.sim_panel.ui(ui);
+            }
             Tab::FieldTests => {
                 self.field_panel.base = self.cfg.recent.base();
                 if let Some(FieldTestAction::Mark { label }) = self.field_panel.ui(ui) {

@@ -1,9 +1,12 @@
 //! Background work of the simulation views: [`Recompute`] runs a computation on a worker thread when its
-//! inputs change, and [`Exporter`] writes a view's PNG, CSV or JSON on another, so the frame never waits.
+//! inputs change; [`crate::export::Exporter`] writes a view's PNG, CSV or JSON on another, so the frame never
+//! waits.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::Arc;
 use std::sync::mpsc::{self, Receiver, TryRecvError};
+
+use crate::export::{ExportFormat, Exporter};
 use std::time::{Duration, Instant};
 
 use vestnav_report::Figure;
@@ -153,160 +156,6 @@ where
     }
 }
 
-/// What an export writes.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum ExportFormat {
-    /// A PNG sheet of the panels.
-    Png,
-    /// The panels' data as CSV.
-    Csv,
-    /// A JSON report.
-    Json,
-}
-
-impl ExportFormat {
-    fn extension(self) -> &'static str {
-        match self {
-            ExportFormat::Png => "png",
-            ExportFormat::Csv => "csv",
-            ExportFormat::Json => "json",
-        }
-    }
-
-    fn button_text(self) -> &'static str {
-        match self {
-            ExportFormat::Png => "Save PNG",
-            ExportFormat::Csv => "Save CSV",
-            ExportFormat::Json => "Save JSON",
-        }
-    }
-}
-
-/// Where a view's export goes (a path the operator types) and how the last export went.
-///
-/// The path's extension is replaced by `.png`, `.csv` or `.json` according to the button pressed, so one path
-/// serves every format. Writing runs on a worker thread (rasterising a sheet can take a noticeable fraction of a second).
-pub(crate) struct Exporter {
-    /// The path typed by the operator.
-    pub path: String,
-    status: Option<Result<String, String>>,
-    running: Option<Receiver<Result<String, String>>>,
-}
-
-impl Exporter {
-    /// An exporter proposing `default_path`.
-    pub fn new(default_path: &str) -> Self {
-        Self { path: default_path.to_string(), status: None, running: None }
-    }
-
-    /// The path an export in `format` writes to: the typed path with its extension replaced.
-    pub fn target(&self, format: ExportFormat) -> Option<PathBuf> {
-        let typed = self.path.trim();
-        if typed.is_empty() {
-            return None;
-        }
-        Some(Path::new(typed).with_extension(format.extension()))
-    }
-
-    /// Starts writing `bytes()` to the target path on a worker thread.
-    pub fn start(
-        &mut self,
-        ctx: &egui::Context,
-        format: ExportFormat,
-        bytes: impl FnOnce() -> Result<Vec<u8>, String> + Send + 'static,
-    ) {
-        let Some(path) = self.target(format) else {
-            self.status = Some(Err("type a file path first".to_string()));
-            return;
-        };
-        let (tx, rx) = mpsc::sync_channel(1);
-        let ctx = ctx.clone();
-        let spawned = std::thread::Builder::new().name("vestnav-export".to_string()).spawn(move || {
-            let result = bytes().and_then(|data| {
-                std::fs::write(&path, &data)
-                    .map(|()| format!("wrote {} ({} bytes)", path.display(), data.len()))
-                    .map_err(|e| format!("cannot write {}: {e}", path.display()))
-            });
-            let _ = tx.send(result);
-            ctx.request_repaint();
-        });
-        match spawned {
-            Ok(_) => {
-                self.running = Some(rx);
-                self.status = None;
-            }
-            Err(e) => self.status = Some(Err(format!("cannot start the export thread: {e}"))),
-        }
-    }
-
-    /// Collects a finished export.
-    pub fn poll(&mut self) {
-        let Some(rx) = &self.running else { return };
-        match rx.try_recv() {
-            Ok(result) => {
-                self.status = Some(result);
-                self.running = None;
-            }
-            Err(TryRecvError::Empty) => {}
-            Err(TryRecvError::Disconnected) => {
-                self.status = Some(Err("the export thread stopped without a result".to_string()));
-                self.running = None;
-            }
-        }
-    }
-
-    /// Result of the last export: `Ok(message)` or `Err(reason)`.
-    #[cfg(test)]
-    pub fn status(&self) -> Option<&Result<String, String>> {
-        self.status.as_ref()
-    }
-
-    /// Whether an export is being written.
-    pub fn is_running(&self) -> bool {
-        self.running.is_some()
-    }
-
-    /// Blocks until the running export (if any) has finished; for tests.
-    #[cfg(test)]
-    pub fn wait(&mut self) {
-        while self.running.is_some() {
-            std::thread::sleep(Duration::from_millis(2));
-            self.poll();
-        }
-    }
-
-    /// The export row: path field, one "Save ..." button per format, and the outcome. Returns the format of
-    /// the button pressed this frame.
-    pub fn ui(&mut self, ui: &mut egui::Ui, formats: &[ExportFormat]) -> Option<ExportFormat> {
-        self.poll();
-        let mut pressed = None;
-        ui.horizontal(|ui| {
-            ui.label("Export to:");
-            ui.add(egui::TextEdit::singleline(&mut self.path).desired_width(260.0).hint_text("path/figure"));
-            ui.add_enabled_ui(!self.is_running(), |ui| {
-                for &format in formats {
-                    if ui.button(format.button_text()).clicked() {
-                        pressed = Some(format);
-                    }
-                }
-            });
-            if self.is_running() {
-                ui.spinner();
-            }
-            match &self.status {
-                Some(Ok(msg)) => {
-                    ui.label(msg);
-                }
-                Some(Err(e)) => {
-                    ui.colored_label(ui.visuals().error_fg_color, e);
-                }
-                None => {}
-            }
-        });
-        pressed
-    }
-}
-
 /// What a view shows and exports: the figure (drawn on screen panel by panel and written as PNG), the summary
 /// lines (shown, and the CSV header), and the result's JSON, all from `vestnav_report`.
 pub(crate) struct ViewOutput {
@@ -332,38 +181,25 @@ impl ViewOutput {
     }
 }
 
-/// Draws the export row of a view and starts the export the operator asked for.
-pub(crate) fn export_row(ui: &mut egui::Ui, exporter: &mut Exporter, out: &ViewOutput) {
-    if let Some(format) = exporter.ui(ui, &[ExportFormat::Png, ExportFormat::Json, ExportFormat::Csv]) {
+/// Draws the export row of a view (relative paths taken in `base`) and starts the export the operator
+/// asked for.
+pub(crate) fn export_row(ui: &mut egui::Ui, exporter: &mut Exporter, out: &ViewOutput, base: &Path) {
+    if let Some(request) = exporter.ui(ui, &[ExportFormat::Png, ExportFormat::Json, ExportFormat::Csv], base)
+    {
         let ctx = ui.ctx().clone();
         let view = ViewOutput {
             figure: Arc::clone(&out.figure),
             header: out.header.clone(),
             json: out.json.clone(),
         };
-        exporter.start(&ctx, format, move || view.bytes(format));
+        let format = request.format;
+        exporter.start(&ctx, request, move || view.bytes(format));
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn exporter_replaces_the_extension_and_reports_errors() {
-        let mut ex = Exporter::new("out/figure.png");
-        assert_eq!(ex.target(ExportFormat::Csv), Some(PathBuf::from("out/figure.csv")));
-        ex.path = "  ".to_string();
-        assert_eq!(ex.target(ExportFormat::Png), None);
-        let ctx = egui::Context::default();
-        ex.start(&ctx, ExportFormat::Png, || Ok(vec![1]));
-        assert!(matches!(ex.status(), Some(Err(_))));
-        // An unwritable path is reported, not panicked on.
-        ex.path = "/nonexistent-dir-vestnav/x".to_string();
-        ex.start(&ctx, ExportFormat::Csv, || Ok(b"a".to_vec()));
-        ex.wait();
-        assert!(matches!(ex.status(), Some(Err(e)) if e.contains("cannot write")));
-    }
 
     #[test]
     fn recompute_runs_once_per_new_input() {

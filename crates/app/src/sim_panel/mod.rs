@@ -17,10 +17,24 @@ mod tactor;
 mod two_point;
 mod waves;
 
-pub(crate) use jobs::{ExportFormat, Exporter};
 pub(crate) use plot_ui::figure_grid;
 
 pub(crate) use vestnav_report::sig;
+
+/// Width a slider with its value box and label takes [points] (a 100-point track, ~60 for the value, the
+/// rest for the label).
+const SLIDER_ROW_PT: f32 = 300.0;
+
+/// Adds a slider (or any composite widget) to a `horizontal_wrapped` row, starting a new row first when
+/// less than [`SLIDER_ROW_PT`] is left. egui wraps a row before an atomic widget that does not fit, but a
+/// slider is a group of three, placed before its size is known: left alone it runs past the right edge and
+/// widens everything under it (the Two-point view was wider than a 1024-point window).
+pub(crate) fn add_wrapping(ui: &mut egui::Ui, widget: impl egui::Widget) -> egui::Response {
+    if ui.available_size_before_wrap().x < SLIDER_ROW_PT {
+        ui.end_row();
+    }
+    ui.add(widget)
+}
 
 /// Height of one plot on screen [points].
 const PLOT_HEIGHT: f32 = 220.0;
@@ -42,6 +56,8 @@ pub struct SimPanel {
     sweep: sweep::SweepView,
     waves: waves::WaveView,
     twopoint: two_point::TwoPointView,
+    /// Where a relative export path is taken (the console sets `cfg.recent.base()` each frame).
+    pub base: std::path::PathBuf,
 }
 
 impl Default for SimPanel {
@@ -59,6 +75,7 @@ impl SimPanel {
             sweep: sweep::SweepView::new(),
             waves: waves::WaveView::new(),
             twopoint: two_point::TwoPointView::new(),
+            base: crate::file_dialog::documents_dir(),
         }
     }
 
@@ -72,9 +89,9 @@ impl SimPanel {
         });
         ui.separator();
         match self.tab {
-            Tab::Tactor => self.tactor.ui(ui),
+            Tab::Tactor => self.tactor.ui(ui, &self.base),
             Tab::Sweep => {
-                if let Some(damping_n_m_s) = self.sweep.ui(ui) {
+                if let Some(damping_n_m_s) = self.sweep.ui(ui, &self.base) {
                     let (t, s) = (&mut self.tactor.inputs, &self.sweep.inputs);
                     t.damping_n_m_s = damping_n_m_s;
                     t.preset = s.preset;
@@ -84,8 +101,8 @@ impl SimPanel {
                     self.tab = Tab::Tactor;
                 }
             }
-            Tab::Waves => self.waves.ui(ui),
-            Tab::TwoPoint => self.twopoint.ui(ui),
+            Tab::Waves => self.waves.ui(ui, &self.base),
+            Tab::TwoPoint => self.twopoint.ui(ui, &self.base),
         }
     }
 }

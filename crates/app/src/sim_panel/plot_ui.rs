@@ -57,6 +57,31 @@ fn markers(s: &Series, points: Vec<[f64; 2]>, color: egui::Color32) -> Points<'s
     Points::new(s.label.clone(), finite).shape(marker_shape(s.marker)).radius(2.5).color(color)
 }
 
+/// The smallest of 1, 2 or 5 times a power of ten that is at least `v` (`v` > 0 and finite).
+fn next_one_two_five(v: f64) -> f64 {
+    let decade = 10f64.powf(v.log10().floor());
+    [1.0, 2.0, 5.0, 10.0]
+        .into_iter()
+        .map(|m| m * decade)
+        .find(|&s| s >= v * (1.0 - 1e-12))
+        .unwrap_or(10.0 * decade)
+}
+
+/// Grid steps of a linear axis in the 1-2-5 sequence: the finest at least egui's suggested step, and the
+/// next two of the sequence. `egui_plot`'s default steps go up by factors of ten, so a 220-point-high plot
+/// of 0..900 gets lines every 100 (too close to label) or every 1000 (only "0" in view): the rotor-speed
+/// plot at 3.3 V showed its "0" tick alone. With 1-2-5 steps it is labelled every 200.
+fn one_two_five_steps(input: &egui_plot::GridInput) -> [f64; 3] {
+    let base = input.base_step_size;
+    if !(base.is_finite() && base > 0.0) {
+        return [1.0, 2.0, 5.0];
+    }
+    let fine = next_one_two_five(base);
+    let mid = next_one_two_five(fine * 1.5);
+    let coarse = next_one_two_five(mid * 1.5);
+    [fine, mid, coarse]
+}
+
 /// Draws a chart (drag pans, Ctrl + wheel zooms, double-click resets; the plain wheel scrolls the page the
 /// plots sit in, as it does everywhere else).
 fn show_chart(ui: &mut egui::Ui, c: &Chart, id_salt: &str, height: f32) {
@@ -71,6 +96,12 @@ fn show_chart(ui: &mut egui::Ui, c: &Chart, id_salt: &str, height: f32) {
         .y_axis_label(c.y_label.clone());
     if c.equal_aspect {
         plot = plot.data_aspect(1.0);
+    }
+    if xs == Scale::Linear {
+        plot = plot.x_grid_spacer(egui_plot::uniform_grid_spacer(|i| one_two_five_steps(&i)));
+    }
+    if ys == Scale::Linear {
+        plot = plot.y_grid_spacer(egui_plot::uniform_grid_spacer(|i| one_two_five_steps(&i)));
     }
     if let Some((lo, hi)) = c.y_range {
         plot = plot.include_y(on_axis(ys, lo)).include_y(on_axis(ys, hi));
@@ -245,6 +276,22 @@ mod tests {
         let pts = [[0.0, 1.0], [1.0, f64::NAN], [2.0, 3.0], [3.0, 4.0], [f64::INFINITY, 0.0]];
         let runs = finite_runs(&pts);
         assert_eq!(runs, vec![vec![[0.0, 1.0]], vec![[2.0, 3.0], [3.0, 4.0]]]);
+    }
+
+    #[test]
+    fn grid_steps_follow_one_two_five() {
+        let check = |base: f64, want: [f64; 3]| {
+            let got =
+                one_two_five_steps(&egui_plot::GridInput { bounds: (0.0, 900.0), base_step_size: base });
+            for (g, w) in got.iter().zip(want) {
+                assert!((g / w - 1.0).abs() < 1e-12, "base {base}: {got:?} != {want:?}");
+            }
+        };
+        check(13.0, [20.0, 50.0, 100.0]);
+        check(20.0, [20.0, 50.0, 100.0]);
+        check(0.3, [0.5, 1.0, 2.0]);
+        check(60.0, [100.0, 200.0, 500.0]);
+        check(f64::NAN, [1.0, 2.0, 5.0]);
     }
 
     #[test]

@@ -9,8 +9,9 @@ use vestnav_core::tactor::{self, BodyMass, Preset, SimOptions, TactorParams};
 use vestnav_report::sweep::{SweepReport, SweepSet, header, sweep_figure};
 
 use super::PLOT_HEIGHT;
-use super::jobs::{Derived, Exporter, Recompute, ViewOutput, export_row};
+use super::jobs::{Derived, Recompute, ViewOutput, export_row};
 use super::plot_ui::figure_grid;
+use crate::export::Exporter;
 
 /// Inputs of the damping sweep (those of `vestnav sim sweep`).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -83,7 +84,7 @@ impl SweepView {
             job: Recompute::new(compute),
             calibration: Recompute::new(compute_calibration),
             derived: None,
-            exporter: Exporter::new("vestnav-sweep.png"),
+            exporter: Exporter::new("vestnav-sweep.png", "Export the damping sweep to"),
         }
     }
 
@@ -104,7 +105,7 @@ impl SweepView {
     }
 
     /// Draws the view; returns a damping the operator wants simulated in the tactor view.
-    pub fn ui(&mut self, ui: &mut egui::Ui) -> Option<f64> {
+    pub fn ui(&mut self, ui: &mut egui::Ui, base: &std::path::Path) -> Option<f64> {
         let i = &mut self.inputs;
         ui.horizontal_wrapped(|ui| {
             egui::ComboBox::from_label("preset ").selected_text(i.preset.name()).show_ui(ui, |ui| {
@@ -119,7 +120,10 @@ impl SweepView {
         });
         ui.horizontal_wrapped(|ui| {
             let o = &mut i.options;
-            ui.add(egui::Slider::new(&mut i.voltage_v, 0.5..=6.0).text("voltage [V]").fixed_decimals(3));
+            super::add_wrapping(
+                ui,
+                egui::Slider::new(&mut i.voltage_v, 0.5..=6.0).text("voltage [V]").fixed_decimals(3),
+            );
             ui.add(egui::DragValue::new(&mut o.min_hz).range(10.0..=1000.0).prefix("from ").suffix(" Hz"));
             ui.add(egui::DragValue::new(&mut o.max_hz).range(10.0..=2000.0).prefix("to ").suffix(" Hz"));
             ui.add(egui::DragValue::new(&mut o.points).range(4..=200).prefix("points "));
@@ -157,7 +161,7 @@ impl SweepView {
             for line in &out.header {
                 ui.label(line);
             }
-            export_row(ui, &mut self.exporter, out);
+            export_row(ui, &mut self.exporter, out, base);
             egui::ScrollArea::vertical().id_salt("sim-sweep-scroll").show(ui, |ui| {
                 figure_grid(ui, "sim-sweep", &out.figure, PLOT_HEIGHT);
             });

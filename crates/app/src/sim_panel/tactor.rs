@@ -7,8 +7,9 @@ use vestnav_core::tactor::{self, BodyMass, Preset, SimOptions, TactorParams};
 use vestnav_report::tactor::{DEFAULT_SPAN_S, TactorReport, TactorRuns, header, summary_rows, tactor_figure};
 
 use super::PLOT_HEIGHT;
-use super::jobs::{Derived, Exporter, Recompute, ViewOutput, export_row};
+use super::jobs::{Derived, Recompute, ViewOutput, export_row};
 use super::plot_ui::figure_grid;
+use crate::export::Exporter;
 
 /// Output sampling rate of the traces [Hz] (the thesis's 10 kHz, as `vestnav sim tactor`).
 const RATE_HZ: f64 = 10_000.0;
@@ -83,7 +84,7 @@ impl TactorView {
             span_s: DEFAULT_SPAN_S,
             job: Recompute::new(compute),
             derived: None,
-            exporter: Exporter::new("vestnav-tactor.png"),
+            exporter: Exporter::new("vestnav-tactor.png", "Export the tactor figure to"),
         }
     }
 
@@ -111,8 +112,12 @@ impl TactorView {
             ui.checkbox(&mut i.compare_bodies, "overlay the other body");
         });
         ui.horizontal_wrapped(|ui| {
-            ui.add(egui::Slider::new(&mut i.voltage_v, 0.5..=6.0).text("voltage [V]").fixed_decimals(3));
-            ui.add(
+            super::add_wrapping(
+                ui,
+                egui::Slider::new(&mut i.voltage_v, 0.5..=6.0).text("voltage [V]").fixed_decimals(3),
+            );
+            super::add_wrapping(
+                ui,
                 egui::Slider::new(&mut i.damping_n_m_s, 1e-9..=1e-6)
                     .logarithmic(true)
                     .text("damping b [N m s]")
@@ -125,7 +130,8 @@ impl TactorView {
         });
         ui.horizontal_wrapped(|ui| {
             let mut radius_mm = i.radius_m * 1e3;
-            ui.add(
+            super::add_wrapping(
+                ui,
                 egui::Slider::new(&mut radius_mm, 1.0..=5.0)
                     .text("eccentric radius l [mm]")
                     .fixed_decimals(2),
@@ -137,8 +143,12 @@ impl TactorView {
             } else if (radius_mm * 1e-3 - i.radius_m).abs() > 1e-12 {
                 i.radius_m = radius_mm * 1e-3;
             }
-            ui.add(egui::Slider::new(&mut i.duration_s, 0.2..=10.0).text("simulated [s]").fixed_decimals(1));
-            ui.add(
+            super::add_wrapping(
+                ui,
+                egui::Slider::new(&mut i.duration_s, 0.2..=10.0).text("simulated [s]").fixed_decimals(1),
+            );
+            super::add_wrapping(
+                ui,
                 egui::Slider::new(&mut self.span_s, 0.005..=10.0)
                     .logarithmic(true)
                     .text("traces shown [s]")
@@ -147,7 +157,7 @@ impl TactorView {
         });
     }
 
-    pub fn ui(&mut self, ui: &mut egui::Ui) {
+    pub fn ui(&mut self, ui: &mut egui::Ui, base: &std::path::Path) {
         self.controls(ui);
         let ctx = ui.ctx().clone();
         self.refresh(&ctx);
@@ -156,7 +166,7 @@ impl TactorView {
         if let Some((_, runs)) = self.job.shown() {
             summary_table(ui, runs);
         }
-        export_row(ui, &mut self.exporter, out);
+        export_row(ui, &mut self.exporter, out, base);
         egui::ScrollArea::vertical().id_salt("sim-tactor-scroll").show(ui, |ui| {
             figure_grid(ui, "sim-tactor", &out.figure, PLOT_HEIGHT);
         });
@@ -220,9 +230,9 @@ mod tests {
         let x_amp_mm = 0.55e-3 * 2.57e-3 / 3.7e-3 * 1e3;
         assert!(fig29.series[0].y.iter().all(|x| x.abs() <= x_amp_mm * 1.01));
         // The export writes what vestnav-report makes of the same runs.
-        let json = String::from_utf8(out.bytes(super::super::jobs::ExportFormat::Json).unwrap()).unwrap();
+        let json = String::from_utf8(out.bytes(crate::export::ExportFormat::Json).unwrap()).unwrap();
         assert_eq!(json, vestnav_report::to_json(&TactorReport::new(&runs.main.summary)).unwrap());
-        let csv = String::from_utf8(out.bytes(super::super::jobs::ExportFormat::Csv).unwrap()).unwrap();
+        let csv = String::from_utf8(out.bytes(crate::export::ExportFormat::Csv).unwrap()).unwrap();
         assert!(csv.contains("mean omega [rad/s]") && csv.lines().count() > 1000);
     }
 }

@@ -11,8 +11,9 @@ use vestnav_report::twopoint::{
 };
 
 use super::PLOT_HEIGHT;
-use super::jobs::{Exporter, Recompute, ViewOutput, export_row};
+use super::jobs::{Recompute, ViewOutput, export_row};
 use super::plot_ui::figure_grid;
+use crate::export::Exporter;
 
 /// Inputs of the two-point fit at one distance.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -86,7 +87,7 @@ impl TwoPointView {
             fit_job: Recompute::new(compute),
             sweep_job: Recompute::new(compute_sweep),
             derived: None,
-            exporter: Exporter::new("vestnav-two-point.png"),
+            exporter: Exporter::new("vestnav-two-point.png", "Export the two-point figure to"),
         }
     }
 
@@ -102,15 +103,25 @@ impl TwoPointView {
         self.derived = Some((key.0, key.1, output(&inputs.setup, results, sweep.as_deref())));
     }
 
-    pub fn ui(&mut self, ui: &mut egui::Ui) {
+    pub fn ui(&mut self, ui: &mut egui::Ui, base: &std::path::Path) {
         let i = &mut self.inputs;
         ui.horizontal_wrapped(|ui| {
-            ui.add(
+            super::add_wrapping(
+                ui,
                 egui::Slider::new(&mut i.distance_mm, 0.0..=150.0).text("distance d [mm]").fixed_decimals(1),
             );
-            ui.add(egui::Slider::new(&mut i.setup.width_mm, 10.0..=60.0).text("width b [mm]"));
-            ui.add(egui::Slider::new(&mut i.setup.amplitude_m_s2, 1.0..=30.0).text("amplitude a [m/s^2]"));
-            ui.add(egui::Slider::new(&mut self.sweep_max_mm, 20.0..=200.0).text("RMSE sweep up to [mm]"));
+            super::add_wrapping(
+                ui,
+                egui::Slider::new(&mut i.setup.width_mm, 10.0..=60.0).text("width b [mm]"),
+            );
+            super::add_wrapping(
+                ui,
+                egui::Slider::new(&mut i.setup.amplitude_m_s2, 1.0..=30.0).text("amplitude a [m/s^2]"),
+            );
+            super::add_wrapping(
+                ui,
+                egui::Slider::new(&mut self.sweep_max_mm, 20.0..=200.0).text("RMSE sweep up to [mm]"),
+            );
             if ui.small_button("thesis setup").clicked() {
                 i.setup = TwoPointSetup::THESIS;
             }
@@ -123,7 +134,7 @@ impl TwoPointView {
         for line in &out.fit.header {
             ui.label(line);
         }
-        export_row(ui, &mut self.exporter, &out.fit);
+        export_row(ui, &mut self.exporter, &out.fit, base);
         egui::ScrollArea::vertical().id_salt("sim-twopoint-scroll").show(ui, |ui| {
             figure_grid(ui, "sim-twopoint", &out.fit.figure, PLOT_HEIGHT);
             if let Some(sweep) = &out.sweep {

@@ -12,8 +12,9 @@ use vestnav_report::wave::{
     VestFieldInputs,
 };
 
-use super::jobs::{Exporter, Recompute, ViewOutput, export_row};
+use super::jobs::{Recompute, ViewOutput, export_row};
 use super::plot_ui::figure_grid;
+use crate::export::Exporter;
 
 /// Height of the heat maps on screen [points].
 const FIELD_HEIGHT: f32 = 320.0;
@@ -103,7 +104,7 @@ impl WaveView {
         Self {
             inputs: WaveInputs::thesis(),
             job: Recompute::new(compute),
-            exporter: Exporter::new("vestnav-vest-field.png"),
+            exporter: Exporter::new("vestnav-vest-field.png", "Export the vest field to"),
         }
     }
 
@@ -160,7 +161,7 @@ impl WaveView {
         });
     }
 
-    pub fn ui(&mut self, ui: &mut egui::Ui) {
+    pub fn ui(&mut self, ui: &mut egui::Ui, base: &std::path::Path) {
         self.controls(ui);
         let ctx = ui.ctx().clone();
         self.job.update(&ctx, &self.inputs);
@@ -170,7 +171,7 @@ impl WaveView {
         for line in &out.field.header {
             ui.label(line);
         }
-        export_row(ui, &mut self.exporter, &out.field);
+        export_row(ui, &mut self.exporter, &out.field, base);
         egui::ScrollArea::vertical().id_salt("sim-wave-scroll").show(ui, |ui| {
             figure_grid(ui, "sim-wave-field", &out.field.figure, FIELD_HEIGHT);
             figure_grid(ui, "sim-wave-attenuation", &out.attenuation, super::PLOT_HEIGHT);

@@ -184,6 +184,21 @@ pub enum ErrorSource {
     },
 }
 
+impl ErrorSource {
+    /// Where the figure comes from, in a word or two for the operator: the receiver's own estimate
+    /// ("UBX hAcc", "GST", "PGRME", "`SiRF` EHPE"), gpsd's ("gpsd eph") or our DOP model ("HDOP x 5 m").
+    pub fn describe(&self) -> String {
+        match self {
+            ErrorSource::Gst => "GST".to_owned(),
+            ErrorSource::Pgrme => "PGRME".to_owned(),
+            ErrorSource::Ubx => "UBX hAcc".to_owned(),
+            ErrorSource::Sirf => "SiRF EHPE".to_owned(),
+            ErrorSource::Gpsd => "gpsd eph".to_owned(),
+            ErrorSource::DopModel { uere_m } => format!("HDOP x {uere_m} m"),
+        }
+    }
+}
+
 /// An estimate of the position error.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ErrorEstimate {

@@ -1,22 +1,58 @@
-//! Byte stream to checksummed NMEA sentences: resynchronisation, binary frames, junk, limits.
+//! Byte stream to checksummed NMEA sentences and binary frames: resynchronisation, junk, limits.
 //!
-//! The framer is a small state machine fed arbitrary bytes. It hands out each sentence whose
-//! `*hh` checksum is correct and counts everything it throws away, by reason ([`DecodeStats`]):
+//! The framer is a small state machine fed arbitrary bytes. It hands out each item it can trust
+//! ([`Frame`]) and counts everything it throws away, by reason ([`DecodeStats`]):
+//! - an NMEA sentence whose `*hh` checksum is correct;
+//! - a u-blox UBX frame (`B5 62 class id len16le payload ck_a ck_b`) whose Fletcher checksum
+//!   ([`super::ubx::checksum`]) is correct;
+//! - a `SiRF` binary frame (`A0 A2 len16be payload ck16be B0 B3`) whose 15-bit checksum
+//!   ([`super::sirf::checksum`]) and end sequence are correct.
+//!
+//! What it rejects:
 //! - a `$` (or `!`) in the middle of a line starts a new sentence; the interrupted one is counted as
 //!   truncated (gpsd does the same; the Triton 400 log has `$GPGGA,030130$GPGLL,...`);
 //! - a control or non-ASCII byte (NUL, ANSI escape, binary) inside a line truncates it;
-//! - u-blox UBX (`B5 62 class id len16le payload ck_a ck_b`) and `SiRF` binary
-//!   (`A0 A2 len16be payload ck16 B0 B3`) frames outside a line are skipped whole, by their length field,
-//!   so a `$` inside their payload cannot start a false sentence;
+//! - a binary frame is collected whole by its length field (so a `$` inside its payload cannot start a
+//!   false sentence), up to [`MAX_BINARY_PAYLOAD`] bytes of payload. A frame whose checksum or end
+//!   sequence is wrong, whose length field is larger than that, or that the stream ends inside, is counted
+//!   ([`DecodeStats::binary_bad_checksum`]) and never handed out; its bytes after the two sync bytes are
+//!   scanned again, so a false `B5 62` or `A0 A2` in line noise cannot hide the sentences and frames
+//!   behind it. (Until the false frame's length has passed, those sentences are held back: at most
+//!   [`MAX_BINARY_PAYLOAD`] + 8 bytes.)
 //! - lines longer than [`MAX_SENTENCE_LEN`] are dropped (NMEA 0183 allows 82 characters; real receivers
 //!   send up to ~100, `SkyTraq`'s PSTI is the record holder, so we accept twice the standard);
 //! - sentences without a checksum, or with a wrong one, are rejected (gpsd rejects them too);
 //! - lines starting with `#` are comments (gpsd's test logs) and are skipped, not counted as errors.
 
+use super::{sirf, ubx};
+
 /// Longest sentence accepted, `$` to the last checksum digit: twice NMEA's 82 (which includes CR LF).
 pub const MAX_SENTENCE_LEN: usize = 164;
-/// Longest binary frame payload skipped as a frame; a longer length field means the sync bytes were junk.
-const MAX_BINARY_PAYLOAD: usize = 8192;
+/// Longest binary frame payload collected; a longer length field means the sync bytes were junk. The
+/// largest UBX messages of the receivers we know are far shorter (NAV-SAT with 100 satellites: 1208
+/// bytes; RXM-RAWX with 32 measurements: 1040), `SiRF`'s longest (MID 8, 50 BPS data) is 43.
+pub const MAX_BINARY_PAYLOAD: usize = 8192;
+
+/// One item the framer hands out: everything in it has passed its checksum.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Frame<'a> {
+    /// An NMEA sentence, `$` or `!` first, checksum digits last, without CR LF (e.g. `$GPGGA,...*47`).
+    Nmea(&'a str),
+    /// A UBX frame: its class, id and payload.
+    Ubx {
+        /// Message class (0x01 NAV, ...).
+        class: u8,
+        /// Message id within the class.
+        id: u8,
+        /// The payload (without header and checksum).
+        payload: &'a [u8],
+    },
+    /// A `SiRF` binary frame: its payload, message id (MID) first.
+    Sirf {
+        /// The payload (without start, length, checksum and end).
+        payload: &'a [u8],
+    },
+}
 
 /// Counts of what a decoder accepted and rejected, by reason.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -38,7 +74,8 @@ pub struct DecodeStats {
     pub malformed: u64,
     /// Sentences with a correct checksum of a type we do not use (ignored, not an error).
     pub unsupported: u64,
-    /// UBX or `SiRF` binary frames skipped.
+    /// UBX or `SiRF` binary frames with a correct checksum of a message we do not decode (ignored, not an
+    /// error).
     pub binary_frames: u64,
     /// Bytes outside any sentence or frame (line noise, ANSI escapes, banners).
     pub junk_bytes: u64,
@@ -56,12 +93,74 @@ pub struct DecodeStats {
     /// outside 0–360°, absurd satellite counts...; [`super::Fix::validate`]).
     #[serde(default)]
     pub implausible_values: u64,
+    /// UBX frames with a correct checksum (decoded or ignored).
+    #[serde(default)]
+    pub ubx_frames: u64,
+    /// `SiRF` binary frames with a correct checksum and end sequence (decoded or ignored).
+    #[serde(default)]
+    pub sirf_frames: u64,
+    /// Binary frames rejected by the framer: a wrong checksum or `SiRF` end sequence, a length field over
+    /// [`MAX_BINARY_PAYLOAD`], or a frame the stream ended inside (rejected; its bytes are scanned again).
+    #[serde(default)]
+    pub binary_bad_checksum: u64,
+    /// Binary frames with a correct checksum of a message we decode whose length or fields make no sense
+    /// (rejected).
+    #[serde(default)]
+    pub binary_malformed: u64,
+    /// NMEA epochs not reported because a binary protocol (UBX, `SiRF`) reports the receiver's epochs
+    /// (docs/gps.md, "Mixed streams").
+    #[serde(default)]
+    pub nmea_epochs_superseded: u64,
+    /// Fixes whose error estimate came from the receiver: NMEA GST.
+    #[serde(default)]
+    pub accuracy_gst: u64,
+    /// Fixes whose error estimate came from the receiver: Garmin `$PGRME`.
+    #[serde(default)]
+    pub accuracy_pgrme: u64,
+    /// Fixes whose error estimate came from the receiver: UBX `hAcc`/`vAcc`.
+    #[serde(default)]
+    pub accuracy_ubx: u64,
+    /// Fixes whose error estimate came from the receiver: `SiRF` EHPE/EVPE.
+    #[serde(default)]
+    pub accuracy_sirf: u64,
+    /// Fixes whose error estimate is gpsd's `eph`/`epv`.
+    #[serde(default)]
+    pub accuracy_gpsd: u64,
+    /// Fixes whose error estimate is our DOP model (`HDOP x UERE`).
+    #[serde(default)]
+    pub accuracy_dop_model: u64,
 }
 
 impl DecodeStats {
-    /// All rejected sentences: bad or missing checksum, overlong, truncated, malformed.
+    /// All rejected input: sentences with a bad or missing checksum, overlong, truncated or malformed, and
+    /// binary frames with a bad checksum or malformed contents.
     pub fn rejected(&self) -> u64 {
-        self.bad_checksum + self.missing_checksum + self.overlong + self.truncated + self.malformed
+        self.bad_checksum
+            + self.missing_checksum
+            + self.overlong
+            + self.truncated
+            + self.malformed
+            + self.binary_bad_checksum
+            + self.binary_malformed
+    }
+
+    /// Fixes with an error estimate from the receiver itself (GST, PGRME, UBX, `SiRF`).
+    pub fn accuracy_receiver(&self) -> u64 {
+        self.accuracy_gst + self.accuracy_pgrme + self.accuracy_ubx + self.accuracy_sirf
+    }
+
+    /// Counts one emitted fix's error estimate by its source.
+    pub fn count_accuracy(&mut self, error: Option<&super::ErrorEstimate>) {
+        use super::ErrorSource;
+        match error.map(|e| e.source) {
+            Some(ErrorSource::Gst) => self.accuracy_gst += 1,
+            Some(ErrorSource::Pgrme) => self.accuracy_pgrme += 1,
+            Some(ErrorSource::Ubx) => self.accuracy_ubx += 1,
+            Some(ErrorSource::Sirf) => self.accuracy_sirf += 1,
+            Some(ErrorSource::Gpsd) => self.accuracy_gpsd += 1,
+            Some(ErrorSource::DopModel { .. }) => self.accuracy_dop_model += 1,
+            None => {}
+        }
     }
 
     /// Adds another set of counts to this one.
@@ -81,6 +180,17 @@ impl DecodeStats {
         self.marks += o.marks;
         self.invalid_positions += o.invalid_positions;
         self.implausible_values += o.implausible_values;
+        self.ubx_frames += o.ubx_frames;
+        self.sirf_frames += o.sirf_frames;
+        self.binary_bad_checksum += o.binary_bad_checksum;
+        self.binary_malformed += o.binary_malformed;
+        self.nmea_epochs_superseded += o.nmea_epochs_superseded;
+        self.accuracy_gst += o.accuracy_gst;
+        self.accuracy_pgrme += o.accuracy_pgrme;
+        self.accuracy_ubx += o.accuracy_ubx;
+        self.accuracy_sirf += o.accuracy_sirf;
+        self.accuracy_gpsd += o.accuracy_gpsd;
+        self.accuracy_dop_model += o.accuracy_dop_model;
     }
 }
 
@@ -88,11 +198,14 @@ impl std::fmt::Display for DecodeStats {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "{} bytes, {} sentences, {} epochs, {} marks; rejected {} (bad checksum {}, no checksum {}, \
-             truncated {}, overlong {}, malformed {}); ignored: {} unsupported sentences, {} binary frames, \
-             {} junk bytes, {} comment lines; removed from fixes: {} invalid positions, {} implausible values",
+            "{} bytes, {} sentences, {} UBX frames, {} SiRF frames, {} epochs, {} marks; rejected {} (bad \
+             checksum {}, no checksum {}, truncated {}, overlong {}, malformed {}, bad binary frames {}, \
+             malformed binary {}); ignored: {} unsupported sentences, {} unsupported binary frames, {} junk \
+             bytes, {} comment lines",
             self.bytes,
             self.sentences,
+            self.ubx_frames,
+            self.sirf_frames,
             self.epochs,
             self.marks,
             self.rejected(),
@@ -101,12 +214,29 @@ impl std::fmt::Display for DecodeStats {
             self.truncated,
             self.overlong,
             self.malformed,
+            self.binary_bad_checksum,
+            self.binary_malformed,
             self.unsupported,
             self.binary_frames,
             self.junk_bytes,
             self.comment_lines,
+        )?;
+        if self.nmea_epochs_superseded > 0 {
+            write!(f, ", {} NMEA epochs superseded by binary ones", self.nmea_epochs_superseded)?;
+        }
+        write!(
+            f,
+            "; removed from fixes: {} invalid positions, {} implausible values; accuracy from the receiver {} \
+             (GST {}, PGRME {}, UBX {}, SiRF {}), gpsd {}, DOP model {}",
             self.invalid_positions,
-            self.implausible_values
+            self.implausible_values,
+            self.accuracy_receiver(),
+            self.accuracy_gst,
+            self.accuracy_pgrme,
+            self.accuracy_ubx,
+            self.accuracy_sirf,
+            self.accuracy_gpsd,
+            self.accuracy_dop_model,
         )
     }
 }
@@ -125,18 +255,29 @@ enum State {
     UbxSync,
     /// Saw 0xA0 (`SiRF` sync 1).
     SirfSync,
-    /// Reading a binary header (UBX: class, id, len16le; `SiRF`: len16be).
-    BinHeader { sirf: bool, got: u8 },
-    /// Skipping this many more bytes of a binary frame.
-    Skip(usize),
+    /// Collecting a binary frame after its sync bytes into `bin`: the header (UBX: class, id, len16le;
+    /// `SiRF`: len16be), then payload and trailer (UBX: `ck_a ck_b`; `SiRF`: ck16be, B0 B3). `total` is the
+    /// frame's length after the sync bytes, known once the header is in (0 before).
+    Binary { sirf: bool, total: usize },
 }
 
-/// The NMEA framer: feed bytes, get checksum-verified sentences (without CR LF).
+/// Bytes of the header after the sync bytes.
+const fn header_len(sirf: bool) -> usize {
+    if sirf { 2 } else { 4 }
+}
+
+/// The framer: feed bytes, get checksum-verified [`Frame`]s.
 #[derive(Debug, Clone)]
 pub struct Framer {
     state: State,
     buf: Vec<u8>,
-    header: [u8; 4],
+    /// The binary frame being collected (after its sync bytes).
+    bin: Vec<u8>,
+    /// Bytes of a rejected binary frame still to be scanned again.
+    rescan: Option<Vec<u8>>,
+    /// Scanning such bytes: a `#` there is binary, not the start of a log's comment line (which would
+    /// hide everything up to the next line end).
+    rescanning: bool,
     at_line_start: bool,
     stats: DecodeStats,
 }
@@ -147,7 +288,9 @@ impl Default for Framer {
         Self {
             state: State::Idle,
             buf: Vec::new(),
-            header: [0; 4],
+            bin: Vec::new(),
+            rescan: None,
+            rescanning: false,
             at_line_start: true,
             stats: DecodeStats::default(),
         }
@@ -157,13 +300,7 @@ impl Default for Framer {
 impl Framer {
     /// A framer waiting for the first sentence.
     pub fn new() -> Self {
-        Self {
-            state: State::Idle,
-            buf: Vec::with_capacity(MAX_SENTENCE_LEN),
-            header: [0; 4],
-            at_line_start: true,
-            stats: DecodeStats::default(),
-        }
+        Self { buf: Vec::with_capacity(MAX_SENTENCE_LEN), ..Self::default() }
     }
 
     /// The counts so far.
@@ -171,27 +308,49 @@ impl Framer {
         &self.stats
     }
 
-    /// Feeds bytes; calls `on_sentence` with each sentence whose checksum is correct, e.g.
-    /// `$GPGGA,...*47` (ASCII, `$` or `!` first, checksum digits last).
-    pub fn feed(&mut self, data: &[u8], mut on_sentence: impl FnMut(&str, &mut DecodeStats)) {
+    /// Feeds bytes; calls `on_frame` with each sentence or binary frame whose checksum is correct.
+    pub fn feed(&mut self, data: &[u8], mut on_frame: impl FnMut(Frame<'_>, &mut DecodeStats)) {
         self.stats.bytes += data.len() as u64;
         let mut i = 0;
         while i < data.len() {
-            // Fast paths: skip binary payloads and copy runs of plain sentence characters in bulk.
+            i += self.scan(data.get(i..).unwrap_or_default(), &mut on_frame);
+            self.drain_rescan(&mut on_frame);
+        }
+    }
+
+    /// Scans the bytes of rejected frames again until none is left (each rescan is shorter than the frame
+    /// it comes from, so this ends).
+    fn drain_rescan(&mut self, on_frame: &mut impl FnMut(Frame<'_>, &mut DecodeStats)) {
+        while let Some(bytes) = self.rescan.take() {
+            self.rescanning = true;
+            let n = self.scan(&bytes, on_frame);
+            self.rescanning = false;
+            if let Some(mut again) = self.rescan.take() {
+                // A frame inside the rescanned bytes failed too: its bytes, then the rest of these.
+                again.extend_from_slice(bytes.get(n..).unwrap_or_default());
+                self.rescan = Some(again);
+            }
+        }
+    }
+
+    /// Runs the state machine over `data` until its end or until a binary frame is rejected (then
+    /// `self.rescan` is set); returns the bytes consumed.
+    fn scan(&mut self, data: &[u8], on_frame: &mut impl FnMut(Frame<'_>, &mut DecodeStats)) -> usize {
+        let mut i = 0;
+        while i < data.len() && self.rescan.is_none() {
+            let rest = data.get(i..).unwrap_or_default();
+            // Fast paths: copy binary payloads and runs of plain sentence characters in bulk.
             match self.state {
-                State::Skip(n) => {
-                    let k = n.min(data.len() - i);
+                State::Binary { sirf, total } if total > 0 => {
+                    let k = (total - self.bin.len()).min(rest.len());
+                    self.bin.extend_from_slice(rest.get(..k).unwrap_or_default());
                     i += k;
-                    if n == k {
-                        self.state = State::Idle;
-                        self.at_line_start = true;
-                    } else {
-                        self.state = State::Skip(n - k);
+                    if self.bin.len() == total {
+                        self.end_binary(sirf, on_frame);
                     }
                     continue;
                 }
                 State::Line => {
-                    let rest = &data[i..];
                     let run = rest
                         .iter()
                         .position(|&b| !(0x20..=0x7e).contains(&b) || b == b'$' || b == b'!')
@@ -203,7 +362,7 @@ impl Framer {
                             self.buf.clear();
                             self.state = State::Discard;
                         } else {
-                            self.buf.extend_from_slice(&rest[..run]);
+                            self.buf.extend_from_slice(rest.get(..run).unwrap_or_default());
                         }
                         i += run;
                         continue;
@@ -211,21 +370,29 @@ impl Framer {
                 }
                 _ => {}
             }
-            self.step(data[i], &mut on_sentence);
+            if let Some(&b) = rest.first() {
+                self.step(b, on_frame);
+            }
             i += 1;
         }
+        i
     }
 
-    /// Ends the stream: a sentence still being collected has no line end and is counted as truncated.
-    pub fn finish(&mut self, mut on_sentence: impl FnMut(&str, &mut DecodeStats)) {
+    /// Ends the stream: a sentence still being collected without its line end is handed out if its
+    /// checksum is correct; a binary frame still being collected is rejected and its bytes scanned again.
+    pub fn finish(&mut self, mut on_frame: impl FnMut(Frame<'_>, &mut DecodeStats)) {
+        while let State::Binary { .. } = self.state {
+            self.reject_binary();
+            self.drain_rescan(&mut on_frame);
+        }
         if self.state == State::Line {
             // A complete sentence without its CR LF at the very end of a file is still a sentence.
-            self.end_line(&mut on_sentence);
+            self.end_line(&mut on_frame);
         }
         self.state = State::Idle;
     }
 
-    fn step(&mut self, b: u8, on_sentence: &mut impl FnMut(&str, &mut DecodeStats)) {
+    fn step(&mut self, b: u8, on_frame: &mut impl FnMut(Frame<'_>, &mut DecodeStats)) {
         match self.state {
             State::Idle => self.idle(b),
             State::Comment => {
@@ -236,7 +403,7 @@ impl Framer {
             }
             State::Line => match b {
                 b'\r' | b'\n' => {
-                    self.end_line(on_sentence);
+                    self.end_line(on_frame);
                     self.state = State::Idle;
                     self.at_line_start = true;
                 }
@@ -268,49 +435,32 @@ impl Framer {
                 b'$' | b'!' => self.start_line(b),
                 _ => self.stats.junk_bytes += 1,
             },
-            State::UbxSync => {
-                if b == 0x62 {
-                    self.state = State::BinHeader { sirf: false, got: 0 };
+            State::UbxSync | State::SirfSync => {
+                let sirf = self.state == State::SirfSync;
+                if b == if sirf { sirf::START[1] } else { ubx::SYNC_2 } {
+                    self.bin.clear();
+                    self.state = State::Binary { sirf, total: 0 };
                 } else {
                     self.stats.junk_bytes += 1;
                     self.state = State::Idle;
                     self.idle(b);
                 }
             }
-            State::SirfSync => {
-                if b == 0xA2 {
-                    self.state = State::BinHeader { sirf: true, got: 0 };
-                } else {
-                    self.stats.junk_bytes += 1;
-                    self.state = State::Idle;
-                    self.idle(b);
-                }
-            }
-            State::BinHeader { sirf, got } => {
-                self.header[usize::from(got)] = b;
-                let got = got + 1;
-                let need = if sirf { 2 } else { 4 };
-                if got < need {
-                    self.state = State::BinHeader { sirf, got };
-                    return;
-                }
-                let (len, trailer) = if sirf {
-                    (usize::from(u16::from_be_bytes([self.header[0], self.header[1]]) & 0x7fff), 4)
-                } else {
-                    (usize::from(u16::from_le_bytes([self.header[2], self.header[3]])), 2)
-                };
-                if len > MAX_BINARY_PAYLOAD {
-                    self.stats.junk_bytes += u64::from(got) + 2;
-                    self.state = State::Idle;
-                } else {
-                    self.stats.binary_frames += 1;
-                    self.state = State::Skip(len + trailer);
-                }
-            }
-            State::Skip(n) => {
-                self.state = if n <= 1 { State::Idle } else { State::Skip(n - 1) };
-                if n <= 1 {
-                    self.at_line_start = true;
+            State::Binary { sirf, total } => {
+                // Only the header is collected byte by byte (the body takes the fast path).
+                self.bin.push(b);
+                if total == 0 && self.bin.len() == header_len(sirf) {
+                    let len = match (sirf, self.bin.as_slice()) {
+                        (true, &[hi, lo]) => usize::from(u16::from_be_bytes([hi, lo])),
+                        (false, &[_, _, lo, hi]) => usize::from(u16::from_le_bytes([lo, hi])),
+                        _ => usize::MAX,
+                    };
+                    if len > MAX_BINARY_PAYLOAD {
+                        self.reject_binary();
+                        return;
+                    }
+                    let trailer = if sirf { 4 } else { 2 };
+                    self.state = State::Binary { sirf, total: header_len(sirf) + len + trailer };
                 }
             }
         }
@@ -320,17 +470,62 @@ impl Framer {
         match b {
             b'$' | b'!' => self.start_line(b),
             b'\r' | b'\n' => self.at_line_start = true,
-            b'#' if self.at_line_start => {
+            b'#' if self.at_line_start && !self.rescanning => {
                 self.stats.comment_lines += 1;
                 self.state = State::Comment;
             }
-            0xB5 => self.state = State::UbxSync,
+            ubx::SYNC_1 => self.state = State::UbxSync,
             0xA0 => self.state = State::SirfSync,
             _ => {
                 self.stats.junk_bytes += 1;
                 self.at_line_start = false;
             }
         }
+    }
+
+    /// A complete binary frame is in `bin`: hand it out if its checksum (and `SiRF` end) is right.
+    fn end_binary(&mut self, sirf: bool, on_frame: &mut impl FnMut(Frame<'_>, &mut DecodeStats)) {
+        let ok = if sirf {
+            match self.bin.as_slice() {
+                [_, _, payload @ .., ck_hi, ck_lo, e0, e1] => {
+                    [*e0, *e1] == sirf::END && sirf::checksum(payload) == u16::from_be_bytes([*ck_hi, *ck_lo])
+                }
+                _ => false,
+            }
+        } else {
+            match self.bin.as_slice() {
+                [class, id, _, _, payload @ .., a, b] => ubx::checksum(*class, *id, payload) == (*a, *b),
+                _ => false,
+            }
+        };
+        if !ok {
+            self.reject_binary();
+            return;
+        }
+        self.state = State::Idle;
+        self.at_line_start = true;
+        if sirf {
+            self.stats.sirf_frames += 1;
+            if let [_, _, payload @ .., _, _, _, _] = self.bin.as_slice() {
+                on_frame(Frame::Sirf { payload }, &mut self.stats);
+            }
+        } else {
+            self.stats.ubx_frames += 1;
+            if let [class, id, _, _, payload @ .., _, _] = self.bin.as_slice() {
+                on_frame(Frame::Ubx { class: *class, id: *id, payload }, &mut self.stats);
+            }
+        }
+    }
+
+    /// Rejects the binary frame being collected: counted, its sync bytes are junk, the bytes after them
+    /// are scanned again.
+    fn reject_binary(&mut self) {
+        self.stats.binary_bad_checksum += 1;
+        self.stats.junk_bytes += 2;
+        self.state = State::Idle;
+        self.at_line_start = false;
+        let bytes = std::mem::take(&mut self.bin);
+        self.rescan = Some(bytes);
     }
 
     fn start_line(&mut self, b: u8) {
@@ -340,7 +535,7 @@ impl Framer {
         self.at_line_start = false;
     }
 
-    fn end_line(&mut self, on_sentence: &mut impl FnMut(&str, &mut DecodeStats)) {
+    fn end_line(&mut self, on_frame: &mut impl FnMut(Frame<'_>, &mut DecodeStats)) {
         // Trailing blanks after the checksum are tolerated (some receivers pad).
         while self.buf.last() == Some(&b' ') {
             self.buf.pop();
@@ -350,7 +545,7 @@ impl Framer {
                 self.stats.sentences += 1;
                 // The line only holds printable ASCII (checked byte by byte), so this cannot fail.
                 if let Ok(s) = std::str::from_utf8(&self.buf) {
-                    on_sentence(s, &mut self.stats);
+                    on_frame(Frame::Nmea(s), &mut self.stats);
                 }
             }
             Checked::Bad => self.stats.bad_checksum += 1,
@@ -408,11 +603,32 @@ mod tests {
     use super::*;
 
     fn frame(data: &[u8]) -> (Vec<String>, DecodeStats) {
+        let (items, stats) = frames(data);
+        (items.into_iter().filter_map(|i| i.strip_prefix("NMEA ").map(str::to_owned)).collect(), stats)
+    }
+
+    /// Every item, as text: `NMEA $...`, `UBX class id payload-hex`, `SiRF payload-hex`.
+    fn frames(data: &[u8]) -> (Vec<String>, DecodeStats) {
         let mut f = Framer::new();
         let mut out = Vec::new();
-        f.feed(data, |s, _| out.push(s.to_owned()));
-        f.finish(|s, _| out.push(s.to_owned()));
+        let mut push = |fr: Frame<'_>, _: &mut DecodeStats| out.push(describe(fr));
+        f.feed(data, &mut push);
+        f.finish(&mut push);
         (out, *f.stats())
+    }
+
+    fn describe(fr: Frame<'_>) -> String {
+        let hex = |p: &[u8]| {
+            p.iter().fold(String::new(), |mut s, b| {
+                let _ = std::fmt::Write::write_fmt(&mut s, format_args!("{b:02x}"));
+                s
+            })
+        };
+        match fr {
+            Frame::Nmea(s) => format!("NMEA {s}"),
+            Frame::Ubx { class, id, payload } => format!("UBX {class:02x} {id:02x} {}", hex(payload)),
+            Frame::Sirf { payload } => format!("SiRF {}", hex(payload)),
+        }
     }
 
     const GGA: &str = "$GPGGA,110518.000,5709.8067,N,00207.2822,W,1,08,1.0,59.3,M,48.2,M,,0000*77";
@@ -443,14 +659,50 @@ mod tests {
     }
 
     #[test]
-    fn skips_binary_frames_with_dollars_inside() {
-        let mut data = vec![0xB5, 0x62, 0x01, 0x07, 0x05, 0x00, b'$', b'G', b'P', b'$', b'*', 0xAA, 0xBB];
-        data.extend_from_slice(&[0xA0, 0xA2, 0x00, 0x02, b'$', b'$', 0x00, 0x00, 0xB0, 0xB3]);
+    fn binary_frames_with_dollars_inside_are_handed_out_whole() {
+        let mut data = ubx::frame(0x01, 0x07, b"$GP$*");
+        data.extend_from_slice(&sirf::frame(b"$$"));
+        data.extend_from_slice(format!("{GGA}\r\n").as_bytes());
+        let (items, st) = frames(&data);
+        assert_eq!(items, ["UBX 01 07 244750242a", "SiRF 2424", &format!("NMEA {GGA}")]);
+        assert_eq!((st.ubx_frames, st.sirf_frames, st.sentences), (1, 1, 1));
+        assert_eq!(st.rejected(), 0);
+    }
+
+    #[test]
+    fn a_bad_binary_checksum_is_counted_and_hides_nothing() {
+        // A UBX frame whose checksum is wrong, with a whole sentence inside its payload: the frame is
+        // rejected and the sentence behind its sync bytes comes out.
+        let mut bad = ubx::frame(0x01, 0x07, format!("{GGA}\r\n").as_bytes());
+        let n = bad.len();
+        bad[n - 1] ^= 0xFF;
+        let mut sirf_bad = sirf::frame(b"\x29\x00");
+        let m = sirf_bad.len();
+        sirf_bad[m - 1] = 0x00; // end sequence B0 00
+        let mut data = bad;
+        data.extend_from_slice(&sirf_bad);
+        data.extend_from_slice(format!("{GGA}\r\n").as_bytes());
+        let (s, st) = frame(&data);
+        assert_eq!(s, vec![GGA.to_owned(), GGA.to_owned()]);
+        assert_eq!(st.binary_bad_checksum, 2);
+        assert_eq!(st.ubx_frames + st.sirf_frames, 0);
+    }
+
+    #[test]
+    fn a_false_sync_with_a_huge_length_hides_nothing() {
+        // B5 62 in line noise followed by a length of 8000: the sentences in the next 8000 bytes would
+        // be swallowed if the framer trusted the length; the stream ends inside the false frame.
+        let mut data = vec![0xB5, 0x62, 0x01, 0x07, 0x40, 0x1F];
+        data.extend_from_slice(format!("{GGA}\r\n{GGA}\r\n").as_bytes());
+        let (s, st) = frame(&data);
+        assert_eq!(s, vec![GGA.to_owned(), GGA.to_owned()]);
+        assert_eq!(st.binary_bad_checksum, 1);
+        // A length beyond MAX_BINARY_PAYLOAD is refused at once.
+        let mut data = vec![0xA0, 0xA2, 0x7F, 0xFF];
         data.extend_from_slice(format!("{GGA}\r\n").as_bytes());
         let (s, st) = frame(&data);
         assert_eq!(s, vec![GGA.to_owned()]);
-        assert_eq!(st.binary_frames, 2);
-        assert_eq!(st.rejected(), 0);
+        assert_eq!(st.binary_bad_checksum, 1);
     }
 
     #[test]

@@ -183,6 +183,7 @@ impl GpsdClient {
             Some("TPV") => {
                 let mut fix = self.tpv(&v, now)?;
                 fix.validate().count_into(&mut self.stats);
+                self.stats.count_accuracy(fix.error.as_ref());
                 self.stats.epochs += 1;
                 Some(GpsEvent::Fix(Box::new(fix)))
             }

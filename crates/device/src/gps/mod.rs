@@ -27,15 +27,16 @@ pub mod fix;
 pub mod framing;
 pub mod gpsd;
 pub mod nmea_out;
+pub mod receiver_config;
 pub mod record;
 mod sentence;
 pub mod sim;
 pub mod sirf;
 pub mod source;
 pub mod through_vest;
-pub mod ubx;
 #[cfg(test)]
 mod truth_tests;
+pub mod ubx;
 
 use std::io::Read;
 use std::path::Path;

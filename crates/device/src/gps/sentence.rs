@@ -127,6 +127,19 @@ pub(crate) enum Parsed {
         horizontal_m: Option<f64>,
         vertical_m: Option<f64>,
     },
+    /// Ashtech `$PASHR,POS`: a whole fix in one sentence (position, satellites, course, speed, DOPs).
+    AshtechPos {
+        time: Option<NaiveTime>,
+        pos: Option<(f64, f64)>,
+        /// The solution type field is present: a 3D fix ("empty: no fix", gpsd's `processPASHR`).
+        quality: Option<FixQuality>,
+        sats: Option<u32>,
+        course_deg: Option<f64>,
+        speed_m_s: Option<f64>,
+        pdop: Option<f64>,
+        hdop: Option<f64>,
+        vdop: Option<f64>,
+    },
     Mark {
         number: u32,
         label: String,
@@ -555,7 +568,7 @@ pub(crate) fn parse_time(s: &str) -> Option<NaiveTime> {
 }
 
 /// `ddmm.mmmm`/`dddmm.mmmm` plus hemisphere to signed degrees: `deg + min / 60`.
-fn parse_coord(v: Option<&&str>, hemi: Option<&&str>) -> Option<f64> {
+pub(super) fn parse_coord(v: Option<&&str>, hemi: Option<&&str>) -> Option<f64> {
     let v: f64 = v?.parse().ok()?;
     if !v.is_finite() || v < 0.0 {
         return None;
@@ -732,7 +745,8 @@ pub(crate) fn time_of(p: &Parsed) -> Option<NaiveTime> {
         | Parsed::Gll { time, .. }
         | Parsed::Gns { time, .. }
         | Parsed::Zda { time, .. }
-        | Parsed::Gst { time, .. } => *time,
+        | Parsed::Gst { time, .. }
+        | Parsed::AshtechPos { time, .. } => *time,
         _ => None,
     }
 }

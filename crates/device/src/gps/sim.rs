@@ -65,6 +65,13 @@ impl SimulatedReceiver {
         self.walker.sample(self.t_s)
     }
 
+    /// Reconfigures static navigation (`SiRF`) / static hold (u-blox) while running: below `threshold_m_s`
+    /// the reported position is held and the reported speed is 0; `None` turns it off. `max_dist_m` is
+    /// u-blox's `staticHoldMaxDist` (see `GnssErrorState::set_static_hold`).
+    pub fn set_static_hold(&mut self, threshold_m_s: Option<f64>, max_dist_m: Option<f64>) {
+        self.error.set_static_hold(threshold_m_s, max_dist_m);
+    }
+
     /// True once the walker has reached the end of the route.
     pub fn finished(&self) -> bool {
         self.walker.sample(self.t_s).finished
@@ -75,7 +82,8 @@ impl SimulatedReceiver {
         self.start + TimeDelta::milliseconds((self.t_s * 1000.0).round() as i64)
     }
 
-    /// Advances by `dt_s` and returns that epoch's NMEA sentences (GGA, GSA, GSV, RMC, GST).
+    /// Advances by `dt_s` and returns that epoch's NMEA sentences (GGA, GSA, GSV, RMC, GST). While static
+    /// navigation holds the position, RMC's speed reads 0 (what the thesis's BT-359 reported).
     pub fn next_epoch(&mut self, dt_s: f64) -> String {
         self.t_s += dt_s;
         let truth = self.walker.sample(self.t_s);
@@ -96,7 +104,8 @@ impl SimulatedReceiver {
             lat_deg: Some(lat),
             lon_deg: Some(lon),
             alt_m: 10.0,
-            speed_m_s: truth.speed_m_s,
+            // A receiver holding its position (static navigation) reports it standing still.
+            speed_m_s: if self.error.pinned() { 0.0 } else { truth.speed_m_s },
             course_deg: truth.course_deg,
             satellites,
             hdop: 1.0,

@@ -3,6 +3,17 @@
 //! The layout and checksum are those of the "`SiRF` Binary Protocol Reference Manual" (`SiRF` Technology,
 //! rev. 2.4, 2008), chapter 1 "Protocol Layers": the payload length has 15 bits, the checksum is the sum of
 //! the payload bytes modulo 2^15, both big-endian; the payload starts with the message id (MID).
+//!
+//! `SirfDecoder` turns checksum-verified payloads into [`Fix`]es by the field tables of the manual's
+//! chapter 2 "Output Messages" (MID 2 Measured Navigation Data Out, MID 4 Measured Tracker Data Out,
+//! MID 41 Geodetic Navigation Data; see its doc for how a second's messages make one epoch). The framer
+//! (`framing`) finds the frames and checks their checksums.
+
+use std::time::Instant;
+
+use chrono::{DateTime, NaiveDate, Utc};
+
+use super::{Constellation, ErrorEstimate, ErrorSource, Fix, FixMode, FixQuality, Satellite};
 
 /// Start sequence.
 pub const START: [u8; 2] = [0xA0, 0xA2];
@@ -34,9 +45,1045 @@ pub fn frame(payload: &[u8]) -> Vec<u8> {
     out
 }
 
+// ---------------------------------------------------------------------------------------------------------
+// Decoding
+// ---------------------------------------------------------------------------------------------------------
+
+/// GPS time minus UTC [s] since 2017-01-01 (IERS Bulletin C 52; no leap second announced since).
+///
+/// A `SiRF` receiver learns the current value from the almanac's UTC page (subframe 4, page 18, broadcast
+/// every 12.5 min) and uses a firmware default until then: the `SiRF` II of gpsd's `sirf2.log` still said
+/// 13 s (the value of 1999–2005) after 13 minutes of navigating in 2021. GPS minus UTC has only ever grown,
+/// so a receiver's smaller value is such a stale default; the decoder takes the larger of this constant and
+/// what MID 41 implies.
+pub(crate) const GPS_UTC_OFFSET_S: i64 = 18;
+/// Unix time of the GPS epoch, 1980-01-06T00:00:00Z [s].
+const GPS_EPOCH_UNIX_S: i64 = 315_964_800;
+/// Seconds in a GPS week.
+const WEEK_S: i64 = 604_800;
+/// Milliseconds in a GPS week (the time-of-week range).
+const WEEK_MS: i64 = WEEK_S * 1000;
+/// The week a 10-bit GPS week number (MID 2, MID 4) is counted from when no extended week has been seen:
+/// the rollover of 2019-04-07 (week 2048), so the window is 2019-04-07 .. 2039-11-20.
+const PIVOT_WEEK: u32 = 2048;
+/// Two solution messages whose times of week differ by less than this [ms] belong to one navigation
+/// solution. MID 2 truncates its time to 10 ms, MID 41 sends milliseconds; `SiRF` receivers compute at most
+/// 5 solutions a second, 200 ms apart.
+const SAME_EPOCH_MS: i64 = 50;
+
+/// Why a checksum-verified payload produced nothing.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum SirfUnused {
+    /// A message id this decoder does not know.
+    Unsupported,
+    /// A known message id whose payload is too short for its layout (or has no message id at all).
+    Malformed,
+}
+
+/// Decodes `SiRF` binary payloads into one [`Fix`] per navigation solution (sans-IO).
+///
+/// # Epochs
+/// The manual's output cycle (chapter 2, "Output Messages"; MID 166 sets each message's rate) sends, once
+/// per navigation solution, MID 2 (Measured Navigation Data) and, from firmware 2.3.2 on, MID 41
+/// (Geodetic Navigation Data), both stamped with the solution's GPS time of week, plus MID 4 (Measured
+/// Tracker Data, the satellites) and status messages. The decoder groups MID 2 and MID 41 by time of week
+/// (within [`SAME_EPOCH_MS`]): an epoch closes when a solution message of another time arrives (or a
+/// second one of the same type), or — once one epoch has shown which solution messages this receiver
+/// sends — as soon as all of them are in, so a live fix is not held back until the next second. MID 4 is
+/// receiver state like NMEA's GSV: the latest one goes with every fix.
+///
+/// # Which message says what (and how this follows gpsd)
+/// gpsd's `sirf` driver builds its fixes from MID 2 alone and ignores MID 41 (firmware before 2.3.2 filled
+/// it badly, its comment says). The decoder does the same for what both carry, so its fixes match gpsd's:
+/// - position: MID 2's ECEF metres, converted by [`wgs84_from_ecef`] (MID 41's latitude/longitude only
+///   when an epoch has no MID 2);
+/// - time: MID 2's GPS week and time of week (10 ms) minus GPS−UTC ([`GPS_UTC_OFFSET_S`] or the
+///   receiver's own value if larger); MID 41's extended week resolves MID 2's 10-bit week;
+/// - mode and quality: MID 2's mode 1 (the same bits as the low byte of MID 41's nav type);
+/// - from MID 41 only: altitude above MSL and the geoid separation, speed and course (MID 2's ECEF velocity
+///   without it), EHPE/EVPE as the error estimate (the DOP model without it).
+///
+/// Before the receiver's first fix its clock is a firmware default (2004 in gpsd's `sirf2.log`): no-fix
+/// epochs before the first fix carry no time.
+#[derive(Debug, Default)]
+pub(crate) struct SirfDecoder {
+    /// The solution being assembled.
+    pending: Option<Epoch>,
+    /// Which solution messages this receiver sends (what "complete" means), once an epoch has closed.
+    expected: Option<Expected>,
+    /// The latest satellite view (MID 4).
+    sky: Vec<Satellite>,
+    /// The latest extended GPS week the receiver sent (MID 41 of a fix, MID 7).
+    extended_week: Option<u32>,
+    /// GPS − UTC [s] implied by the last MID 41 of a fix.
+    receiver_gps_utc_s: Option<i64>,
+    /// True once the receiver has navigated: from then on its clock is set.
+    clock_set: bool,
+}
+
+/// Which solution messages an epoch has.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+struct Kinds {
+    nav: bool,
+    geodetic: bool,
+}
+
+impl Kinds {
+    fn covers(self, other: Self) -> bool {
+        (self.nav || !other.nav) && (self.geodetic || !other.geodetic)
+    }
+}
+
+/// Epochs a solution message may be missing before the decoder stops waiting for it: one lost frame must
+/// not teach it that the receiver stopped sending that message.
+const MISSES_TO_FORGET: u8 = 3;
+
+/// The solution messages the receiver has been sending: a message is expected from the first epoch that
+/// had it until [`MISSES_TO_FORGET`] epochs in a row lacked it.
+#[derive(Debug, Clone, Copy, Default)]
+struct Expected {
+    nav_misses: Option<u8>,
+    geodetic_misses: Option<u8>,
+}
+
+impl Expected {
+    fn learn(&mut self, seen: Kinds) {
+        for (misses, present) in
+            [(&mut self.nav_misses, seen.nav), (&mut self.geodetic_misses, seen.geodetic)]
+        {
+            *misses = if present {
+                Some(0)
+            } else {
+                misses.map(|m| m.saturating_add(1)).filter(|&m| m < MISSES_TO_FORGET)
+            };
+        }
+    }
+
+    fn kinds(self) -> Kinds {
+        Kinds { nav: self.nav_misses.is_some(), geodetic: self.geodetic_misses.is_some() }
+    }
+}
+
+/// One navigation solution's messages.
+#[derive(Debug, Clone)]
+struct Epoch {
+    /// GPS time of week of the first message [ms].
+    tow_ms: i64,
+    nav: Option<NavSolution>,
+    geodetic: Option<Geodetic>,
+}
+
+impl Epoch {
+    fn kinds(&self) -> Kinds {
+        Kinds { nav: self.nav.is_some(), geodetic: self.geodetic.is_some() }
+    }
+}
+
+/// A decoded message.
+enum Message {
+    Nav(NavSolution),
+    Geodetic(Geodetic),
+    Tracker(Vec<Satellite>),
+    ClockStatus { extended_week: u16 },
+    Unused,
+}
+
+impl SirfDecoder {
+    /// A decoder with no epoch under way.
+    pub(crate) fn new() -> Self {
+        Self::default()
+    }
+
+    /// One checksum-verified payload (MID first). `Ok(Some(fix))` when this message completes an epoch.
+    ///
+    /// A payload that is not used changes nothing. At most one fix comes out per call; when a message both
+    /// closes one epoch and completes the next, the second fix comes with the next payload (or `finish`).
+    pub(crate) fn handle(&mut self, payload: &[u8], now: Instant) -> Result<Option<Fix>, SirfUnused> {
+        let message = decode(payload)?;
+        // An epoch completed during the previous call but held back (see above) goes out first.
+        let mut out = match (&self.pending, self.expected) {
+            (Some(p), Some(e)) if p.kinds().covers(e.kinds()) => self.close(now),
+            _ => None,
+        };
+        match message {
+            Message::Nav(n) => out = out.or(self.add(n.tow_ms(), Some(n), None, now)),
+            Message::Geodetic(g) => out = out.or(self.add(i64::from(g.tow_ms), None, Some(g), now)),
+            Message::Tracker(sky) => self.sky = sky,
+            Message::ClockStatus { extended_week } => {
+                if extended_week > 0 {
+                    self.extended_week = Some(u32::from(extended_week));
+                }
+            }
+            Message::Unused => {}
+        }
+        Ok(out)
+    }
+
+    /// End of stream: an epoch still being assembled, if any.
+    pub(crate) fn finish(&mut self, now: Instant) -> Option<Fix> {
+        self.close(now)
+    }
+
+    /// Adds one solution message; returns a fix when it closes the pending epoch or completes the new one.
+    fn add(
+        &mut self,
+        tow_ms: i64,
+        nav: Option<NavSolution>,
+        geodetic: Option<Geodetic>,
+        now: Instant,
+    ) -> Option<Fix> {
+        let mut out = None;
+        if let Some(p) = &self.pending {
+            let repeat = (nav.is_some() && p.nav.is_some()) || (geodetic.is_some() && p.geodetic.is_some());
+            if repeat || tow_distance_ms(p.tow_ms, tow_ms) >= SAME_EPOCH_MS {
+                // The first epoch closed by the next one shows which solution messages to expect.
+                self.expected.get_or_insert_with(Expected::default);
+                out = self.close(now);
+            }
+        }
+        let p = self.pending.get_or_insert(Epoch { tow_ms, nav: None, geodetic: None });
+        if nav.is_some() {
+            p.nav = nav;
+        }
+        if geodetic.is_some() {
+            p.geodetic = geodetic;
+        }
+        let complete = self.expected.is_some_and(|e| p.kinds().covers(e.kinds()));
+        if complete && out.is_none() { self.close(now) } else { out }
+    }
+
+    /// Turns the pending epoch into a fix.
+    fn close(&mut self, now: Instant) -> Option<Fix> {
+        let epoch = self.pending.take()?;
+        if let Some(e) = &mut self.expected {
+            e.learn(epoch.kinds());
+        }
+        Some(self.build(&epoch, now))
+    }
+
+    fn build(&mut self, epoch: &Epoch, now: Instant) -> Fix {
+        let nav = epoch.nav.as_ref();
+        let geo = epoch.geodetic.as_ref();
+        let nav_type = nav.map_or_else(|| geo.map_or(0, |g| g.nav_type as u8), |n| n.mode1);
+        let (mode, quality) = mode_and_quality(nav_type);
+        let has_fix = mode != FixMode::NoFix;
+        if has_fix {
+            self.clock_set = true;
+            if let Some(offset) = geo.and_then(Geodetic::gps_minus_utc_s) {
+                self.receiver_gps_utc_s = Some(offset);
+            }
+            // Before a fix MID 41's week is the firmware's default; with one it is the real week.
+            if let Some(g) = geo.filter(|g| g.extended_week > 0) {
+                self.extended_week = Some(u32::from(g.extended_week));
+            }
+        }
+        let mut fix =
+            Fix { mode: Some(mode), quality: Some(quality), received_at: Some(now), ..Fix::default() };
+
+        if self.clock_set {
+            let gps = match (nav, geo) {
+                (Some(n), _) => Some((self.full_week(n.week, geo), i64::from(n.tow_cs) * 10)),
+                (None, Some(g)) => Some((u32::from(g.extended_week), i64::from(g.tow_ms))),
+                (None, None) => None,
+            };
+            let leap_s = self.receiver_gps_utc_s.map_or(GPS_UTC_OFFSET_S, |r| r.max(GPS_UTC_OFFSET_S));
+            fix.time = gps.and_then(|(week, tow_ms)| utc_from_gps(week, tow_ms, leap_s));
+            fix.time_of_day = fix.time.map(|t| t.time());
+        }
+
+        // Satellites used: MID 2's channel list, else MID 41's bitmap (bit 0 = PRN 1).
+        let used: Vec<u16> = match (nav, geo) {
+            (Some(n), _) => n.prns.iter().filter(|&&p| p != 0).map(|&p| u16::from(p)).collect(),
+            (None, Some(g)) => (0..32u16).filter(|b| g.sv_bitmap & (1 << b) != 0).map(|b| b + 1).collect(),
+            (None, None) => Vec::new(),
+        };
+        fix.satellites.clone_from(&self.sky);
+        for s in &mut fix.satellites {
+            s.used = used.contains(&s.prn);
+            *fix.sats_visible_by.entry(s.constellation).or_insert(0) += 1;
+        }
+        fix.sats_visible = Some(fix.satellites.len() as u32);
+
+        if has_fix {
+            for &prn in &used {
+                *fix.sats_used_by.entry(Constellation::from_nmea_id(prn)).or_insert(0) += 1;
+            }
+            fix.sats_used = nav.map(|n| n.sats_used).or(geo.map(|g| g.sats_used)).map(u32::from);
+            fix.hdop = nav.map(|n| n.hdop_x5).or(geo.map(|g| g.hdop_x5)).map(|h| f64::from(h) / 5.0);
+            Self::fill_position(&mut fix, nav, geo);
+        }
+        fix
+    }
+
+    /// Position, altitude, velocity and error estimate of an epoch with a fix.
+    fn fill_position(fix: &mut Fix, nav: Option<&NavSolution>, geo: Option<&Geodetic>) {
+        let mut ecef_geodetic = None;
+        if let Some(n) = nav {
+            ecef_geodetic = wgs84_from_ecef(n.ecef_m);
+            if let Some((lat, lon, _)) = ecef_geodetic {
+                fix.lat_deg = Some(lat.to_degrees());
+                fix.lon_deg = Some(lon.to_degrees());
+            }
+        } else if let Some(g) = geo {
+            fix.lat_deg = Some(f64::from(g.lat_e7) * 1e-7);
+            fix.lon_deg = Some(f64::from(g.lon_e7) * 1e-7);
+        }
+        if fix.lat_deg.is_none() {
+            // The receiver claimed a fix at a position that is not one: say so rather than guess.
+            fix.mode = Some(FixMode::NoFix);
+            fix.quality = Some(FixQuality::Invalid);
+            return;
+        }
+
+        if let Some(g) = geo {
+            fix.alt_m = Some(f64::from(g.alt_msl_cm) / 100.0);
+            fix.geoid_sep_m = Some((f64::from(g.alt_hae_cm) - f64::from(g.alt_msl_cm)) / 100.0);
+            if g.nav_type & NAV_TYPE_VELOCITY_INVALID == 0 {
+                fix.speed_m_s = Some(f64::from(g.speed_cm_s) / 100.0);
+                fix.course_deg = Some(f64::from(g.course_cdeg) / 100.0);
+            }
+            if g.ehpe_cm > 0 {
+                fix.error = Some(ErrorEstimate {
+                    horizontal_m: f64::from(g.ehpe_cm) / 100.0,
+                    vertical_m: (g.evpe_cm > 0).then(|| f64::from(g.evpe_cm) / 100.0),
+                    source: ErrorSource::Sirf,
+                });
+            }
+        } else if let (Some(n), Some((lat, lon, _))) = (nav, ecef_geodetic)
+            && n.mode2 & MODE2_VELOCITY_INVALID == 0
+        {
+            let [east, north, _up] = enu_from_ecef_velocity(n.velocity_m_s, lat, lon);
+            fix.speed_m_s = Some(east.hypot(north));
+            fix.course_deg = Some(east.atan2(north).to_degrees().rem_euclid(360.0));
+        }
+        if fix.error.is_none() {
+            let differential = fix.quality.is_some_and(FixQuality::is_differential);
+            let uere_m = if differential { super::UERE_DGPS_M } else { super::UERE_M };
+            fix.error = fix.hdop.map(|h| ErrorEstimate {
+                horizontal_m: h * uere_m,
+                vertical_m: None,
+                source: ErrorSource::DopModel { uere_m },
+            });
+        }
+    }
+
+    /// The full GPS week of a 10-bit MID 2 week: next to the epoch's MID 41 extended week, else the latest
+    /// extended week seen, else in the 1024 weeks from [`PIVOT_WEEK`]. Weeks above 1023 are taken as they
+    /// are (later firmware sends the extended week).
+    fn full_week(&self, week: u16, geo: Option<&Geodetic>) -> u32 {
+        let week = u32::from(week);
+        if week >= 1024 {
+            return week;
+        }
+        let reference = geo.map(|g| u32::from(g.extended_week)).filter(|&w| w > 0).or(self.extended_week);
+        let Some(reference) = reference else {
+            return PIVOT_WEEK + (week + 1024 - PIVOT_WEEK % 1024) % 1024;
+        };
+        let candidate = reference - reference % 1024 + week;
+        if candidate + 512 < reference {
+            candidate + 1024
+        } else if candidate > reference + 512 && candidate >= 1024 {
+            candidate - 1024
+        } else {
+            candidate
+        }
+    }
+}
+
+/// Distance between two times of week [ms], across the week's end.
+fn tow_distance_ms(a: i64, b: i64) -> i64 {
+    let d = (a - b).rem_euclid(WEEK_MS);
+    d.min(WEEK_MS - d)
+}
+
+/// UTC of a GPS week and time of week [ms], `leap_s` = GPS − UTC; `None` for a time of week outside the
+/// week.
+fn utc_from_gps(week: u32, tow_ms: i64, leap_s: i64) -> Option<DateTime<Utc>> {
+    if !(0..WEEK_MS).contains(&tow_ms) {
+        return None;
+    }
+    let s = GPS_EPOCH_UNIX_S + i64::from(week) * WEEK_S + tow_ms.div_euclid(1000) - leap_s;
+    DateTime::from_timestamp(s, (tow_ms.rem_euclid(1000) * 1_000_000) as u32)
+}
+
+/// Fix mode and quality from the "position mode" bits shared by MID 2's mode 1 and the low byte of MID 41's
+/// nav type (manual: "Mode 1" table under MID 2).
+///
+/// Bits 0–2: 0 no solution, 1–3 Kalman filter solution from 1–3 satellites, 4 from more than 3, 5 2-D
+/// least squares, 6 3-D least squares, 7 dead reckoning; bit 7: DGPS corrections applied. 4 and 6 are 3D;
+/// fewer than four satellites, or a held altitude, make 2D (as gpsd maps them); dead reckoning is a 2D
+/// position of quality "estimated" (gpsd: 2D, status DR).
+fn mode_and_quality(bits: u8) -> (FixMode, FixQuality) {
+    let mode = match bits & 0x07 {
+        0 => return (FixMode::NoFix, FixQuality::Invalid),
+        7 => return (FixMode::Fix2D, FixQuality::Estimated),
+        4 | 6 => FixMode::Fix3D,
+        _ => FixMode::Fix2D,
+    };
+    (mode, if bits & 0x80 != 0 { FixQuality::Dgps } else { FixQuality::Gps })
+}
+
+/// MID 2 mode 2 bit 4: the velocity is invalid.
+const MODE2_VELOCITY_INVALID: u8 = 0x10;
+/// MID 41 nav type bit 12: the velocity is invalid (MID 2's mode 2 is the high byte of nav type).
+const NAV_TYPE_VELOCITY_INVALID: u16 = 0x1000;
+
+/// MID 2, Measured Navigation Data Out (41 bytes; later firmware appends bytes, which are ignored).
+#[derive(Debug, Clone)]
+struct NavSolution {
+    /// WGS-84 ECEF X, Y, Z [m] (I4 each, bytes 1–12).
+    ecef_m: [f64; 3],
+    /// ECEF velocity [m/s] (I2 each, ×8, bytes 13–18).
+    velocity_m_s: [f64; 3],
+    /// Mode 1 (byte 19), see [`mode_and_quality`].
+    mode1: u8,
+    /// HDOP ×5 (byte 20).
+    hdop_x5: u8,
+    /// Mode 2 (byte 21).
+    mode2: u8,
+    /// GPS week (byte 22–23, 10 bits on `SiRF` II).
+    week: u16,
+    /// GPS time of week ×100 [s] (bytes 24–27).
+    tow_cs: u32,
+    /// Satellites in the solution (byte 28).
+    sats_used: u8,
+    /// PRNs of channels 1–12 used in the solution, 0 for none (bytes 29–40).
+    prns: [u8; 12],
+}
+
+impl NavSolution {
+    fn tow_ms(&self) -> i64 {
+        i64::from(self.tow_cs) * 10
+    }
+}
+
+/// MID 41, Geodetic Navigation Data (91 bytes).
+#[derive(Debug, Clone)]
+struct Geodetic {
+    /// Nav type (bytes 3–4): low byte as MID 2's mode 1, high byte as its mode 2.
+    nav_type: u16,
+    /// Extended (not 10-bit) GPS week (bytes 5–6).
+    extended_week: u16,
+    /// GPS time of week [ms] (bytes 7–10).
+    tow_ms: u32,
+    /// UTC date and time as the receiver computes it (bytes 11–18), when it is a date.
+    utc: Option<DateTime<Utc>>,
+    /// Satellites used, bit 0 = PRN 1 (bytes 19–22).
+    sv_bitmap: u32,
+    /// Latitude, longitude ×10^7 [deg] (bytes 23–30).
+    lat_e7: i32,
+    lon_e7: i32,
+    /// Altitude above the ellipsoid and above MSL ×100 [m] (bytes 31–38).
+    alt_hae_cm: i32,
+    alt_msl_cm: i32,
+    /// Speed over ground ×100 [m/s], course over ground ×100 [deg] (bytes 40–43).
+    speed_cm_s: u16,
+    course_cdeg: u16,
+    /// Estimated horizontal and vertical position error ×100 [m] (bytes 50–57).
+    ehpe_cm: u32,
+    evpe_cm: u32,
+    /// Satellites in the fix (byte 88), HDOP ×5 (byte 89).
+    sats_used: u8,
+    hdop_x5: u8,
+}
+
+impl Geodetic {
+    /// GPS − UTC [s] as the receiver applies it: its GPS time minus its UTC, rounded to whole seconds;
+    /// `None` unless both are valid and the difference is a plausible leap-second count (0–255 s).
+    fn gps_minus_utc_s(&self) -> Option<i64> {
+        let utc = self.utc?;
+        let tow_ms = i64::from(self.tow_ms);
+        if !(0..WEEK_MS).contains(&tow_ms) {
+            return None;
+        }
+        let gps_ms = (GPS_EPOCH_UNIX_S + i64::from(self.extended_week) * WEEK_S) * 1000 + tow_ms;
+        let offset = (gps_ms - utc.timestamp_millis() + 500).div_euclid(1000);
+        (0..=255).contains(&offset).then_some(offset)
+    }
+}
+
+/// Big-endian fields of a payload at byte offsets of the manual's tables (byte 0 = MID).
+struct Fields<'a>(&'a [u8]);
+
+impl Fields<'_> {
+    fn bytes<const N: usize>(&self, at: usize) -> Result<[u8; N], SirfUnused> {
+        let end = at.checked_add(N).ok_or(SirfUnused::Malformed)?;
+        let slice = self.0.get(at..end).ok_or(SirfUnused::Malformed)?;
+        slice.try_into().map_err(|_| SirfUnused::Malformed)
+    }
+    fn u8(&self, at: usize) -> Result<u8, SirfUnused> {
+        self.0.get(at).copied().ok_or(SirfUnused::Malformed)
+    }
+    fn u16(&self, at: usize) -> Result<u16, SirfUnused> {
+        self.bytes(at).map(u16::from_be_bytes)
+    }
+    fn i16(&self, at: usize) -> Result<i16, SirfUnused> {
+        self.bytes(at).map(i16::from_be_bytes)
+    }
+    fn u32(&self, at: usize) -> Result<u32, SirfUnused> {
+        self.bytes(at).map(u32::from_be_bytes)
+    }
+    fn i32(&self, at: usize) -> Result<i32, SirfUnused> {
+        self.bytes(at).map(i32::from_be_bytes)
+    }
+}
+
+/// Message ids that are known and carry nothing a fix needs (manual chapter 2, "Output Messages"):
+/// 5 raw tracker data, 6 software version, 8 50 bps subframe data, 9 CPU throughput, 10 error ID,
+/// 11 command acknowledgment, 12 command negative acknowledgment, 13 visible list, 14 almanac, 15 ephemeris,
+/// 17 differential corrections, 18 OK to send, 19 navigation parameters, 27 DGPS status, 28–31 navigation
+/// library data, 50 SBAS parameters, 52 1 PPS time, 255 development data.
+const KNOWN_UNUSED: [u8; 22] =
+    [5, 6, 8, 9, 10, 11, 12, 13, 14, 15, 17, 18, 19, 27, 28, 29, 30, 31, 50, 52, 225, 255];
+
+/// Decodes one payload by its message id.
+fn decode(payload: &[u8]) -> Result<Message, SirfUnused> {
+    let f = Fields(payload);
+    let mid = f.u8(0)?;
+    Ok(match mid {
+        2 => Message::Nav(decode_nav(&f)?),
+        4 => Message::Tracker(decode_tracker(&f)?),
+        7 => {
+            // MID 7 Clock Status (20 bytes): extended week (1–2), TOW, SVs, drift, bias, GPS time.
+            if payload.len() < 20 {
+                return Err(SirfUnused::Malformed);
+            }
+            Message::ClockStatus { extended_week: f.u16(1)? }
+        }
+        41 => Message::Geodetic(decode_geodetic(&f)?),
+        m if KNOWN_UNUSED.contains(&m) => Message::Unused,
+        _ => return Err(SirfUnused::Unsupported),
+    })
+}
+
+fn decode_nav(f: &Fields<'_>) -> Result<NavSolution, SirfUnused> {
+    if f.0.len() < 41 {
+        return Err(SirfUnused::Malformed);
+    }
+    let mut prns = [0u8; 12];
+    for (i, p) in prns.iter_mut().enumerate() {
+        *p = f.u8(29 + i)?;
+    }
+    Ok(NavSolution {
+        ecef_m: [f64::from(f.i32(1)?), f64::from(f.i32(5)?), f64::from(f.i32(9)?)],
+        velocity_m_s: [f64::from(f.i16(13)?) / 8.0, f64::from(f.i16(15)?) / 8.0, f64::from(f.i16(17)?) / 8.0],
+        mode1: f.u8(19)?,
+        hdop_x5: f.u8(20)?,
+        mode2: f.u8(21)?,
+        week: f.u16(22)?,
+        tow_cs: f.u32(24)?,
+        sats_used: f.u8(28)?,
+        prns,
+    })
+}
+
+fn decode_geodetic(f: &Fields<'_>) -> Result<Geodetic, SirfUnused> {
+    if f.0.len() < 91 {
+        return Err(SirfUnused::Malformed);
+    }
+    let (year, month, day) = (f.u16(11)?, f.u8(13)?, f.u8(14)?);
+    let (hour, minute, ms) = (f.u8(15)?, f.u8(16)?, f.u16(17)?);
+    let utc = NaiveDate::from_ymd_opt(i32::from(year), u32::from(month), u32::from(day))
+        .and_then(|d| d.and_hms_milli_opt(u32::from(hour), u32::from(minute), 0, 0))
+        .filter(|_| ms < 60_000)
+        .map(|t| t.and_utc() + chrono::TimeDelta::milliseconds(i64::from(ms)));
+    Ok(Geodetic {
+        nav_type: f.u16(3)?,
+        extended_week: f.u16(5)?,
+        tow_ms: f.u32(7)?,
+        utc,
+        sv_bitmap: f.u32(19)?,
+        lat_e7: f.i32(23)?,
+        lon_e7: f.i32(27)?,
+        alt_hae_cm: f.i32(31)?,
+        alt_msl_cm: f.i32(35)?,
+        speed_cm_s: f.u16(40)?,
+        course_cdeg: f.u16(42)?,
+        ehpe_cm: f.u32(50)?,
+        evpe_cm: f.u32(54)?,
+        sats_used: f.u8(88)?,
+        hdop_x5: f.u8(89)?,
+    })
+}
+
+/// MID 4, Measured Tracker Data Out: GPS week (1–2), TOW ×100 (3–6), channel count (7), then 15 bytes a
+/// channel: PRN, azimuth ×2/3 [deg] (so degrees = value × 1.5), elevation ×2 [deg] (degrees = value / 2),
+/// state (2 bytes), ten C/N0 values [dB-Hz], one per 100 ms of the last second.
+///
+/// Listed: channels with a PRN that have a direction or a signal; the SNR is the mean of the ten C/N0
+/// values (as gpsd), `None` when all are zero; azimuth and elevation are `None` when both are zero (a
+/// satellite tracked before the almanac says where it is). A PRN on two channels is listed once.
+fn decode_tracker(f: &Fields<'_>) -> Result<Vec<Satellite>, SirfUnused> {
+    let channels = usize::from(f.u8(7)?);
+    if f.0.len() < 8 + 15 * channels {
+        return Err(SirfUnused::Malformed);
+    }
+    let mut sats: Vec<Satellite> = Vec::with_capacity(channels);
+    for ch in 0..channels {
+        let at = 8 + 15 * ch;
+        let prn = u16::from(f.u8(at)?);
+        let (az, el) = (f.u8(at + 1)?, f.u8(at + 2)?);
+        let cn0 = f.bytes::<10>(at + 5)?;
+        let sum: u32 = cn0.iter().map(|&c| u32::from(c)).sum();
+        let placed = az != 0 || el != 0;
+        if prn == 0 || (!placed && sum == 0) || sats.iter().any(|s| s.prn == prn) {
+            continue;
+        }
+        sats.push(Satellite {
+            prn,
+            constellation: Constellation::from_nmea_id(prn),
+            elevation_deg: placed.then(|| f64::from(el) / 2.0),
+            azimuth_deg: placed.then(|| f64::from(az) * 1.5),
+            snr_dbhz: (sum > 0).then(|| f64::from(sum) / 10.0),
+            used: false,
+        });
+    }
+    Ok(sats)
+}
+
+/// WGS-84 semi-major axis [m].
+const WGS84_A_M: f64 = 6_378_137.0;
+/// WGS-84 flattening.
+const WGS84_F: f64 = 1.0 / 298.257_223_563;
+
+/// Geodetic latitude, longitude [rad] and height above the ellipsoid [m] of a WGS-84 ECEF point [m];
+/// `None` within 100 km of the earth's centre, where the closed form below has no solution.
+///
+/// Heikkinen's exact closed form (M. Heikkinen, "Geschlossene Formeln zur Berechnung räumlicher
+/// geodätischer Koordinaten aus rechtwinkligen Koordinaten", Z. Vermess. 107 (1982); as given by J. Zhu,
+/// "Conversion of Earth-centered Earth-fixed coordinates to geodetic coordinates", IEEE Trans. AES 30
+/// (1994), eqs. 1–12), with `b = a(1 − f)`, `e² = f(2 − f)`, `e'² = e²/(1 − e²)`, `p = √(x² + y²)`:
+/// `F = 54 b² z²`, `G = p² + (1 − e²) z² − e²(a² − b²)`, `c = e⁴ F p² / G³`, `s = ∛(1 + c + √(c² + 2c))`,
+/// `k = s + 1 + 1/s`, `P = F / (3 k² G²)`, `Q = √(1 + 2 e⁴ P)`,
+/// `r₀ = −P e² p / (1 + Q) + √(a²/2 (1 + 1/Q) − P (1 − e²) z² / (Q (1 + Q)) − P p² / 2)`,
+/// `U = √((p − e² r₀)² + z²)`, `V = √((p − e² r₀)² + (1 − e²) z²)`, `z₀ = b² z / (a V)`;
+/// then `h = U (1 − b² / (a V))`, `φ = atan2(z + e'² z₀, p)`, `λ = atan2(y, x)`.
+/// Exact to far below a millimetre for any point near the earth's surface — no iteration.
+pub(crate) fn wgs84_from_ecef([x, y, z]: [f64; 3]) -> Option<(f64, f64, f64)> {
+    let a = WGS84_A_M;
+    let b = a * (1.0 - WGS84_F);
+    let e2 = WGS84_F * (2.0 - WGS84_F);
+    let ep2 = e2 / (1.0 - e2);
+    let p = x.hypot(y);
+    if p.hypot(z) < 100_000.0 {
+        return None;
+    }
+    let big_f = 54.0 * b * b * z * z;
+    let g = p * p + (1.0 - e2) * z * z - e2 * (a * a - b * b);
+    let c = e2 * e2 * big_f * p * p / (g * g * g);
+    let s = (1.0 + c + (c * c + 2.0 * c).sqrt()).cbrt();
+    let k = s + 1.0 + 1.0 / s;
+    let big_p = big_f / (3.0 * k * k * g * g);
+    let q = (1.0 + 2.0 * e2 * e2 * big_p).sqrt();
+    let r0 = -big_p * e2 * p / (1.0 + q)
+        + (a * a / 2.0 * (1.0 + 1.0 / q)
+            - big_p * (1.0 - e2) * z * z / (q * (1.0 + q))
+            - big_p * p * p / 2.0)
+            .max(0.0)
+            .sqrt();
+    let u = (p - e2 * r0).hypot(z);
+    let v = ((p - e2 * r0).powi(2) + (1.0 - e2) * z * z).sqrt();
+    let z0 = b * b * z / (a * v);
+    let h = u * (1.0 - b * b / (a * v));
+    let lat = (z + ep2 * z0).atan2(p);
+    let lon = y.atan2(x);
+    (lat.is_finite() && lon.is_finite() && h.is_finite()).then_some((lat, lon, h))
+}
+
+/// East, north, up velocity [m/s] of an ECEF velocity at geodetic latitude/longitude [rad]: the rows of
+/// the rotation ECEF → ENU, `e = (−sin λ, cos λ, 0)`, `n = (−sin φ cos λ, −sin φ sin λ, cos φ)`,
+/// `u = (cos φ cos λ, cos φ sin λ, sin φ)` (e.g. Misra & Enge, *Global Positioning System*, §4.2).
+fn enu_from_ecef_velocity([vx, vy, vz]: [f64; 3], lat: f64, lon: f64) -> [f64; 3] {
+    let (sp, cp) = lat.sin_cos();
+    let (sl, cl) = lon.sin_cos();
+    [-sl * vx + cl * vy, -sp * cl * vx - sp * sl * vy + cp * vz, cp * cl * vx + cp * sl * vy + sp * vz]
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    use std::collections::BTreeMap;
+    use std::path::PathBuf;
+    use std::time::Instant;
+
+    use proptest::prelude::*;
+
+    fn data(name: &str) -> PathBuf {
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/gpsd-logs-more").join(name)
+    }
+
+    /// The checksum-verified payloads of a byte stream: a frame scanner of its own, independent of the
+    /// framer, which skips anything that is not a whole frame with a correct checksum.
+    fn payloads(bytes: &[u8]) -> Vec<&[u8]> {
+        let mut out = Vec::new();
+        let mut i = 0;
+        while let Some(off) = bytes.get(i..).and_then(|rest| rest.windows(2).position(|w| w == START)) {
+            let at = i + off;
+            let frame = bytes.get(at + 2..at + 4).and_then(|len| {
+                let n = usize::from(u16::from_be_bytes([len[0], len[1]]) & 0x7FFF);
+                let payload = bytes.get(at + 4..at + 4 + n)?;
+                let ck = bytes.get(at + 4 + n..at + 6 + n)?;
+                let ok = u16::from_be_bytes([ck[0], ck[1]]) == checksum(payload)
+                    && bytes.get(at + 6 + n..at + 8 + n) == Some(&END[..]);
+                ok.then_some((payload, at + 8 + n))
+            });
+            match frame {
+                Some((payload, next)) => {
+                    out.push(payload);
+                    i = next;
+                }
+                None => i = at + 1,
+            }
+        }
+        out
+    }
+
+    /// The payloads of gpsd's `sirf2.log` (read once per test binary).
+    fn sirf2_payloads() -> &'static [Vec<u8>] {
+        static PAYLOADS: std::sync::OnceLock<Vec<Vec<u8>>> = std::sync::OnceLock::new();
+        PAYLOADS.get_or_init(|| {
+            let bytes = std::fs::read(data("sirf2.log")).unwrap();
+            payloads(&bytes).into_iter().map(<[u8]>::to_vec).collect()
+        })
+    }
+
+    fn decode_all(payloads: impl IntoIterator<Item = impl AsRef<[u8]>>) -> Vec<Fix> {
+        let now = Instant::now();
+        let mut d = SirfDecoder::new();
+        let mut fixes = Vec::new();
+        for p in payloads {
+            if let Ok(Some(f)) = d.handle(p.as_ref(), now) {
+                fixes.push(f);
+            }
+        }
+        fixes.extend(d.finish(now));
+        // Decoders run at different instants; what they decoded is what is compared.
+        for f in &mut fixes {
+            f.received_at = None;
+        }
+        fixes
+    }
+
+    fn time_key(t: DateTime<Utc>) -> String {
+        t.format("%Y-%m-%dT%H:%M:%S%.3fZ").to_string()
+    }
+
+    /// One gpsd TPV report.
+    struct Tpv {
+        time: String,
+        mode: u8,
+        lat: Option<f64>,
+        lon: Option<f64>,
+        speed: Option<f64>,
+        track: Option<f64>,
+    }
+
+    /// gpsd's TPV reports of a `.chk` file, in order.
+    fn gpsd_tpv(name: &str) -> Vec<Tpv> {
+        let text = std::fs::read_to_string(data(name)).unwrap();
+        text.lines()
+            .filter(|l| l.starts_with('{'))
+            .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+            .filter(|v| v["class"] == "TPV")
+            .map(|v| Tpv {
+                time: v["time"].as_str().unwrap_or_default().to_string(),
+                mode: v["mode"].as_u64().unwrap_or(0) as u8,
+                lat: v["lat"].as_f64(),
+                lon: v["lon"].as_f64(),
+                speed: v["speed"].as_f64(),
+                track: v["track"].as_f64(),
+            })
+            .collect()
+    }
+
+    /// Compares fixes with gpsd's TPV reports that have a position, keyed by the TPV time: the same UTC
+    /// time to the millisecond, the same mode, latitude and longitude within 1e-7 deg. Returns the matched
+    /// TPVs and the times of the others.
+    fn match_gpsd<'a>(fixes: &[Fix], tpv: &'a [Tpv]) -> (Vec<(&'a Tpv, Fix)>, Vec<String>) {
+        let ours: BTreeMap<String, &Fix> =
+            fixes.iter().filter_map(|f| Some((time_key(f.time?), f))).collect();
+        let mut matched = Vec::new();
+        let mut misses = Vec::new();
+        for t in tpv.iter().filter(|t| t.mode >= 2) {
+            let close = |a: Option<f64>, b: Option<f64>| a.zip(b).is_some_and(|(a, b)| (a - b).abs() < 1e-7);
+            match ours.get(&t.time) {
+                Some(f)
+                    if f.mode.map(FixMode::gpsd_number) == Some(t.mode)
+                        && close(f.lat_deg, t.lat)
+                        && close(f.lon_deg, t.lon) =>
+                {
+                    matched.push((t, (*f).clone()));
+                }
+                _ => misses.push(t.time.clone()),
+            }
+        }
+        (matched, misses)
+    }
+
+    #[test]
+    fn sirf2_log_matches_gpsd_for_every_epoch_with_a_position() {
+        let fixes = decode_all(sirf2_payloads());
+        // One fix per navigation solution: the log has 775 MID 2 and 775 MID 41, one of each a second.
+        assert_eq!(fixes.len(), 775);
+        let tpv = gpsd_tpv("sirf2.log.chk");
+        let (matched, misses) = match_gpsd(&fixes, &tpv);
+        let total = matched.len() + misses.len();
+        let worst = matched
+            .iter()
+            .map(|(t, f)| {
+                let dlat = (f.lat_deg.unwrap() - t.lat.unwrap()).abs();
+                dlat.max((f.lon_deg.unwrap() - t.lon.unwrap()).abs())
+            })
+            .fold(0.0, f64::max);
+        eprintln!(
+            "sirf2.log: {} of gpsd's {total} epochs with a position matched; worst {worst:e} deg",
+            matched.len()
+        );
+        assert_eq!(total, 615);
+        assert!(matched.len() * 100 >= total * 99, "misses: {misses:?}");
+
+        // Deliberate difference from gpsd: before the receiver's first fix its clock is a firmware default
+        // (week 1268 = 2004 in MID 41; gpsd resolved MID 2's 10-bit week to 2023-12), so our 160 no-fix
+        // epochs before the first fix carry no time, where gpsd reports 160 mode-1 TPVs with times.
+        let first_fix = fixes.iter().position(Fix::has_position).unwrap();
+        assert_eq!(first_fix, 160);
+        assert!(fixes[..first_fix].iter().all(|f| f.time.is_none() && f.mode == Some(FixMode::NoFix)));
+        assert_eq!(tpv.iter().take_while(|t| t.mode == 1).count(), 160);
+    }
+
+    #[test]
+    fn mid_2_alone_matches_gpsd_including_speed_and_track() {
+        // Without MID 41 the 10-bit week is resolved from the 2019 rollover, and speed and course come from
+        // MID 2's ECEF velocity — as gpsd computes them.
+        let fixes = decode_all(sirf2_payloads().iter().filter(|p| p[0] != 41));
+        let tpv = gpsd_tpv("sirf2.log.chk");
+        let (matched, misses) = match_gpsd(&fixes, &tpv);
+        assert!(misses.is_empty(), "{misses:?}");
+        let mut with_velocity = 0;
+        for (t, f) in &matched {
+            // Deliberate difference: where MID 2's mode 2 flags the velocity invalid (the 60 2D epochs),
+            // we give no speed or course; gpsd reports speed 0 and track 0.
+            let (Some(speed), Some(course)) = (f.speed_m_s, f.course_deg) else {
+                assert_eq!((t.speed, t.track), (Some(0.0), Some(0.0)), "{}", t.time);
+                continue;
+            };
+            approx::assert_abs_diff_eq!(speed, t.speed.unwrap(), epsilon = 1e-3);
+            if speed > 0.0 {
+                let d = (course - t.track.unwrap() + 540.0).rem_euclid(360.0) - 180.0;
+                assert!(d.abs() < 1e-3, "{}: {course} {:?}", t.time, t.track);
+            }
+            with_velocity += 1;
+        }
+        assert_eq!(with_velocity, 555);
+    }
+
+    /// The forward transform, geodetic [rad, m] to ECEF [m]: `N = a / √(1 − e² sin² φ)`,
+    /// `x = (N + h) cos φ cos λ`, `y = (N + h) cos φ sin λ`, `z = (N (1 − e²) + h) sin φ`.
+    fn ecef_from_wgs84(lat: f64, lon: f64, h: f64) -> [f64; 3] {
+        let e2 = WGS84_F * (2.0 - WGS84_F);
+        let n = WGS84_A_M / (1.0 - e2 * lat.sin().powi(2)).sqrt();
+        [(n + h) * lat.cos() * lon.cos(), (n + h) * lat.cos() * lon.sin(), (n * (1.0 - e2) + h) * lat.sin()]
+    }
+
+    #[test]
+    fn ecef_to_wgs84_inverts_the_forward_transform() {
+        for lat_deg in [-90.0, -89.999, -57.3, -1e-9, 0.0, 12.5, 37.293_859_454, 45.0, 89.99, 90.0] {
+            for lon_deg in [-180.0, -121.918_694_932, -0.001, 0.0, 2.1, 90.0, 179.999] {
+                for h in [-430.0, 0.0, 31.6, 8_848.0, 18_000.0] {
+                    let (lat, lon) = (f64::to_radians(lat_deg), f64::to_radians(lon_deg));
+                    let (la, lo, hh) = wgs84_from_ecef(ecef_from_wgs84(lat, lon, h)).unwrap();
+                    assert!((la.to_degrees() - lat_deg).abs() < 1e-10, "{lat_deg} {lon_deg} {h}");
+                    if lat_deg.abs() < 90.0 {
+                        let dlon = (lo.to_degrees() - lon_deg + 540.0).rem_euclid(360.0) - 180.0;
+                        assert!(dlon.abs() < 1e-10, "{lat_deg} {lon_deg} {h}");
+                    }
+                    assert!((hh - h).abs() < 1e-5, "{lat_deg} {lon_deg} {h}: {hh}");
+                }
+            }
+        }
+        assert_eq!(wgs84_from_ecef([0.0, 0.0, 0.0]), None);
+        assert_eq!(wgs84_from_ecef([f64::NAN, 0.0, 0.0]), None);
+    }
+
+    #[test]
+    fn the_geodetic_message_alone_gives_the_same_fixes_within_the_ecef_resolution() {
+        let all = sirf2_payloads();
+        let full = decode_all(all);
+        let geodetic_only = decode_all(all.iter().filter(|p| p[0] != 2));
+        assert_eq!(geodetic_only.len(), full.len());
+        let mut compared = 0;
+        for (g, f) in geodetic_only.iter().zip(&full) {
+            assert_eq!(g.mode, f.mode);
+            let (Some(gt), Some(ft)) = (g.time, f.time) else { continue };
+            // MID 41 keeps milliseconds (…36.825), MID 2 truncates to 10 ms (…36.820); both minus 18 s.
+            assert!((gt - ft).num_milliseconds().abs() < 10, "{gt} {ft}");
+            if let (Some(glat), Some(flat), Some(glon), Some(flon)) =
+                (g.lat_deg, f.lat_deg, g.lon_deg, f.lon_deg)
+            {
+                // MID 2's whole ECEF metres against MID 41's 1e-7 deg (1 cm): within 1.5 m.
+                let north_m = (glat - flat).to_radians() * 6.371e6;
+                let east_m = (glon - flon).to_radians() * 6.371e6 * flat.to_radians().cos();
+                assert!(north_m.hypot(east_m) < 1.5, "{gt}: {north_m} {east_m}");
+                compared += 1;
+            }
+        }
+        assert_eq!(compared, 615);
+    }
+
+    #[test]
+    fn fields_of_a_3d_dgps_epoch() {
+        let fixes = decode_all(sirf2_payloads());
+        let f = fixes.last().unwrap();
+        assert_eq!(f.time.map(time_key).as_deref(), Some("2021-12-09T20:47:45.780Z"));
+        assert_eq!((f.mode, f.quality), (Some(FixMode::Fix3D), Some(FixQuality::Dgps)));
+        assert!(f.alt_m.is_some() && f.geoid_sep_m.is_some() && f.speed_m_s.is_some());
+        assert_eq!(f.error.map(|e| e.source), Some(ErrorSource::Sirf));
+        approx::assert_relative_eq!(f.hdop.unwrap(), 1.8);
+        // gpsd's last SKY: the same directions and mean C/N0 (gpsd lists only satellites with a non-zero
+        // azimuth and elevation); gpsd marks by tracker state bit 0 and SBAS, we by MID 2's channel list.
+        let expect = [
+            (9, 312.0, 47.5, Some(45.3)),
+            (16, 88.5, 50.5, Some(45.9)),
+            (3, 174.0, 48.5, Some(45.0)),
+            (26, 48.0, 25.5, None),
+            (7, 249.0, 31.5, Some(41.1)),
+            (6, 283.5, 15.0, None),
+            (18, 318.0, 13.5, None),
+            (4, 24.0, 70.0, Some(43.5)),
+            (131, 171.0, 46.0, Some(40.9)),
+        ];
+        for (prn, az, el, ss) in expect {
+            let s = f.satellites.iter().find(|s| s.prn == prn).unwrap();
+            assert_eq!((s.azimuth_deg, s.elevation_deg), (Some(az), Some(el)), "{prn}");
+            assert_eq!(s.snr_dbhz.map(|x| (x * 10.0).round() / 10.0), ss, "{prn}");
+        }
+        let used: Vec<u16> = f.satellites.iter().filter(|s| s.used).map(|s| s.prn).collect();
+        assert_eq!(f.sats_used, Some(used.len() as u32));
+        for prn in [9, 16, 3, 7, 4] {
+            assert!(used.contains(&prn), "{prn} {used:?}");
+        }
+        let mut checked = f.clone();
+        assert!(checked.validate().is_clean());
+    }
+
+    #[test]
+    fn epochs_complete_on_their_last_solution_message_in_either_order() {
+        let all = sirf2_payloads();
+        let now = Instant::now();
+        // In the log's order (41, 4, 2, ...) the fix comes with MID 2, once one second has shown the cycle.
+        let mut d = SirfDecoder::new();
+        let mut emitted_by = Vec::new();
+        for p in all {
+            if d.handle(p, now).unwrap().is_some() {
+                emitted_by.push(p[0]);
+            }
+        }
+        assert!(d.finish(now).is_none());
+        assert_eq!(emitted_by.len(), 775);
+        assert!(emitted_by[2..].iter().all(|&m| m == 2), "{emitted_by:?}");
+        // A receiver that sends MID 2 first: the same fixes, each with its MID 41.
+        let mut swapped = all.to_vec();
+        for i in 1..swapped.len() {
+            if swapped[i][0] == 2 && swapped[i - 1][0] == 4 && i >= 2 && swapped[i - 2][0] == 41 {
+                swapped.swap(i, i - 2);
+            }
+        }
+        assert_eq!(decode_all(&swapped), decode_all(all));
+        // A lost MID 2 leaves an epoch of MID 41 alone, closed by the next solution; nothing is lost.
+        let mut n2 = 0;
+        let lossy: Vec<_> = all
+            .iter()
+            .filter(|p| {
+                n2 += usize::from(p[0] == 2);
+                !(p[0] == 2 && n2 % 50 == 0)
+            })
+            .collect();
+        let fixes = decode_all(lossy);
+        assert_eq!(fixes.len(), 775);
+        assert_eq!(fixes.iter().filter(|f| f.has_position()).count(), 615);
+        assert!(fixes.windows(2).all(|w| w[0].time.is_none() || w[0].time < w[1].time));
+    }
+
+    #[test]
+    fn unknown_short_and_unused_payloads() {
+        let now = Instant::now();
+        let mut d = SirfDecoder::new();
+        assert_eq!(d.handle(&[], now), Err(SirfUnused::Malformed));
+        assert_eq!(d.handle(&[0xC8, 1, 2], now), Err(SirfUnused::Unsupported));
+        assert_eq!(d.handle(&[2; 40], now), Err(SirfUnused::Malformed));
+        assert_eq!(d.handle(&[41; 90], now), Err(SirfUnused::Malformed));
+        assert_eq!(d.handle(&[4, 0, 0, 0, 0, 0, 0, 1], now), Err(SirfUnused::Malformed));
+        assert_eq!(d.handle(&[7; 19], now), Err(SirfUnused::Malformed));
+        for mid in [9, 27, 50, 52, 13, 10, 255] {
+            assert_eq!(d.handle(&[mid, 0, 0], now), Ok(None), "{mid}");
+        }
+        assert_eq!(d.finish(now), None);
+    }
+
+    /// A few real payloads of every message id in `sirf2.log`, with and without a fix.
+    fn sample_payloads() -> Vec<Vec<u8>> {
+        let all = sirf2_payloads();
+        all.iter().skip(700).step_by(7).take(40).chain(all.iter().rev().take(14)).cloned().collect()
+    }
+
+    fn mutated() -> impl Strategy<Value = Vec<u8>> {
+        let samples = sample_payloads();
+        (0..samples.len(), any::<prop::sample::Index>(), any::<u8>()).prop_map(move |(i, at, b)| {
+            let mut p = samples[i].clone();
+            let at = at.index(p.len());
+            p[at] = b;
+            p
+        })
+    }
+
+    fn arbitrary_payload() -> impl Strategy<Value = Vec<u8>> {
+        prop_oneof![
+            prop::collection::vec(any::<u8>(), 0..300),
+            (prop::sample::select(vec![2u8, 4, 7, 41]), prop::collection::vec(any::<u8>(), 0..200)).prop_map(
+                |(mid, mut body)| {
+                    body.insert(0, mid);
+                    body
+                }
+            ),
+        ]
+    }
+
+    proptest! {
+        #[test]
+        fn arbitrary_payloads_never_panic(payloads in prop::collection::vec(arbitrary_payload(), 1..40)) {
+            let now = Instant::now();
+            let mut d = SirfDecoder::new();
+            for p in &payloads {
+                if let Ok(Some(mut f)) = d.handle(p, now) {
+                    f.validate();
+                }
+            }
+            if let Some(mut f) = d.finish(now) {
+                f.validate();
+            }
+        }
+
+        #[test]
+        fn a_real_payload_with_one_byte_changed_never_panics(bad in mutated(), before in 0usize..54) {
+            let now = Instant::now();
+            let mut d = SirfDecoder::new();
+            let samples = sample_payloads();
+            prop_assert_eq!(samples.len(), 54);
+            for p in samples.iter().take(before) {
+                let _ = d.handle(p, now);
+            }
+            if let Ok(Some(mut f)) = d.handle(&bad, now) {
+                f.validate();
+            }
+            for p in samples.iter().skip(before) {
+                if let Ok(Some(mut f)) = d.handle(p, now) {
+                    f.validate();
+                }
+            }
+            let _ = d.finish(now);
+        }
+    }
 
     #[test]
     fn a_frame_of_a_real_sirf_ii_receiver_round_trips() {
@@ -45,10 +1092,8 @@ mod tests {
         let hex = "a0a2005b290001100004f4000003e807d40418173bbb8000000000000000000000000000000000000000001500000000\
                    00000000000000000000000000000000000000000000000000000000001bdff000000000000000000000000000fa0007\
                    9ab0b3";
-        let bytes: Vec<u8> = (0..hex.len())
-            .step_by(2)
-            .map(|i| u8::from_str_radix(&hex[i..i + 2], 16).unwrap())
-            .collect();
+        let bytes: Vec<u8> =
+            (0..hex.len()).step_by(2).map(|i| u8::from_str_radix(&hex[i..i + 2], 16).unwrap()).collect();
         let payload = &bytes[4..bytes.len() - 4];
         assert_eq!(payload.len(), 91);
         assert_eq!(checksum(payload), 0x079A);

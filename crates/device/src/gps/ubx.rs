@@ -1,8 +1,17 @@
-//! u-blox UBX binary protocol: frames (`B5 62 class id len16le payload ck_a ck_b`).
+//! u-blox UBX binary protocol: frames (`B5 62 class id len16le payload ck_a ck_b`) and the sans-IO
+//! decoder of the navigation messages into [`Fix`](super::Fix)es (`UbxDecoder`).
 //!
 //! The frame layout and the 8-bit Fletcher checksum over class, id, length and payload are those of the
 //! u-blox receiver description (e.g. "u-blox 8 / u-blox M8 Receiver Description, UBX-13003221", section
-//! "UBX Frame Structure" and "UBX Checksum").
+//! "UBX Frame Structure" and "UBX Checksum"). The framer ([`super::framing`]) verifies the checksum and
+//! hands each frame's class, id and payload to `UbxDecoder::handle`; docs/gps.md ("u-blox UBX") says
+//! which messages are used and how epochs are formed.
+
+mod decoder;
+#[cfg(test)]
+mod tests;
+
+pub(crate) use decoder::{UbxDecoder, UbxUnused};
 
 /// First sync byte.
 pub const SYNC_1: u8 = 0xB5;
@@ -36,26 +45,4 @@ pub fn frame(class: u8, id: u8, payload: &[u8]) -> Vec<u8> {
     out.extend_from_slice(payload);
     out.extend_from_slice(&[a, b]);
     out
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn poll_of_mon_ver_matches_the_published_frame() {
-        // The MON-VER poll, an empty payload: B5 62 0A 04 00 00 0E 34 as printed in u-blox's documents
-        // and in every u-center log.
-        assert_eq!(frame(0x0A, 0x04, &[]), [0xB5, 0x62, 0x0A, 0x04, 0x00, 0x00, 0x0E, 0x34]);
-    }
-
-    #[test]
-    fn cfg_rate_frame_matches_the_published_frame() {
-        // CFG-RATE 1 Hz (measRate 1000 ms, navRate 1, timeRef GPS), the frame u-center sends:
-        // B5 62 06 08 06 00 E8 03 01 00 01 00 01 39.
-        assert_eq!(
-            frame(0x06, 0x08, &[0xE8, 0x03, 0x01, 0x00, 0x01, 0x00]),
-            [0xB5, 0x62, 0x06, 0x08, 0x06, 0x00, 0xE8, 0x03, 0x01, 0x00, 0x01, 0x00, 0x01, 0x39]
-        );
-    }
 }

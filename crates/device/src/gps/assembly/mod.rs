@@ -20,6 +20,14 @@
 //! Every fix is checked by [`Fix::validate`] as it is emitted (out-of-range positions removed, implausible
 //! values removed or corrected); what was removed is counted in [`DecodeStats`].
 //!
+//! Binary frames (docs/gps.md, "u-blox UBX" and "Mixed streams"): the framer hands out checksum-verified
+//! UBX and `SiRF` frames too; UBX goes to [`UbxDecoder`](super::ubx), `SiRF` to the `SiRF` decoder, and their
+//! epochs become fixes exactly like NMEA ones (validated, counted, stamped with `received_at`). While a
+//! binary protocol gives fixes, it is the one source of epochs: NMEA epochs of the same receiver are
+//! counted as superseded, not reported, so no second is reported twice with different contents; after
+//! [`NMEA_TAKEOVER_EPOCHS`] NMEA epochs without a binary fix, NMEA takes over again. Binary frames are not
+//! sent as [`GpsEvent::Raw`] (that is the NMEA text the recorder writes back as a log).
+//!
 //! HDG (an external magnetic compass, often at 10 Hz) is not part of any epoch: each one becomes a
 //! [`GpsEvent::Attitude`] at once (magnetic, origin NMEA, `received_at` = the instant of the
 //! [`NmeaDecoder::handle_bytes`] call that completed it, as for fixes), checked by
@@ -33,8 +41,10 @@ use std::time::{Duration, Instant};
 use chrono::{DateTime, NaiveDate, NaiveTime, Utc};
 
 use super::fix::{Constellation, ErrorEstimate, ErrorSource, Fix, FixMode, FixQuality, Satellite};
-use super::framing::{DecodeStats, Framer};
+use super::framing::{DecodeStats, Frame, Framer};
 use super::sentence::{self, Parsed, Unused};
+use super::sirf::{SirfDecoder, SirfUnused};
+use super::ubx::{UbxDecoder, UbxUnused};
 use super::{GpsEvent, Mark, UERE_DGPS_M, UERE_M};
 use crate::heading::{HeadingOrigin, HeadingReference};
 
@@ -82,6 +92,8 @@ enum Kind {
     Pgrme,
     Gsa,
     Gsv,
+    /// Ashtech `$PASHR,POS`.
+    AshtechPos,
     Other,
 }
 
@@ -99,6 +111,7 @@ fn kind_of(p: &Parsed) -> Kind {
         Parsed::Pgrme { .. } => Kind::Pgrme,
         Parsed::Gsa { .. } => Kind::Gsa,
         Parsed::Gsv { .. } => Kind::Gsv,
+        Parsed::AshtechPos { .. } => Kind::AshtechPos,
         _ => Kind::Other,
     }
 }
@@ -138,6 +151,8 @@ struct Epoch {
     gsa: Vec<GsaPart>,
     gst: Option<(Option<f64>, Option<f64>, Option<f64>)>,
     pgrme: Option<(Option<f64>, Option<f64>)>,
+    /// Ashtech `$PASHR,POS`: the whole fix of the epoch (kept as parsed).
+    ashtech: Option<Parsed>,
     heading_deg: Option<f64>,
     /// A THS with mode `V` said this epoch's heading is not valid.
     heading_invalid: bool,
@@ -189,7 +204,25 @@ pub struct NmeaDecoder {
     checked: DecodeStats,
     /// Emit every sentence as a [`GpsEvent::Raw`] too ([`Self::with_raw_lines`]).
     raw_lines: bool,
+    ubx: UbxDecoder,
+    sirf: SirfDecoder,
+    binary: BinaryState,
 }
+
+/// Who gives the epochs when a receiver sends binary frames.
+#[derive(Debug, Default)]
+struct BinaryState {
+    /// A binary frame arrived that has not completed an epoch yet (the quiet gap closes it).
+    pending: bool,
+    /// A binary protocol gives the fixes: NMEA epochs are superseded.
+    owner: bool,
+    /// NMEA epochs closed since the last binary fix.
+    nmea_epochs_since: u32,
+}
+
+/// NMEA epochs without a binary fix after which NMEA gives the fixes again (the receiver stopped its
+/// binary output).
+pub const NMEA_TAKEOVER_EPOCHS: u32 = 3;
 
 impl Default for NmeaDecoder {
     fn default() -> Self {
@@ -222,6 +255,9 @@ impl NmeaDecoder {
             epochs: 0,
             checked: DecodeStats::default(),
             raw_lines: false,
+            ubx: UbxDecoder::new(),
+            sirf: SirfDecoder::new(),
+            binary: BinaryState::default(),
         }
     }
 
@@ -235,10 +271,18 @@ impl NmeaDecoder {
 
     /// Counts of accepted and rejected input so far.
     pub fn stats(&self) -> DecodeStats {
+        let c = &self.checked;
         DecodeStats {
             epochs: self.epochs,
-            invalid_positions: self.checked.invalid_positions,
-            implausible_values: self.checked.implausible_values,
+            invalid_positions: c.invalid_positions,
+            implausible_values: c.implausible_values,
+            nmea_epochs_superseded: c.nmea_epochs_superseded,
+            accuracy_gst: c.accuracy_gst,
+            accuracy_pgrme: c.accuracy_pgrme,
+            accuracy_ubx: c.accuracy_ubx,
+            accuracy_sirf: c.accuracy_sirf,
+            accuracy_gpsd: c.accuracy_gpsd,
+            accuracy_dop_model: c.accuracy_dop_model,
             ..*self.framer.stats()
         }
     }
@@ -259,7 +303,7 @@ impl NmeaDecoder {
         self.now = Some(now);
         self.attitude_bytes = 0;
         let mut framer = std::mem::take(&mut self.framer);
-        framer.feed(data, |s, stats| self.handle_sentence(s, stats));
+        framer.feed(data, |f, stats| self.handle_frame(f, stats));
         self.framer = framer;
         // Bytes that were nothing but HDG sentences say nothing about the epoch: they do not hold the
         // quiet gap open.
@@ -270,7 +314,11 @@ impl NmeaDecoder {
 
     /// When [`Self::handle_timeout`] wants to be called next (the quiet-gap deadline), if an epoch is open.
     pub fn poll_timeout(&self) -> Option<Instant> {
-        if self.epoch.substantive { self.last_input.map(|t| t + self.config.quiet_gap) } else { None }
+        if self.epoch.substantive || self.binary.pending {
+            self.last_input.map(|t| t + self.config.quiet_gap)
+        } else {
+            None
+        }
     }
 
     /// Closes the open epoch if nothing arrived for the quiet gap.
@@ -278,6 +326,7 @@ impl NmeaDecoder {
         self.now = Some(now);
         if self.poll_timeout().is_some_and(|deadline| now >= deadline) {
             self.close_epoch();
+            self.finish_binary(now);
         }
     }
 
@@ -285,15 +334,64 @@ impl NmeaDecoder {
     pub fn finish(&mut self, now: Instant) {
         self.now = Some(now);
         let mut framer = std::mem::take(&mut self.framer);
-        framer.finish(|s, stats| self.handle_sentence(s, stats));
+        framer.finish(|f, stats| self.handle_frame(f, stats));
         self.framer = framer;
         self.close_epoch();
+        self.finish_binary(now);
         self.events.push_back(GpsEvent::Stats(self.stats()));
     }
 
     /// The next event, if any.
     pub fn poll_event(&mut self) -> Option<GpsEvent> {
         self.events.pop_front()
+    }
+
+    /// Handles one item of the framer.
+    fn handle_frame(&mut self, frame: Frame<'_>, stats: &mut DecodeStats) {
+        let now = self.now.unwrap_or_else(Instant::now);
+        let decoded = match frame {
+            Frame::Nmea(line) => return self.handle_sentence(line, stats),
+            Frame::Ubx { class, id, payload } => {
+                self.ubx.handle(class, id, payload, now).map_err(|e| e == UbxUnused::Malformed)
+            }
+            Frame::Sirf { payload } => {
+                self.sirf.handle(payload, now).map_err(|e| matches!(e, SirfUnused::Malformed))
+            }
+        };
+        match decoded {
+            Ok(Some(fix)) => self.emit_binary(fix),
+            Ok(None) => self.binary.pending = true,
+            Err(true) => stats.binary_malformed += 1,
+            Err(false) => stats.binary_frames += 1,
+        }
+    }
+
+    /// Closes the binary decoders' open epochs (end of stream, quiet gap).
+    fn finish_binary(&mut self, now: Instant) {
+        if std::mem::take(&mut self.binary.pending) {
+            for fix in [self.ubx.finish(now), self.sirf.finish(now)].into_iter().flatten() {
+                self.emit_binary(fix);
+            }
+        }
+    }
+
+    /// A fix from a binary decoder leaves like an NMEA one: validated, counted, stamped.
+    fn emit_binary(&mut self, mut fix: Fix) {
+        self.binary.pending = self.ubx.has_open_epoch();
+        self.binary.owner = true;
+        self.binary.nmea_epochs_since = 0;
+        fix.received_at = self.now.or(fix.received_at);
+        fix.validate().count_into(&mut self.checked);
+        self.checked.count_accuracy(fix.error.as_ref());
+        // Operator marks in a binary stream take the time of its latest epoch.
+        if let Some(t) = fix.time {
+            self.date = Some(t.date_naive());
+        }
+        if fix.time_of_day.is_some() {
+            self.last_tod = fix.time_of_day;
+        }
+        self.epochs += 1;
+        self.events.push_back(GpsEvent::Fix(Box::new(fix)));
     }
 
     /// Handles one checksum-verified sentence (`$...*hh`), as if it had come through the framer.
@@ -443,6 +541,13 @@ impl NmeaDecoder {
             Parsed::Vtg { course_deg, speed_m_s } => e.vtg = Some((course_deg, speed_m_s)),
             Parsed::Gst { lat_sd_m, lon_sd_m, alt_sd_m, .. } => e.gst = Some((lat_sd_m, lon_sd_m, alt_sd_m)),
             Parsed::Pgrme { horizontal_m, vertical_m } => e.pgrme = Some((horizontal_m, vertical_m)),
+            p @ Parsed::AshtechPos { .. } => {
+                if let Parsed::AshtechPos { pos, quality: Some(_), .. } = p {
+                    e.latest_pos = pos.or(e.latest_pos);
+                }
+                e.ashtech = Some(p);
+                e.substantive = true;
+            }
             Parsed::Heading { heading_deg, invalid, .. } => {
                 e.heading_invalid |= invalid;
                 e.heading_deg = heading_deg.or(e.heading_deg);
@@ -514,9 +619,23 @@ impl NmeaDecoder {
             self.last_tod = epoch.tod;
             self.last_closed_tod_ms = epoch.tod.map(sentence::tod_ms);
         }
+        if self.binary.owner {
+            self.binary.nmea_epochs_since += 1;
+            if self.binary.nmea_epochs_since <= NMEA_TAKEOVER_EPOCHS {
+                self.checked.nmea_epochs_superseded += 1;
+                return;
+            }
+            // NMEA takes over: a binary epoch the receiver never closed (no EOE, no next message) is
+            // emitted first, so the fixes stay in time order.
+            if let Some(now) = self.now {
+                self.finish_binary(now);
+            }
+            self.binary = BinaryState::default();
+        }
         let mut fix = self.build_fix(epoch);
         // The one boundary check of every value before the fix leaves the decoder.
         fix.validate().count_into(&mut self.checked);
+        self.checked.count_accuracy(fix.error.as_ref());
         self.altitude_fix = fix.mode == Some(FixMode::Fix3D);
         self.epochs += 1;
         self.events.push_back(GpsEvent::Fix(Box::new(fix)));
@@ -570,6 +689,23 @@ impl NmeaDecoder {
                 pos = pos.or(p);
             }
         }
+        // Ashtech POS: a fix when its solution type is present (gpsd: "at least a 3D fix").
+        let mut ashtech_3d = false;
+        if let Some(Parsed::AshtechPos { pos: p, quality, sats, course_deg, speed_m_s, hdop, .. }) =
+            &e.ashtech
+        {
+            let ok = quality.is_some() && p.is_some();
+            valid = Some(valid.unwrap_or(false) || ok);
+            if ok {
+                pos = pos.or(*p);
+                fix.quality = fix.quality.or(*quality);
+                fix.course_deg = fix.course_deg.or(*course_deg);
+                fix.speed_m_s = fix.speed_m_s.or(*speed_m_s);
+                ashtech_3d = true;
+            }
+            fix.sats_used = fix.sats_used.or(*sats);
+            fix.hdop = fix.hdop.or(*hdop);
+        }
         if let Some((course, speed)) = e.vtg
             && valid != Some(false)
         {
@@ -594,7 +730,7 @@ impl NmeaDecoder {
         fix.mode = if valid {
             Some(match gsa_mode {
                 Some(m @ (FixMode::Fix2D | FixMode::Fix3D)) => m,
-                _ if fix.alt_m.is_some() => FixMode::Fix3D,
+                _ if fix.alt_m.is_some() || ashtech_3d => FixMode::Fix3D,
                 // No GSA and no altitude in this epoch (an RMC/GLL-only second between GGAs, e.g. the
                 // Humminbird GR16 sends GGA every 4 s): RMC and GLL carry no dimension, so the fix keeps
                 // the dimension of the receiver's last altitude-bearing epoch, as gpsd does (its RMC/GLL
@@ -609,6 +745,10 @@ impl NmeaDecoder {
             fix.pdop = g.pdop;
             fix.vdop = g.vdop;
             fix.hdop = fix.hdop.or(g.hdop);
+        }
+        if let Some(Parsed::AshtechPos { pdop, vdop, .. }) = &e.ashtech {
+            fix.pdop = fix.pdop.or(*pdop);
+            fix.vdop = fix.vdop.or(*vdop);
         }
         // Satellites used, deduplicated: a bit set over (constellation, id < USED_BITS_IDS), plus a sorted
         // list of the rare larger ids.

@@ -21,6 +21,7 @@ use std::time::{Duration, Instant};
 
 use vestnav_core::gnss_sim::GnssErrorModel;
 
+use super::receiver_config::{ConfigReporter, ConfigTicket, ReceiverConfig};
 use super::{GpsEvent, NmeaDecoder};
 use crate::outbox::{Outbox, Overflow, Waker};
 
@@ -147,12 +148,35 @@ pub struct GpsHandle {
     stop: Arc<AtomicBool>,
     thread: Option<JoinHandle<()>>,
     replay: Option<Arc<ReplayControl>>,
+    config: Result<std::sync::mpsc::Sender<ConfigRequest>, &'static str>,
 }
+
+/// A receiver configuration on its way to a serial source's worker, with where to report.
+#[derive(Debug)]
+pub(crate) struct ConfigRequest {
+    pub(crate) config: ReceiverConfig,
+    pub(crate) reporter: ConfigReporter,
+}
+
+/// Why a source cannot configure its receiver (the operator sees this text).
+pub const CONFIG_NEEDS_SERIAL: &str = "configuration needs a direct serial connection to the receiver";
 
 impl GpsHandle {
     /// The pause/seek/progress controls of a [`SourceConfig::Replay`] source (`None` for the others).
     pub fn replay_control(&self) -> Option<Arc<ReplayControl>> {
         self.replay.clone()
+    }
+
+    /// Sends `config` to the receiver (serial sources only: the worker writes the commands between reads
+    /// and decides each from the receiver's replies). The ticket reports each command's outcome, then
+    /// [`super::receiver_config::ConfigEvent::Finished`]; each outcome is also sent to the consumers as a [`GpsEvent::Notice`].
+    /// Other sources say why they cannot (gpsd owns its device: use gpsctl/ubxtool there).
+    pub fn configure(&self, config: ReceiverConfig) -> Result<ConfigTicket, String> {
+        let tx = self.config.as_ref().map_err(|why| (*why).to_owned())?;
+        config.validate().map_err(|e| e.to_string())?;
+        let (reporter, ticket) = ConfigTicket::channel();
+        tx.send(ConfigRequest { config, reporter }).map_err(|_| "the GPS source has stopped".to_owned())?;
+        Ok(ticket)
     }
 
     /// True while the worker runs.
@@ -273,6 +297,20 @@ impl GpsSource {
         let replay =
             matches!(config, SourceConfig::Replay { .. }).then(|| Arc::new(ReplayControl::default()));
         let ctl = replay.clone();
+        let (config_tx, config_rx) = std::sync::mpsc::channel::<ConfigRequest>();
+        let config_path = match &config {
+            SourceConfig::Serial { .. } => Ok(config_tx),
+            SourceConfig::Gpsd { .. } => Err("gpsd owns the receiver: configure it with gpsctl or ubxtool, \
+                 or connect the console to the serial port directly (configuration needs a direct serial \
+                 connection)"),
+            SourceConfig::ThroughVest { .. } => Err(
+                "the receiver behind the vest unit is read-only here (configuration needs a direct serial connection)",
+            ),
+            SourceConfig::Replay { .. } => Err("a replay has no receiver to configure"),
+            SourceConfig::Simulator { .. } => Err(
+                "the built-in simulator has no receiver to configure (use `vestnav emulate gps` on a PTY)",
+            ),
+        };
         let name = match &config {
             SourceConfig::Serial { .. } => "gps-serial",
             SourceConfig::Replay { .. } => "gps-replay",
@@ -282,7 +320,7 @@ impl GpsSource {
         };
         let thread = std::thread::Builder::new().name(name.into()).spawn(move || {
             match config {
-                SourceConfig::Serial { port, baud } => run_serial(&worker, &port, baud),
+                SourceConfig::Serial { port, baud } => run_serial(&worker, &port, baud, &config_rx),
                 SourceConfig::Replay { path, speed } => {
                     run_replay(&worker, &path, speed, ctl.as_deref().unwrap_or(&ReplayControl::default()));
                 }
@@ -297,7 +335,7 @@ impl GpsSource {
                 o.try_send(GpsEvent::State(SourceState::Stopped));
             }
         })?;
-        Ok(GpsHandle { stop, thread: Some(thread), replay })
+        Ok(GpsHandle { stop, thread: Some(thread), replay, config: config_path })
     }
 
     /// Starts a source with one lossless consumer: a channel of `capacity` events with

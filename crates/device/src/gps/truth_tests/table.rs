@@ -1,10 +1,11 @@
 //! Issue 13's truth table: every log of both gpsd folders (30), per log the share of gpsd's epochs with a
 //! position that we match (same UTC time, lat/lon within 1e-7 deg, same fix mode), goal >= 99 %.
 //!
-//! gpsd's epochs come from [`super::parse_chk`] (its last TPV per UTC second). Logs in a binary protocol are
-//! listed, not asserted: gpsd's `.chk` for them holds the NMEA gpsd *generated* from the binary, so the only
-//! thing checked there is that the real NMEA lines among the binary frames (`$GNTXT` on the NEO-M8L) are
-//! still framed and accepted.
+//! gpsd's epochs come from [`super::parse_chk`] (its last TPV per UTC time, to the millisecond: the 5 and
+//! 10 Hz u-blox logs key on the `.20`/`.10` times of the sentences gpsd generated). The u-blox UBX and
+//! `SiRF` binary logs are judged like NMEA ones: gpsd's `.chk` for a binary log holds the NMEA gpsd
+//! *generated* from the binary plus its TPV/SKY reports, and [`super::parse_chk`] reads both; the real
+//! NMEA lines among a log's frames (the NEO-M8L's `$GNTXT`) must still be framed and accepted.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -26,11 +27,7 @@ enum Judge {
     PositionSource { tol_deg: f64, why: &'static str },
     /// A named deliberate difference (docs/gps.md, "Truth against gpsd"): at least this share matched.
     Exception { min_rate: f64, why: &'static str },
-    /// A binary protocol we do not decode yet: only its interleaved NMEA lines are checked.
-    Binary(&'static str),
 }
-
-const UBX: Judge = Judge::Binary("binary protocol, not decoded yet (issue 13 UBX)");
 
 /// (log, receiver family, how it is judged). Every `.log` of both folders must be listed.
 const LOGS: &[(&str, &str, Judge)] = &[
@@ -87,11 +84,11 @@ const LOGS: &[(&str, &str, Judge)] = &[
             "gpsd adds 1024 weeks to the 2015-03-18 of RMC (its week-rollover guess); we report the receiver's date",
         ),
     ),
-    ("sirf2.log", "SiRF II binary", Judge::Binary("binary protocol, not decoded yet (issue 13 SiRF)")),
-    ("ublox-glo.log", "u-blox UBX", UBX),
-    ("ublox-neo-m8l.log", "u-blox UBX", UBX),
-    ("ublox-neo-m8n.log", "u-blox UBX", UBX),
-    ("ublox-zed-f9p-rtk.log", "u-blox UBX", UBX),
+    ("sirf2.log", "SiRF II binary", Judge::Nmea),
+    ("ublox-glo.log", "u-blox UBX", Judge::Nmea),
+    ("ublox-neo-m8l.log", "u-blox UBX", Judge::Nmea),
+    ("ublox-neo-m8n.log", "u-blox UBX", Judge::Nmea),
+    ("ublox-zed-f9p-rtk.log", "u-blox UBX", Judge::Nmea),
 ];
 
 fn all_logs() -> Vec<PathBuf> {
@@ -153,6 +150,37 @@ fn match_epochs(fixes: &[Fix], chk: &str, date_differs: bool, tol_deg: f64) -> (
     (n, matched, misses)
 }
 
+/// For a log with binary frames: what was decoded, and a failure when the real NMEA among the frames
+/// (`$GNTXT` on the NEO-M8L) was not all accepted.
+fn binary_note(
+    log: &Path,
+    chk: &str,
+    fixes: &[Fix],
+    stats: &crate::gps::DecodeStats,
+    failures: &mut Vec<String>,
+) -> String {
+    if stats.ubx_frames + stats.sirf_frames == 0 {
+        return String::new();
+    }
+    let nmea = echoed_in_log(chk, &std::fs::read(log).unwrap());
+    if stats.sentences != nmea {
+        failures.push(format!(
+            "{}: {nmea} NMEA lines among the frames, we accepted {}",
+            name_of(log),
+            stats.sentences
+        ));
+    }
+    format!(
+        "{} UBX + {} SiRF frames; accuracy from the receiver in {} of {} fixes; its {nmea} NMEA lines \
+         decoded: {}",
+        stats.ubx_frames,
+        stats.sirf_frames,
+        stats.accuracy_receiver(),
+        fixes.len(),
+        stats.sentences
+    )
+}
+
 /// Sentences gpsd echoed that occur verbatim in the log (for a binary log: the real NMEA among the frames).
 fn echoed_in_log(chk: &str, log: &[u8]) -> u64 {
     let text = String::from_utf8_lossy(log);
@@ -194,7 +222,11 @@ fn thirty_logs_match_gpsd_epochs() {
                 let fam = families.entry(family).or_default();
                 fam.0 += n;
                 fam.1 += matched;
-                String::new()
+                let mut note = binary_note(log, &chk, &fixes, &stats, &mut failures);
+                if matched < n {
+                    note = format!("{note}; missed: {misses:?}");
+                }
+                note
             }
             Judge::DateDiffers(why) => {
                 if rate < 0.99 {
@@ -219,19 +251,8 @@ fn thirty_logs_match_gpsd_epochs() {
                 }
                 format!("exception: {why}")
             }
-            Judge::Binary(what) => {
-                let nmea = echoed_in_log(&chk, &std::fs::read(log).unwrap());
-                if stats.sentences != nmea {
-                    failures.push(format!(
-                        "{name}: {nmea} NMEA lines among the frames, we accepted {}",
-                        stats.sentences
-                    ));
-                }
-                format!("{what}; its {nmea} NMEA lines decoded: {}", stats.sentences)
-            }
         };
-        let shown = if matches!(judge, Judge::Binary(_)) { "-".to_owned() } else { matched.to_string() };
-        eprintln!("{name:<34} {family:<22} {n:>6} {shown:>7} {:>6.1}%  {note}", rate * 100.0);
+        eprintln!("{name:<34} {family:<22} {n:>6} {matched:>7} {:>6.1}%  {note}", rate * 100.0);
     }
     eprintln!("per family (NMEA logs judged at 99 %):");
     for (family, (n, m)) in &families {
