@@ -188,6 +188,7 @@ fn summary(name: &str, mut xs: Vec<Duration>) -> String {
 #[test]
 #[allow(clippy::too_many_lines)] // one measurement, set up, run and torn down in order
 fn nmea_fix_to_vest_play_latency_p50_p99() {
+    let _exclusive = crate::timing_exclusive();
     let test_start = Instant::now();
 
     // The unit: the WTCU engine served on the master of the vest PTY, behind the tap.

@@ -3,6 +3,15 @@
 // Test helpers outside `#[test]` functions may unwrap too: a failure there is a failed test.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
+/// Held by the tests that measure time (latency, STOP ALL within 50 ms) and by the heaviest one (a real
+/// console window rendering under Xvfb), so none of them runs beside another: on a 2-core machine a
+/// window's software rendering can stall a measurement by hundreds of milliseconds, which says nothing
+/// about the code measured. A test that panics while holding it leaves it usable (poison is ignored).
+pub(crate) fn timing_exclusive() -> std::sync::MutexGuard<'static, ()> {
+    static TIMING: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    TIMING.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+}
+
 mod cli;
 mod gps;
 mod gps_config;

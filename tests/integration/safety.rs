@@ -295,6 +295,7 @@ fn wait_for(what: &str, d: Duration, mut ok: impl FnMut() -> bool) {
 /// stays bounded, and disconnecting the GPS does not block.
 #[test]
 fn stop_all_reaches_the_vest_within_50_ms_whatever_gpsd_sends() {
+    let _exclusive = crate::timing_exclusive();
     for mode in [Hostile::Absurd, Hostile::Trickle, Hostile::Endless, Hostile::Flood, Hostile::CloseMidLine] {
         let unit = Unit::spawn();
         let gpsd = FakeGpsd::spawn(mode, Duration::from_secs(20));
@@ -401,6 +402,7 @@ fn a_stalled_ui_stops_the_vest_by_itself() {
 /// within 200 ms of the signal. Needs an X server: runs under Xvfb when it is installed (CI installs it).
 #[test]
 fn signals_stop_the_vest_before_the_process_exits() {
+    let _exclusive = crate::timing_exclusive();
     let Some(mut xvfb) = Xvfb::start() else {
         eprintln!("signals_stop_the_vest_before_the_process_exits: no Xvfb on this machine, skipped");
         return;
