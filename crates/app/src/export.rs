@@ -100,18 +100,8 @@ impl Exporter {
             ui.label("Export to:");
             ui.add(egui::TextEdit::singleline(&mut self.path).desired_width(260.0).hint_text("path/figure"))
                 .on_hover_text(format!("Relative names are taken in {}", base.display()));
-            let resolved = file_dialog::resolve(&self.path, base);
-            if ui
-                .add_enabled(!self.browse.is_open(), egui::Button::new("Browse…"))
-                .on_hover_text("Choose the file in the desktop's save dialog")
-                .clicked()
-            {
-                let dir = resolved.as_deref().and_then(Path::parent).filter(|d| d.is_dir()).unwrap_or(base);
-                let name =
-                    resolved.as_deref().and_then(Path::file_name).map(|n| n.to_string_lossy().into_owned());
-                let spec = DialogSpec { mode: Mode::Save, title: self.title, filter: ("", &[]) };
-                self.browse.start(ui.ctx(), spec, dir, name.as_deref());
-            }
+            let spec = DialogSpec { mode: Mode::Save, title: self.title, filter: ("", &[]) };
+            file_dialog::browse_button(ui, &self.path, &mut self.browse, spec, base);
             ui.add_enabled_ui(!self.is_running() && self.pending.is_none(), |ui| {
                 for &format in formats {
                     if ui.button(format.button_text()).clicked() {

@@ -322,15 +322,7 @@ pub fn path_field(
     ui.horizontal(|ui| {
         ui.add(egui::TextEdit::singleline(text).hint_text(hint).desired_width(240.0))
             .on_hover_text(format!("Relative names are taken in {}", base.display()));
-        let browse_button = ui
-            .add_enabled(!browse.is_open(), egui::Button::new("Browse…"))
-            .on_hover_text("Choose the file in the desktop's file dialog");
-        if browse_button.clicked() {
-            let current = resolve(text, base);
-            let dir = current.as_deref().and_then(Path::parent).filter(|d| d.is_dir()).unwrap_or(base);
-            let name = current.as_deref().and_then(Path::file_name).map(|n| n.to_string_lossy().into_owned());
-            browse.start(ui.ctx(), spec, dir, name.as_deref());
-        }
+        browse_button(ui, text, browse, spec, base);
         if browse.is_open() {
             ui.spinner();
         }
@@ -340,6 +332,20 @@ pub fn path_field(
         ui.label(RichText::new(note).small().color(ui.visuals().warn_fg_color));
     }
     picked
+}
+
+/// The **Browse…** button of a path field holding `text`: opens the dialog `spec` in the folder of the file
+/// the field names (else `base`), proposing its name when saving. Disabled while a dialog is open.
+pub fn browse_button(ui: &mut egui::Ui, text: &str, browse: &mut Browse, spec: DialogSpec, base: &Path) {
+    let button = ui
+        .add_enabled(!browse.is_open(), egui::Button::new("Browse…"))
+        .on_hover_text("Choose the file in the desktop's file dialog");
+    if button.clicked() {
+        let current = resolve(text, base);
+        let dir = current.as_deref().and_then(Path::parent).filter(|d| d.is_dir()).unwrap_or(base);
+        let name = current.as_deref().and_then(Path::file_name).map(|n| n.to_string_lossy().into_owned());
+        browse.start(ui.ctx(), spec, dir, name.as_deref());
+    }
 }
 
 /// The "Recent" menu of `kind`: returns the file clicked. A file that no longer exists is listed as

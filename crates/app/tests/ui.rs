@@ -103,10 +103,13 @@ fn harness(fake: &Fake) -> Harness<'static, Console> {
 }
 
 fn harness_with(fake: &Fake, cfg: Config) -> Harness<'static, Console> {
+    harness_sized(fake, cfg, egui::vec2(1400.0, 900.0))
+}
+
+/// The console in a window of `size`, once the emulated unit is live.
+fn harness_sized(fake: &Fake, cfg: Config, size: egui::Vec2) -> Harness<'static, Console> {
     let console = Console::new(Box::new(fake.clone()), ConsoleOptions { cfg, ..ConsoleOptions::default() });
-    let mut h = Harness::builder()
-        .with_size(egui::vec2(1400.0, 900.0))
-        .build_ui_state(|ui, c: &mut Console| c.ui(ui), console);
+    let mut h = Harness::builder().with_size(size).build_ui_state(|ui, c: &mut Console| c.ui(ui), console);
     settle(&mut h, |c| c.vest.is_live());
     assert!(h.state().vest.is_live(), "the emulated unit did not come up: {:?}", h.state().vest.state);
     h
@@ -1313,17 +1316,8 @@ fn the_cone_test_does_not_cry_missed_while_running() {
 fn every_tab_fits_a_1024_by_680_window() {
     use egui_kittest::kittest::{NodeT as _, by};
     let fake = Fake::default();
-    let console = Console::new(
-        Box::new(fake.clone()),
-        ConsoleOptions {
-            cfg: Config { map_tiles: false, guidance_auto: false, ..Config::default() },
-            ..ConsoleOptions::default()
-        },
-    );
-    let mut h = Harness::builder()
-        .with_size(egui::vec2(1024.0, 680.0))
-        .build_ui_state(|ui, c: &mut Console| c.ui(ui), console);
-    settle(&mut h, |c| c.vest.is_live());
+    let cfg = Config { map_tiles: false, guidance_auto: false, ..Config::default() };
+    let mut h = harness_sized(&fake, cfg, egui::vec2(1024.0, 680.0));
     let mut offenders = Vec::new();
     let mut check = |h: &mut Harness<'static, Console>, what: &str| {
         for _ in 0..30 {

@@ -29,6 +29,19 @@ mod decoding {
     use crate::gps::ubx::decoder::nmea_id;
     use crate::gps::{Fix, decode_file};
 
+    /// Our fix carries the crate's position, MSL height, ground speed and hAcc/vAcc (source UBX), as
+    /// `(lat, lon, hmsl, hacc, vacc, gspeed)`.
+    fn assert_same_pvt(f: &Fix, (lat, lon, hmsl, hacc, vacc, gspeed): (f64, f64, f64, f64, f64, f64)) {
+        approx::assert_relative_eq!(f.lat_deg.unwrap(), lat, max_relative = 1e-12);
+        approx::assert_relative_eq!(f.lon_deg.unwrap(), lon, max_relative = 1e-12);
+        approx::assert_relative_eq!(f.alt_m.unwrap(), hmsl, max_relative = 1e-12);
+        approx::assert_relative_eq!(f.speed_m_s.unwrap(), gspeed, max_relative = 1e-12, epsilon = 1e-12);
+        let e = f.error.unwrap();
+        assert_eq!(e.source, ErrorSource::Ubx);
+        approx::assert_relative_eq!(e.horizontal_m, hacc, max_relative = 1e-12);
+        approx::assert_relative_eq!(e.vertical_m.unwrap(), vacc, max_relative = 1e-12);
+    }
+
     fn log(name: &str) -> PathBuf {
         PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/gpsd-logs-more").join(name)
     }
@@ -143,19 +156,7 @@ mod decoding {
                 if mode == FixMode::NoFix {
                     continue;
                 }
-                approx::assert_relative_eq!(f.lat_deg.unwrap(), lat, max_relative = 1e-12);
-                approx::assert_relative_eq!(f.lon_deg.unwrap(), lon, max_relative = 1e-12);
-                approx::assert_relative_eq!(f.alt_m.unwrap(), hmsl, max_relative = 1e-12);
-                approx::assert_relative_eq!(
-                    f.speed_m_s.unwrap(),
-                    gspeed,
-                    max_relative = 1e-12,
-                    epsilon = 1e-12
-                );
-                let e = f.error.unwrap();
-                assert_eq!(e.source, ErrorSource::Ubx);
-                approx::assert_relative_eq!(e.horizontal_m, hacc, max_relative = 1e-12);
-                approx::assert_relative_eq!(e.vertical_m.unwrap(), vacc, max_relative = 1e-12);
+                assert_same_pvt(f, (lat, lon, hmsl, hacc, vacc, gspeed));
                 match dops.get(&itow) {
                     // NAV-DOP is f32 in the crate: 1e-4 covers its rounding of a 0.01 step.
                     Some(&(p, h, v)) => {
@@ -170,19 +171,8 @@ mod decoding {
             // HNR-PVT fixes: ours without a satellite count, in order.
             let ours_hnr: Vec<&Fix> = fixes.iter().filter(|f| f.sats_used.is_none()).collect();
             assert_eq!(ours_hnr.len(), hnrs.len(), "{name}: one fix per HNR-PVT");
-            for (f, &(lat, lon, hmsl, hacc, vacc, gspeed)) in ours_hnr.iter().zip(&hnrs) {
-                approx::assert_relative_eq!(f.lat_deg.unwrap(), lat, max_relative = 1e-12);
-                approx::assert_relative_eq!(f.lon_deg.unwrap(), lon, max_relative = 1e-12);
-                approx::assert_relative_eq!(f.alt_m.unwrap(), hmsl, max_relative = 1e-12);
-                approx::assert_relative_eq!(
-                    f.speed_m_s.unwrap(),
-                    gspeed,
-                    max_relative = 1e-12,
-                    epsilon = 1e-12
-                );
-                let e = f.error.unwrap();
-                approx::assert_relative_eq!(e.horizontal_m, hacc, max_relative = 1e-12);
-                approx::assert_relative_eq!(e.vertical_m.unwrap(), vacc, max_relative = 1e-12);
+            for (f, &pvt) in ours_hnr.iter().zip(&hnrs) {
+                assert_same_pvt(f, pvt);
                 total += 1;
             }
         }
