@@ -6,7 +6,7 @@ use clap::{Parser, Subcommand};
 
 use crate::{
     analyze, completions, emulate_gps, emulate_vest, fieldtest, gps_configure, nav, nmea, sim_tactor,
-    sim_wave, tiles,
+    sim_wave, station, tiles,
 };
 
 /// One line: `-h`, and the NAME of the man page.
@@ -46,11 +46,11 @@ pub struct Cli {
     /// route to guide along), vest[@BAUD] (the receiver on the vest unit's second UART, forwarded inside
     /// the vest's link; default 9600 baud).
     #[arg(long, value_name = "SPEC", value_parser = parse_gps)]
-    pub gps: Option<vestnav_app::config::GpsSpec>,
+    pub gps: Option<vestnav_station::sources::GpsSpec>,
     /// Console only: the vest to connect at start, winning over the saved settings for this run.
     /// One of emulated, serial:PATH (a WTCU on a serial or Bluetooth SPP port such as /dev/rfcomm0).
     #[arg(long, value_name = "SPEC", value_parser = parse_vest)]
-    pub vest: Option<vestnav_app::config::VestSourceConfig>,
+    pub vest: Option<vestnav_station::sources::VestSourceConfig>,
     /// Console only: the map's tile source for this run (the saved setting otherwise). One of osm (the
     /// default), xyz:URL or a bare http(s) URL with {z}, {x}, {y} (an API key may be in the query),
     /// pmtiles:FILE, mbtiles:FILE, folder:DIR (holding {z}/{x}/{y}.png), or a path ending in .pmtiles or
@@ -69,8 +69,8 @@ pub struct Cli {
     pub command: Option<Command>,
 }
 
-fn parse_gps(s: &str) -> Result<vestnav_app::config::GpsSpec, String> {
-    vestnav_app::config::parse_gps_spec(s)
+fn parse_gps(s: &str) -> Result<vestnav_station::sources::GpsSpec, String> {
+    vestnav_station::sources::parse_gps_spec(s)
 }
 
 fn parse_screenshot_after(s: &str) -> Result<f64, String> {
@@ -84,8 +84,8 @@ fn parse_tiles(s: &str) -> Result<vestnav_app::tiles::TileSourceConfig, String> 
     vestnav_app::tiles::parse_tiles_spec(s)
 }
 
-fn parse_vest(s: &str) -> Result<vestnav_app::config::VestSourceConfig, String> {
-    vestnav_app::config::parse_vest_spec(s)
+fn parse_vest(s: &str) -> Result<vestnav_station::sources::VestSourceConfig, String> {
+    vestnav_station::sources::parse_vest_spec(s)
 }
 
 /// The headless subcommands.
@@ -115,6 +115,9 @@ pub enum Command {
     /// Map tiles: make an area available offline (the console's prefetch, headless).
     #[command(subcommand)]
     Tiles(TilesCommand),
+    /// Run the station with no window: GPS, vest, guidance and session log, commands on standard input
+    /// (stop, resume, status, quit), status lines on standard output.
+    Station(station::StationArgs),
     /// Print a shell completion script for vestnav to standard output.
     #[command(hide = true)]
     Completions(completions::CompletionsArgs),

@@ -13,6 +13,7 @@ mod nav;
 mod nmea;
 mod sim_tactor;
 mod sim_wave;
+mod station;
 mod tiles;
 
 use clap::Parser;
@@ -104,6 +105,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Fieldtest(FieldtestCommand::Drift(a)) => fieldtest::run_drift(&a),
         Command::Fieldtest(FieldtestCommand::Cones(a)) => fieldtest::run_cones(&a),
         Command::Tiles(TilesCommand::Prefetch(a)) => tiles::run_prefetch(&a),
+        Command::Station(a) => station::run(&a),
         Command::Completions(a) => completions::run_completions(&a),
         Command::Man => completions::run_man(),
     }

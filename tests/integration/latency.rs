@@ -2,7 +2,8 @@
 //! console itself starts: from the last NMEA sentence of an epoch written into the GPS PTY to the PLAY
 //! frame read from the vest PTY by the unit.
 //!
-//! The chain under test is the console's own (`Console::new` with the real `Hardware` factory):
+//! The chain under test is the station's own, with no window (`Station::new` with the real `Hardware`
+//! factory, as the console and `vestnav station` run it):
 //! - a PTY pair for the GPS: the test writes NMEA (`gps::nmea_out::epoch_sentences`) into the master; the
 //!   console's GPS source (serial, fixed baud) opens the slave path like hardware and decodes it;
 //! - the source hands each `GpsEvent::Fix` straight to the console's guidance worker (its outbox), which
@@ -28,10 +29,6 @@ use std::sync::mpsc::{Sender, channel};
 use std::time::{Duration, Instant};
 
 use chrono::{DateTime, TimeZone, Utc};
-use vestnav_app::config::{Config, GpsSourceConfig, VestSourceConfig};
-use vestnav_app::console::{Console, ConsoleOptions};
-use vestnav_app::hardware::Hardware;
-use vestnav_app::route::Waypoint;
 use vestnav_core::geo::{Earth, LatLon};
 use vestnav_core::guidance::GuidanceConfig;
 use vestnav_core::vest::{Cue, Frame};
@@ -43,6 +40,10 @@ use vestnav_device::wtcu::codec::{DecodeError, FrameCodec, WireCodec};
 use vestnav_device::wtcu::emulator::{EmulatorControl, Pty as VestPty, serve};
 use vestnav_device::wtcu::engine::{Engine, EngineConfig, EngineEvent};
 use vestnav_device::wtcu::message::{CommandKind, Packet, Request};
+use vestnav_station::hardware::Hardware;
+use vestnav_station::route::Waypoint;
+use vestnav_station::sources::{GpsSourceConfig, VestSourceConfig};
+use vestnav_station::{Station, StationOptions, StationSettings};
 
 /// Epochs measured.
 const EPOCHS: usize = 40;
@@ -230,21 +231,22 @@ fn nmea_fix_to_vest_play_latency_p50_p99() {
     let threads_before = thread_names();
     let mut gps_pty = GpsPty::open().unwrap();
     let end = Earth::Wgs84.direct(START, 0.0, 1000.0);
-    let cfg = Config {
-        gps: GpsSourceConfig::Serial { port: gps_pty.path().to_owned(), baud: Some(4800) },
-        vest: VestSourceConfig::Serial { port: vest_path },
-        guidance_auto: true,
-        on_ms: ON_MS,
-        cue_interval_s: 0.5,
-        map_tiles: false,
-        ..Config::default()
-    };
+    let mut settings = StationSettings::default();
+    settings.guidance.auto = true;
+    settings.guidance.on_ms = ON_MS;
+    settings.guidance.cue_interval_s = 0.5;
     let log_dir = std::env::temp_dir().join(format!("vestnav-latency-{}", std::process::id()));
-    let mut console = Console::new(
+    let mut console = Station::new(
         Box::new(Hardware::default()),
-        ConsoleOptions { cfg, log_dir: Some(log_dir.clone()), ..ConsoleOptions::default() },
+        StationOptions {
+            settings,
+            gps: Some(GpsSourceConfig::Serial { port: gps_pty.path().to_owned(), baud: Some(4800) }),
+            vest: Some(VestSourceConfig::Serial { port: vest_path }),
+            log_dir: Some(log_dir.clone()),
+            ..StationOptions::default()
+        },
     );
-    console.map.waypoints = vec![
+    let leg = vec![
         Waypoint {
             name: "start".into(),
             lat_deg: START.lat_deg,
@@ -253,8 +255,10 @@ fn nmea_fix_to_vest_play_latency_p50_p99() {
         },
         Waypoint { name: "end".into(), lat_deg: end.lat_deg, lon_deg: end.lon_deg, arrival_radius_m: None },
     ];
-    console.map.next = 1;
-    console.push_route();
+    console.route_mut().replace("leg".into(), leg).unwrap();
+    console.route_mut().set_next(1);
+    console.connect_vest();
+    console.connect_gps(Vec::new());
     let started: Vec<String> = thread_names().into_iter().filter(|n| !threads_before.contains(n)).collect();
     eprintln!("threads the console started: {} {started:?}", started.len());
 
@@ -263,7 +267,7 @@ fn nmea_fix_to_vest_play_latency_p50_p99() {
         && !(console.vest.state == Some(LinkState::Ready)
             && matches!(console.gps.state, Some(SourceState::Live { .. })))
     {
-        console.tick();
+        console.pump(|_| {});
         std::thread::sleep(Duration::from_millis(10));
     }
     assert_eq!(console.vest.state, Some(LinkState::Ready), "vest link not ready within 5 s");
@@ -293,8 +297,8 @@ fn nmea_fix_to_vest_play_latency_p50_p99() {
         let timeout = if measured { STAGE_TIMEOUT } else { STAGE_TIMEOUT + Duration::from_millis(400) };
         let waited = Instant::now() + timeout;
         let play = loop {
-            // The test thread is the console's UI thread here: drain as a frame would.
-            console.tick();
+            // The test thread is the station's view here: drain as a view would.
+            console.pump(|_| {});
             if let Ok(p) = play_rx.recv_timeout(Duration::from_millis(5)) {
                 break Some(p);
             }
@@ -308,7 +312,7 @@ fn nmea_fix_to_vest_play_latency_p50_p99() {
         };
         let pace_until = Instant::now() + pattern_len + gap + PACE_MARGIN;
         while Instant::now() < pace_until {
-            console.tick();
+            console.pump(|_| {});
             std::thread::sleep(Duration::from_millis(5));
         }
         if !measured {

@@ -11,12 +11,12 @@ use std::time::Instant;
 use criterion::{Criterion, criterion_group, criterion_main};
 use vestnav_app::config::{Config, GpsSourceConfig, VestSourceConfig};
 use vestnav_app::console::{Console, ConsoleOptions};
-use vestnav_app::devices::{DeviceFactory, GpsWorker};
-use vestnav_app::route::Waypoint;
 use vestnav_device::gps::{ErrorEstimate, ErrorSource, Fix, FixMode, FixQuality, GpsEvent};
 use vestnav_device::outbox::Outbox;
 use vestnav_device::wtcu::engine::EngineConfig;
 use vestnav_device::wtcu::{VestConfig, VestEvent, VestHandle};
+use vestnav_station::devices::{DeviceFactory, GpsWorker};
+use vestnav_station::route::Waypoint;
 
 /// Hands the GPS outboxes to the bench so it can push fixes as fast as it likes; the vest is the
 /// emulated unit.
@@ -121,7 +121,7 @@ fn memory_24h() {
         "24 h at 1 Hz: {} fixes pushed in {:.2} s, {} in the track, {} dropped by the bounded channel; RSS {} KiB -> {} KiB (+{} KiB)",
         n,
         start.elapsed().as_secs_f64(),
-        c.map.track.len(),
+        c.station.track().points().len(),
         outs.iter().map(Outbox::dropped).sum::<u64>(),
         before,
         after,
@@ -131,42 +131,87 @@ fn memory_24h() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// Takes `n` fixes into the console's station through its real channels, as a walk would deliver them.
+fn feed(c: &mut Console, tap: &Tap, n: usize) {
+    let Some(outs) = tap.0.lock().ok().map(|g| g.clone()) else { return };
+    let cancel = AtomicBool::new(false);
+    let mut k = 0;
+    while k < n {
+        for _ in 0..500 {
+            if k >= n {
+                break;
+            }
+            for out in &outs {
+                out.send(GpsEvent::Fix(Box::new(fix(k))), &cancel);
+            }
+            k += 1;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(2));
+        c.pump();
+    }
+    for _ in 0..20 {
+        std::thread::sleep(std::time::Duration::from_millis(5));
+        c.pump();
+    }
+}
+
+/// `n` waypoints on a ring round the walk, or, beyond a thousand, a grid covering the map view.
+fn waypoints(n: usize) -> Vec<Waypoint> {
+    if n <= 1000 {
+        return (0..n)
+            .map(|k| {
+                let a = k as f64 * 0.00628;
+                Waypoint {
+                    name: format!("W{k}"),
+                    lat_deg: 42.3572 + 0.0015 * a.sin(),
+                    lon_deg: -71.1 + 0.002 * a.cos(),
+                    arrival_radius_m: None,
+                }
+            })
+            .collect();
+    }
+    let side = (n as f64).sqrt().ceil() as usize;
+    (0..n)
+        .map(|k| {
+            let (i, j) = ((k / side) as f64, (k % side) as f64);
+            Waypoint::new(format!("W{k}"), 42.3555 + i * 3e-5, -71.1025 + j * 4e-5)
+        })
+        .collect()
+}
+
 fn bench(cr: &mut Criterion) {
     memory_24h();
-    let tap = Tap::default();
-    let mut c = console(&tap, None);
-    c.map.track = (0..100_000)
-        .filter_map(|k| {
-            let f = fix(k);
-            let (lat_deg, lon_deg) = f.lat_deg.zip(f.lon_deg)?;
-            Some(vestnav_device::route_file::TrackPoint { lat_deg, lon_deg, ele_m: f.alt_m, time: f.time })
-        })
-        .collect();
-    c.map.waypoints = (0..1000)
-        .map(|k| {
-            let a = f64::from(k) * 0.00628;
-            Waypoint {
-                name: format!("W{k}"),
-                lat_deg: 42.3572 + 0.0015 * a.sin(),
-                lon_deg: -71.1 + 0.002 * a.cos(),
-                arrival_radius_m: None,
-            }
-        })
-        .collect();
-    c.gps.fix = Some(fix(99_999));
-    c.gps.last_position = Some(fix(99_999));
     let ctx = egui::Context::default();
     let mut t = 0.0;
-    for _ in 0..5 {
-        t += 0.016;
-        frame(&ctx, &mut c, t);
-    }
-    cr.bench_function("frame_100k_track_1000_waypoints", |b| {
-        b.iter(|| {
+    for (name, track, route) in [
+        ("frame_100k_track_1000_waypoints", 100_000, 1000),
+        // The documented limits: the most waypoints a route takes, the most track points kept.
+        (
+            "frame_at_limits_200k_track_10000_waypoints",
+            vestnav_station::route::TRACK_MAX_POINTS,
+            vestnav_station::route::MAX_WAYPOINTS,
+        ),
+    ] {
+        let tap = Tap::default();
+        let mut c = console(&tap, None);
+        c.station.route_mut().replace("bench".into(), waypoints(route)).unwrap_or_default();
+        feed(&mut c, &tap, track);
+        eprintln!(
+            "{name}: {} track points, {} waypoints",
+            c.station.track().points().len(),
+            c.station.route().waypoints().len()
+        );
+        for _ in 0..5 {
             t += 0.016;
             frame(&ctx, &mut c, t);
+        }
+        cr.bench_function(name, |b| {
+            b.iter(|| {
+                t += 0.016;
+                frame(&ctx, &mut c, t);
+            });
         });
-    });
+    }
 }
 
 criterion_group!(benches, bench);

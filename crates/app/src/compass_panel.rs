@@ -75,25 +75,26 @@ fn today() -> (i32, u8, u8) {
 
 /// Whether the live unit has a compass.
 pub fn has_compass(c: &Console) -> bool {
-    c.vest.is_live() && c.vest.device.is_some_and(|d| d.capabilities.contains(Capabilities::HEADING))
+    c.station.vest.is_live()
+        && c.station.vest.device.is_some_and(|d| d.capabilities.contains(Capabilities::HEADING))
 }
 
 /// Draws the Compass section of the Vest tab.
 pub fn show(c: &mut Console, ui: &mut egui::Ui) {
     ui.label(RichText::new("Compass").strong());
-    if !c.vest.is_live() {
+    if !c.station.vest.is_live() {
         ui.label("vest not live: no heading");
         return;
     }
     if !has_compass(c) {
-        let v = c.vest.device.map_or(0, |d| d.protocol_version);
+        let v = c.station.vest.device.map_or(0, |d| d.protocol_version);
         ui.label(format!(
             "this unit has no compass (protocol v{v}; heading needs a v2 unit with a magnetometer)"
         ));
         return;
     }
     let now = Instant::now();
-    match c.vest.heading {
+    match c.station.vest.heading {
         None => {
             ui.label("no heading reading yet");
         }
@@ -108,7 +109,7 @@ pub fn show(c: &mut Console, ui: &mut egui::Ui) {
             // The declination guidance applies (WMM at the wearer's position, computed once there), so the
             // true heading shown is the one guidance steers by.
             if a.reference == HeadingReference::Magnetic
-                && let Some(dec) = c.guidance.as_ref().and_then(|g| g.declination_deg)
+                && let Some(dec) = c.station.guidance.as_ref().and_then(|g| g.declination_deg)
             {
                 let _ = write!(
                     text,
@@ -239,6 +240,7 @@ fn collecting_ui(c: &Console, ui: &mut egui::Ui, samples: &[[f64; 3]], since: In
         let ready = coverage >= MIN_COVERAGE;
         if ui.add_enabled(ready, egui::Button::new("Fit")).clicked() {
             let reference = c
+                .station
                 .gps
                 .last_position
                 .as_ref()
@@ -265,7 +267,7 @@ fn collecting_ui(c: &Console, ui: &mut egui::Ui, samples: &[[f64; 3]], since: In
 /// What the console does when a unit identifies itself: start its heading stream and load the
 /// calibration kept for it, if it has a compass.
 pub fn on_identified(c: &mut Console) {
-    if !c.vest.device.is_some_and(|d| d.capabilities.contains(Capabilities::HEADING)) {
+    if !c.station.vest.device.is_some_and(|d| d.capabilities.contains(Capabilities::HEADING)) {
         return;
     }
     c.send_device(VestCommand::HeadingStart { rate_hz: STREAM_RATE_HZ });

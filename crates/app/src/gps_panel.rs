@@ -282,21 +282,7 @@ pub fn dms(value_deg: f64, pos: char, neg: char) -> String {
     format!("{d:.0}° {m:02.0}' {s:05.2}\" {hemi}")
 }
 
-/// The source's state in words (`None`: no source running).
-pub fn state_label(s: Option<&SourceState>) -> String {
-    match s {
-        None => "disconnected".to_owned(),
-        Some(SourceState::Connecting { detail }) => format!("connecting: {detail}"),
-        Some(SourceState::Live { .. }) => "live".to_owned(),
-        Some(SourceState::Stale) => "stale: no data".to_owned(),
-        Some(SourceState::Lost { reason }) => format!("lost: {reason}"),
-        Some(SourceState::Reconnecting { attempt, delay_ms }) => {
-            format!("reconnecting (attempt {attempt}, in {:.1} s)", *delay_ms as f64 / 1000.0)
-        }
-        Some(SourceState::Finished) => "end of input".to_owned(),
-        Some(SourceState::Stopped) => "stopped".to_owned(),
-    }
-}
+pub use vestnav_station::source_state_label as state_label;
 
 /// Whether the epoch shown is current, or only the last one known.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -330,25 +316,29 @@ pub fn show(c: &mut Console, ui: &mut egui::Ui, now: Instant) {
     ui.horizontal_wrapped(|ui| {
         let connected = c.gps_connected();
         if ui.add_enabled(!connected, egui::Button::new("Connect GPS")).clicked() {
-            match c.gps.picker.to_config(&c.cfg.recent.base()) {
+            match c.gps_ui.picker.to_config(&c.cfg.recent.base()) {
                 Ok(src) => {
                     c.cfg.gps = src;
                     c.connect_gps();
                 }
-                Err(e) => c.status = format!("GPS: {e}"),
+                Err(e) => c.say(
+                    vestnav_station::Severity::Warning,
+                    vestnav_station::Subject::Gps,
+                    format!("GPS: {e}"),
+                ),
             }
         }
         if ui.add_enabled(connected, egui::Button::new("Disconnect GPS")).clicked() {
             c.disconnect_gps();
         }
-        ui.label(RichText::new(state_label(c.gps.state.as_ref())).strong());
+        ui.label(RichText::new(state_label(c.station.gps.state.as_ref())).strong());
         // Both on the connect row: closed, the monitor and the recording take no room above the vest grid.
         record_toggle(c, ui);
-        ui.toggle_value(&mut c.gps.monitor.open, "NMEA monitor");
-        ui.toggle_value(&mut c.gps.receiver.open, "Receiver")
+        ui.toggle_value(&mut c.gps_ui.monitor.open, "NMEA monitor");
+        ui.toggle_value(&mut c.gps_ui.receiver.open, "Receiver")
             .on_hover_text("Configure the receiver: rate, constellations, dynamic model, static hold");
     });
-    if let Some(n) = &c.gps.notice {
+    if let Some(n) = &c.station.gps.notice {
         ui.label(RichText::new(n).small().weak());
     }
     replay_ui(c, ui);
@@ -358,19 +348,19 @@ pub fn show(c: &mut Console, ui: &mut egui::Ui, now: Instant) {
     // The alarm itself (state, what to do, "Silence alarm") is the banner strip's GPS line.
     let alarm = c.gps_alarm(now);
 
-    if let Some(a) = &c.gps.attitude {
+    if let Some(a) = &c.station.gps.attitude {
         let (text, stale) = attitude_line(a, now, c.cfg.stale_after_s);
         // Stale like a stale fix: the same limit and the same orange.
         let color = if stale { Color32::from_rgb(220, 140, 0) } else { ui.visuals().text_color() };
         ui.label(RichText::new(text).color(color));
     }
 
-    let Some(fix) = c.gps.fix.clone() else {
+    let Some(fix) = c.station.gps.fix.clone() else {
         ui.label("no fix yet");
         return;
     };
     let age = c.position_age(now).map(|a| a.as_secs_f64());
-    let running = c.gps_connected() && !matches!(c.gps.state, None | Some(SourceState::Lost { .. }));
+    let running = c.gps_connected() && !matches!(c.station.gps.state, None | Some(SourceState::Lost { .. }));
     let fresh = freshness(&fix, running, now, c.cfg.stale_after_s);
     if let Freshness::LastKnown { age_s } = fresh {
         let what = if matches!(alarm, Some(GpsAlarm::Lost { .. })) { "FIX LOST" } else { "NOT CURRENT" };
@@ -383,8 +373,8 @@ pub fn show(c: &mut Console, ui: &mut egui::Ui, now: Instant) {
             .color(ui.visuals().warn_fg_color),
         );
     }
-    fix_grid(ui, &fix, age, c.gps.fixes, fresh);
-    if let Some(st) = &c.gps.stats {
+    fix_grid(ui, &fix, age, c.station.gps.fixes, fresh);
+    if let Some(st) = &c.station.gps.stats {
         ui.label(
             RichText::new(format!(
                 "{} sentences, {} epochs, {} rejected ({} bad checksums)",
@@ -441,7 +431,7 @@ fn replay_ui(c: &mut Console, ui: &mut egui::Ui) {
 
 /// The Record toggle.
 fn record_toggle(c: &mut Console, ui: &mut egui::Ui) {
-    let r = &mut c.gps.recording;
+    let r = &mut c.gps_ui.recording;
     let recording = r.tap.is_recording();
     let mut on = recording;
     if ui.toggle_value(&mut on, if recording { "Stop recording" } else { "Record NMEA" }).changed() {
@@ -455,8 +445,8 @@ fn record_toggle(c: &mut Console, ui: &mut egui::Ui) {
 
 /// The recording's folder (with the monitor open), the file being written, sentences and bytes, the error.
 fn record_ui(c: &mut Console, ui: &mut egui::Ui) {
-    let open = c.gps.monitor.open;
-    let r = &mut c.gps.recording;
+    let open = c.gps_ui.monitor.open;
+    let r = &mut c.gps_ui.recording;
     let recording = r.tap.is_recording();
     if open {
         ui.horizontal(|ui| {
@@ -479,7 +469,7 @@ fn record_ui(c: &mut Console, ui: &mut egui::Ui) {
 
 /// The raw sentence monitor: the last sentences with their arrival time, pausable, filtered.
 fn monitor_ui(c: &mut Console, ui: &mut egui::Ui) {
-    let m = &mut c.gps.monitor;
+    let m = &mut c.gps_ui.monitor;
     if !m.open {
         return;
     }
@@ -575,7 +565,7 @@ fn satellite_table(ui: &mut egui::Ui, sats: &[Satellite], fresh: Freshness, open
 }
 
 fn picker_ui(c: &mut Console, ui: &mut egui::Ui, base: &std::path::Path) {
-    let p = &mut c.gps.picker;
+    let p = &mut c.gps_ui.picker;
     let label = |k: SourceKind| match k {
         SourceKind::Simulator => "Simulator",
         SourceKind::Serial => "Serial / Bluetooth port",

@@ -137,7 +137,7 @@ pub fn availability(c: &Console) -> Result<(), String> {
 /// frame, so it stays open when the GPS section is collapsed, and it takes no room above the vest grid.
 /// A run under way is followed whether or not the window is open.
 pub fn window(c: &mut Console, ctx: &egui::Context) {
-    let mut r = std::mem::take(&mut c.gps.receiver);
+    let mut r = std::mem::take(&mut c.gps_ui.receiver);
     if r.poll() {
         ctx.request_repaint_after(Duration::from_millis(100));
     }
@@ -147,7 +147,7 @@ pub fn window(c: &mut Console, ctx: &egui::Context) {
         .default_width(380.0)
         .show(ctx, |ui| body(c, &mut r, ui));
     r.open = open;
-    c.gps.receiver = r;
+    c.gps_ui.receiver = r;
 }
 
 fn body(c: &Console, r: &mut ReceiverUi, ui: &mut egui::Ui) {

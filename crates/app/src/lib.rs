@@ -3,12 +3,13 @@
 //!
 //! Panels: GPS (source, fix, sky, alarm), Vest (4x4 grid as worn, patterns, STOP ALL), Guidance (automatic
 //! cues and why), Map (walkers tiles or a local metric grid, waypoints, track, GPX), Simulation and Field
-//! tests, and the session log viewer. The device crate's workers, the guidance worker and the session log
-//! run on their own threads and hand their events to the UI over bounded channels;
-//! [`console::Console`] is the whole UI state and can be driven without a window:
+//! tests, and the session log viewer. The running system — devices, guidance, the route, the session log,
+//! the stop path — is a [`vestnav_station::Station`] the console holds and views; [`console::Console`] is
+//! the view's whole state and can be driven without a window:
 //!
 //! ```no_run
-//! # use vestnav_app::{console::{Console, ConsoleOptions}, hardware::Hardware};
+//! # use vestnav_app::console::{Console, ConsoleOptions};
+//! # use vestnav_station::hardware::Hardware;
 //! let console = Console::new(Box::new(Hardware::default()), ConsoleOptions::default());
 //! assert!(console.gps_connected());
 //! ```
@@ -16,25 +17,22 @@
 pub mod compass_panel;
 pub mod config;
 pub mod console;
-pub mod devices;
 mod export;
 mod fieldtest_panel;
 pub mod file_dialog;
 pub mod gps_panel;
 pub mod gps_receiver;
-pub mod guidance;
-pub mod hardware;
 pub mod log_viewer;
 pub mod map_panel;
 pub mod map_tools;
 pub mod pattern_editor;
-pub mod route;
 pub mod route_import;
 mod sim_panel;
 pub mod tiles;
 pub mod vest_panel;
 
-use console::{Console, ConsoleOptions, DeviceOverrides, EXIT_STOP_WAIT, ExitGuard, Liveness};
+use console::{Console, ConsoleOptions, DeviceOverrides, Liveness};
+use vestnav_station::stop::StopPath;
 
 /// Opens the console window and runs until it is closed or the process is told to end.
 ///
@@ -43,8 +41,10 @@ use console::{Console, ConsoleOptions, DeviceOverrides, EXIT_STOP_WAIT, ExitGuar
 /// console starts with the built-in GPS simulator walking the demo route and the emulated vest.
 ///
 /// Every way out stops the vest first: closing the window, and SIGTERM, SIGINT or SIGHUP (a handler
-/// thread sends STOP ALL, waits at most [`EXIT_STOP_WAIT`] for the unit's acknowledgement, then closes the
-/// window; the process ends with status 128 + the signal's number, as a killed program would).
+/// thread sends a fresh STOP ALL, waits at most [`vestnav_station::stop::EXIT_STOP_WAIT`] for the unit's
+/// acknowledgement, then closes the window; the process ends with status 128 + the signal's number, as a
+/// killed program would, within [`vestnav_station::stop::EXIT_DEADLINE`] of the signal whatever the window
+/// does).
 ///
 /// With `screenshot`, the window saves a PNG of itself once `after` has passed and then closes as any close
 /// does (vest stopped first): the documentation's screenshots and bug reports come from the real window.
@@ -53,9 +53,9 @@ pub fn run(devices: DeviceOverrides, screenshot: Option<Screenshot>) -> anyhow::
     let (cfg, cfg_error) =
         cfg_path.as_deref().map_or_else(|| (config::Config::default(), None), config::Config::load);
     let log_dir = cfg.log_dir.clone().unwrap_or_else(|| config::data_dir().join("sessions"));
-    let exit = ExitGuard::default();
+    let stop = StopPath::default();
     #[cfg(unix)]
-    stop_on_signals(exit.clone())?;
+    vestnav_station::stop::exit_on_signals(stop.clone(), || {})?;
     let options = eframe::NativeOptions {
         viewport: egui::ViewportBuilder::default()
             .with_title("vestnav console")
@@ -63,14 +63,18 @@ pub fn run(devices: DeviceOverrides, screenshot: Option<Screenshot>) -> anyhow::
             .with_min_inner_size([900.0, 600.0]),
         ..eframe::NativeOptions::default()
     };
-    let guard = exit.clone();
+    let guard = stop.clone();
     eframe::run_native(
         "vestnav",
         options,
         Box::new(move |cc| {
-            exit.set_ui(cc.egui_ctx.clone());
+            let ctx = cc.egui_ctx.clone();
+            stop.set_closer(Some(Box::new(move || {
+                ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+                ctx.request_repaint();
+            })));
             let mut console = Console::new(
-                Box::new(hardware::Hardware::default()),
+                Box::new(vestnav_station::hardware::Hardware::default()),
                 ConsoleOptions {
                     cfg,
                     cfg_path,
@@ -78,12 +82,12 @@ pub fn run(devices: DeviceOverrides, screenshot: Option<Screenshot>) -> anyhow::
                     waker: Some(cc.egui_ctx.clone()),
                     devices,
                     liveness: Some(Liveness::default()),
-                    exit,
+                    stop,
                     route_autosave: Some(config::route_autosave_path()),
                 },
             );
             if let Some(e) = cfg_error {
-                console.status = e;
+                console.say(vestnav_station::Severity::Alarm, vestnav_station::Subject::Settings, e);
             }
             Ok(Box::new(App { console, screenshot: screenshot.map(ScreenshotState::new) }))
         }),
@@ -93,32 +97,6 @@ pub fn run(devices: DeviceOverrides, screenshot: Option<Screenshot>) -> anyhow::
         // The window has closed and the vest was stopped: end as the signal asked.
         std::process::exit(128 + sig);
     }
-    Ok(())
-}
-
-/// Ends the process on SIGTERM, SIGINT or SIGHUP, after stopping the vest.
-#[cfg(unix)]
-fn stop_on_signals(exit: ExitGuard) -> anyhow::Result<()> {
-    use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
-    let mut signals = signal_hook::iterator::Signals::new([SIGTERM, SIGINT, SIGHUP])?;
-    std::thread::Builder::new().name("vestnav-signals".into()).spawn(move || {
-        if let Some(sig) = signals.forever().next() {
-            // The vest first, whatever the UI thread is doing.
-            let acked = exit.stop_vest(EXIT_STOP_WAIT);
-            let how = if acked {
-                "acknowledged by the unit"
-            } else {
-                "not acknowledged (no vest, or the unit's watchdog stops the tactors)"
-            };
-            eprintln!("vestnav: signal {sig}: STOP ALL {how}; exiting");
-            // Then a normal window close, so the renderer is torn down on its own thread; if the UI thread
-            // does not get there (stalled, or no window yet), end the process from here.
-            if exit.close_for_signal(sig) {
-                std::thread::sleep(std::time::Duration::from_secs(2));
-            }
-            std::process::exit(128 + sig);
-        }
-    })?;
     Ok(())
 }
 

@@ -12,7 +12,6 @@
 //! with an **Undo delete** button).
 
 use std::cell::Cell;
-use std::collections::VecDeque;
 use std::path::{Path, PathBuf};
 use std::rc::Rc;
 use std::time::Instant;
@@ -22,16 +21,20 @@ use walkers::{MapMemory, Position, Projector, TileId, TilePiece, Tiles, lat_lon}
 
 use crate::config::Config;
 use crate::map_tools::{self, MapTools};
-use crate::route::{RouteState, Waypoint, decimation_stride};
 use crate::route_import::{ImportChoice, ImportDialog};
 use vestnav_core::geo::{DVec2, Earth, LatLon, LocalFrame};
 use vestnav_device::gps::Fix;
 use vestnav_device::route_file::TrackPoint;
+use vestnav_station::guidance::GuidanceStatus;
+use vestnav_station::route::{RouteModel, Track, segments};
+use vestnav_station::{Notices, Severity, Subject};
 
-use crate::guidance::GuidanceStatus;
+pub use vestnav_station::route::{Coordinate, UNDO_STEPS, parse_coordinate, plausible_step};
 
-/// Undo steps kept; the oldest is forgotten beyond this.
-pub const UNDO_STEPS: usize = 100;
+/// Waypoints drawn as markers at most per frame: beyond it (a long route zoomed out) only the route line,
+/// the next waypoint and the waypoint under the pointer are drawn, so the frame stays cheap at
+/// [`vestnav_station::route::MAX_WAYPOINTS`].
+pub const WAYPOINT_MARKERS_MAX: usize = 1000;
 
 /// Track points drawn at most per frame (older points are strided, the newest [`TRACK_TAIL`] drawn in full).
 pub const TRACK_DRAW_MAX: usize = 2500;
@@ -40,48 +43,12 @@ pub const TRACK_TAIL: usize = 500;
 /// With tiles on, the map falls back to the local grid when no tile has arrived for this long [s].
 pub const TILES_OFFLINE_AFTER_S: f64 = 2.0;
 
-/// Fastest the wearer can plausibly move between two fixes [m/s]: a run (walking is ~1.4 m/s), so that a
-/// hurried wearer never splits the track but a teleport does.
-pub const TRACK_MAX_SPEED_M_S: f64 = 5.0;
-/// Jump every step is allowed on top of [`TRACK_MAX_SPEED_M_S`] [m]: GPS error (a `SiRF` receiver's multipath
-/// hop is tens of metres), and the step between two fixes whose timestamps are missing or equal.
-pub const TRACK_JUMP_SLACK_M: f64 = 50.0;
-
 /// Beyond this distance the next waypoint is not a walk but a wrong route or a wrong position [m]. A day's
 /// walk is 30-40 km; 100 km is beyond any single leg of a guided walk, so the console warns instead of
 /// printing a distance and a time to go.
 pub const FAR_WAYPOINT_M: f64 = 100_000.0;
 /// Longest time to go shown as a number [s]; beyond it the line says "more than 12 h to go".
 pub const TIME_TO_GO_MAX_S: f64 = 12.0 * 3600.0;
-
-/// Whether the step from `a` to `b` is one the wearer can have walked in `dt_s` seconds: the rule that splits
-/// the track into segments.
-///
-/// Plausible when `distance_m(a, b) <= TRACK_JUMP_SLACK_M + TRACK_MAX_SPEED_M_S * dt_s` (negative or unknown
-/// `dt_s` counts as 0: only the slack is allowed). Distances on the WGS84 ellipsoid.
-pub fn plausible_step(a: (f64, f64), b: (f64, f64), dt_s: f64) -> bool {
-    let d = Earth::Wgs84.distance_m(LatLon::new(a.0, a.1), LatLon::new(b.0, b.1));
-    let dt_s = if dt_s.is_finite() { dt_s.max(0.0) } else { 0.0 };
-    d <= TRACK_JUMP_SLACK_M + TRACK_MAX_SPEED_M_S * dt_s
-}
-
-/// The time between two fixes for the walking rule [s]: from the receiver's UTC when both carry it (true
-/// time also in a fast replay), else from the instants their bytes arrived, else 0.
-fn fix_dt_s(prev: &TrackStamp, f: &Fix) -> f64 {
-    match ((prev.time, f.time), (prev.received_at, f.received_at)) {
-        ((Some(a), Some(b)), _) => (b - a).num_milliseconds() as f64 / 1000.0,
-        (_, (Some(a), Some(b))) => b.saturating_duration_since(a).as_secs_f64(),
-        _ => 0.0,
-    }
-}
-
-/// When and where the newest track point was taken.
-#[derive(Debug, Clone, Copy)]
-struct TrackStamp {
-    at: (f64, f64),
-    time: Option<chrono::DateTime<chrono::Utc>>,
-    received_at: Option<Instant>,
-}
 
 /// How the wearer's dot is drawn: live (blue) or last known (grey, with its age).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -162,19 +129,6 @@ pub struct MapView {
     tile_misses: Rc<Cell<u32>>,
     /// UI time since which no tile has been available although tiles are on [s].
     pub no_tiles_since_s: Option<f64>,
-    /// Name of the route.
-    pub route_name: String,
-    /// The waypoints, in order.
-    pub waypoints: Vec<Waypoint>,
-    /// Index of the next waypoint.
-    pub next: usize,
-    /// The wearer's track, all segments one after the other: position, the fix's UTC time and altitude
-    /// (what a GPX export writes as `<time>` and `<ele>`).
-    pub track: Vec<TrackPoint>,
-    /// Indices into `track` where a new segment starts (after a GPS source change or an implausible jump,
-    /// see [`plausible_step`]); segments are drawn as separate lines.
-    pub track_breaks: Vec<usize>,
-    track_last: Option<TrackStamp>,
     /// How the wearer was drawn in the latest frame (`None`: no position), for tests and the status line.
     pub wearer_shown: Option<WearerMarker>,
     /// A track shown from a session log being replayed, and the replay cursor.
@@ -193,18 +147,10 @@ pub struct MapView {
     pub pending_replace: Option<(PathBuf, RouteExport)>,
     right_click_at: Option<Position>,
     menu_wp: Option<usize>,
-    /// Undo steps, oldest first (at most [`UNDO_STEPS`]).
-    undo: VecDeque<UndoStep>,
-    /// Redo steps, the most recently undone last.
-    redo: Vec<UndoStep>,
-    /// "Deleted WP3": shown with an **Undo delete** button after a delete or a clear, until the next edit.
-    pub undo_notice: Option<String>,
-    /// A problem the operator must read (e.g. an unreadable route autosave), shown until dismissed.
-    pub notice: Option<String>,
     /// The waypoint editor (name and typed coordinates), when open.
     pub editor: Option<WaypointEditor>,
-    /// The waypoint being dragged and the route before the drag began (one drag is one undo step).
-    drag_before: Option<(usize, RouteState)>,
+    /// The track was cleared from the view at this many points (only later points are drawn).
+    track_from: usize,
     /// The map tools: coordinates under the mouse, go-to, measuring, field-test overlay.
     pub tools: MapTools,
     /// The import dialog, when a GPX file offered more than one thing to import.
@@ -232,18 +178,6 @@ const ROUTE_SAVE: crate::file_dialog::DialogSpec = crate::file_dialog::DialogSpe
     filter: ("GPX", &["gpx"]),
 };
 
-/// One step of the undo (or redo) history: the route to go back to.
-#[derive(Debug, Clone)]
-struct UndoStep {
-    /// The edit, in words ("delete WP3").
-    what: String,
-    /// The route to restore.
-    state: RouteState,
-    /// The next waypoint's index the history left: when guidance has moved on since (an arrival), the
-    /// restore keeps guidance's next waypoint instead of the stored one.
-    left_next: usize,
-}
-
 /// The waypoint editor's fields, as typed.
 #[derive(Debug, Clone, PartialEq)]
 pub struct WaypointEditor {
@@ -259,61 +193,6 @@ pub struct WaypointEditor {
     pub radius: String,
     /// Why the last Apply was refused (names the field).
     pub error: Option<String>,
-}
-
-/// Parses a coordinate typed in decimal degrees (`42.3573`, `-71.1`; a decimal comma and a trailing `°`
-/// are accepted) and checks it against GPX's range for `field`: latitude in [-90, 90], longitude in
-/// [-180, 180). Errors name the field.
-pub fn parse_coordinate(text: &str, field: Coordinate) -> Result<f64, String> {
-    let t = text.trim().trim_end_matches('°').trim();
-    let t = if t.contains(',') && !t.contains('.') { t.replace(',', ".") } else { t.to_owned() };
-    let name = field.name();
-    if t.is_empty() {
-        return Err(format!("{name}: enter a value in decimal degrees"));
-    }
-    let v: f64 =
-        t.parse().map_err(|_| format!("{name}: '{}' is not a number in decimal degrees", text.trim()))?;
-    let ok = match field {
-        Coordinate::Latitude => (-90.0..=90.0).contains(&v),
-        Coordinate::Longitude => (-180.0..180.0).contains(&v),
-    };
-    if ok { Ok(v) } else { Err(format!("{name}: {v} is outside {}", field.range())) }
-}
-
-/// Which coordinate [`parse_coordinate`] reads.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Coordinate {
-    /// Latitude, [-90, 90] degrees.
-    Latitude,
-    /// Longitude, [-180, 180) degrees.
-    Longitude,
-}
-
-impl Coordinate {
-    fn name(self) -> &'static str {
-        match self {
-            Self::Latitude => "Latitude",
-            Self::Longitude => "Longitude",
-        }
-    }
-    fn range(self) -> &'static str {
-        match self {
-            Self::Latitude => "[-90, 90] degrees",
-            Self::Longitude => "[-180, 180) degrees",
-        }
-    }
-}
-
-/// A map position as waypoint coordinates within GPX's ranges: latitude clamped to [-90, 90], longitude
-/// wrapped into [-180, 180) (the map can be panned past the antimeridian), so the route can always be
-/// saved and read back.
-fn waypoint_coords(p: Position) -> (f64, f64) {
-    let lat_deg = if p.y().is_finite() { p.y().clamp(-90.0, 90.0) } else { 0.0 };
-    let mut lon_deg = if p.x().is_finite() { (p.x() + 180.0).rem_euclid(360.0) - 180.0 } else { 0.0 };
-    if lon_deg >= 180.0 {
-        lon_deg -= 360.0;
-    }
-    (lat_deg, lon_deg)
 }
 
 /// A [`Tiles`] wrapper that counts tiles found and missing, to tell "offline" from "loading".
@@ -378,12 +257,6 @@ impl MapView {
             tile_hits: Rc::default(),
             tile_misses: Rc::default(),
             no_tiles_since_s: None,
-            route_name: "route".into(),
-            waypoints: Vec::new(),
-            next: 0,
-            track: Vec::new(),
-            track_breaks: Vec::new(),
-            track_last: None,
             wearer_shown: None,
             replay: None,
             add_mode: false,
@@ -394,154 +267,16 @@ impl MapView {
             pending_replace: None,
             right_click_at: None,
             menu_wp: None,
-            undo: VecDeque::new(),
-            redo: Vec::new(),
-            undo_notice: None,
-            notice: None,
             editor: None,
-            drag_before: None,
+            track_from: 0,
             tools: MapTools::default(),
             import: None,
         }
     }
 
-    /// The route as it stands (name, waypoints, next).
-    pub fn route_state(&self) -> RouteState {
-        RouteState { name: self.route_name.clone(), waypoints: self.waypoints.clone(), next: self.next }
-    }
-
-    /// Records the edit just made (the route was `before`) as one undo step; clears the redo steps, the
-    /// delete notice and the editor. Nothing is recorded when the route did not change.
-    fn commit(&mut self, what: String, before: RouteState) {
-        if before.is(&self.route_name, &self.waypoints, self.next) {
-            return;
-        }
-        if self.undo.len() >= UNDO_STEPS {
-            self.undo.pop_front();
-        }
-        self.undo.push_back(UndoStep { what, state: before, left_next: self.next });
-        self.redo.clear();
-        self.undo_notice = None;
-        self.editor = None;
-    }
-
-    /// Puts `step`'s route in place and returns the step that goes back to the route it replaced.
-    fn swap_in(&mut self, step: UndoStep) -> UndoStep {
-        let current = RouteState {
-            name: std::mem::take(&mut self.route_name),
-            waypoints: std::mem::take(&mut self.waypoints),
-            next: self.next,
-        };
-        let UndoStep { what, state, left_next } = step;
-        self.route_name = state.name;
-        self.waypoints = state.waypoints;
-        let next = if current.next == left_next { state.next } else { current.next };
-        self.next = next.min(self.waypoints.len());
-        self.undo_notice = None;
-        self.editor = None;
-        self.drag_before = None;
-        UndoStep { what, state: current, left_next: self.next }
-    }
-
-    /// Undoes the latest edit; returns whether there was one.
-    pub fn undo(&mut self) -> bool {
-        let Some(step) = self.undo.pop_back() else { return false };
-        let back = self.swap_in(step);
-        self.redo.push(back);
-        true
-    }
-
-    /// Redoes the latest undone edit; returns whether there was one.
-    pub fn redo(&mut self) -> bool {
-        let Some(step) = self.redo.pop() else { return false };
-        let back = self.swap_in(step);
-        self.undo.push_back(back);
-        true
-    }
-
-    /// The edit Undo would take back, in words.
-    pub fn undo_label(&self) -> Option<&str> {
-        self.undo.back().map(|s| s.what.as_str())
-    }
-
-    /// The edit Redo would make again, in words.
-    pub fn redo_label(&self) -> Option<&str> {
-        self.redo.last().map(|s| s.what.as_str())
-    }
-
-    /// Removes every waypoint (one undo step, with the delete notice).
-    pub fn clear_route(&mut self) {
-        if self.waypoints.is_empty() {
-            return;
-        }
-        let before = self.route_state();
-        let n = before.waypoints.len();
-        self.waypoints.clear();
-        self.next = 0;
-        self.commit("clear route".to_owned(), before);
-        self.undo_notice = Some(format!("Cleared the route ({n} waypoints)"));
-    }
-
-    /// Replaces the route with an imported one (one undo step).
-    pub fn replace_route(&mut self, name: String, waypoints: Vec<Waypoint>) {
-        let before = self.route_state();
-        let what = format!("import {name}");
-        self.route_name = name;
-        self.waypoints = waypoints;
-        self.next = 0;
-        self.commit(what, before);
-    }
-
-    /// Renames waypoint `i` and sets its position from typed text (decimal degrees): one undo step.
-    /// Errors name the field (`Name`, `Latitude`, `Longitude`) and change nothing.
-    pub fn edit_waypoint(&mut self, i: usize, name: &str, lat: &str, lon: &str) -> Result<(), String> {
-        let radius = self.waypoints.get(i).and_then(|w| w.arrival_radius_m);
-        self.edit_waypoint_with_radius(i, name, lat, lon, radius)
-    }
-
-    /// Like [`Self::edit_waypoint`], also setting the waypoint's own arrival radius [m] (`None`: guidance's
-    /// global radius). A radius that is not a positive finite number is refused, naming the field.
-    pub fn edit_waypoint_with_radius(
-        &mut self,
-        i: usize,
-        name: &str,
-        lat: &str,
-        lon: &str,
-        radius_m: Option<f64>,
-    ) -> Result<(), String> {
-        if radius_m.is_some_and(|r| !(r.is_finite() && r > 0.0)) {
-            return Err(
-                "Arrival radius: must be a positive number of metres (empty: the global radius)".into()
-            );
-        }
-        let name = name.trim();
-        if name.is_empty() {
-            return Err("Name: must not be empty".to_owned());
-        }
-        let lat_deg = parse_coordinate(lat, Coordinate::Latitude)?;
-        let lon_deg = parse_coordinate(lon, Coordinate::Longitude)?;
-        let Some(old) = self.waypoints.get(i).cloned() else {
-            return Err(format!("waypoint {} no longer exists", i + 1));
-        };
-        let moved = old.lat_deg.to_bits() != lat_deg.to_bits() || old.lon_deg.to_bits() != lon_deg.to_bits();
-        let radius_changed = old.arrival_radius_m != radius_m;
-        let what = match (old.name != name, moved, radius_changed) {
-            (true, false, false) => format!("rename {} to {name}", old.name),
-            (false, true, false) => format!("move {} to typed coordinates", old.name),
-            (false, false, true) => format!("arrival radius of {}", old.name),
-            _ => format!("edit {}", old.name),
-        };
-        let before = self.route_state();
-        if let Some(w) = self.waypoints.get_mut(i) {
-            *w = Waypoint { name: name.to_owned(), lat_deg, lon_deg, arrival_radius_m: radius_m };
-        }
-        self.commit(what, before);
-        Ok(())
-    }
-
     /// Opens the editor on waypoint `i` with its current values.
-    pub fn open_editor(&mut self, i: usize) {
-        self.editor = self.waypoints.get(i).map(|w| WaypointEditor {
+    pub fn open_editor(&mut self, route: &RouteModel, i: usize) {
+        self.editor = route.waypoints().get(i).map(|w| WaypointEditor {
             index: i,
             name: w.name.clone(),
             lat: w.lat_deg.to_string(),
@@ -551,61 +286,29 @@ impl MapView {
         });
     }
 
-    /// Appends the position of `fix` to the wearer's track, starting a new segment when the step from the
-    /// previous point is not one a walker can make in the time between them ([`plausible_step`]).
-    pub fn push_track(&mut self, fix: &Fix) {
-        let (Some(lat_deg), Some(lon_deg)) = (fix.lat_deg, fix.lon_deg) else { return };
-        if !(lat_deg.is_finite() && lon_deg.is_finite()) {
-            return;
-        }
-        let at = (lat_deg, lon_deg);
-        if let Some(prev) = &self.track_last
-            && !plausible_step(prev.at, at, fix_dt_s(prev, fix))
-        {
-            self.break_track();
-        }
-        self.track.push(TrackPoint {
-            lat_deg,
-            lon_deg,
-            ele_m: fix.alt_m.filter(|a| a.is_finite()),
-            time: fix.time,
-        });
-        self.track_last = Some(TrackStamp { at, time: fix.time, received_at: fix.received_at });
-    }
-
-    /// Ends the current track segment: the next point starts a new one (the GPS source changed).
-    pub fn break_track(&mut self) {
-        let n = self.track.len();
-        if n > 0 && self.track_breaks.last() != Some(&n) {
-            self.track_breaks.push(n);
-        }
-        self.track_last = None;
-    }
-
-    /// The track's segments, oldest first, none empty.
-    pub fn track_segments(&self) -> Vec<&[TrackPoint]> {
-        segments(&self.track, &self.track_breaks).map(|r| &self.track[r]).collect()
-    }
-
-    fn anchor(&self) -> (f64, f64) {
-        self.waypoints
+    fn anchor(route: &RouteModel, track: &Track) -> (f64, f64) {
+        route
+            .waypoints()
             .first()
             .map(|w| (w.lat_deg, w.lon_deg))
-            .or_else(|| self.track.first().map(|p| (p.lat_deg, p.lon_deg)))
+            .or_else(|| track.points().first().map(|p| (p.lat_deg, p.lon_deg)))
             .unwrap_or((42.3573, -71.1010))
     }
 
-    /// Draws the map tab; returns whether the route changed (the guidance worker must hear of it).
+    /// Draws the map tab over the station's route and track; route edits go to `route` (the station
+    /// hands each change to guidance and the autosave), messages to `notices`.
+    #[allow(clippy::too_many_arguments)] // the map shows the route, the track, the fix and guidance at once
     pub fn ui(
         &mut self,
         ui: &mut egui::Ui,
+        route: &mut RouteModel,
+        track: &Track,
         fix: Option<&Fix>,
         guidance: Option<&GuidanceStatus>,
         walking_m_s: f64,
         cfg: &mut Config,
-        status: &mut String,
-    ) -> bool {
-        let mut changed = false;
+        notices: &mut Notices,
+    ) {
         if !ui.ctx().text_edit_focused() {
             // The more specific shortcut first: Ctrl+Z alone also matches Ctrl+Shift+Z.
             let (redo, undo) = ui.input_mut(|i| {
@@ -614,34 +317,35 @@ impl MapView {
                     || i.consume_shortcut(&KeyboardShortcut::new(Modifiers::COMMAND, Key::Y));
                 (redo, !redo && i.consume_shortcut(&KeyboardShortcut::new(Modifiers::COMMAND, Key::Z)))
             });
-            changed |= (redo && self.redo()) || (undo && self.undo());
+            if redo {
+                route.redo();
+            } else if undo {
+                route.undo();
+            }
         }
-        if let Some(n) = self.notice.clone() {
-            ui.horizontal_wrapped(|ui| {
-                ui.label(RichText::new(n).strong().color(ui.visuals().warn_fg_color));
-                if ui.small_button("Dismiss").clicked() {
-                    self.notice = None;
-                }
-            });
-        }
-        self.toolbar(ui, cfg, status);
-        changed |= self.file_row(ui, cfg, status);
-        changed |= self.import_dialog(ui, status);
+        self.toolbar(ui, route, track, cfg, notices);
+        self.file_row(ui, route, track, cfg, notices);
+        self.import_dialog(ui, route, notices);
         if let Some(e) = &self.tools.goto_error {
             ui.label(RichText::new(format!("Go to: {e}")).color(ui.visuals().error_fg_color));
         }
         self.tools_line(ui);
         let speed_m_s = fix.and_then(|f| f.speed_m_s);
-        self.next_info(ui, fix, guidance, speed_m_s, walking_m_s);
+        Self::next_info(ui, route, fix, guidance, speed_m_s, walking_m_s);
         egui::Panel::right("waypoint-list").default_size(290.0).show(ui, |ui| {
-            changed |= self.waypoint_list(ui);
+            self.waypoint_list(ui, route, notices);
         });
-        changed |= self.map_ui(ui, fix, guidance.and_then(|g| g.heading_deg), cfg);
-        self.next = self.next.min(self.waypoints.len());
-        changed
+        self.map_ui(ui, route, track, fix, guidance.and_then(|g| g.heading_deg), cfg, notices);
     }
 
-    fn toolbar(&mut self, ui: &mut egui::Ui, cfg: &mut Config, status: &mut String) {
+    fn toolbar(
+        &mut self,
+        ui: &mut egui::Ui,
+        route: &RouteModel,
+        track: &Track,
+        cfg: &mut Config,
+        notices: &mut Notices,
+    ) {
         ui.horizontal_wrapped(|ui| {
             if ui.toggle_value(&mut cfg.follow, "Follow wearer").changed() && cfg.follow {
                 self.memory.follow_my_position();
@@ -653,7 +357,7 @@ impl MapView {
             if ui.button(" - ").on_hover_text("Zoom out").clicked() {
                 let _ = self.memory.zoom_out();
             }
-            self.tiles.toolbar(ui, cfg, &self.waypoints);
+            self.tiles.toolbar(ui, cfg, route.waypoints());
             ui.separator();
             if ui
                 .toggle_value(&mut self.tools.measuring, "Measure")
@@ -674,26 +378,38 @@ impl MapView {
                         self.memory.center_at(lat_lon(p.lat_deg, p.lon_deg));
                         cfg.follow = false;
                         self.tools.goto_error = None;
-                        *status = format!("map centred on {}", map_tools::format_decimal(p));
+                        notices.raise(
+                            Severity::Info,
+                            Subject::Route,
+                            format!("map centred on {}", map_tools::format_decimal(p)),
+                        );
                     }
                     Err(e) => self.tools.goto_error = Some(e),
                 }
             }
             ui.separator();
-            if ui.button("Clear track").clicked() {
-                self.track.clear();
-                self.track_breaks.clear();
-                self.track_last = None;
+            if ui
+                .button("Clear track")
+                .on_hover_text("Draw the track from now on (the session log keeps it)")
+                .clicked()
+            {
+                self.track_from = track.points().len();
                 self.replay = None;
             }
         });
     }
 
     /// The route file: the typed path with Browse… and the path it uses, Recent, Import, the exports (each
-    /// asking "Replace X?" before writing over a file). Returns whether the route changed.
-    fn file_row(&mut self, ui: &mut egui::Ui, cfg: &mut Config, status: &mut String) -> bool {
+    /// asking "Replace X?" before writing over a file).
+    fn file_row(
+        &mut self,
+        ui: &mut egui::Ui,
+        route: &mut RouteModel,
+        track: &Track,
+        cfg: &mut Config,
+        notices: &mut Notices,
+    ) {
         use crate::file_dialog::{self as fd, RecentKind};
-        let mut changed = false;
         let base = cfg.recent.base();
         ui.horizontal(|ui| {
             ui.label("Route file:");
@@ -703,17 +419,21 @@ impl MapView {
         });
         if let Some(fd::Picked::File(p)) = self.export_browse.poll() {
             self.gpx_path = p.display().to_string();
-            self.export(RouteExport::Gpx, p, false, cfg, status);
+            self.export(RouteExport::Gpx, p, false, (route, track), cfg, notices);
         }
         ui.horizontal_wrapped(|ui| {
             if let Some(p) = fd::recent_menu(ui, &cfg.recent, RecentKind::Routes) {
                 self.gpx_path = p.display().to_string();
-                changed |= self.import_gpx(&p, cfg, status);
+                self.import_gpx(&p, route, cfg, notices);
             }
             if ui.button("Import GPX").clicked() {
                 match fd::resolve(&self.gpx_path, &base) {
-                    Some(p) => changed |= self.import_gpx(&p, cfg, status),
-                    None => "GPX import: type a file path or Browse… first".clone_into(status),
+                    Some(p) => self.import_gpx(&p, route, cfg, notices),
+                    None => notices.raise(
+                        Severity::Warning,
+                        Subject::Route,
+                        "GPX import: type a file path or Browse… first",
+                    ),
                 }
             }
             for (label, kind) in [("Export GPX", RouteExport::Gpx), ("Export GeoJSON", RouteExport::GeoJson)]
@@ -726,8 +446,12 @@ impl MapView {
                 };
                 if button.clicked() {
                     match fd::resolve(&self.gpx_path, &base) {
-                        Some(p) => self.export(kind, p, false, cfg, status),
-                        None => *status = format!("{label}: type a file path or Browse… first"),
+                        Some(p) => self.export(kind, p, false, (route, track), cfg, notices),
+                        None => notices.raise(
+                            Severity::Warning,
+                            Subject::Route,
+                            format!("{label}: type a file path or Browse… first"),
+                        ),
                     }
                 }
             }
@@ -741,7 +465,7 @@ impl MapView {
                 let name = current
                     .as_deref()
                     .and_then(Path::file_name)
-                    .map_or_else(|| format!("{}.gpx", self.route_name), |n| n.to_string_lossy().into_owned());
+                    .map_or_else(|| format!("{}.gpx", route.name()), |n| n.to_string_lossy().into_owned());
                 self.export_browse.start(ui.ctx(), ROUTE_SAVE, dir, Some(&name));
             }
         });
@@ -753,22 +477,25 @@ impl MapView {
             match fd::confirm_replace(ui.ctx(), &target) {
                 Some(fd::Answer::Replace) => {
                     self.pending_replace = None;
-                    self.export(kind, path, true, cfg, status);
+                    self.export(kind, path, true, (route, track), cfg, notices);
                 }
                 Some(fd::Answer::Cancel) => {
                     self.pending_replace = None;
-                    *status = format!("{} left as it was", target.display());
+                    notices.raise(
+                        Severity::Info,
+                        Subject::Route,
+                        format!("{} left as it was", target.display()),
+                    );
                 }
                 None => {}
             }
         }
-        changed
     }
 
     fn export_target(kind: RouteExport, path: &Path) -> PathBuf {
         match kind {
             RouteExport::Gpx => path.to_path_buf(),
-            RouteExport::GeoJson => crate::route::geojson_path(path),
+            RouteExport::GeoJson => vestnav_station::route::geojson_path(path),
         }
     }
 
@@ -779,44 +506,48 @@ impl MapView {
         kind: RouteExport,
         path: PathBuf,
         replace: bool,
+        (route, track): (&RouteModel, &Track),
         cfg: &mut Config,
-        status: &mut String,
+        notices: &mut Notices,
     ) {
         let target = Self::export_target(kind, &path);
         if !replace && target.exists() {
             self.pending_replace = Some((path, kind));
             return;
         }
-        let segments = self.track_segments();
+        let segments = track.segments();
+        let (name, waypoints) = (route.name(), route.waypoints());
         let result = match kind {
             RouteExport::Gpx => {
-                crate::route::export_gpx(&path, &self.route_name, &self.waypoints, &segments, replace)
+                vestnav_station::route::export_gpx(&path, name, waypoints, &segments, replace)
             }
             RouteExport::GeoJson => {
-                crate::route::export_geojson(&path, &self.route_name, &self.waypoints, &segments, replace)
+                vestnav_station::route::export_geojson(&path, name, waypoints, &segments, replace)
             }
         };
-        *status = match result {
+        match result {
             Ok(msg) => {
                 match kind {
                     RouteExport::Gpx => cfg.recent.push(crate::file_dialog::RecentKind::Routes, &target),
                     RouteExport::GeoJson => cfg.recent.used(&target),
                 }
-                msg
+                notices.raise(Severity::Info, Subject::Route, msg);
             }
-            Err(e) if kind == RouteExport::Gpx => format!("GPX export failed: {e}"),
-            Err(e) => format!("GeoJSON export failed: {e}"),
-        };
+            Err(e) => {
+                let what = if kind == RouteExport::Gpx { "GPX" } else { "GeoJSON" };
+                notices.raise(Severity::Alarm, Subject::Route, format!("{what} export failed: {e}"));
+            }
+        }
     }
 
     /// Imports the GPX file at `path`: straight away when it holds one thing, else through the import
-    /// dialog. The file joins the recent route files once read. Returns whether the route changed.
-    fn import_gpx(&mut self, path: &Path, cfg: &mut Config, status: &mut String) -> bool {
+    /// dialog. The file joins the recent route files once read.
+    fn import_gpx(&mut self, path: &Path, route: &mut RouteModel, cfg: &mut Config, notices: &mut Notices) {
         let file = match vestnav_device::route_file::read_gpx(path) {
             Ok(file) => file,
             Err(e) => {
-                *status = format!("GPX import failed: {e}");
-                return false;
+                notices.raise(Severity::Alarm, Subject::Route, format!("GPX import failed: {e}"));
+                return;
             }
         };
         cfg.recent.push(crate::file_dialog::RecentKind::Routes, path);
@@ -828,19 +559,24 @@ impl MapView {
         let shown = path.display().to_string();
         let mut choices = crate::route_import::choices(&file);
         match choices.len() {
-            0 => *status = format!("{shown} holds no waypoint, route or track"),
+            0 => notices.raise(
+                Severity::Warning,
+                Subject::Route,
+                format!("{shown} holds no waypoint, route or track"),
+            ),
             1 => {
                 let c = choices.remove(0);
-                *status = format!("imported {}", c.label);
-                self.import_choice(c);
-                return true;
+                self.import_choice(route, c, notices);
             }
             _ => {
-                *status = format!("{shown} holds {} things: choose one", choices.len());
+                notices.raise(
+                    Severity::Info,
+                    Subject::Route,
+                    format!("{shown} holds {} things: choose one", choices.len()),
+                );
                 self.import = Some(ImportDialog { path: shown, choices });
             }
         }
-        false
     }
 
     /// The measuring tool's result and the coordinates under the mouse, in one line each.
@@ -861,16 +597,20 @@ impl MapView {
         ui.label(RichText::new(text).small().monospace());
     }
 
-    /// Replaces the route with an imported choice (one undo step).
-    pub fn import_choice(&mut self, c: ImportChoice) {
-        self.replace_route(c.name, c.waypoints);
+    /// Replaces the route with an imported choice (one undo step); a route beyond the limit is refused and
+    /// said.
+    pub fn import_choice(&mut self, route: &mut RouteModel, c: ImportChoice, notices: &mut Notices) {
+        match route.replace(c.name, c.waypoints) {
+            Ok(()) => notices.raise(Severity::Info, Subject::Route, format!("imported {}", c.label)),
+            Err(e) => notices.raise(Severity::Alarm, Subject::Route, format!("not imported: {e}")),
+        }
         self.import = None;
     }
 
     /// The import dialog (when open): one button per thing the file holds; returns whether the route
     /// changed.
-    fn import_dialog(&mut self, ui: &mut egui::Ui, status: &mut String) -> bool {
-        let Some(dialog) = &self.import else { return false };
+    fn import_dialog(&mut self, ui: &mut egui::Ui, route: &mut RouteModel, notices: &mut Notices) {
+        let Some(dialog) = &self.import else { return };
         let mut picked = None;
         let mut close = false;
         egui::Window::new("Import from GPX").collapsible(false).resizable(false).show(ui.ctx(), |ui| {
@@ -886,47 +626,56 @@ impl MapView {
             self.import = None;
         }
         let Some(c) = picked.and_then(|k| self.import.as_mut().map(|d| d.choices.swap_remove(k))) else {
-            return false;
+            return;
         };
-        *status = format!("imported {}", c.label);
-        self.import_choice(c);
-        true
+        self.import_choice(route, c, notices);
     }
 
     /// The line about the next waypoint. Distance and bearing are core guidance's (the one home of the
     /// navigation logic), from its latest status for this waypoint; the map only turns them into words.
     fn next_info(
-        &self,
         ui: &mut egui::Ui,
+        route: &RouteModel,
         fix: Option<&Fix>,
         guidance: Option<&GuidanceStatus>,
         speed_m_s: Option<f64>,
         walking_m_s: f64,
     ) {
         let mut warning = None;
-        let text = match (fix, self.waypoints.get(self.next)) {
-            (_, None) if self.waypoints.is_empty() => {
+        let text = match (fix, route.waypoints().get(route.next())) {
+            (_, None) if route.waypoints().is_empty() => {
                 "no waypoints: right-click the map to add one".to_owned()
             }
             (_, None) => "route finished".to_owned(),
             (None, Some(w)) => {
-                format!("next: {} ({}/{}) · waiting for a fix", w.name, self.next + 1, self.waypoints.len())
+                format!(
+                    "next: {} ({}/{}) · waiting for a fix",
+                    w.name,
+                    route.next() + 1,
+                    route.waypoints().len()
+                )
             }
             (Some(_), Some(w)) => match guidance
-                .filter(|st| st.next == self.next)
+                .filter(|st| st.next == route.next())
                 .and_then(|st| st.distance_m.filter(|d| d.is_finite()).map(|d| (d, st.bearing_deg)))
             {
                 None => format!(
                     "next: {} ({}/{}) · waiting for guidance",
                     w.name,
-                    self.next + 1,
-                    self.waypoints.len()
+                    route.next() + 1,
+                    route.waypoints().len()
                 ),
                 Some((d, bearing)) => {
                     let v = speed_m_s.filter(|v| *v >= 0.3).unwrap_or(walking_m_s).max(0.1);
                     let leg = leg_summary(d, bearing, v);
                     warning = leg.warning;
-                    format!("next: {} ({}/{}) · {}", w.name, self.next + 1, self.waypoints.len(), leg.text)
+                    format!(
+                        "next: {} ({}/{}) · {}",
+                        w.name,
+                        route.next() + 1,
+                        route.waypoints().len(),
+                        leg.text
+                    )
                 }
             },
         };
@@ -936,49 +685,50 @@ impl MapView {
         }
     }
 
-    fn waypoint_list(&mut self, ui: &mut egui::Ui) -> bool {
-        let mut changed = false;
-        ui.label(RichText::new(format!("{} ({} waypoints)", self.route_name, self.waypoints.len())).strong());
+    fn waypoint_list(&mut self, ui: &mut egui::Ui, route: &mut RouteModel, notices: &mut Notices) {
+        ui.label(RichText::new(format!("{} ({} waypoints)", route.name(), route.waypoints().len())).strong());
         ui.horizontal(|ui| {
+            let undo_label = route.undo_label().map(str::to_owned);
             let undo = ui
-                .add_enabled(!self.undo.is_empty(), egui::Button::new("Undo"))
-                .on_hover_text(format!("Undo {} (Ctrl+Z)", self.undo_label().unwrap_or("")))
+                .add_enabled(undo_label.is_some(), egui::Button::new("Undo"))
+                .on_hover_text(format!("Undo {} (Ctrl+Z)", undo_label.unwrap_or_default()))
                 .on_disabled_hover_text("Nothing to undo");
             if undo.clicked() {
-                changed |= self.undo();
+                route.undo();
             }
+            let redo_label = route.redo_label().map(str::to_owned);
             let redo = ui
-                .add_enabled(!self.redo.is_empty(), egui::Button::new("Redo"))
-                .on_hover_text(format!("Redo {} (Ctrl+Shift+Z or Ctrl+Y)", self.redo_label().unwrap_or("")))
+                .add_enabled(redo_label.is_some(), egui::Button::new("Redo"))
+                .on_hover_text(format!("Redo {} (Ctrl+Shift+Z or Ctrl+Y)", redo_label.unwrap_or_default()))
                 .on_disabled_hover_text("Nothing to redo");
             if redo.clicked() {
-                changed |= self.redo();
+                route.redo();
             }
             let clear = ui
-                .add_enabled(!self.waypoints.is_empty(), egui::Button::new("Clear route"))
+                .add_enabled(!route.waypoints().is_empty(), egui::Button::new("Clear route"))
                 .on_hover_text("Remove every waypoint (Undo brings them back)");
             if clear.clicked() {
-                self.clear_route();
-                changed = true;
+                route.clear();
             }
         });
-        if let Some(n) = self.undo_notice.clone() {
+        if let Some(n) = route.undo_notice().map(str::to_owned) {
             ui.horizontal_wrapped(|ui| {
                 ui.label(RichText::new(n).strong());
                 if ui.small_button("Undo delete").clicked() {
-                    changed |= self.undo();
+                    route.undo();
                 }
             });
         }
-        changed |= self.editor_ui(ui);
+        self.editor_ui(ui, route);
         let mut action: Option<(usize, WaypointAction)> = None;
-        egui::ScrollArea::vertical().show_rows(ui, 22.0, self.waypoints.len(), |ui, range| {
+        let next = route.next();
+        let waypoints = route.waypoints();
+        egui::ScrollArea::vertical().show_rows(ui, 22.0, waypoints.len(), |ui, range| {
             for i in range {
-                let w = &self.waypoints[i];
+                let Some(w) = waypoints.get(i) else { continue };
                 ui.horizontal(|ui| {
-                    let marker = if i == self.next { "> " } else { "" };
-                    if ui.selectable_label(i == self.next, format!("{marker}{} {}", i + 1, w.name)).clicked()
-                    {
+                    let marker = if i == next { "> " } else { "" };
+                    if ui.selectable_label(i == next, format!("{marker}{} {}", i + 1, w.name)).clicked() {
                         action = Some((i, WaypointAction::Select));
                     }
                     if ui.small_button("Edit").on_hover_text("Rename, type coordinates").clicked() {
@@ -997,16 +747,14 @@ impl MapView {
             }
         });
         if let Some((i, a)) = action {
-            changed |= a != WaypointAction::Edit;
-            self.apply_waypoint_action(i, a);
+            self.apply_waypoint_action(route, i, a, notices);
         }
-        changed
     }
 
     /// The waypoint editor (when open): name, latitude and longitude; Apply (or Enter) checks and applies
     /// them as one undo step.
-    fn editor_ui(&mut self, ui: &mut egui::Ui) -> bool {
-        let Some(ed) = &mut self.editor else { return false };
+    fn editor_ui(&mut self, ui: &mut egui::Ui, route: &mut RouteModel) {
+        let Some(ed) = &mut self.editor else { return };
         let (mut apply, mut cancel) = (false, false);
         ui.group(|ui| {
             ui.label(RichText::new(format!("Edit waypoint {}", ed.index + 1)).strong());
@@ -1033,10 +781,10 @@ impl MapView {
         });
         if cancel {
             self.editor = None;
-            return false;
+            return;
         }
         if !apply {
-            return false;
+            return;
         }
         let ed = ed.clone();
         let radius = match ed.radius.trim() {
@@ -1045,86 +793,58 @@ impl MapView {
                 format!("Arrival radius: '{t}' is not a number of metres (empty: the global radius)")
             }),
         };
-        let result =
-            radius.and_then(|r| self.edit_waypoint_with_radius(ed.index, &ed.name, &ed.lat, &ed.lon, r));
+        let result = radius.and_then(|r| {
+            let lat = parse_coordinate(&ed.lat, Coordinate::Latitude)?;
+            let lon = parse_coordinate(&ed.lon, Coordinate::Longitude)?;
+            route.edit(ed.index, &ed.name, lat, lon, r).map_err(|e| e.to_string())
+        });
         match result {
-            Ok(()) => {
-                self.editor = None;
-                true
-            }
+            Ok(()) => self.editor = None,
             Err(e) => {
                 if let Some(open) = &mut self.editor {
                     open.error = Some(e);
                 }
-                false
             }
         }
     }
 
-    fn apply_waypoint_action(&mut self, i: usize, action: WaypointAction) {
+    fn apply_waypoint_action(
+        &mut self,
+        route: &mut RouteModel,
+        i: usize,
+        action: WaypointAction,
+        notices: &mut Notices,
+    ) {
         match action {
-            WaypointAction::Select => self.next = i,
-            WaypointAction::MoveUp => self.move_waypoint(i, -1),
-            WaypointAction::MoveDown => self.move_waypoint(i, 1),
-            WaypointAction::Delete => self.delete_waypoint(i),
-            WaypointAction::Edit => self.open_editor(i),
-        }
-    }
-
-    /// Moves waypoint `i` one place earlier (`-1`) or later (`1`).
-    pub fn move_waypoint(&mut self, i: usize, dir: i32) {
-        let j = if dir < 0 { i.checked_sub(1) } else { Some(i + 1) };
-        if let Some(j) = j.filter(|&j| j < self.waypoints.len()) {
-            let before = self.route_state();
-            self.waypoints.swap(i, j);
-            let way = if dir < 0 { "earlier" } else { "later" };
-            self.commit(format!("move {} {way}", self.waypoints[j].name), before);
-        }
-    }
-
-    /// Deletes waypoint `i`, keeping the next waypoint the same where possible; undoable at once (the
-    /// delete notice says so).
-    pub fn delete_waypoint(&mut self, i: usize) {
-        if i < self.waypoints.len() {
-            let before = self.route_state();
-            let w = self.waypoints.remove(i);
-            if i < self.next {
-                self.next -= 1;
+            WaypointAction::Select => {
+                route.set_next(i);
+                let name = route.waypoints().get(i).map_or_else(String::new, |w| w.name.clone());
+                notices.raise(Severity::Info, Subject::Guidance, format!("guidance now heads for {name}"));
             }
-            self.commit(format!("delete {}", w.name), before);
-            self.undo_notice = Some(format!("Deleted {}", w.name));
+            WaypointAction::MoveUp => route.move_by(i, -1),
+            WaypointAction::MoveDown => route.move_by(i, 1),
+            WaypointAction::Delete => route.delete(i),
+            WaypointAction::Edit => self.open_editor(route, i),
         }
-    }
-
-    /// Adds a waypoint at `pos`: at the end, or right before the next one when `as_next`.
-    pub fn add_waypoint(&mut self, pos: Position, as_next: bool) {
-        let before = self.route_state();
-        let n = self.waypoints.len() + 1;
-        let (lat_deg, lon_deg) = waypoint_coords(pos);
-        let w = Waypoint::new(format!("WP{n}"), lat_deg, lon_deg);
-        let what = format!("add {}", w.name);
-        if as_next && self.next <= self.waypoints.len() {
-            self.waypoints.insert(self.next, w);
-        } else {
-            self.waypoints.push(w);
-        }
-        self.commit(what, before);
     }
 
     #[allow(clippy::too_many_lines)] // one paint pass over every layer of the map, in order
+    #[allow(clippy::too_many_arguments)]
     fn map_ui(
         &mut self,
         ui: &mut egui::Ui,
+        route: &mut RouteModel,
+        track: &Track,
         fix: Option<&Fix>,
         heading_deg: Option<f64>,
         cfg: &mut Config,
-    ) -> bool {
-        let mut changed = false;
+        notices: &mut Notices,
+    ) {
         let wearer = fix.and_then(|f| f.lat_deg.zip(f.lon_deg)).map(|(la, lo)| lat_lon(la, lo));
         let marker =
             fix.filter(|_| wearer.is_some()).map(|f| wearer_marker(f, Instant::now(), cfg.stale_after_s));
         self.wearer_shown = marker;
-        let anchor = self.anchor();
+        let anchor = Self::anchor(route, track);
         let my_position = wearer.unwrap_or_else(|| lat_lon(anchor.0, anchor.1));
         self.tile_hits.set(0);
         self.tile_misses.set(0);
@@ -1138,11 +858,14 @@ impl MapView {
         let now_s = ui.input(|i| i.time);
         let tiles_missing_s = self.no_tiles_since_s.map_or(0.0, |t| now_s - t);
         let tiles_on = cfg.map_tiles;
-        // Borrow the fields the closure needs separately from walkers' memory.
-        let waypoints = &mut self.waypoints;
-        let next = &mut self.next;
-        let track = &self.track;
-        let track_breaks = &self.track_breaks;
+        // Borrow the fields the closure needs separately from walkers' memory. The closure only reads the
+        // route; what it asks for (drag, add, menu actions) is applied to the route after it.
+        let waypoints = route.waypoints();
+        let next = &route.next();
+        let track_from = self.track_from.min(track.points().len());
+        let drawn_track = track.points().get(track_from..).unwrap_or(&[]);
+        let drawn_breaks: Vec<usize> =
+            track.breaks().iter().filter(|b| **b > track_from).map(|b| b - track_from).collect();
         let replay = &self.replay;
         let add_mode = self.add_mode && !self.tools.measuring;
         let measuring = self.tools.measuring;
@@ -1150,9 +873,8 @@ impl MapView {
         let field = &self.tools.field;
         let right_click_at = &mut self.right_click_at;
         let menu_wp = &mut self.menu_wp;
-        let route_name = &self.route_name;
-        let drag_before = &mut self.drag_before;
         let mut dragging = false;
+        let mut dragged_to = None;
         let map = walkers::Map::new(tiles_dyn, &mut self.memory, my_position)
             .double_click_to_zoom(true)
             .zoom_with_ctrl(false);
@@ -1198,7 +920,7 @@ impl MapView {
                 }
             }
             // The wearer's own track.
-            draw_track(&painter, projector, track, track_breaks, Color32::from_rgb(220, 50, 50));
+            draw_track(&painter, projector, drawn_track, &drawn_breaks, Color32::from_rgb(220, 50, 50));
 
             // Waypoints, draggable, with a context menu.
             let mut action: Option<(usize, WaypointAction)> = None;
@@ -1206,6 +928,8 @@ impl MapView {
             let visible: Vec<usize> =
                 (0..pts.len()).filter(|&i| rect.expand(20.0).contains(pts[i])).collect();
             let crowded = visible.len() > 200;
+            // Beyond the marker budget only the next waypoint and the one under the pointer get a marker.
+            let too_many = visible.len() > WAYPOINT_MARKERS_MAX;
             let pointer = ui.ctx().pointer_hover_pos();
             for i in visible {
                 let p = &pts[i];
@@ -1219,6 +943,9 @@ impl MapView {
                 // a thousand idle interaction rects would cost milliseconds per frame.
                 let near = pointer.is_some_and(|q| q.distance(*p) < 24.0);
                 if !(near || ui.ctx().is_being_dragged(id) || *menu_wp == Some(i)) {
+                    if too_many && i != *next {
+                        continue;
+                    }
                     if crowded {
                         painter.circle_filled(*p, 5.0, fill);
                     } else {
@@ -1248,18 +975,8 @@ impl MapView {
                 if r.dragged()
                     && let Some(pos) = r.interact_pointer_pos()
                 {
-                    if drag_before.is_none() {
-                        let before = RouteState {
-                            name: route_name.clone(),
-                            waypoints: waypoints.clone(),
-                            next: *next,
-                        };
-                        *drag_before = Some((i, before));
-                    }
                     dragging = true;
-                    (waypoints[i].lat_deg, waypoints[i].lon_deg) =
-                        waypoint_coords(projector.unproject(pos.to_vec2()));
-                    changed = true;
+                    dragged_to = Some((i, projector.unproject(pos.to_vec2())));
                 }
                 painter.circle(
                     *p,
@@ -1490,30 +1207,35 @@ impl MapView {
                 ink,
             );
 
-            (action, add_here, add_click, dragging, measure_click, pointer_at, rect)
+            (action, add_here, add_click, (dragging, dragged_to), measure_click, pointer_at, rect)
         });
-        let (action, add_here, add_click, dragging, measure_click, pointer_at, map_rect) = resp.inner;
+        let (action, add_here, add_click, (dragging, dragged_to), measure_click, pointer_at, map_rect) =
+            resp.inner;
         self.tools.pointer = pointer_at;
         self.tools.map_rect = Some(map_rect);
         if let Some(p) = measure_click {
             self.tools.measure_click(p);
         }
-        // A drag is one undo step, recorded when it ends.
-        if !dragging && let Some((i, before)) = self.drag_before.take() {
-            let name = self.waypoints.get(i).map_or_else(|| format!("WP{}", i + 1), |w| w.name.clone());
-            self.commit(format!("drag {name}"), before);
+        // A drag, however many frames it takes, is one undo step, recorded when it ends.
+        if let Some((i, pos)) = dragged_to {
+            route.drag(i, pos.y(), pos.x());
         }
+        if !dragging && route.dragging() {
+            route.end_drag();
+        }
+        let mut add = |pos: Position, as_next: bool| {
+            if let Err(e) = route.add(pos.y(), pos.x(), as_next) {
+                notices.raise(Severity::Warning, Subject::Route, format!("waypoint not added: {e}"));
+            }
+        };
         if let Some(pos) = add_click {
-            self.add_waypoint(pos, false);
-            changed = true;
-        }
-        if let Some((i, a)) = action {
-            changed = true;
-            self.apply_waypoint_action(i, a);
+            add(pos, false);
         }
         if let (Some(as_next), Some(pos)) = (add_here, self.right_click_at) {
-            self.add_waypoint(pos, as_next);
-            changed = true;
+            add(pos, as_next);
+        }
+        if let Some((i, a)) = action {
+            self.apply_waypoint_action(route, i, a, notices);
         }
         if cfg.map_tiles && self.tile_hits.get() == 0 && self.tile_misses.get() > 0 {
             self.no_tiles_since_s.get_or_insert(now_s);
@@ -1523,7 +1245,6 @@ impl MapView {
         if self.memory.detached().is_some() {
             cfg.follow = false;
         }
-        changed
     }
 }
 
@@ -1537,12 +1258,12 @@ pub fn age_text(age_s: Option<f64>) -> String {
     }
 }
 
-/// The index ranges of the segments of a track of `n` points split at `breaks` (ascending), none empty.
-fn segments<T>(track: &[T], breaks: &[usize]) -> impl Iterator<Item = std::ops::Range<usize>> {
-    let n = track.len();
-    let starts = std::iter::once(0).chain(breaks.iter().copied().filter(move |&b| b < n));
-    let ends = breaks.iter().copied().filter(move |&b| b < n).chain(std::iter::once(n));
-    starts.zip(ends).filter(|(a, b)| a < b).map(|(a, b)| a..b)
+/// Picks at most about `max_points` of `n` points for drawing: a fixed stride, always keeping the last.
+///
+/// A 100k-point track drawn at full resolution costs tens of milliseconds per frame; the stride keeps the
+/// frame time bounded while the most recent points (drawn separately in full) stay exact.
+pub fn decimation_stride(n: usize, max_points: usize) -> usize {
+    n.div_ceil(max_points.max(1)).max(1)
 }
 
 /// Draws a track as one line per segment, strided for old points and full for the newest [`TRACK_TAIL`]
@@ -1631,37 +1352,6 @@ mod tests {
         assert_relative_eq!(nice_length_m(1.0), 1.0);
     }
 
-    fn fix_at(lat: f64, lon: f64, t_s: i64) -> Fix {
-        let t0 = "2026-01-01T12:00:00Z".parse::<chrono::DateTime<chrono::Utc>>().unwrap();
-        Fix {
-            lat_deg: Some(lat),
-            lon_deg: Some(lon),
-            time: Some(t0 + chrono::TimeDelta::seconds(t_s)),
-            ..Fix::default()
-        }
-    }
-
-    /// 1e-4° of latitude is ~11.1 m: a walker's step per second stays in one segment; 0.01° (1.1 km) in 10 s
-    /// (111 m/s) does not; a source change always splits.
-    #[test]
-    fn the_track_splits_at_jumps_and_source_changes() {
-        let mut m = MapView::new(true);
-        for k in 0..5 {
-            m.push_track(&fix_at(42.0 + f64::from(k) * 1e-5, -71.0, i64::from(k)));
-        }
-        m.push_track(&fix_at(42.01, -71.0, 14));
-        m.push_track(&fix_at(42.01001, -71.0, 15));
-        m.break_track();
-        m.push_track(&fix_at(42.01002, -71.0, 16));
-        let lens: Vec<usize> = m.track_segments().iter().map(|s| s.len()).collect();
-        assert_eq!(lens, vec![5, 2, 1]);
-        // 1.1 km over 10 minutes of receiver time is a walk (1.9 m/s), whatever the arrival instants say.
-        let mut m = MapView::new(true);
-        m.push_track(&fix_at(42.0, -71.0, 0));
-        m.push_track(&fix_at(42.01, -71.0, 600));
-        assert_eq!(m.track_segments().len(), 1);
-    }
-
     #[test]
     fn legs_beyond_a_walk_warn_and_times_to_go_are_bounded() {
         let near = leg_summary(312.0, Some(45.2), 1.3);
@@ -1677,70 +1367,8 @@ mod tests {
     }
 
     #[test]
-    fn waypoint_editing_keeps_the_next_one() {
-        let mut m = MapView::new(true);
-        for k in 0..4 {
-            m.add_waypoint(lat_lon(42.0 + f64::from(k) * 1e-3, -71.0), false);
-        }
-        m.next = 2;
-        m.delete_waypoint(0);
-        assert_eq!(m.next, 1);
-        assert_eq!(m.waypoints[m.next].name, "WP3");
-        m.move_waypoint(1, -1);
-        assert_eq!(m.waypoints[0].name, "WP3");
-        m.move_waypoint(0, -1);
-        assert_eq!(m.waypoints[0].name, "WP3");
-        m.add_waypoint(lat_lon(1.0, 2.0), true);
-        assert_relative_eq!(m.waypoints[1].lat_deg, 1.0);
-    }
-
-    #[test]
-    fn the_undo_history_is_bounded_and_keeps_guidances_next_waypoint() {
-        let mut m = MapView::new(true);
-        for k in 0..(UNDO_STEPS + 5) {
-            m.add_waypoint(lat_lon(42.0, -71.0 + k as f64 * 1e-4), false);
-        }
-        let mut undone = 0;
-        while m.undo() {
-            undone += 1;
-        }
-        assert_eq!(undone, UNDO_STEPS);
-        assert_eq!(m.waypoints.len(), 5);
-        while m.redo() {}
-        assert_eq!(m.waypoints.len(), UNDO_STEPS + 5);
-        // Deleting the next waypoint and undoing makes it next again, unless guidance moved on meanwhile.
-        m.next = 3;
-        m.delete_waypoint(3);
-        assert_eq!(m.undo_notice.as_deref(), Some("Deleted WP4"));
-        m.undo();
-        assert_eq!((m.next, m.waypoints[3].name.as_str()), (3, "WP4"));
-        m.redo();
-        m.next = 7;
-        m.undo();
-        assert_eq!(m.next, 7, "guidance's arrival is kept");
-        // A new edit forgets the redo steps.
-        m.undo();
-        m.move_waypoint(0, 1);
-        assert!(!m.redo());
-    }
-
-    #[test]
-    fn typed_coordinates_are_checked_and_name_the_field() {
-        assert_relative_eq!(parse_coordinate(" 42.3573 ", Coordinate::Latitude).unwrap(), 42.3573);
-        assert_relative_eq!(parse_coordinate("-71,1°", Coordinate::Longitude).unwrap(), -71.1);
-        let e = parse_coordinate("91", Coordinate::Latitude).unwrap_err();
-        assert!(e.starts_with("Latitude: 91 is outside"), "{e}");
-        assert!(parse_coordinate("180", Coordinate::Longitude).unwrap_err().starts_with("Longitude"));
-        assert!(parse_coordinate("north", Coordinate::Latitude).unwrap_err().contains("not a number"));
-        assert!(parse_coordinate("NaN", Coordinate::Latitude).is_err());
-        let mut m = MapView::new(true);
-        m.add_waypoint(lat_lon(1.0, 2.0), false);
-        assert_eq!(m.edit_waypoint(0, "  ", "1", "2").unwrap_err(), "Name: must not be empty");
-        m.edit_waypoint(0, "Gate", "1.5", "2").unwrap();
-        assert_eq!(m.undo_label(), Some("edit WP1"));
-        m.edit_waypoint(0, "Gate 2", "1.5", "2").unwrap();
-        assert_eq!(m.undo_label(), Some("rename Gate to Gate 2"));
-        // Positions off the map's edge are wrapped into GPX's ranges.
-        assert_eq!(waypoint_coords(lat_lon(95.0, 190.0)), (90.0, -170.0));
+    fn stride_bounds_points() {
+        assert_eq!(decimation_stride(10, 5000), 1);
+        assert!(100_000 / decimation_stride(100_000, 5000) <= 5000);
     }
 }

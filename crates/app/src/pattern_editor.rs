@@ -250,7 +250,7 @@ impl PatternEditor {
         ui.separator();
         self.intensity_ui(c, ui);
         ui.separator();
-        let limits = limits_in_force(c.vest.device.as_ref());
+        let limits = limits_in_force(c.station.vest.device.as_ref());
         let refused = refusal(&self.pattern, &limits);
         match &refused {
             Some(reason) => {
@@ -405,10 +405,10 @@ impl PatternEditor {
     }
 
     fn intensity_ui(&mut self, c: &Console, ui: &mut egui::Ui) {
-        let capable = c.vest.device.is_some_and(|d| d.capabilities.contains(Capabilities::INTENSITY));
+        let capable = c.station.vest.device.is_some_and(|d| d.capabilities.contains(Capabilities::INTENSITY));
         egui::CollapsingHeader::new("Intensity per tactor (sent before the preview)").show(ui, |ui| {
             if !capable {
-                let why = if c.vest.device.is_none() {
+                let why = if c.station.vest.device.is_none() {
                     "No unit has identified itself: connect the vest to set intensities."
                 } else {
                     "This unit does not report the intensity capability (no SET_INTENSITY): tactors run at \
@@ -442,8 +442,8 @@ impl PatternEditor {
     }
 
     fn actions_ui(&mut self, c: &mut Console, ui: &mut egui::Ui, valid: bool) {
-        let live = c.vest.is_live();
-        let capable = c.vest.device.is_some_and(|d| d.capabilities.contains(Capabilities::INTENSITY));
+        let live = c.station.vest.is_live();
+        let capable = c.station.vest.device.is_some_and(|d| d.capabilities.contains(Capabilities::INTENSITY));
         ui.horizontal_wrapped(|ui| {
             let why = if valid { "The vest is not live" } else { "The pattern is outside the limits" };
             if ui

@@ -18,21 +18,21 @@ pub fn show(c: &mut Console, ui: &mut egui::Ui) {
     ui.separator();
     ui.add(egui::Slider::new(&mut c.cfg.on_ms, 50..=2000).suffix(" ms").text("On-time"));
     ui.horizontal(|ui| {
-        ui.checkbox(&mut c.vest.select_mode, "Multi-select");
-        let n = c.vest.selected.count();
+        ui.checkbox(&mut c.vest_ui.select_mode, "Multi-select");
+        let n = c.vest_ui.selected.count();
         if ui
-            .add_enabled(n > 0 && c.vest.is_live(), egui::Button::new(format!("Fire selected ({n})")))
+            .add_enabled(n > 0 && c.station.vest.is_live(), egui::Button::new(format!("Fire selected ({n})")))
             .clicked()
         {
-            c.send_manual(VestCommand::Fire { mask: c.vest.selected, duration_ms: c.cfg.on_ms }, None);
+            c.send_manual(VestCommand::Fire { mask: c.vest_ui.selected, duration_ms: c.cfg.on_ms }, None);
         }
         if ui.add_enabled(n > 0, egui::Button::new("Clear")).clicked() {
-            c.vest.selected = TactorMask::NONE;
+            c.vest_ui.selected = TactorMask::NONE;
         }
     });
-    if !c.vest.is_live() {
+    if !c.station.vest.is_live() {
         ui.label(
-            RichText::new(format!("Vest not live ({}): tactors cannot be fired", c.vest.label()))
+            RichText::new(format!("Vest not live ({}): tactors cannot be fired", c.station.vest.label()))
                 .color(Color32::from_rgb(230, 60, 40))
                 .strong(),
         );
@@ -40,13 +40,13 @@ pub fn show(c: &mut Console, ui: &mut egui::Ui) {
     grid_ui(c, ui);
     ui.label(format!(
         "on now (as the unit reports): {}",
-        match c.vest.tactors_on {
+        match c.station.vest.tactors_on {
             None => "unknown".to_owned(),
             Some(m) if m.is_empty() => "none".to_owned(),
             Some(m) => m.indices().map(|i| i.to_string()).collect::<Vec<_>>().join(", "),
         }
     ));
-    if let Some(r) = &c.vest.last_reply {
+    if let Some(r) = &c.station.vest.last_reply {
         let age = r.at.elapsed().as_secs_f64();
         let text = format!("{} ({age:.0} s ago)", r.text);
         if r.refused {
@@ -71,7 +71,7 @@ fn connection_ui(c: &mut Console, ui: &mut egui::Ui) {
             c.cfg.vest = if choice {
                 VestSourceConfig::Emulated
             } else {
-                VestSourceConfig::Serial { port: c.vest.port.clone() }
+                VestSourceConfig::Serial { port: c.vest_ui.port.clone() }
             };
         }
     });
@@ -93,7 +93,7 @@ fn connection_ui(c: &mut Console, ui: &mut egui::Ui) {
                 });
             ui.text_edit_singleline(port);
         });
-        c.vest.port.clone_from(port);
+        c.vest_ui.port.clone_from(port);
     }
     ui.horizontal(|ui| {
         let connected = c.vest_connected();
@@ -103,15 +103,15 @@ fn connection_ui(c: &mut Console, ui: &mut egui::Ui) {
         if ui.add_enabled(connected, egui::Button::new("Disconnect vest")).clicked() {
             c.disconnect_vest();
         }
-        ui.label(RichText::new(c.vest.label()).strong());
+        ui.label(RichText::new(c.station.vest.label()).strong());
     });
     // Shown only while the unit is live: what it said on a link that is gone is not its state now.
-    if c.vest.is_live() {
-        let battery = c.vest.status.as_ref().map_or_else(
+    if c.station.vest.is_live() {
+        let battery = c.station.vest.status.as_ref().map_or_else(
             || "—".to_owned(),
             |(s, at)| format!("{} % ({:.0} s ago)", s.battery_pct, at.elapsed().as_secs_f64()),
         );
-        let fw = c.vest.device.as_ref().map_or_else(|| "—".to_owned(), |d| d.firmware.to_string());
+        let fw = c.station.vest.device.as_ref().map_or_else(|| "—".to_owned(), |d| d.firmware.to_string());
         ui.label(format!("battery {battery} · firmware {fw}"));
     }
 }
@@ -128,8 +128,8 @@ fn grid_ui(c: &mut Console, ui: &mut egui::Ui) {
         for row in 0..GRID {
             for col in 0..GRID {
                 let i = row * GRID + col;
-                let on = c.vest.tactors_on.is_some_and(|m| m.contains(i));
-                let selected = c.vest.selected.contains(i);
+                let on = c.station.vest.tactors_on.is_some_and(|m| m.contains(i));
+                let selected = c.vest_ui.selected.contains(i);
                 let fill = if on {
                     Color32::from_rgb(250, 170, 20)
                 } else if selected {
@@ -144,12 +144,12 @@ fn grid_ui(c: &mut Console, ui: &mut egui::Ui) {
                 });
                 let b = egui::Button::new(text).fill(fill).min_size(vec2(52.0, 40.0));
                 // Firing needs a live unit; selecting does not.
-                let live = c.vest.is_live() || c.vest.select_mode || ctrl;
+                let live = c.station.vest.is_live() || c.vest_ui.select_mode || ctrl;
                 let resp =
                     ui.add_enabled(live, b).on_hover_text(format!("tactor {i}: row {row}, column {col}"));
                 if resp.clicked() {
-                    if c.vest.select_mode || ctrl {
-                        c.vest.selected = TactorMask(c.vest.selected.0 ^ (1 << i));
+                    if c.vest_ui.select_mode || ctrl {
+                        c.vest_ui.selected = TactorMask(c.vest_ui.selected.0 ^ (1 << i));
                     } else if let Some(mask) = TactorMask::single(i) {
                         c.send_manual(VestCommand::Fire { mask, duration_ms: c.cfg.on_ms }, None);
                     }
@@ -159,7 +159,7 @@ fn grid_ui(c: &mut Console, ui: &mut egui::Ui) {
         }
     });
     // The live state comes from acks; keep repainting while something is on.
-    if c.vest.tactors_on.is_some_and(|m| !m.is_empty()) {
+    if c.station.vest.tactors_on.is_some_and(|m| !m.is_empty()) {
         ui.ctx().request_repaint_after(std::time::Duration::from_millis(50));
     }
 }
@@ -169,7 +169,7 @@ fn patterns_ui(c: &mut Console, ui: &mut egui::Ui) {
     ui.horizontal_wrapped(|ui| {
         for cue in Cue::ALL {
             if ui
-                .add_enabled(c.vest.is_live(), egui::Button::new(cue.name()))
+                .add_enabled(c.station.vest.is_live(), egui::Button::new(cue.name()))
                 .on_hover_text(describe(&cue.pattern(c.cfg.on_ms)))
                 .clicked()
             {
@@ -182,7 +182,7 @@ fn patterns_ui(c: &mut Console, ui: &mut egui::Ui) {
     for (k, p) in c.cfg.user_patterns.iter().enumerate() {
         ui.horizontal(|ui| {
             if ui
-                .add_enabled(c.vest.is_live(), egui::Button::new(format!("Play {}", p.name)))
+                .add_enabled(c.station.vest.is_live(), egui::Button::new(format!("Play {}", p.name)))
                 .on_hover_text(describe(p))
                 .clicked()
             {
@@ -201,23 +201,23 @@ fn patterns_ui(c: &mut Console, ui: &mut egui::Ui) {
     }
     ui.horizontal(|ui| {
         ui.add(
-            egui::TextEdit::singleline(&mut c.vest.new_pattern_name).hint_text("name").desired_width(90.0),
+            egui::TextEdit::singleline(&mut c.vest_ui.new_pattern_name).hint_text("name").desired_width(90.0),
         );
-        let ok = !c.vest.selected.is_empty() && !c.vest.new_pattern_name.trim().is_empty();
+        let ok = !c.vest_ui.selected.is_empty() && !c.vest_ui.new_pattern_name.trim().is_empty();
         if ui
             .add_enabled(ok, egui::Button::new("Save selection as pattern"))
             .on_hover_text("The selected tactors, on for the on-time, then off for as long, three times")
             .clicked()
         {
             c.cfg.user_patterns.push(Pattern {
-                name: c.vest.new_pattern_name.trim().to_owned(),
+                name: c.vest_ui.new_pattern_name.trim().to_owned(),
                 frames: vec![
-                    Frame { mask: c.vest.selected, duration_ms: c.cfg.on_ms },
+                    Frame { mask: c.vest_ui.selected, duration_ms: c.cfg.on_ms },
                     Frame { mask: TactorMask::NONE, duration_ms: c.cfg.on_ms },
                 ],
                 repeats: 3,
             });
-            c.vest.new_pattern_name.clear();
+            c.vest_ui.new_pattern_name.clear();
         }
     });
     let label = if c.pattern_editor.open { "Close pattern editor" } else { "Pattern editor..." };
@@ -250,4 +250,36 @@ fn describe(p: &Pattern) -> String {
         })
         .collect();
     format!("{} × {}: {}", p.repeats, p.name, frames.join(" -> "))
+}
+
+/// A small 4x4 back view of the tactors `on` (as worn, seen from behind), sized for a banner line of
+/// `pt` points: where the operator looks when a stop is not confirmed, without scrolling to the grid.
+/// `None`: the unit reports nothing.
+pub fn mini_grid(ui: &mut egui::Ui, on: Option<TactorMask>, pt: f32) {
+    let cell = (pt * 0.45).max(6.0);
+    let gap = 2.0;
+    let side = GRID as f32 * cell + (GRID as f32 - 1.0) * gap;
+    let (rect, resp) = ui.allocate_exact_size(vec2(side, side), egui::Sense::hover());
+    let painter = ui.painter_at(rect);
+    for row in 0..GRID {
+        for col in 0..GRID {
+            let i = row * GRID + col;
+            let min = rect.min + vec2(col as f32 * (cell + gap), row as f32 * (cell + gap));
+            let r = egui::Rect::from_min_size(min, vec2(cell, cell));
+            let fill = match on {
+                Some(m) if m.contains(i) => Color32::from_rgb(250, 170, 20),
+                Some(_) => Color32::from_gray(60),
+                None => Color32::from_gray(120),
+            };
+            painter.rect_filled(r, 1.0, fill);
+        }
+    }
+    let text = match on {
+        Some(m) if !m.is_empty() => {
+            format!("unit reports on: {}", m.indices().map(|i| format!("T{i}")).collect::<Vec<_>>().join(" "))
+        }
+        Some(_) => "unit reports every tactor off".to_owned(),
+        None => "the unit reports no tactor state".to_owned(),
+    };
+    resp.on_hover_text(text);
 }

@@ -34,7 +34,7 @@ fn a_typed_relative_path_resolves_against_the_base_and_is_shown_absolute() {
     assert!(h.query_by_label(&format!("Uses: {}", abs.display())).is_some(), "the absolute path is shown");
     h.get_by_label("Export GPX").click();
     h.run_steps(2);
-    assert!(abs.exists(), "{}", h.state().status);
+    assert!(abs.exists(), "{}", h.state().latest_notice().map(|n| n.text.clone()).unwrap_or_default());
     assert!(!PathBuf::from("walk.gpx").exists(), "nothing in the working directory");
     std::fs::remove_dir_all(&dir).unwrap();
 }
@@ -93,14 +93,14 @@ fn recent_files_follow_an_export_and_mark_a_deleted_file_missing() {
     std::fs::remove_file(&path).unwrap();
     h.state_mut().map.gpx_path.clear();
     h.run_steps(1);
-    let routes_before = h.state().map.waypoints.clone();
+    let routes_before = h.state().station.route().waypoints().to_vec();
     h.get_by_label("Recent").click();
     h.run_steps(2);
     let missing = format!("{} (missing)", path.display());
     assert!(h.query_by_label(&missing).is_some(), "shown as missing");
     h.get_by_label(&missing).click();
     h.run_steps(2);
-    assert_eq!(h.state().map.waypoints, routes_before, "a missing file is not opened");
+    assert_eq!(h.state().station.route().waypoints(), routes_before, "a missing file is not opened");
     assert!(h.state().map.gpx_path.is_empty());
     std::fs::remove_dir_all(&dir).unwrap();
 }
@@ -125,12 +125,12 @@ fn the_alarm_rings_once_per_fix_loss() {
 
     let lose = |h: &mut egui_kittest::Harness<'static, vestnav_app::console::Console>| {
         devices.gps(&state(SourceState::Lost { reason: "receiver gone".into() }));
-        assert!(common::settle(h, |c| matches!(c.gps.state, Some(SourceState::Lost { .. }))));
+        assert!(common::settle(h, |c| matches!(c.station.gps.state, Some(SourceState::Lost { .. }))));
         h.run_steps(5);
     };
     let recover = |h: &mut egui_kittest::Harness<'static, vestnav_app::console::Console>| {
         devices.gps(&state(SourceState::Live { detail: "back".into() }));
-        assert!(common::settle(h, |c| matches!(c.gps.state, Some(SourceState::Live { .. }))));
+        assert!(common::settle(h, |c| matches!(c.station.gps.state, Some(SourceState::Live { .. }))));
         h.run_steps(2);
     };
     lose(&mut h);

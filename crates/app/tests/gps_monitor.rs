@@ -28,14 +28,14 @@ fn the_monitor_lists_raw_sentences_and_record_writes_a_replayable_file() {
     }
     let folder = std::env::temp_dir().join(format!("vestnav-gps-monitor-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&folder);
-    h.state_mut().gps.recording.folder = folder.display().to_string();
+    h.state_mut().gps_ui.recording.folder = folder.display().to_string();
     h.run_steps(2);
 
     h.get_by_label("Record NMEA").click();
-    assert!(common::settle(&mut h, |c| c.gps.recording.tap.is_recording()), "Record started a recording");
+    assert!(common::settle(&mut h, |c| c.gps_ui.recording.tap.is_recording()), "Record started a recording");
     devices.gps(&raw(GGA));
     devices.gps(&raw(RMC));
-    assert!(common::settle(&mut h, |c| c.gps.monitor.lines.len() == 2), "the monitor got both lines");
+    assert!(common::settle(&mut h, |c| c.gps_ui.monitor.lines.len() == 2), "the monitor got both lines");
 
     // The monitor, opened, lists each sentence with its arrival time.
     h.get_by_label_contains("NMEA monitor").click();
@@ -51,7 +51,7 @@ fn the_monitor_lists_raw_sentences_and_record_writes_a_replayable_file() {
     // The status names the file and counts what was written.
     assert!(h.query_by_label_contains("2 sentences, ").is_some(), "the status counts the sentences");
     h.get_by_label("Stop recording").click();
-    assert!(common::settle(&mut h, |c| !c.gps.recording.tap.is_recording()), "Stop ended the recording");
+    assert!(common::settle(&mut h, |c| !c.gps_ui.recording.tap.is_recording()), "Stop ended the recording");
     h.run_steps(2);
 
     let files: Vec<_> = std::fs::read_dir(&folder).unwrap().map(|e| e.unwrap().path()).collect();
@@ -87,13 +87,13 @@ struct ReplayDevices {
     vest: common::Devices,
 }
 
-impl vestnav_app::devices::DeviceFactory for ReplayDevices {
+impl vestnav_station::devices::DeviceFactory for ReplayDevices {
     fn open_gps(
         &self,
         _s: &vestnav_app::config::GpsSourceConfig,
-        _r: &[vestnav_app::route::Waypoint],
+        _r: &[vestnav_station::route::Waypoint],
         out: Vec<vestnav_device::outbox::Outbox<GpsEvent>>,
-    ) -> Result<Box<dyn vestnav_app::devices::GpsWorker>, String> {
+    ) -> Result<Box<dyn vestnav_station::devices::GpsWorker>, String> {
         let cfg = vestnav_device::gps::SourceConfig::Replay { path: self.file.clone(), speed: Some(1.0) };
         Ok(Box::new(vestnav_device::gps::GpsSource::spawn(cfg, out).map_err(|e| e.to_string())?))
     }
@@ -135,7 +135,7 @@ fn a_replay_can_be_paused_and_shows_its_span() {
     if !h.state().gps_connected() {
         h.get_by_label("Connect GPS").click();
     }
-    assert!(common::settle(&mut h, |c| !c.gps.monitor.lines.is_empty()), "the replay's sentences arrive");
+    assert!(common::settle(&mut h, |c| !c.gps_ui.monitor.lines.is_empty()), "the replay's sentences arrive");
     assert!(h.query_by_label_contains("/ 0:20").is_some(), "the total time is the file's 20 s");
     h.get_by_label("Pause replay").click();
     h.run_steps(2);
@@ -144,7 +144,7 @@ fn a_replay_can_be_paused_and_shows_its_span() {
     assert!(h.query_by_label("Resume replay").is_some());
     ctl.seek_fraction(0.5);
     assert!(
-        common::settle(&mut h, |c| c.gps.notice.as_deref().is_some_and(|n| n.contains("0:10.0"))),
+        common::settle(&mut h, |c| c.station.gps.notice.as_deref().is_some_and(|n| n.contains("0:10.0"))),
         "the seek to the middle (10 s) is announced"
     );
     h.get_by_label("Resume replay").click();

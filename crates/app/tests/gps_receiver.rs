@@ -66,13 +66,13 @@ struct SerialDevices {
     vest: common::Devices,
 }
 
-impl vestnav_app::devices::DeviceFactory for SerialDevices {
+impl vestnav_station::devices::DeviceFactory for SerialDevices {
     fn open_gps(
         &self,
         s: &GpsSourceConfig,
-        _r: &[vestnav_app::route::Waypoint],
+        _r: &[vestnav_station::route::Waypoint],
         out: Vec<Outbox<GpsEvent>>,
-    ) -> Result<Box<dyn vestnav_app::devices::GpsWorker>, String> {
+    ) -> Result<Box<dyn vestnav_station::devices::GpsWorker>, String> {
         let GpsSourceConfig::Serial { port, baud } = s else { return Err("serial only".into()) };
         let cfg = SourceConfig::Serial { port: port.clone(), baud: *baud };
         Ok(Box::new(GpsSource::spawn(cfg, out).map_err(|e| e.to_string())?))
@@ -141,8 +141,8 @@ fn send_to_receiver_configures_a_ublox_on_a_pty_and_shows_each_ack() {
     assert!(
         shown,
         "results: {:?}, status {:?}",
-        h.state().gps.receiver.results,
-        h.state().gps.receiver.status
+        h.state().gps_ui.receiver.results,
+        h.state().gps_ui.receiver.status
     );
     assert!(h.query_by_label_contains("CFG-RATE: accepted").is_some());
     assert!(h.query_by_label_contains("CFG-GNSS: accepted").is_some());
@@ -165,6 +165,6 @@ fn send_is_disabled_with_the_reason_when_the_source_is_not_a_serial_port() {
     assert!(h.query_by_label_contains("configuration needs a direct serial connection").is_some());
     h.get_by_label("Send to receiver").click();
     h.run_steps(2);
-    assert!(h.state().gps.receiver.ticket.is_none(), "nothing was sent");
-    assert!(h.state().gps.receiver.results.is_empty());
+    assert!(h.state().gps_ui.receiver.ticket.is_none(), "nothing was sent");
+    assert!(h.state().gps_ui.receiver.results.is_empty());
 }

@@ -7,8 +7,8 @@ mod common;
 use std::time::{Duration, Instant};
 
 use egui_kittest::kittest::Queryable as _;
-use vestnav_app::route::Waypoint;
 use vestnav_device::gps::{Fix, FixMode, GpsEvent};
+use vestnav_station::route::Waypoint;
 use walkers::lat_lon;
 
 /// WGS-84 semi-major axis [m] and first eccentricity squared (NIMA TR8350.2).
@@ -97,7 +97,7 @@ fn the_import_dialog_offers_what_the_file_holds() {
     }
     h.get_by_label("3 waypoints").click();
     h.run_steps(3);
-    let names: Vec<&str> = h.state().map.waypoints.iter().map(|w| w.name.as_str()).collect();
+    let names: Vec<&str> = h.state().station.route().waypoints().iter().map(|w| w.name.as_str()).collect();
     assert_eq!(names, vec!["a", "b", "c"]);
     assert!(h.state().map.import.is_none(), "the dialog closed");
     std::fs::remove_dir_all(&dir).unwrap();
@@ -124,10 +124,13 @@ fn an_arrival_radius_edited_per_waypoint_decides_guidances_arrival() {
     let mut h = common::console(&devices);
     {
         let c = h.state_mut();
-        c.map.route_name = "radius".into();
-        c.map.waypoints = vec![Waypoint::new("A", 42.0, -71.0), Waypoint::new("B", 42.003, -71.0)];
-        c.map.next = 0;
-        c.push_route();
+        c.station
+            .route_mut()
+            .replace(
+                "radius".into(),
+                vec![Waypoint::new("A", 42.0, -71.0), Waypoint::new("B", 42.003, -71.0)],
+            )
+            .unwrap();
     }
     h.run_steps(2);
     let guided = |h: &mut egui_kittest::Harness<'static, _>| {
@@ -139,21 +142,25 @@ fn an_arrival_radius_edited_per_waypoint_decides_guidances_arrival() {
     };
     guided(&mut h);
     assert!(
-        common::settle(&mut h, |c| c.guidance.as_ref().is_some_and(|g| g.distance_m.is_some())),
+        common::settle(&mut h, |c| c.station.guidance.as_ref().is_some_and(|g| g.distance_m.is_some())),
         "guidance saw the fixes"
     );
-    assert_eq!(h.state().guidance.as_ref().map(|g| g.next), Some(0), "20 m is outside the global 8 m");
+    assert_eq!(
+        h.state().station.guidance.as_ref().map(|g| g.next),
+        Some(0),
+        "20 m is outside the global 8 m"
+    );
     h.get_all_by_label("Edit").next().unwrap().click();
     h.run_steps(2);
     h.get_by_role_and_label(Role::TextInput, "Arrival radius (m)").set_text_value_accesskit("30");
     h.run_steps(2);
     h.get_by_label("Apply").click();
     h.run_steps(2);
-    assert_eq!(h.state().map.waypoints[0].arrival_radius_m, Some(30.0));
+    assert_eq!(h.state().station.route().waypoints()[0].arrival_radius_m, Some(30.0));
     guided(&mut h);
     assert!(
-        common::settle(&mut h, |c| c.guidance.as_ref().is_some_and(|g| g.next == 1)),
+        common::settle(&mut h, |c| c.station.guidance.as_ref().is_some_and(|g| g.next == 1)),
         "guidance arrived at A within its own 30 m: {:?}",
-        h.state().guidance
+        h.state().station.guidance
     );
 }

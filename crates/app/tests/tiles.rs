@@ -14,8 +14,6 @@ use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable as _;
 use vestnav_app::config::{Config, GpsSourceConfig, VestSourceConfig};
 use vestnav_app::console::{Console, ConsoleOptions};
-use vestnav_app::devices::{DeviceFactory, GpsWorker};
-use vestnav_app::route::Waypoint;
 use vestnav_app::tiles::pmtiles::{Entry, HEADER_LEN, Header, write_directory, write_header, zxy_to_tile_id};
 use vestnav_app::tiles::prefetch::{Prefetch, PrefetchRequest, PrefetchTarget};
 use vestnav_app::tiles::store::TileStore as _;
@@ -23,6 +21,8 @@ use vestnav_app::tiles::{BBox, TileKey, TileSourceConfig, cache};
 use vestnav_device::gps::GpsEvent;
 use vestnav_device::outbox::Outbox;
 use vestnav_device::wtcu::{VestEvent, VestHandle};
+use vestnav_station::devices::{DeviceFactory, GpsWorker};
+use vestnav_station::route::Waypoint;
 
 #[path = "../../../tests/support/tile_server.rs"]
 mod tile_server;
@@ -313,7 +313,8 @@ fn prefetch_fetches_the_box_resumes_respects_parallelism_and_serves_offline() {
     // fetches nothing itself.
     let (mut h, _) = console(Config { map_tiles: false, ..map_cfg(source.clone()) });
     h.step();
-    let pts: Vec<(f64, f64)> = h.state().map.waypoints.iter().map(|w| (w.lat_deg, w.lon_deg)).collect();
+    let pts: Vec<(f64, f64)> =
+        h.state().station.route().waypoints().iter().map(|w| (w.lat_deg, w.lon_deg)).collect();
     assert!(!pts.is_empty());
     let bbox = BBox::around(pts, 150.0).unwrap();
     let (z0, z1) = (14, 17);

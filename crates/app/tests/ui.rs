@@ -12,8 +12,7 @@ use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable as _;
 use vestnav_app::config::{Config, GpsSourceConfig, VestSourceConfig};
 use vestnav_app::console::{Console, ConsoleOptions, GpsAlarm};
-use vestnav_app::devices::{DeviceFactory, GpsWorker};
-use vestnav_app::route::Waypoint;
+use vestnav_core::guidance::HeadingSource;
 use vestnav_core::vest::TactorMask;
 use vestnav_device::gps::{ErrorEstimate, ErrorSource, Fix, FixMode, GpsEvent};
 use vestnav_device::outbox::Outbox;
@@ -23,6 +22,8 @@ use vestnav_device::wtcu::emulator::{CompassSetup, SimulatedCompass, WearerMotio
 use vestnav_device::wtcu::engine::{EngineConfig, HeadingSensor as _};
 use vestnav_device::wtcu::worker::{EmulatedPort, Transport, WorkerSettings};
 use vestnav_device::wtcu::{LinkState, Request, VestCommand, VestEvent, VestHandle};
+use vestnav_station::devices::{DeviceFactory, GpsWorker};
+use vestnav_station::route::Waypoint;
 
 /// The emulated unit behind a transport that also records every command it was sent (decoded with the
 /// unit-side codec): the device side of the real protocol, seen from the vest.
@@ -110,8 +111,12 @@ fn harness_with(fake: &Fake, cfg: Config) -> Harness<'static, Console> {
 fn harness_sized(fake: &Fake, cfg: Config, size: egui::Vec2) -> Harness<'static, Console> {
     let console = Console::new(Box::new(fake.clone()), ConsoleOptions { cfg, ..ConsoleOptions::default() });
     let mut h = Harness::builder().with_size(size).build_ui_state(|ui, c: &mut Console| c.ui(ui), console);
-    settle(&mut h, |c| c.vest.is_live());
-    assert!(h.state().vest.is_live(), "the emulated unit did not come up: {:?}", h.state().vest.state);
+    settle(&mut h, |c| c.station.vest.is_live());
+    assert!(
+        h.state().station.vest.is_live(),
+        "the emulated unit did not come up: {:?}",
+        h.state().station.vest.state
+    );
     h
 }
 
@@ -139,7 +144,7 @@ fn fix(lat: f64, lon: f64, age: Duration) -> Fix {
 }
 
 fn on(c: &Console) -> TactorMask {
-    c.vest.tactors_on.unwrap_or(TactorMask::NONE)
+    c.station.vest.tactors_on.unwrap_or(TactorMask::NONE)
 }
 
 #[test]
@@ -186,7 +191,7 @@ fn the_grid_is_disabled_while_the_vest_is_not_live() {
     let fake = Fake::default();
     let mut h = harness(&fake);
     h.get_by_label("Disconnect vest").click();
-    settle(&mut h, |c| !c.vest.is_live());
+    settle(&mut h, |c| !c.station.vest.is_live());
     h.run_steps(1);
     assert!(h.query_by_label_contains("tactors cannot be fired").is_some());
     h.get_by_label("T5").click();
@@ -204,8 +209,8 @@ fn multi_select_fires_several() {
         h.get_by_label(t).click();
         h.run_steps(2);
     }
-    assert!(h.state().vest.select_mode);
-    assert_eq!(h.state().vest.selected, TactorMask::from_indices([0, 3, 12]));
+    assert!(h.state().vest_ui.select_mode);
+    assert_eq!(h.state().vest_ui.selected, TactorMask::from_indices([0, 3, 12]));
     h.get_by_label("Fire selected (3)").click();
     settle(&mut h, |_| !fake.sent().is_empty());
     assert_eq!(
@@ -218,7 +223,7 @@ fn multi_select_fires_several() {
 fn add_waypoint_with_the_mouse() {
     let fake = Fake::default();
     let mut h = harness(&fake);
-    let before = h.state().map.waypoints.len();
+    let before = h.state().station.route().waypoints().len();
     h.get_by_label("Add waypoints").click();
     h.run_steps(2);
     // Click somewhere on the map, away from the panels and the existing waypoints.
@@ -238,7 +243,7 @@ fn add_waypoint_with_the_mouse() {
         modifiers: egui::Modifiers::default(),
     });
     h.run_steps(2);
-    let wps = &h.state().map.waypoints;
+    let wps = &h.state().station.route().waypoints();
     assert_eq!(wps.len(), before + 1);
     let w = wps.last().unwrap();
     assert!((w.lat_deg - 42.357).abs() < 0.01 && (w.lon_deg + 71.10).abs() < 0.02, "{w:?}");
@@ -249,24 +254,24 @@ fn a_fix_shows_and_losing_it_raises_the_alarm() {
     let fake = Fake::default();
     let mut h = harness(&fake);
     fake.gps(&GpsEvent::Fix(Box::new(fix(42.3562, -71.1, Duration::ZERO))));
-    settle(&mut h, |c| c.gps.fix.is_some());
+    settle(&mut h, |c| c.station.gps.fix.is_some());
     assert!(h.query_by_label_contains("42.3562000°").is_some());
     assert!(h.query_by_label_contains("GPS FIX LOST").is_none());
     // The last position's bytes arrived longer ago than the lost limit (ages run on the real clock, from
     // the instant the bytes arrived).
     let lost = h.state().cfg.lost_after_s;
     fake.gps(&GpsEvent::Fix(Box::new(fix(42.3562, -71.1, Duration::from_secs_f64(lost + 1.0)))));
-    settle(&mut h, |c| c.gps.fixes == 2);
+    settle(&mut h, |c| c.station.gps.fixes == 2);
     assert!(matches!(h.state().gps_alarm(Instant::now()), Some(GpsAlarm::Lost { .. })));
     h.run_steps(1);
     assert!(h.query_by_label_contains("GPS FIX LOST").is_some());
     // A fresh fix clears it; a receiver that reports "no fix" raises it at once.
     fake.gps(&GpsEvent::Fix(Box::new(fix(42.3562, -71.1, Duration::ZERO))));
-    settle(&mut h, |c| c.gps.fixes == 3);
+    settle(&mut h, |c| c.station.gps.fixes == 3);
     assert!(h.query_by_label_contains("GPS FIX LOST").is_none());
     let no_fix = Fix { mode: Some(FixMode::NoFix), received_at: Some(Instant::now()), ..Fix::default() };
     fake.gps(&GpsEvent::Fix(Box::new(no_fix)));
-    settle(&mut h, |c| c.gps.fix.as_ref().is_some_and(|f| f.mode == Some(FixMode::NoFix)));
+    settle(&mut h, |c| c.station.gps.fix.as_ref().is_some_and(|f| f.mode == Some(FixMode::NoFix)));
     h.run_steps(1);
     assert!(h.query_by_label_contains("receiver reports no fix").is_some());
 }
@@ -275,7 +280,7 @@ fn a_fix_shows_and_losing_it_raises_the_alarm() {
 fn real_harness(log_dir: Option<std::path::PathBuf>) -> Harness<'static, Console> {
     let cfg = Config { map_tiles: false, guidance_auto: false, ..Config::default() };
     let console = Console::new(
-        Box::new(vestnav_app::hardware::Hardware::default()),
+        Box::new(vestnav_station::hardware::Hardware::default()),
         ConsoleOptions { cfg, log_dir, ..ConsoleOptions::default() },
     );
     Harness::builder()
@@ -287,8 +292,8 @@ fn real_harness(log_dir: Option<std::path::PathBuf>) -> Harness<'static, Console
 fn emulated_vest_reports_the_clicked_tactor_on_then_stop_all_clears_it() {
     let dir = std::env::temp_dir().join(format!("vestnav-ui-{}", std::process::id()));
     let mut h = real_harness(Some(dir.clone()));
-    settle(&mut h, |c| c.vest.state == Some(LinkState::Ready));
-    assert_eq!(h.state().vest.state, Some(LinkState::Ready), "emulated vest did not come up");
+    settle(&mut h, |c| c.station.vest.state == Some(LinkState::Ready));
+    assert_eq!(h.state().station.vest.state, Some(LinkState::Ready), "emulated vest did not come up");
     // Above the fold of the 1400x900 window (the status bar takes the last ~25 points).
     let t15 = h.get_by_label("T15").rect();
     assert!(t15.bottom() <= 875.0, "the vest grid ends at y = {}", t15.bottom());
@@ -300,8 +305,8 @@ fn emulated_vest_reports_the_clicked_tactor_on_then_stop_all_clears_it() {
     settle(&mut h, |c| on(c).is_empty());
     assert!(on(h.state()).is_empty());
     // The simulator walks the demo route: a fix arrives within about a second.
-    settle(&mut h, |c| c.gps.fix.is_some());
-    assert!(h.state().gps.fix.as_ref().unwrap().has_position());
+    settle(&mut h, |c| c.station.gps.fix.is_some());
+    assert!(h.state().station.gps.fix.as_ref().unwrap().has_position());
     let log_path = h.state().log_path().unwrap().to_path_buf();
     drop(h);
     std::thread::sleep(std::time::Duration::from_millis(300));
@@ -322,7 +327,7 @@ fn emulated_vest_reports_the_clicked_tactor_on_then_stop_all_clears_it() {
 #[test]
 fn nmea_replay_shows_the_fix_then_the_no_fix_alarm() {
     let mut h = real_harness(None);
-    settle(&mut h, |c| c.gps.fix.is_some());
+    settle(&mut h, |c| c.station.gps.fix.is_some());
     h.get_by_label("Disconnect GPS").click();
     h.run_steps(2);
     assert!(!h.state().gps_connected());
@@ -333,7 +338,7 @@ fn nmea_replay_shows_the_fix_then_the_no_fix_alarm() {
     h.run_steps(2);
     let file = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/walk_then_lost.nmea");
     {
-        let p = &mut h.state_mut().gps.picker;
+        let p = &mut h.state_mut().gps_ui.picker;
         assert_eq!(p.kind, vestnav_app::gps_panel::SourceKind::Replay);
         p.replay_path = file.to_owned();
         p.replay_speed = 10.0;
@@ -341,14 +346,14 @@ fn nmea_replay_shows_the_fix_then_the_no_fix_alarm() {
     h.get_by_label("Connect GPS").click();
     // Epoch 12:00:04 is the last with a position (42.3562667 N, independent: 42° 21.3760').
     let t4 = "2026-11-22T12:00:04Z".parse::<chrono::DateTime<chrono::Utc>>().unwrap();
-    settle(&mut h, |c| c.gps.fix.as_ref().is_some_and(|f| f.time == Some(t4)));
-    let f = h.state().gps.fix.clone().unwrap();
+    settle(&mut h, |c| c.station.gps.fix.as_ref().is_some_and(|f| f.time == Some(t4)));
+    let f = h.state().station.gps.fix.clone().unwrap();
     let (lat, lon) = (f.lat_deg.unwrap(), f.lon_deg.unwrap());
     assert!((lat - (42.0 + 21.376 / 60.0)).abs() < 1e-9, "{lat}");
     assert!((lon + 71.1).abs() < 1e-9);
     assert!(h.query_by_label_contains("-71.1000000°").is_some());
     // Then the receiver reports no fix: the alarm is raised at once.
-    settle(&mut h, |c| c.gps.fix.as_ref().is_some_and(|f| !f.has_position()));
+    settle(&mut h, |c| c.station.gps.fix.as_ref().is_some_and(|f| !f.has_position()));
     h.run_steps(1);
     assert!(h.query_by_label_contains("GPS FIX LOST: receiver reports no fix").is_some());
     assert!(h.query_by_label_contains("GPS: FIX LOST").is_some());
@@ -387,20 +392,20 @@ fn the_vest_compass_reaches_guidance_and_steers_by_true_heading() {
     let sent = fake.sent();
     assert!(sent.contains(&Request::HeadingStart { rate_hz: 5 }), "{sent:?}");
     assert!(sent.iter().any(|r| matches!(r, Request::SetCalibration(_))), "{sent:?}");
-    settle(&mut h, |c| c.vest.heading.is_some_and(|a| a.quality_pct == Some(100)));
-    let a = h.state().vest.heading.unwrap();
+    settle(&mut h, |c| c.station.vest.heading.is_some_and(|a| a.quality_pct == Some(100)));
+    let a = h.state().station.vest.heading.unwrap();
     assert_eq!(a.quality_pct, Some(100), "{a:?}");
     // A standing wearer near the emulated place (same WMM declination): guidance steers by the compass.
     for _ in 0..40 {
         fake.gps(&GpsEvent::Fix(Box::new(fix(42.3562, -71.1000, Duration::ZERO))));
         h.step();
-        if h.state().guidance.as_ref().is_some_and(|g| g.heading_source == "compass") {
+        if h.state().station.guidance.as_ref().is_some_and(|g| g.heading_source == HeadingSource::Compass) {
             break;
         }
         std::thread::sleep(Duration::from_millis(50));
     }
-    let g = h.state().guidance.clone().unwrap();
-    assert_eq!(g.heading_source, "compass", "{g:?}");
+    let g = h.state().station.guidance.clone().unwrap();
+    assert_eq!(g.heading_source, HeadingSource::Compass, "{g:?}");
     let heading = g.heading_deg.unwrap();
     assert!((heading - 90.0).abs() < 0.5, "guidance steers by {heading:.2}° true, the wearer faces 90°");
     assert!(g.declination_deg.is_some());
@@ -447,7 +452,7 @@ fn a_stale_or_lost_fix_is_shown_as_last_known_not_live() {
         ..fix(42.3562, -71.1, age)
     };
     fake.gps(&GpsEvent::Fix(Box::new(with_sats(Duration::ZERO))));
-    settle(&mut h, |c| c.gps.fixes == 1);
+    settle(&mut h, |c| c.station.gps.fixes == 1);
     h.run_steps(1);
     assert!(h.query_by_label("3D · —").is_some(), "a fresh fix shows its mode as current");
     assert!(h.query_by_label("8 used / 9 in view").is_some());
@@ -456,7 +461,7 @@ fn a_stale_or_lost_fix_is_shown_as_last_known_not_live() {
 
     // Stale: the newest fix's bytes arrived 3 s ago (past 2 s).
     fake.gps(&GpsEvent::Fix(Box::new(with_sats(Duration::from_secs(3)))));
-    settle(&mut h, |c| c.gps.fixes == 2);
+    settle(&mut h, |c| c.station.gps.fixes == 2);
     h.run_steps(1);
     assert!(matches!(h.state().gps_alarm(Instant::now()), Some(GpsAlarm::Stale { .. })));
     assert!(h.query_by_label_contains("NOT CURRENT: showing the last known fix, 3 s ago").is_some());
@@ -469,7 +474,7 @@ fn a_stale_or_lost_fix_is_shown_as_last_known_not_live() {
 
     // Lost: 5 s (past 4 s).
     fake.gps(&GpsEvent::Fix(Box::new(with_sats(Duration::from_secs(5)))));
-    settle(&mut h, |c| c.gps.fixes == 3);
+    settle(&mut h, |c| c.station.gps.fixes == 3);
     h.run_steps(1);
     assert!(matches!(h.state().gps_alarm(Instant::now()), Some(GpsAlarm::Lost { .. })));
     assert!(h.query_by_label_contains("FIX LOST: showing the last known fix, 5 s ago").is_some());
@@ -479,7 +484,7 @@ fn a_stale_or_lost_fix_is_shown_as_last_known_not_live() {
 
     // A fresh fix makes it live again.
     fake.gps(&GpsEvent::Fix(Box::new(with_sats(Duration::ZERO))));
-    settle(&mut h, |c| c.gps.fixes == 4);
+    settle(&mut h, |c| c.station.gps.fixes == 4);
     h.run_steps(1);
     assert!(h.query_by_label("3D · —").is_some());
     assert!(h.state().map.wearer_shown.is_some_and(|m| m.live));
@@ -492,16 +497,15 @@ fn an_absurdly_far_waypoint_warns_instead_of_a_time_to_go() {
     let fake = Fake::default();
     let mut h = harness(&fake);
     let far_lon = (15_000_000.0_f64 / 6_378_137.0).to_degrees();
-    h.state_mut().map.waypoints = vec![
+    let far = vec![
         Waypoint { name: "Far".into(), lat_deg: 0.0, lon_deg: far_lon, arrival_radius_m: None },
         Waypoint { name: "Farther".into(), lat_deg: 0.0, lon_deg: far_lon + 1.0, arrival_radius_m: None },
     ];
-    h.state_mut().map.next = 0;
-    h.state_mut().push_route();
+    h.state_mut().station.route_mut().replace("far".into(), far).unwrap();
     for _ in 0..100 {
         fake.gps(&GpsEvent::Fix(Box::new(fix(0.0, 0.0, Duration::ZERO))));
         h.step();
-        if h.state().guidance.as_ref().is_some_and(|g| g.distance_m.is_some_and(|d| d > 1e6)) {
+        if h.state().station.guidance.as_ref().is_some_and(|g| g.distance_m.is_some_and(|d| d > 1e6)) {
             break;
         }
         std::thread::sleep(Duration::from_millis(20));
@@ -533,12 +537,13 @@ fn the_track_starts_a_new_segment_on_a_jump_or_a_source_change() {
     assert!(haversine_m(far, step) < 15.0, "the step is a walker's");
     for (k, p) in [boston, far, step].into_iter().enumerate() {
         fake.gps(&GpsEvent::Fix(Box::new(fix(p.0, p.1, Duration::ZERO))));
-        settle(&mut h, |c| c.gps.fixes == k as u64 + 1);
+        settle(&mut h, |c| c.station.gps.fixes == k as u64 + 1);
     }
     let segs: Vec<Vec<(f64, f64)>> = h
         .state()
-        .map
-        .track_segments()
+        .station
+        .track()
+        .segments()
         .iter()
         .map(|s| s.iter().map(|p| (p.lat_deg, p.lon_deg)).collect())
         .collect();
@@ -556,8 +561,8 @@ fn the_track_starts_a_new_segment_on_a_jump_or_a_source_change() {
     assert!(h.state().gps_connected());
     let near = (42.3562, -5.099_87);
     fake.gps(&GpsEvent::Fix(Box::new(fix(near.0, near.1, Duration::ZERO))));
-    settle(&mut h, |c| c.gps.fixes == 1);
-    let lens: Vec<usize> = h.state().map.track_segments().iter().map(|s| s.len()).collect();
+    settle(&mut h, |c| c.station.gps.fixes == 1);
+    let lens: Vec<usize> = h.state().station.track().segments().iter().map(|s| s.len()).collect();
     assert_eq!(lens, vec![1, 2, 1]);
 }
 
@@ -570,7 +575,7 @@ fn harness_autosaving(fake: &Fake, autosave: &std::path::Path) -> Harness<'stati
     let mut h = Harness::builder()
         .with_size(egui::vec2(1400.0, 900.0))
         .build_ui_state(|ui, c: &mut Console| c.ui(ui), console);
-    settle(&mut h, |c| c.vest.is_live());
+    settle(&mut h, |c| c.station.vest.is_live());
     h
 }
 
@@ -593,10 +598,8 @@ fn three_waypoints() -> Vec<Waypoint> {
 
 fn set_route(h: &mut Harness<'static, Console>, waypoints: Vec<Waypoint>, next: usize) {
     let c = h.state_mut();
-    c.map.route_name = "Test loop".into();
-    c.map.waypoints = waypoints;
-    c.map.next = next;
-    c.push_route();
+    c.station.route_mut().replace("Test loop".into(), waypoints).unwrap();
+    c.station.route_mut().set_next(next);
     h.run_steps(2);
 }
 
@@ -609,7 +612,7 @@ fn the_autosaved_route_comes_back_after_a_restart() {
     let path = dir.join("route-autosave.gpx");
     let fake = Fake::default();
     let mut h = harness_autosaving(&fake, &path);
-    assert_eq!(h.state().map.waypoints.len(), 7, "no autosave yet: the demo route");
+    assert_eq!(h.state().station.route().waypoints().len(), 7, "no autosave yet: the demo route");
     set_route(&mut h, three_waypoints(), 1);
     // The edit is on disk while the console runs (not only at exit).
     settle(&mut h, |_| std::fs::read_to_string(&path).is_ok_and(|t| t.contains("Charlie")));
@@ -618,14 +621,15 @@ fn the_autosaved_route_comes_back_after_a_restart() {
     h.get_all_by_label("Del").nth(2).unwrap().click();
     h.run_steps(2);
     drop(h);
-    assert!(!dir.join("route-autosave.gpx.tmp").exists());
+    let left: Vec<_> = std::fs::read_dir(&dir).unwrap().flatten().map(|e| e.file_name()).collect();
+    assert_eq!(left.len(), 1, "no temporary file is left behind: {left:?}");
 
     let mut h = harness_autosaving(&Fake::default(), &path);
     h.run_steps(2);
-    let m = &h.state().map;
-    assert_eq!(m.route_name, "Test loop");
-    assert_eq!(m.waypoints, three_waypoints()[..2].to_vec());
-    assert_eq!(m.next, 1);
+    let m = h.state().station.route();
+    assert_eq!(m.name(), "Test loop");
+    assert_eq!(m.waypoints(), three_waypoints()[..2].to_vec());
+    assert_eq!(m.next(), 1);
     assert!(h.query_by_label_contains("next: Bravo (2/2)").is_some());
     drop(h);
     std::fs::remove_dir_all(&dir).unwrap();
@@ -641,34 +645,38 @@ fn undo_restores_a_deleted_waypoint_and_redo_deletes_it_again() {
     h.get_all_by_label("Del").nth(1).unwrap().click();
     h.run_steps(2);
     let without_bravo = vec![three_waypoints()[0].clone(), three_waypoints()[2].clone()];
-    assert_eq!(h.state().map.waypoints, without_bravo);
+    assert_eq!(h.state().station.route().waypoints(), without_bravo);
     assert!(h.query_by_label("Deleted Bravo").is_some(), "the delete says it can be undone");
     h.get_by_label("Undo").click();
     h.run_steps(2);
-    assert_eq!(h.state().map.waypoints, three_waypoints(), "Bravo is back, same name and coordinates");
+    assert_eq!(
+        h.state().station.route().waypoints(),
+        three_waypoints(),
+        "Bravo is back, same name and coordinates"
+    );
     assert!(h.query_by_label("Deleted Bravo").is_none());
     h.get_by_label("Redo").click();
     h.run_steps(2);
-    assert_eq!(h.state().map.waypoints, without_bravo);
+    assert_eq!(h.state().station.route().waypoints(), without_bravo);
     // The notice's own button.
     h.get_all_by_label("Del").next().unwrap().click();
     h.run_steps(2);
     assert!(h.query_by_label("Deleted Alpha").is_some());
     h.get_by_label("Undo delete").click();
     h.run_steps(2);
-    assert_eq!(h.state().map.waypoints, without_bravo, "Alpha is back");
+    assert_eq!(h.state().station.route().waypoints(), without_bravo, "Alpha is back");
     // The keys: Ctrl+Z, Ctrl+Shift+Z, Ctrl+Y.
     h.key_press_modifiers(UNDO_KEYS, egui::Key::Z);
     h.run_steps(2);
-    assert_eq!(h.state().map.waypoints, three_waypoints());
+    assert_eq!(h.state().station.route().waypoints(), three_waypoints());
     h.key_press_modifiers(UNDO_KEYS | egui::Modifiers::SHIFT, egui::Key::Z);
     h.run_steps(2);
-    assert_eq!(h.state().map.waypoints, without_bravo);
+    assert_eq!(h.state().station.route().waypoints(), without_bravo);
     h.key_press_modifiers(UNDO_KEYS, egui::Key::Z);
     h.run_steps(2);
     h.key_press_modifiers(UNDO_KEYS, egui::Key::Y);
     h.run_steps(2);
-    assert_eq!(h.state().map.waypoints, without_bravo);
+    assert_eq!(h.state().station.route().waypoints(), without_bravo);
 }
 
 /// The fake's emulated unit behind a switch: while `dead` is set every read and write fails (the unit
@@ -780,19 +788,22 @@ fn a_killed_vest_shows_in_the_banner_and_guidance_holds() {
     let mut h = Harness::builder()
         .with_size(egui::vec2(1400.0, 900.0))
         .build_ui_state(|ui, c: &mut Console| c.ui(ui), console);
-    settle(&mut h, |c| c.vest.is_live());
+    settle(&mut h, |c| c.station.vest.is_live());
     walk_until(&mut h, &fake, Duration::from_secs(3), |c| {
-        c.guidance.as_ref().is_some_and(|g| g.hold.is_none() && g.heading_source != "none")
+        c.station
+            .guidance
+            .as_ref()
+            .is_some_and(|g| g.hold.is_none() && g.heading_source != HeadingSource::None)
     });
     h.run_steps(1);
     let c = h.state();
     assert!(banner_of(c, BannerSubject::Vest).is_none(), "{:?}", c.banners(Instant::now()));
-    assert!(banner_of(c, BannerSubject::Guidance).is_none(), "{:?}", c.guidance);
+    assert!(banner_of(c, BannerSubject::Guidance).is_none(), "{:?}", c.station.guidance);
     assert!(h.query_by_label_contains("VEST LOST").is_none());
 
     dead.store(true, std::sync::atomic::Ordering::SeqCst);
     walk_until(&mut h, &fake, Duration::from_secs(3), |c| {
-        !c.vest.is_live() && c.guidance.as_ref().is_some_and(|g| g.hold.is_some())
+        !c.station.vest.is_live() && c.station.guidance.as_ref().is_some_and(|g| g.hold.is_some())
     });
     h.run_steps(1);
     let vest = banner_of(h.state(), BannerSubject::Vest).expect("a vest line");
@@ -807,12 +818,12 @@ fn a_killed_vest_shows_in_the_banner_and_guidance_holds() {
 
     dead.store(false, std::sync::atomic::Ordering::SeqCst);
     walk_until(&mut h, &fake, Duration::from_secs(5), |c| {
-        c.vest.is_live() && c.guidance.as_ref().is_some_and(|g| g.hold.is_none())
+        c.station.vest.is_live() && c.station.guidance.as_ref().is_some_and(|g| g.hold.is_none())
     });
     h.run_steps(1);
-    assert!(h.state().vest.is_live());
+    assert!(h.state().station.vest.is_live());
     assert!(banner_of(h.state(), BannerSubject::Vest).is_none());
-    assert!(banner_of(h.state(), BannerSubject::Guidance).is_none(), "{:?}", h.state().guidance);
+    assert!(banner_of(h.state(), BannerSubject::Guidance).is_none(), "{:?}", h.state().station.guidance);
     assert!(h.query_by_label_contains("VEST LOST").is_none());
     assert!(h.query_by_label_contains("GUIDANCE ON HOLD").is_none());
 }
@@ -824,7 +835,7 @@ fn a_disconnected_vest_shows_in_the_banner() {
     let cfg = Config { map_tiles: false, guidance_auto: true, ..Config::default() };
     let mut h = harness_with(&fake, cfg);
     h.get_by_label("Disconnect vest").click();
-    settle(&mut h, |c| !c.vest.is_live());
+    settle(&mut h, |c| !c.station.vest.is_live());
     h.run_steps(1);
     assert!(h.query_by_label_contains("VEST DISCONNECTED: ").is_some());
     assert!(h.query_by_label_contains("GUIDANCE ON HOLD: no vest").is_some());
@@ -843,19 +854,19 @@ fn a_stale_fix_shows_in_the_banner() {
     };
     let mut h = harness_with(&fake, cfg);
     fake.gps(&GpsEvent::Fix(Box::new(fix(42.3562, -71.1, Duration::ZERO))));
-    settle(&mut h, |c| c.gps.fixes == 1);
+    settle(&mut h, |c| c.station.gps.fixes == 1);
     h.run_steps(1);
     assert!(banner_of(h.state(), BannerSubject::Gps).is_none());
     assert!(h.query_by_label_contains("GPS STALE").is_none());
     fake.gps(&GpsEvent::Fix(Box::new(fix(42.3562, -71.1, Duration::from_secs(3)))));
-    settle(&mut h, |c| c.gps.fixes == 2);
+    settle(&mut h, |c| c.station.gps.fixes == 2);
     h.run_steps(1);
     let gps = banner_of(h.state(), BannerSubject::Gps).expect("a GPS line");
     assert_eq!(gps.severity, Severity::Warning);
     assert!(gps.text.starts_with("GPS STALE: last position 3 s old"), "{gps:?}");
     assert!(h.query_by_label_contains("GPS STALE: last position 3 s old").is_some());
     fake.gps(&GpsEvent::Fix(Box::new(fix(42.3562, -71.1, Duration::ZERO))));
-    settle(&mut h, |c| c.gps.fixes == 3);
+    settle(&mut h, |c| c.station.gps.fixes == 3);
     h.run_steps(1);
     assert!(banner_of(h.state(), BannerSubject::Gps).is_none());
     assert!(h.query_by_label_contains("GPS STALE").is_none());
@@ -925,7 +936,7 @@ fn the_satellite_table_lists_prn_and_snr() {
         ..fix(42.3562, -71.1, age)
     };
     fake.gps(&GpsEvent::Fix(Box::new(with_sats(Duration::ZERO))));
-    settle(&mut h, |c| c.gps.fixes == 1);
+    settle(&mut h, |c| c.station.gps.fixes == 1);
     h.run_steps(2);
     h.get_by_label_contains("Satellites (2 in view)").click();
     h.run_steps(2);
@@ -937,7 +948,7 @@ fn the_satellite_table_lists_prn_and_snr() {
     }
     assert_eq!(h.query_all_by_label("GPS").count(), 2, "the section header and the system cell");
     fake.gps(&GpsEvent::Fix(Box::new(with_sats(Duration::from_secs(5)))));
-    settle(&mut h, |c| c.gps.fixes == 2);
+    settle(&mut h, |c| c.station.gps.fixes == 2);
     h.run_steps(2);
     assert!(h.query_by_label_contains("Satellites (2 in view, last known, 5 s ago)").is_some());
     assert!(h.query_by_label("27").is_some(), "the last known sky stays listed, greyed");
@@ -963,21 +974,25 @@ fn rename_and_typed_coordinates_change_the_waypoint_and_can_be_undone() {
     h.get_by_label("Apply").click();
     h.run_steps(2);
     assert!(h.query_by_label_contains("Latitude: 95 is outside [-90, 90]").is_some());
-    assert_eq!(h.state().map.waypoints, three_waypoints(), "nothing changed");
+    assert_eq!(h.state().station.route().waypoints(), three_waypoints(), "nothing changed");
     field(&h, "Latitude (deg)", "42.35795");
     h.run_steps(2);
     h.get_by_label("Apply").click();
     h.run_steps(2);
     let edited =
         Waypoint { name: "Gate 2".into(), lat_deg: 42.35795, lon_deg: -71.0987, arrival_radius_m: None };
-    assert_eq!(h.state().map.waypoints[1], edited);
+    assert_eq!(h.state().station.route().waypoints()[1], edited);
     assert!(h.query_by_label_contains("Gate 2").is_some(), "the list shows the new name");
     h.get_by_label("Undo").click();
     h.run_steps(2);
-    assert_eq!(h.state().map.waypoints, three_waypoints(), "one undo step takes back name and position");
+    assert_eq!(
+        h.state().station.route().waypoints(),
+        three_waypoints(),
+        "one undo step takes back name and position"
+    );
     h.get_by_label("Redo").click();
     h.run_steps(2);
-    assert_eq!(h.state().map.waypoints[1], edited);
+    assert_eq!(h.state().station.route().waypoints()[1], edited);
 }
 
 /// Issue 15: a corrupt autosave does not stop the console: it says which file, keeps it aside, starts
@@ -989,13 +1004,13 @@ fn a_corrupt_autosave_gives_a_message_and_the_console_still_starts() {
     std::fs::write(&path, "<gpx><rte><rtept lat=\"400\" lon=\"0\"/></rte></gpx>").unwrap();
     let fake = Fake::default();
     let mut h = harness_autosaving(&fake, &path);
-    assert!(h.state().vest.is_live(), "the console started");
+    assert!(h.state().station.vest.is_live(), "the console started");
     h.run_steps(2);
     let shown = path.display().to_string();
     let messages: Vec<String> =
         h.query_all_by_label_contains("is unreadable").map(|n| n.value().unwrap_or_default()).collect();
     assert!(messages.iter().any(|m| m.contains(&shown)), "{messages:?}");
-    assert_eq!(h.state().map.waypoints.len(), 7, "the demo route");
+    assert_eq!(h.state().station.route().waypoints().len(), 7, "the demo route");
     assert!(dir.join("route-autosave.gpx.corrupt").exists(), "the broken file is kept aside");
     h.get_all_by_label("Del").next().unwrap().click();
     settle(&mut h, |_| path.exists());
@@ -1003,7 +1018,7 @@ fn a_corrupt_autosave_gives_a_message_and_the_console_still_starts() {
     drop(h);
     let mut h = harness_autosaving(&Fake::default(), &path);
     h.run_steps(1);
-    assert_eq!(h.state().map.waypoints.len(), 6);
+    assert_eq!(h.state().station.route().waypoints().len(), 6);
     assert!(h.query_all_by_label_contains("is unreadable").next().is_none());
     drop(h);
     std::fs::remove_dir_all(&dir).unwrap();
@@ -1207,7 +1222,7 @@ fn timed_fix(lat: f64, lon: f64, tod_s: f64, speed_m_s: Option<f64>) -> Fix {
 /// Sends `f` and waits until the console has taken it (the `n`-th positioned fix).
 fn send_fix(h: &mut Harness<'static, Console>, fake: &Fake, f: Fix, n: u64) {
     fake.gps(&GpsEvent::Fix(Box::new(f)));
-    settle(h, |c| c.gps.fixes == n);
+    settle(h, |c| c.station.gps.fixes == n);
 }
 
 /// A point `north_m` metres north of `(lat, lon)` (spherical, enough for tens of metres).
@@ -1379,7 +1394,7 @@ fn the_error_estimate_names_its_source() {
     let mut f = fix(42.0, -71.0, Duration::ZERO);
     f.error = Some(ErrorEstimate { horizontal_m: 1.25, vertical_m: Some(2.0), source: ErrorSource::Ubx });
     fake.gps(&GpsEvent::Fix(Box::new(f)));
-    settle(&mut h, |c| c.gps.fixes >= 1);
+    settle(&mut h, |c| c.station.gps.fixes >= 1);
     h.run_steps(2);
     assert!(h.query_by_label_contains("1.2 m · UBX hAcc").is_some());
     let mut f = fix(42.0, -71.0, Duration::ZERO);
@@ -1389,7 +1404,7 @@ fn the_error_estimate_names_its_source() {
         source: ErrorSource::DopModel { uere_m: vestnav_device::gps::UERE_M },
     });
     fake.gps(&GpsEvent::Fix(Box::new(f)));
-    settle(&mut h, |c| c.gps.fixes >= 2);
+    settle(&mut h, |c| c.station.gps.fixes >= 2);
     h.run_steps(2);
     assert!(h.query_by_label_contains("7.5 m · HDOP x 5 m").is_some());
 }

@@ -31,6 +31,12 @@ pub const DEMO_GPX: &str = include_str!("../../../assets/routes/demo.gpx");
 
 /// Files larger than this are refused (a 100 000-point track is about 10 MB).
 pub const MAX_GPX_BYTES: u64 = 50 * 1024 * 1024;
+/// Most route points (`<wpt>` plus `<rtept>`) a GPX file may hold: the bound of a route the console and
+/// the station accept, so that every route that reads can be drawn, listed and guided within a frame's
+/// budget. Counted before the file is parsed, so a larger file is refused at once.
+pub const MAX_ROUTE_POINTS: usize = 10_000;
+/// Most track points (`<trkpt>`) a GPX file may hold (a day's walk at 1 Hz is ~36,000).
+pub const MAX_TRACK_POINTS: usize = 500_000;
 
 /// A named point the wearer should reach.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -196,6 +202,16 @@ pub enum GpxError {
         /// What is wrong, e.g. "latitude 99 is outside [-90, 90]".
         problem: String,
     },
+    /// More points than a route or a track may have: refused before parsing.
+    #[error("{count} {what}: at most {limit} are accepted (split the file, or thin the route out)")]
+    TooManyPoints {
+        /// Which points.
+        what: &'static str,
+        /// How many the file holds.
+        count: usize,
+        /// The limit.
+        limit: usize,
+    },
 }
 
 /// Errors of GPX files: the file's path and what went wrong.
@@ -291,6 +307,26 @@ fn nesting_depth(bytes: &[u8], limit: usize) -> usize {
     deepest
 }
 
+/// Counts the `<wpt`/`<rtept` and the `<trkpt` start tags of `bytes`: a linear scan, no parse.
+fn count_points(bytes: &[u8]) -> (usize, usize) {
+    let (mut route, mut track) = (0, 0);
+    let mut i = 0;
+    while let Some(k) = bytes.get(i..).and_then(|rest| rest.iter().position(|b| *b == b'<')) {
+        let tag = bytes.get(i + k + 1..).unwrap_or(&[]);
+        let named = |name: &[u8]| {
+            tag.starts_with(name)
+                && tag.get(name.len()).is_some_and(|c| c.is_ascii_whitespace() || *c == b'>' || *c == b'/')
+        };
+        if named(b"wpt") || named(b"rtept") {
+            route += 1;
+        } else if named(b"trkpt") {
+            track += 1;
+        }
+        i += k + 1;
+    }
+    (route, track)
+}
+
 /// Parses GPX bytes (see the module doc).
 pub fn parse_gpx_bytes(bytes: &[u8]) -> Result<RouteFile, GpxError> {
     let depth = nesting_depth(bytes, MAX_GPX_DEPTH);
@@ -298,6 +334,21 @@ pub fn parse_gpx_bytes(bytes: &[u8]) -> Result<RouteFile, GpxError> {
         return Err(GpxError::Syntax(format!(
             "elements nested more than {MAX_GPX_DEPTH} deep: not a GPX file this console reads"
         )));
+    }
+    let (route_points, track_points) = count_points(bytes);
+    if route_points > MAX_ROUTE_POINTS {
+        return Err(GpxError::TooManyPoints {
+            what: "route points (wpt and rtept)",
+            count: route_points,
+            limit: MAX_ROUTE_POINTS,
+        });
+    }
+    if track_points > MAX_TRACK_POINTS {
+        return Err(GpxError::TooManyPoints {
+            what: "track points (trkpt)",
+            count: track_points,
+            limit: MAX_TRACK_POINTS,
+        });
     }
     let g = match gpx::read(bytes) {
         Ok(g) => g,
@@ -730,6 +781,24 @@ mod tests {
         assert!(matches!(&e, GpxError::BadPoint { element: "wpt", .. }), "{e:?}");
         assert!(matches!(parse_gpx("garbage"), Err(GpxError::Syntax(_))));
         assert!(matches!(parse_gpx(""), Err(GpxError::Syntax(_))));
+    }
+
+    #[test]
+    fn routes_over_the_point_limit_are_refused_before_parsing() {
+        let mut text = String::from("<gpx version=\"1.1\" creator=\"t\"><rte>");
+        for k in 0..=MAX_ROUTE_POINTS {
+            text.push_str("<rtept lat=\"42.");
+            text.push_str(&k.to_string());
+            text.push_str("\" lon=\"-71\"/>");
+        }
+        text.push_str("</rte></gpx>");
+        let e = parse_gpx(&text).unwrap_err();
+        assert!(
+            matches!(e, GpxError::TooManyPoints { count, limit: MAX_ROUTE_POINTS, .. } if count == MAX_ROUTE_POINTS + 1),
+            "{e}"
+        );
+        // Names that only start like a point's are not counted.
+        assert_eq!(count_points(b"<wpt lat='1' lon='1'/><rteptx/><trkpt a='1'><trkpt>"), (1, 2));
     }
 
     #[test]

@@ -14,10 +14,11 @@
 use std::time::{Duration, Instant};
 
 use egui::{Color32, RichText};
-use vestnav_core::guidance::StrategyKind;
+use vestnav_core::guidance::{HeadingSource, NavState, StrategyKind};
 use vestnav_core::vest::Cue;
 use vestnav_device::gps::SourceState;
 use vestnav_device::wtcu::LinkState;
+use vestnav_station::{Severity as NoticeSeverity, Subject};
 
 use super::{Console, GpsAlarm, Tab};
 use crate::config::Config;
@@ -42,12 +43,17 @@ pub enum Severity {
 /// What a banner line is about.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum BannerSubject {
+    /// STOP ALL not confirmed by the unit: first, above everything else.
+    Stop,
     /// The vest link.
     Vest,
     /// The GPS source and its fix.
     Gps,
     /// Automatic guidance.
     Guidance,
+    /// A notice of the station the operator must read (a broken file kept aside, storage failing, a
+    /// route refused): shown until dismissed.
+    Notice(usize),
 }
 
 /// One line of the banner strip: the state and what to do.
@@ -67,26 +73,38 @@ impl Banner {
     }
 }
 
-/// Rings once per transition to GPS fix loss and to vest link loss (see the module doc).
+/// Rings once per transition to GPS fix loss, to vest link loss and to an unconfirmed stop (see the
+/// module doc); an unconfirmed stop rings every second while it lasts, whatever the setting.
 pub(crate) struct AudibleAlarm {
     bell: Box<dyn FnMut() + Send>,
-    /// (fix lost, vest lost) on the last frame.
-    was: (bool, bool),
+    /// (fix lost, vest lost, stop not confirmed) on the last frame.
+    was: (bool, bool, bool),
+    last_stop_ring: Option<Instant>,
 }
 
 impl Default for AudibleAlarm {
     fn default() -> Self {
-        Self { bell: Box::new(terminal_bell), was: (false, false) }
+        Self { bell: Box::new(terminal_bell), was: (false, false, false), last_stop_ring: None }
     }
 }
 
 impl AudibleAlarm {
     /// Takes this frame's states; rings when one of them has just become lost and `enabled`.
-    fn update(&mut self, now: (bool, bool), enabled: bool) {
+    fn update(&mut self, now: (bool, bool, bool), enabled: bool) {
         let rising = (now.0 && !self.was.0) || (now.1 && !self.was.1);
         self.was = now;
         if rising && enabled {
             (self.bell)();
+        }
+        // A tactor may still run on the wearer: this one cannot be turned off, and repeats.
+        if now.2 {
+            let t = Instant::now();
+            if self.last_stop_ring.is_none_or(|l| t.duration_since(l) >= Duration::from_secs(1)) {
+                self.last_stop_ring = Some(t);
+                (self.bell)();
+            }
+        } else {
+            self.last_stop_ring = None;
         }
     }
 }
@@ -106,20 +124,15 @@ impl Console {
 
     /// Whether the GPS fix and the vest link are lost now: the same states the banners call FIX LOST and
     /// VEST LOST.
-    fn lost_states(&self, now: Instant) -> (bool, bool) {
+    fn lost_states(&self, now: Instant) -> (bool, bool, bool) {
         let fix_lost = matches!(self.gps_alarm(now), Some(GpsAlarm::Lost { .. }));
-        let vest_lost = matches!(
-            (&self.vest.state, &self.vest.lost),
-            (Some(LinkState::Lost { .. }), _)
-                | (Some(LinkState::Connecting { .. } | LinkState::Handshaking), Some(_))
-        );
-        (fix_lost, vest_lost)
+        (fix_lost, self.station.vest.is_lost(), self.station.stop_alarm(now).is_some())
     }
 
     /// Draws one frame (also the entry point of the kittest tests).
     #[allow(clippy::too_many_lines)] // the frame's layout in one place: panels in the order they are drawn
     pub fn ui(&mut self, ui: &mut egui::Ui) {
-        self.tick();
+        self.frame_pump();
         apply_theme(ui, &self.cfg);
         let now = Instant::now();
         let anim_s = ui.input(|i| i.time);
@@ -134,7 +147,8 @@ impl Console {
         }
         egui::Panel::bottom("vestnav-status").show(ui, |ui| {
             ui.horizontal(|ui| {
-                ui.label(RichText::new(&self.status).small());
+                let status = self.latest_notice().map_or_else(String::new, |n| n.text.clone());
+                ui.label(RichText::new(status).small());
                 if let Some(p) = self.log_path() {
                     ui.with_layout(egui::Layout::right_to_left(egui::Align::Center), |ui| {
                         ui.label(RichText::new(format!("log: {}", p.display())).small().weak());
@@ -159,20 +173,21 @@ impl Console {
         crate::gps_receiver::window(self, ui.ctx());
         egui::CentralPanel::default().show(ui, |ui| match self.tab {
             Tab::Map => {
-                let fix = self.gps.last_position.clone();
+                let fix = self.station.gps.last_position.clone();
+                let guidance = self.station.guidance.clone();
                 let walking = self.cfg.walking_speed_m_s;
                 self.map.tools.field = self.field_panel.map_overlay();
-                let changed = self.map.ui(
+                let (route, track, notices) = self.station.route_view();
+                self.map.ui(
                     ui,
+                    route,
+                    track,
                     fix.as_ref(),
-                    self.guidance.as_ref(),
+                    guidance.as_ref(),
                     walking,
                     &mut self.cfg,
-                    &mut self.status,
+                    notices,
                 );
-                if changed {
-                    self.push_route();
-                }
             }
             Tab::Simulation => {
                 self.sim_panel.base = self.cfg.recent.base();
@@ -186,21 +201,14 @@ impl Console {
             }
             Tab::SessionLog => {
                 let dir = self.log_dir();
-                let current = self.log.as_ref().map(|l| l.path().to_path_buf());
+                let current = self.log_path().map(std::path::Path::to_path_buf);
                 self.log_viewer.ui(ui, &dir, current.as_deref(), &mut self.map, &mut self.cfg.recent);
             }
         });
 
-        // Every settings change of the frame reaches guidance here, once.
-        if self.cfg != self.cfg_saved {
-            if self.cfg.guidance_auto && !self.cfg_saved.guidance_auto {
-                // Ticking automatic cues back on is the operator's deliberate resume (it pushes the settings).
-                self.resume_guidance();
-            } else {
-                self.push_settings();
-            }
-            self.save_config();
-        }
+        // Every settings change of the frame reaches the station here, once (ticking automatic cues back
+        // on is the operator's deliberate resume).
+        self.settings_changed();
         // Fix ages and alarms change with time even when no event arrives; the frame is also the UI's
         // heartbeat.
         ui.ctx().request_repaint_after(Duration::from_millis(250));
@@ -239,19 +247,25 @@ impl Console {
                 Some(GpsAlarm::Lost { .. }) => ("GPS: FIX LOST".to_owned(), Color32::from_rgb(230, 40, 40)),
                 Some(GpsAlarm::Stale { .. }) => ("GPS: STALE".to_owned(), Color32::from_rgb(230, 150, 0)),
                 None => (
-                    format!("GPS: {}", crate::gps_panel::state_label(self.gps.state.as_ref())),
-                    gps_color(self.gps.state.as_ref()),
+                    format!("GPS: {}", crate::gps_panel::state_label(self.station.gps.state.as_ref())),
+                    gps_color(self.station.gps.state.as_ref()),
                 ),
             };
             ui.label(RichText::new(gps_text).color(gps_color).strong());
             ui.separator();
-            ui.label(
-                RichText::new(format!("Vest: {}", self.vest.label()))
-                    .color(vest_color(self.vest.state.as_ref()))
-                    .strong(),
-            );
+            if self.station.stop_alarm(now).is_some() {
+                ui.label(
+                    RichText::new("Vest: STOP NOT CONFIRMED").color(Color32::from_rgb(230, 40, 40)).strong(),
+                );
+            } else {
+                ui.label(
+                    RichText::new(format!("Vest: {}", self.station.vest.label()))
+                        .color(vest_color(self.station.vest.state.as_ref()))
+                        .strong(),
+                );
+            }
             ui.separator();
-            let (g, color) = match (&self.vest.halted, self.cfg.guidance_auto) {
+            let (g, color) = match (&self.station.vest.halted, self.cfg.guidance_auto) {
                 (Some(_), _) => ("Guidance: HALTED", Color32::from_rgb(230, 40, 40)),
                 (None, true) => ("Guidance: AUTO", ui.visuals().text_color()),
                 (None, false) => ("Guidance: manual", ui.visuals().text_color()),
@@ -273,9 +287,36 @@ impl Console {
         });
     }
 
-    /// The banner strip's lines at `now`, one per device and one for guidance, each only when not OK.
+    /// The banner strip's lines at `now`: an unconfirmed stop first, then one per device and one for
+    /// guidance, each only when not OK, then the station's alarms and warnings until dismissed.
     pub fn banners(&self, now: Instant) -> Vec<Banner> {
-        [self.vest_banner(), self.gps_banner(now), self.guidance_banner(now)].into_iter().flatten().collect()
+        let mut lines: Vec<Banner> =
+            [self.stop_banner(now), self.vest_banner(), self.gps_banner(now), self.guidance_banner(now)]
+                .into_iter()
+                .flatten()
+                .collect();
+        for (k, n) in self.station.notices.all().iter().enumerate() {
+            let severity = match n.severity {
+                NoticeSeverity::Alarm => Severity::Alarm,
+                NoticeSeverity::Warning => Severity::Warning,
+                NoticeSeverity::Info => continue,
+            };
+            // A refused STOP ALL is the stop banner's and the vest line's business already.
+            if n.subject == Subject::Vest && lines.iter().any(|b| b.subject == BannerSubject::Stop) {
+                continue;
+            }
+            lines.push(Banner::new(BannerSubject::Notice(k), severity, n.text.clone()));
+        }
+        lines
+    }
+
+    fn stop_banner(&self, now: Instant) -> Option<Banner> {
+        let a = self.station.stop_alarm(now)?;
+        Some(Banner::new(
+            BannerSubject::Stop,
+            Severity::Alarm,
+            format!("STOP NOT CONFIRMED: {}", vestnav_station::stop_alarm_text(&a)),
+        ))
     }
 
     fn vest_banner(&self) -> Option<Banner> {
@@ -286,7 +327,7 @@ impl Console {
                  reconnecting{retry}..."
             )
         };
-        match (&self.vest.state, &self.vest.lost) {
+        match (&self.station.vest.state, &self.station.vest.lost) {
             (Some(LinkState::Ready), _) => None,
             (Some(LinkState::Lost { reason }), _) => alarm(lost(reason, "")),
             (Some(LinkState::Connecting { attempt }), Some(reason)) => {
@@ -327,14 +368,14 @@ impl Console {
                 Severity::Warning,
                 format!("GPS STALE: last position {age_s:.0} s old. Cues hold until a fresh fix. {advice}"),
             ),
-            None if !self.gps_connected() || self.gps.state.is_none() => line(
+            None if !self.gps_connected() || self.station.gps.state.is_none() => line(
                 Severity::Alarm,
                 "GPS DISCONNECTED: no GPS source. Guidance has no position. Pick a source in the GPS panel \
                  and connect it."
                     .to_owned(),
             ),
-            None if self.gps.last_position.is_none()
-                && !matches!(self.gps.state, Some(SourceState::Finished | SourceState::Stopped)) =>
+            None if self.station.gps.last_position.is_none()
+                && !matches!(self.station.gps.state, Some(SourceState::Finished | SourceState::Stopped)) =>
             {
                 line(
                     Severity::Warning,
@@ -347,7 +388,7 @@ impl Console {
 
     fn guidance_banner(&self, now: Instant) -> Option<Banner> {
         let line = |severity, text: String| Some(Banner::new(BannerSubject::Guidance, severity, text));
-        if let Some(why) = &self.vest.halted {
+        if let Some(why) = &self.station.vest.halted {
             return line(
                 Severity::Alarm,
                 format!(
@@ -364,18 +405,18 @@ impl Console {
                     .to_owned(),
             );
         }
-        let st = self.guidance.as_ref();
-        let hold = if !self.vest.is_live() {
+        let st = self.station.guidance.as_ref();
+        let hold = if !self.station.vest.is_live() {
             "no vest. The wearer gets no cues until the vest link is back.".to_owned()
-        } else if self.gps_alarm(now).is_some() || self.gps.last_position.is_none() {
+        } else if self.gps_alarm(now).is_some() || self.station.gps.last_position.is_none() {
             "no fix. No directional cues without a current position.".to_owned()
         } else if let Some(h) = st.and_then(|s| s.hold.as_ref()) {
             format!("{h}.")
-        } else if st.is_some_and(|s| s.heading_source == "none" && !s.finished) {
+        } else if st.is_some_and(|s| s.heading_source == HeadingSource::None && !s.finished) {
             "no heading. The wearer stands still and no compass is in use: ask them to walk a few steps, \
              or connect the vest's compass."
                 .to_owned()
-        } else if let Some(s) = st.filter(|s| s.state == "hold") {
+        } else if let Some(s) = st.filter(|s| s.state == NavState::Hold) {
             format!("{}.", s.reason)
         } else {
             return None;
@@ -386,6 +427,7 @@ impl Console {
     fn banner_strip(&mut self, ui: &mut egui::Ui, banners: &[Banner], anim_s: f64) {
         let pt = if self.cfg.large_text { BANNER_PT_LARGE } else { BANNER_PT };
         ui.add_space(2.0);
+        let mut dismiss = None;
         for b in banners {
             let (fill, text) = match b.severity {
                 Severity::Alarm => (Color32::from_rgb(190, 20, 20), Color32::WHITE),
@@ -395,7 +437,8 @@ impl Console {
             // The GPS alarm blinks until the operator silences it (it re-arms on the next good fix); the
             // text stays either way.
             let alarm = b.subject == BannerSubject::Gps && b.severity != Severity::Notice;
-            let blink = alarm && !self.gps.alarm_silenced && (anim_s * 2.0).fract() < 0.5;
+            let stop = b.subject == BannerSubject::Stop;
+            let blink = ((alarm && !self.station.gps.alarm_silenced) || stop) && (anim_s * 2.0).fract() < 0.5;
             egui::Frame::new()
                 .fill(if blink { fill.gamma_multiply(0.8) } else { fill })
                 .inner_margin(egui::Margin::symmetric(10, 5))
@@ -403,23 +446,36 @@ impl Console {
                     ui.set_width(ui.available_width());
                     ui.horizontal(|ui| {
                         if alarm
-                            && !self.gps.alarm_silenced
+                            && !self.station.gps.alarm_silenced
                             && ui.button(RichText::new("Silence alarm").size(pt * 0.8)).clicked()
                         {
-                            self.gps.alarm_silenced = true;
+                            self.station.gps.alarm_silenced = true;
+                        }
+                        if let BannerSubject::Notice(k) = b.subject
+                            && ui.button(RichText::new("Dismiss").size(pt * 0.8)).clicked()
+                        {
+                            dismiss = Some(k);
+                        }
+                        if stop {
+                            crate::vest_panel::mini_grid(ui, self.station.vest.tactors_on, pt);
                         }
                         ui.add(egui::Label::new(RichText::new(&b.text).size(pt).strong().color(text)).wrap());
                     });
                 });
             ui.add_space(2.0);
         }
-        if banners.iter().any(|b| b.subject == BannerSubject::Gps) && !self.gps.alarm_silenced {
+        if let Some(k) = dismiss {
+            self.station.notices.dismiss(k);
+        }
+        let blinking = banners.iter().any(|b| b.subject == BannerSubject::Stop)
+            || (banners.iter().any(|b| b.subject == BannerSubject::Gps) && !self.station.gps.alarm_silenced);
+        if blinking {
             ui.ctx().request_repaint_after(Duration::from_millis(250));
         }
     }
 
     fn guidance_ui(&mut self, ui: &mut egui::Ui) {
-        if let Some(why) = self.vest.halted.clone() {
+        if let Some(why) = self.station.vest.halted.clone() {
             ui.label(
                 RichText::new(format!("Automatic cues halted: {why}")).color(Color32::from_rgb(230, 40, 40)),
             );
@@ -455,7 +511,7 @@ impl Console {
         );
         ui.add(egui::Slider::new(&mut self.cfg.cue_interval_s, 1.0..=30.0).suffix(" s").text("Cue interval"));
         ui.add(egui::Slider::new(&mut self.cfg.manual_hold_s, 0.0..=60.0).suffix(" s").text("Manual hold"));
-        match &self.guidance {
+        match &self.station.guidance {
             None => {
                 ui.label("waiting for the first fix");
             }
@@ -469,7 +525,7 @@ impl Console {
                 }
                 let cue = st.cue.map_or("none", Cue::name);
                 let sent = if st.sent { "sent" } else { "not sent now" };
-                ui.label(RichText::new(format!("Cue: {cue} ({sent}) · {}", st.state)).strong());
+                ui.label(RichText::new(format!("Cue: {cue} ({sent}) · {}", st.state.name())).strong());
                 ui.label(&st.reason);
                 let n = |v: Option<f64>, u: &str| v.map_or_else(|| "—".to_owned(), |v| format!("{v:.0}{u}"));
                 ui.label(format!(
@@ -477,7 +533,7 @@ impl Console {
                     n(st.distance_m, " m"),
                     n(st.bearing_error_deg, "°"),
                     st.cross_track_m.map_or_else(|| "—".to_owned(), |x| format!("{x:+.1} m")),
-                    st.heading_source
+                    st.heading_source.name()
                 ));
                 let heading = st.heading_deg.map_or_else(|| "none".to_owned(), |h| format!("{h:.0}° true"));
                 let dec = st.declination_deg.map_or_else(
@@ -498,13 +554,12 @@ impl Console {
             }
         }
         ui.horizontal(|ui| {
-            if ui.button("< Previous waypoint").clicked() && self.map.next > 0 {
-                self.map.next -= 1;
-                self.push_route();
+            let next = self.station.route().next();
+            if ui.button("< Previous waypoint").clicked() && next > 0 {
+                self.station.route_mut().set_next(next - 1);
             }
-            if ui.button("Next waypoint >").clicked() && self.map.next < self.map.waypoints.len() {
-                self.map.next += 1;
-                self.push_route();
+            if ui.button("Next waypoint >").clicked() {
+                self.station.route_mut().set_next(next + 1);
             }
         });
     }

@@ -9,7 +9,7 @@ use egui::{Color32, RichText};
 use super::prefetch::{self, Prefetch, PrefetchRequest, PrefetchTarget};
 use super::{BBox, SourceTiles, TileSourceConfig, cache, check_url_template};
 use crate::config::Config;
-use crate::route::Waypoint;
+use vestnav_station::route::Waypoint;
 
 /// The source picker's choice.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -8,13 +8,13 @@ use std::time::Duration;
 use egui_kittest::Harness;
 use vestnav_app::config::{Config, GpsSourceConfig, VestSourceConfig};
 use vestnav_app::console::{Console, ConsoleOptions};
-use vestnav_app::devices::{DeviceFactory, GpsWorker};
-use vestnav_app::route::Waypoint;
 use vestnav_device::gps::{GpsEvent, SourceState};
 use vestnav_device::outbox::Outbox;
 use vestnav_device::wtcu::engine::EngineConfig;
 use vestnav_device::wtcu::worker::{EmulatedPort, Transport, WorkerSettings};
 use vestnav_device::wtcu::{VestEvent, VestHandle};
+use vestnav_station::devices::{DeviceFactory, GpsWorker};
+use vestnav_station::route::Waypoint;
 
 struct NoGps;
 impl GpsWorker for NoGps {

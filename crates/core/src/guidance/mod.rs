@@ -249,6 +249,19 @@ pub enum NavState {
     Finished,
 }
 
+impl NavState {
+    /// Its name for the operator ("guiding", "hold", "manual", "halted", "finished").
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Guiding => "guiding",
+            Self::Hold => "hold",
+            Self::Manual => "manual",
+            Self::Halted => "halted",
+            Self::Finished => "finished",
+        }
+    }
+}
+
 /// What guidance decided, and why (the app shows `reason` and the numbers).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Decision {

@@ -610,6 +610,25 @@ impl<C: WireCodec> Link<C> {
         self.enqueue(out, now)
     }
 
+    /// STOP ALL with a frame on the wire now: like [`Self::stop_all`], but when a STOP ALL is already in
+    /// flight (its retry not yet due) its frame is sent again at once and its acknowledgement deadline
+    /// restarts. The exit path uses it, so the last thing the unit hears is a fresh stop, whatever the
+    /// retry timer says.
+    pub fn stop_all_now(&mut self, now: Instant) -> Result<u8, CommandError> {
+        if self.state == LinkState::Ready
+            && let Some(f) = &mut self.in_flight
+            && f.out.request == Request::StopAll
+        {
+            f.deadline = now + self.config.ack_timeout;
+            let (bytes, seq) = (f.out.bytes.clone(), f.out.seq);
+            self.transmit.push_back(bytes);
+            self.stats.sent += 1;
+            self.last_tx = Some(now);
+            return Ok(seq);
+        }
+        self.stop_all(now)
+    }
+
     /// Stops every tactor: cancels queued and in-flight on-commands and sends STOP ALL at once, retried
     /// until acknowledged or the link is lost. Returns the sequence number.
     pub fn stop_all(&mut self, now: Instant) -> Result<u8, CommandError> {
@@ -834,5 +853,40 @@ mod tests {
         let now = Instant::now();
         assert!(matches!(link.fire(TactorMask(1), 100, now), Err(CommandError::NotReady(_))));
         assert!(link.stop_all(now).is_err());
+    }
+
+    /// The exit path's STOP ALL goes on the wire at once even while an earlier STOP ALL waits for its
+    /// retry: a unit that never acknowledges still hears a fresh stop as the console goes.
+    #[test]
+    fn a_stop_in_flight_is_sent_again_at_once_on_exit() {
+        use crate::wtcu::engine::{Engine, EngineConfig};
+        let mut link = Link::new(LinkConfig::default());
+        let mut unit = Engine::new(EngineConfig::default());
+        let mut now = Instant::now();
+        link.connect(now);
+        for _ in 0..50 {
+            while let Some(b) = link.poll_transmit() {
+                unit.handle_bytes(&b, now);
+            }
+            unit.handle_timeout(now);
+            while let Some(b) = unit.poll_transmit() {
+                link.handle_bytes(&b, now);
+            }
+            if link.is_ready() {
+                break;
+            }
+            now += Duration::from_millis(10);
+            link.handle_timeout(now);
+        }
+        assert!(link.is_ready());
+        while link.poll_transmit().is_some() {}
+        let seq = link.stop_all(now).unwrap();
+        let first = link.poll_transmit().expect("the first STOP ALL frame");
+        // The unit never answers; a plain stop_all before the retry is due sends nothing new.
+        assert_eq!(link.stop_all(now).unwrap(), seq);
+        assert!(link.poll_transmit().is_none());
+        // The exit path's does, the same frame (same sequence number).
+        assert_eq!(link.stop_all_now(now).unwrap(), seq);
+        assert_eq!(link.poll_transmit().as_deref(), Some(first.as_slice()));
     }
 }

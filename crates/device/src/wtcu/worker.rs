@@ -804,7 +804,8 @@ impl Worker {
     fn graceful_stop(&mut self, port: &mut dyn Transport) {
         let start = Instant::now();
         self.shared.stop_all.store(false, Ordering::SeqCst);
-        if self.link.stop_all(start).is_err() {
+        // A fresh frame even when a STOP ALL is already in flight: the unit hears a stop as we go.
+        if self.link.stop_all_now(start).is_err() {
             return;
         }
         let mut buf = [0u8; 512];

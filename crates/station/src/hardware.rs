@@ -18,9 +18,9 @@ use vestnav_device::wtcu::emulator::{CompassSetup, WearerMotion};
 use vestnav_device::wtcu::worker::WorkerSettings;
 use vestnav_device::wtcu::{self, VestEvent, VestHandle};
 
-use crate::config::{GpsSourceConfig, VestSourceConfig};
 use crate::devices::{DeviceFactory, GpsWorker};
 use crate::route::Waypoint;
+use crate::sources::{GpsSourceConfig, VestSourceConfig};
 
 /// Baud rate used for a WTCU serial port (Bluetooth SPP ignores it).
 pub const WTCU_BAUD: u32 = 115_200;

@@ -1,8 +1,5 @@
-//! Waypoints and the wearer's track on the map: geometry for drawing, and the console's use of the GPX
-//! files read and written by `vestnav_device::route_file` (the one home of the format).
-//!
-//! Distances and bearings to waypoints are core guidance's (WGS-84 geodesics, `vestnav_core::geo`); the map's
-//! metric grid uses core's `geo::LocalFrame`.
+//! The route's files: GPX read and written through `vestnav_device::route_file` (the one home of the
+//! format), `GeoJSON` export, and the route autosave.
 //!
 //! The route autosave ([`Autosave`]): the route being edited (name, waypoints, next waypoint) is written
 //! as GPX through `route_file` whenever it changes, atomically (a temp file, then a rename), and read back
@@ -278,21 +275,12 @@ pub fn read_autosave(path: &Path) -> Result<Option<RouteState>, String> {
     }
 }
 
-/// Writes `text` to `path` atomically: into a temp file next to it, flushed to disk, then renamed over
-/// it, so a crash leaves the old file or the new one, never half of one. Errors name the file.
+/// Writes `text` to `path` atomically (`vestnav_files::write_atomic`: a unique temp file beside it,
+/// flushed to disk, renamed over it), so a crash leaves the old file or the new one, never half of one.
+/// Errors name the file.
 pub fn write_atomically(path: &Path, text: &str) -> Result<(), String> {
-    use std::io::Write as _;
-    let fail = |p: &Path, e: std::io::Error| format!("cannot write {}: {e}", p.display());
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).map_err(|e| fail(dir, e))?;
-    }
-    let mut tmp = path.as_os_str().to_owned();
-    tmp.push(".tmp");
-    let tmp = PathBuf::from(tmp);
-    let mut f = std::fs::File::create(&tmp).map_err(|e| fail(&tmp, e))?;
-    f.write_all(text.as_bytes()).and_then(|()| f.sync_all()).map_err(|e| fail(&tmp, e))?;
-    drop(f);
-    std::fs::rename(&tmp, path).map_err(|e| fail(path, e))
+    vestnav_files::write_atomic(path, text.as_bytes())
+        .map_err(|e| format!("cannot write {}: {e}", path.display()))
 }
 
 /// Shortest time between two autosave writes: a waypoint dragged across the map changes the route every
@@ -352,14 +340,6 @@ impl Autosave {
             }
         }
     }
-}
-
-/// Picks at most about `max_points` of `n` points for drawing: a fixed stride, always keeping the last.
-///
-/// A 100k-point track drawn at full resolution costs tens of milliseconds per frame; the stride keeps the
-/// frame time bounded while the most recent points (drawn separately in full) stay exact.
-pub fn decimation_stride(n: usize, max_points: usize) -> usize {
-    n.div_ceil(max_points.max(1)).max(1)
 }
 
 #[cfg(test)]
@@ -529,11 +509,5 @@ mod tests {
             serde_json::json!([[null, "2026-05-01T14:03:07Z", null]])
         );
         assert_eq!(geojson_path(Path::new("out/walk.gpx")), PathBuf::from("out/walk.geojson"));
-    }
-
-    #[test]
-    fn stride_bounds_points() {
-        assert_eq!(decimation_stride(10, 5000), 1);
-        assert!(100_000 / decimation_stride(100_000, 5000) <= 5000);
     }
 }

@@ -20,8 +20,8 @@ use std::time::{Duration, Instant};
 use chrono::Datelike as _;
 use vestnav_core::geo::LatLon;
 use vestnav_core::guidance::{
-    CompassReading, Decision, Guidance, GuidanceConfig, HeadingMode, NavInput, NavState, Route, RouteConfig,
-    StrategyKind, Waypoint as CoreWaypoint,
+    CompassReading, Decision, Guidance, GuidanceConfig, HeadingMode, HeadingSource, NavInput, NavState,
+    Route, RouteConfig, StrategyKind, Waypoint as CoreWaypoint,
 };
 use vestnav_core::vest::Cue;
 use vestnav_device::gps::{Fix, GpsEvent};
@@ -77,6 +77,8 @@ pub enum GuidanceInput {
         waypoints: Vec<Waypoint>,
         /// Index of the next waypoint.
         next: usize,
+        /// The route's revision (`RouteModel::revision`), echoed in the statuses computed on it.
+        revision: u64,
     },
     /// Settings changed.
     Settings(GuidanceSettings),
@@ -104,6 +106,8 @@ pub struct GuidanceStatus {
     pub hold: Option<String>,
     /// Index of the next waypoint.
     pub next: usize,
+    /// The revision of the route this status was computed on.
+    pub route_revision: u64,
     /// Distance to the next waypoint [m].
     pub distance_m: Option<f64>,
     /// Bearing to the aim point [deg].
@@ -112,8 +116,8 @@ pub struct GuidanceStatus {
     pub bearing_error_deg: Option<f64>,
     /// Cross-track distance from the current leg (positive = right of it) [m].
     pub cross_track_m: Option<f64>,
-    /// Heading source used ("COG", "true heading", "compass", "none").
-    pub heading_source: &'static str,
+    /// Heading source used (COG, true heading, compass, or none).
+    pub heading_source: HeadingSource,
     /// The heading used \[deg, true\], if any (the map's heading arrow).
     pub heading_deg: Option<f64>,
     /// The selection rule in words, as the operator should read it.
@@ -122,20 +126,10 @@ pub struct GuidanceStatus {
     pub compass_disturbed: bool,
     /// The WMM declination applied to the compass \[deg, east +\], once a position is known.
     pub declination_deg: Option<f64>,
-    /// The engine's state ("guiding", "hold", "manual", "halted", "finished").
-    pub state: &'static str,
+    /// The engine's state.
+    pub state: NavState,
     /// The route is finished.
     pub finished: bool,
-}
-
-fn state_name(s: NavState) -> &'static str {
-    match s {
-        NavState::Guiding => "guiding",
-        NavState::Hold => "hold",
-        NavState::Manual => "manual",
-        NavState::Halted => "halted",
-        NavState::Finished => "finished",
-    }
 }
 
 /// The engine's configuration for the operator's settings.
@@ -191,6 +185,7 @@ pub fn spawn(
         let mut w = GuidanceWorker {
             settings,
             waypoints: Vec::new(),
+            route_revision: 0,
             engine: None,
             vest: None,
             beat: None,
@@ -227,6 +222,7 @@ pub fn spawn(
 struct GuidanceWorker {
     settings: GuidanceSettings,
     waypoints: Vec<Waypoint>,
+    route_revision: u64,
     engine: Option<Guidance>,
     vest: Option<Arc<VestHandle>>,
     beat: Option<Heartbeat>,
@@ -267,8 +263,9 @@ impl GuidanceWorker {
                 VestEvent::Heading(a) => self.take_heading(a),
                 _ => {}
             },
-            GuidanceInput::Route { waypoints, next } => {
+            GuidanceInput::Route { waypoints, next, revision } => {
                 self.waypoints = waypoints;
+                self.route_revision = revision;
                 self.rebuild(next);
             }
             GuidanceInput::Settings(s) => {
@@ -344,16 +341,17 @@ impl GuidanceWorker {
                     sent: false,
                     hold: Some(format!("no route: {e}")),
                     next: 0,
+                    route_revision: self.route_revision,
                     distance_m: None,
                     bearing_deg: None,
                     bearing_error_deg: None,
                     cross_track_m: None,
-                    heading_source: "none",
+                    heading_source: HeadingSource::None,
                     heading_deg: None,
                     heading_rule: String::new(),
                     compass_disturbed: false,
                     declination_deg: None,
-                    state: "hold",
+                    state: NavState::Hold,
                     finished: false,
                 });
                 None
@@ -481,6 +479,7 @@ impl GuidanceWorker {
         }
         let mut st = status(&d, reason, sent, self.hold_reason());
         st.declination_deg = declination;
+        st.route_revision = self.route_revision;
         self.ui.try_send(st);
     }
 }
@@ -492,16 +491,17 @@ fn status(d: &Decision, reason: String, sent: bool, hold: Option<String>) -> Gui
         sent,
         hold,
         next: d.waypoint_index,
+        route_revision: 0,
         distance_m: d.distance_m,
         bearing_deg: d.bearing_deg,
         bearing_error_deg: d.bearing_error_deg,
         cross_track_m: d.cross_track_m,
-        heading_source: d.heading_source.name(),
+        heading_source: d.heading_source,
         heading_deg: d.heading_deg,
         heading_rule: d.heading_rule.clone(),
         compass_disturbed: d.compass_disturbed,
         declination_deg: None,
-        state: state_name(d.state),
+        state: d.state,
         finished: d.state == NavState::Finished,
     }
 }
@@ -539,7 +539,7 @@ mod tests {
         in_tx.send(GuidanceInput::VestLink(Some(vest), Duration::ZERO)).unwrap();
         // One waypoint 100 m due north; the wearer walks due east: a turn is wanted at once.
         let wp = Waypoint { name: "N".into(), lat_deg: 42.0009, lon_deg: -71.0, arrival_radius_m: None };
-        in_tx.send(GuidanceInput::Route { waypoints: vec![wp], next: 0 }).unwrap();
+        in_tx.send(GuidanceInput::Route { waypoints: vec![wp], next: 0, revision: 1 }).unwrap();
         let fix = Fix {
             lat_deg: Some(42.0),
             lon_deg: Some(-71.0),

@@ -11,8 +11,8 @@ use vestnav_device::gps::{GpsEvent, GpsHandle};
 use vestnav_device::outbox::Outbox;
 use vestnav_device::wtcu::{VestEvent, VestHandle};
 
-use crate::config::{GpsSourceConfig, VestSourceConfig};
 use crate::route::Waypoint;
+use crate::sources::{GpsSourceConfig, VestSourceConfig};
 
 /// A running GPS source; stopping it never blocks for long (see [`GpsHandle::stop`]).
 pub trait GpsWorker: Send {

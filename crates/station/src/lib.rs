@@ -1,0 +1,854 @@
+//! The vestnav station: the running system with no window. It owns the devices (a GPS source and a vest
+//! worker), the guidance worker, the route (the one owner of the waypoints, the next waypoint, the edit
+//! history and the autosave), the wearer's track, the session log, the alarms and the stop path. A view —
+//! the console's window, a headless `vestnav station`, a test — sends it commands and reads its state;
+//! nothing a view does (or fails to do) is on the way between a fix and a cue, or between STOP ALL and
+//! the vest.
+//!
+//! ```no_run
+//! use vestnav_station::{Station, StationOptions, hardware::Hardware};
+//! let mut station = Station::new(Box::new(Hardware::default()), StationOptions::default());
+//! station.connect_vest();
+//! station.connect_gps(Vec::new());
+//! station.pump(|_| {});
+//! station.stop_all(); // every tactor off, automatic cues halted until resumed
+//! ```
+//!
+//! Threads: the GPS source's worker, the vest worker, the guidance worker and the session-log writer.
+//! Each hands its events to its consumers through its own bounded [`Outbox`]es (one of them is the
+//! station's, drained by [`Station::pump`] within [`DRAIN_BUDGET`] per channel).
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
+use std::time::{Duration, Instant};
+
+use vestnav_core::vest::Cue;
+use vestnav_device::gps::{GpsEvent, SourceState};
+use vestnav_device::outbox::{Outbox, Overflow, Waker, drain_within};
+use vestnav_device::session_log::{LogEntry, LogSender, SessionLog};
+use vestnav_device::wtcu::worker::{Heartbeat, Watched};
+use vestnav_device::wtcu::{CommandKind, CommandOrigin, LinkState, VestCommand, VestEvent, VestHandle};
+
+pub mod devices;
+pub mod guidance;
+pub mod hardware;
+pub mod route;
+pub mod sources;
+pub mod state;
+pub mod stop;
+
+use devices::{DeviceFactory, GpsWorker};
+use guidance::{GuidanceInput, GuidanceSettings, GuidanceStatus};
+use route::{RouteModel, RouteState, Track};
+use sources::{GpsSourceConfig, VestSourceConfig};
+pub use state::{GpsAlarm, GpsState, Notice, Notices, Severity, StopAlarm, Subject, VestReply, VestState};
+use stop::{EXIT_STOP_WAIT, StopPath};
+
+/// Time a pump may spend per channel draining worker events.
+pub const DRAIN_BUDGET: Duration = Duration::from_millis(2);
+/// Capacity of each of the station's event channels.
+const EVENT_CHANNEL: usize = 1024;
+/// Capacity of the guidance worker's input channel (fixes beyond it are dropped: it needs the newest).
+const GUIDANCE_CHANNEL: usize = 256;
+
+/// Liveness bounds of the threads the vest worker watches (see `vestnav_device::wtcu::worker`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Liveness {
+    /// The view must turn at least this often (the console's window turns every 250 ms); `None` for a
+    /// headless station, whose operator path is its signals and its network, not a frame.
+    pub view: Option<Duration>,
+    /// The guidance worker must turn at least this often (it ticks every 250 ms).
+    pub guidance: Duration,
+}
+
+impl Default for Liveness {
+    fn default() -> Self {
+        Self { view: Some(Duration::from_millis(1500)), guidance: Duration::from_secs(1) }
+    }
+}
+
+/// The station's settings: guidance's and the GPS alarm's limits.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StationSettings {
+    /// Guidance (automatic cues, radius, interval, strategy, heading source; the fix age after which the
+    /// GPS is stale).
+    pub guidance: GuidanceSettings,
+    /// Fix age after which the fix is lost [s].
+    pub lost_after_s: f64,
+}
+
+impl Default for StationSettings {
+    fn default() -> Self {
+        Self {
+            guidance: GuidanceSettings {
+                auto: true,
+                arrival_radius_m: 8.0,
+                cue_interval_s: 4.0,
+                manual_hold_s: 10.0,
+                stale_after_s: 3.0,
+                on_ms: vestnav_core::vest::DEFAULT_ON_MS,
+                loop_route: true,
+                strategy: vestnav_core::guidance::StrategyKind::Pursuit,
+                heading_mode: vestnav_core::guidance::HeadingMode::Auto,
+            },
+            lost_after_s: 10.0,
+        }
+    }
+}
+
+/// Where the station's route comes from at start.
+#[derive(Debug, Clone, Default)]
+pub struct RouteStart {
+    /// A GPX file named on the command line (wins over the autosave).
+    pub file: Option<PathBuf>,
+    /// Where the route is autosaved and restored from (`None`: neither).
+    pub autosave: Option<PathBuf>,
+}
+
+/// Options for [`Station::new`].
+#[derive(Default)]
+pub struct StationOptions {
+    /// Settings to start with.
+    pub settings: StationSettings,
+    /// The GPS source to use.
+    pub gps: Option<GpsSourceConfig>,
+    /// The vest to use.
+    pub vest: Option<VestSourceConfig>,
+    /// Directory for the session log (`None`: no log).
+    pub log_dir: Option<PathBuf>,
+    /// Wakes the view when events arrive (`None`: the view polls).
+    pub waker: Option<Waker>,
+    /// Liveness bounds; `None` turns the checks off (tests that step at their own pace).
+    pub liveness: Option<Liveness>,
+    /// Where STOP ALL and the exit paths find the vests (a signal handler holds a clone).
+    pub stop: StopPath,
+    /// The route at start.
+    pub route: RouteStart,
+}
+
+/// An event a view may want beyond the station's state (the raw sentence monitor, a calibration wizard,
+/// a field test's fixes): what [`Station::pump`] hands to its callback, after the station took it in.
+#[derive(Debug)]
+pub enum StationEvent<'a> {
+    /// An event of the GPS source.
+    Gps(&'a GpsEvent),
+    /// An event of the vest worker.
+    Vest(&'a VestEvent),
+}
+
+/// The running system (see the crate doc).
+pub struct Station {
+    settings: StationSettings,
+    gps_source: GpsSourceConfig,
+    vest_source: VestSourceConfig,
+    factory: Box<dyn DeviceFactory>,
+    liveness: Option<Liveness>,
+    gps_rx: Receiver<GpsEvent>,
+    gps_out: Outbox<GpsEvent>,
+    vest_rx: Receiver<VestEvent>,
+    vest_out: Outbox<VestEvent>,
+    guidance_rx: Receiver<GuidanceStatus>,
+    guidance_tx: SyncSender<GuidanceInput>,
+    /// The route revision guidance has; `None` until it took one.
+    route_sent: Option<u64>,
+    /// Settings guidance has not taken yet (a full channel never loses a change: retried every pump).
+    settings_pending: bool,
+    gps_worker: Option<Box<dyn GpsWorker>>,
+    vest_link: Option<Arc<VestHandle>>,
+    view_beat: Option<Heartbeat>,
+    stop: StopPath,
+    log: Option<SessionLog>,
+    log_tx: Option<LogSender>,
+    route: RouteModel,
+    autosave: Option<route::Autosave>,
+    track: Track,
+    /// What the GPS side shows.
+    pub gps: GpsState,
+    /// What the vest side shows.
+    pub vest: VestState,
+    /// Latest guidance status.
+    pub guidance: Option<GuidanceStatus>,
+    /// Notices for the operator.
+    pub notices: Notices,
+    /// Whether the stop alarm was on at the last pump (its rising edge is logged once).
+    stop_alarm_was: bool,
+}
+
+impl Station {
+    /// Builds the station, starts the guidance worker and the session log, and loads the route (the file
+    /// named, else the autosave, else the demo route). Devices are connected with [`Self::connect_gps`]
+    /// and [`Self::connect_vest`].
+    pub fn new(factory: Box<dyn DeviceFactory>, opts: StationOptions) -> Self {
+        let StationOptions { settings, gps, vest, log_dir, waker, liveness, stop, route: route_start } = opts;
+        let mut notices = Notices::default();
+        let log = log_dir.and_then(|d| match SessionLog::create(&d) {
+            Ok(l) => Some(l),
+            Err(e) => {
+                notices.raise(
+                    Severity::Alarm,
+                    Subject::Storage,
+                    format!(
+                        "SESSION LOG OFF: cannot write in {}: {e}. Nothing of this session is recorded.",
+                        d.display()
+                    ),
+                );
+                None
+            }
+        });
+        let log_tx = log.as_ref().and_then(SessionLog::sender);
+        let (guidance_ui, guidance_rx) = Outbox::channel(EVENT_CHANNEL, Overflow::DropNewest, waker.clone());
+        let (guidance_tx, guidance_in_rx) = sync_channel(GUIDANCE_CHANNEL);
+        if let Err(e) = guidance::spawn(guidance_in_rx, settings.guidance, guidance_ui, log_tx.clone()) {
+            notices.raise(
+                Severity::Alarm,
+                Subject::Guidance,
+                format!(
+                    "GUIDANCE WORKER FAILED TO START: {e}. No automatic cues this session; restart vestnav."
+                ),
+            );
+        }
+        let (gps_out, gps_rx) = Outbox::channel(EVENT_CHANNEL, Overflow::DropNewest, waker.clone());
+        let (vest_out, vest_rx) = Outbox::channel(EVENT_CHANNEL, Overflow::DropNewest, waker);
+        let (route, autosave) = load_route(&route_start, &mut notices);
+        Self {
+            settings,
+            gps_source: gps.unwrap_or(GpsSourceConfig::Simulator),
+            vest_source: vest.unwrap_or(VestSourceConfig::Emulated),
+            factory,
+            liveness,
+            gps_rx,
+            gps_out,
+            vest_rx,
+            vest_out,
+            guidance_rx,
+            guidance_tx,
+            route_sent: None,
+            settings_pending: false,
+            gps_worker: None,
+            vest_link: None,
+            view_beat: None,
+            stop,
+            log,
+            log_tx,
+            route,
+            autosave,
+            track: Track::default(),
+            gps: GpsState::default(),
+            vest: VestState::default(),
+            guidance: None,
+            notices,
+            stop_alarm_was: false,
+        }
+    }
+
+    /// The settings in force.
+    pub fn settings(&self) -> &StationSettings {
+        &self.settings
+    }
+
+    /// Changes the settings; guidance takes them on this pump or a later one (never lost). Turning
+    /// automatic cues back on is the operator's deliberate resume.
+    pub fn set_settings(&mut self, settings: StationSettings) {
+        if settings == self.settings {
+            return;
+        }
+        let resume = settings.guidance.auto && !self.settings.guidance.auto;
+        self.settings = settings;
+        if resume {
+            self.resume_guidance();
+        } else {
+            self.push_settings();
+        }
+    }
+
+    fn push_settings(&mut self) {
+        self.settings_pending =
+            self.guidance_tx.try_send(GuidanceInput::Settings(self.settings.guidance)).is_err();
+    }
+
+    /// The GPS source the station uses.
+    pub fn gps_source(&self) -> &GpsSourceConfig {
+        &self.gps_source
+    }
+
+    /// Sets the GPS source (takes effect at the next [`Self::connect_gps`]).
+    pub fn set_gps_source(&mut self, source: GpsSourceConfig) {
+        self.gps_source = source;
+    }
+
+    /// The vest the station uses.
+    pub fn vest_source(&self) -> &VestSourceConfig {
+        &self.vest_source
+    }
+
+    /// Sets the vest (takes effect at the next [`Self::connect_vest`]).
+    pub fn set_vest_source(&mut self, source: VestSourceConfig) {
+        self.vest_source = source;
+    }
+
+    /// The stop path (for a signal handler or a window's close).
+    pub fn stop_path(&self) -> &StopPath {
+        &self.stop
+    }
+
+    /// The session log being written, if any.
+    pub fn log_path(&self) -> Option<&Path> {
+        self.log.as_ref().map(SessionLog::path)
+    }
+
+    /// A sender into the session log (for a view's own records), if there is a log.
+    pub fn log_sender(&self) -> Option<&LogSender> {
+        self.log_tx.as_ref()
+    }
+
+    /// Whether a GPS source is running.
+    pub fn gps_connected(&self) -> bool {
+        self.gps_worker.is_some()
+    }
+
+    /// Whether a vest worker is running.
+    pub fn vest_connected(&self) -> bool {
+        self.vest_link.is_some()
+    }
+
+    /// The running vest worker, if any.
+    pub fn vest_handle(&self) -> Option<&Arc<VestHandle>> {
+        self.vest_link.as_ref()
+    }
+
+    /// The running GPS source, if any.
+    pub fn gps_worker(&self) -> Option<&dyn GpsWorker> {
+        self.gps_worker.as_deref()
+    }
+
+    /// The route (read only; edits go through [`Self::route_mut`]).
+    pub fn route(&self) -> &RouteModel {
+        &self.route
+    }
+
+    /// The route, to edit: every change reaches guidance and the autosave at the next pump.
+    pub fn route_mut(&mut self) -> &mut RouteModel {
+        &mut self.route
+    }
+
+    /// The wearer's track.
+    pub fn track(&self) -> &Track {
+        &self.track
+    }
+
+    /// The route to edit, the track to draw beside it and the notices to report to, at once (a map view
+    /// needs all three in one frame).
+    pub fn route_view(&mut self) -> (&mut RouteModel, &Track, &mut Notices) {
+        (&mut self.route, &self.track, &mut self.notices)
+    }
+
+    /// (Re)connects the GPS to the configured source; `taps` receive every event too (a recorder).
+    pub fn connect_gps(&mut self, taps: Vec<Outbox<GpsEvent>>) {
+        self.disconnect_gps();
+        let mut outputs = vec![self.gps_out.clone()];
+        outputs.push(Outbox::mapped(
+            self.guidance_tx.clone(),
+            |ev: GpsEvent| {
+                matches!(ev, GpsEvent::Fix(_) | GpsEvent::Attitude(_)).then_some(GuidanceInput::Gps(ev))
+            },
+            None,
+        ));
+        if let Some(log) = self.log_tx.clone() {
+            outputs.push(Outbox::sink(move |ev: GpsEvent| {
+                if let Some(entry) = gps_log_entry(&ev) {
+                    log.log(entry);
+                }
+                true
+            }));
+        }
+        outputs.extend(taps);
+        self.gps = GpsState::default();
+        // A new source: its first position must not be joined to the old source's last one.
+        self.track.break_segment();
+        match self.factory.open_gps(&self.gps_source, self.route.waypoints(), outputs) {
+            Ok(w) => self.gps_worker = Some(w),
+            Err(e) => {
+                self.gps.state = Some(SourceState::Lost { reason: e.clone() });
+                self.notices.raise(Severity::Alarm, Subject::Gps, format!("GPS: {e}"));
+            }
+        }
+    }
+
+    /// Stops the GPS source (never waits long on its IO).
+    pub fn disconnect_gps(&mut self) {
+        if let Some(mut w) = self.gps_worker.take() {
+            w.stop();
+        }
+        self.gps.state = None;
+    }
+
+    /// (Re)connects the vest.
+    pub fn connect_vest(&mut self) {
+        self.disconnect_vest();
+        let mut outputs = vec![self.vest_out.clone()];
+        outputs.push(Outbox::mapped(
+            self.guidance_tx.clone(),
+            |ev: VestEvent| {
+                matches!(
+                    ev,
+                    VestEvent::State(_)
+                        | VestEvent::Halted { .. }
+                        | VestEvent::Resumed
+                        | VestEvent::Heading(_)
+                )
+                .then_some(GuidanceInput::Vest(ev))
+            },
+            None,
+        ));
+        if let Some(log) = self.log_tx.clone() {
+            outputs.push(Outbox::sink(move |ev: VestEvent| {
+                if let Some(entry) = vest_log_entry(&ev) {
+                    log.log(entry);
+                }
+                true
+            }));
+        }
+        self.vest = VestState::default();
+        match self.factory.open_vest(&self.vest_source, outputs) {
+            Ok(handle) => {
+                let handle = Arc::new(handle);
+                self.stop.register(0, handle.stopper());
+                self.view_beat = self.liveness.and_then(|l| l.view).map(|b| handle.heartbeat(Watched::Ui, b));
+                let g_bound = self.liveness.map_or(Duration::ZERO, |l| l.guidance);
+                if self.guidance_tx.try_send(GuidanceInput::VestLink(Some(handle.clone()), g_bound)).is_err()
+                {
+                    self.notices.raise(
+                        Severity::Alarm,
+                        Subject::Guidance,
+                        "guidance worker busy: it does not know the vest yet; reconnect the vest",
+                    );
+                }
+                self.vest.state = Some(LinkState::Connecting { attempt: 1 });
+                self.vest_link = Some(handle);
+            }
+            Err(e) => {
+                self.vest.state = Some(LinkState::Lost { reason: e.clone() });
+                self.notices.raise(Severity::Alarm, Subject::Vest, format!("vest: {e}"));
+            }
+        }
+    }
+
+    /// Stops every tactor and closes the vest link (waiting a bounded time for the acknowledgement).
+    pub fn disconnect_vest(&mut self) {
+        let _ = self.guidance_tx.try_send(GuidanceInput::VestLink(None, Duration::ZERO));
+        self.view_beat = None;
+        if let Some(link) = self.vest_link.take() {
+            link.stopper().stop_and_close(EXIT_STOP_WAIT);
+        }
+        self.stop.unregister(0);
+        self.vest = VestState::default();
+    }
+
+    /// Stops the vest first (STOP ALL, acknowledged or timed out), then the GPS, and writes the route: the
+    /// station's end.
+    pub fn shutdown(&mut self) {
+        self.disconnect_vest();
+        self.disconnect_gps();
+        self.autosave_route(true);
+    }
+
+    /// STOP ALL: every tactor off now, automatic guidance latched off until the operator resumes it.
+    pub fn stop_all(&mut self) {
+        // The vest first: an atomic request the worker serves before anything else.
+        self.stop.stop_all();
+        let now = Instant::now();
+        if self.vest_link.is_some() {
+            self.vest.stop_requested(now);
+        }
+        let _ = self.guidance_tx.try_send(GuidanceInput::StopAll);
+        self.log(LogEntry::Command {
+            origin: CommandOrigin::Manual,
+            command: VestCommand::StopAll,
+            reason: "operator".into(),
+        });
+        if self.settings.guidance.auto {
+            self.settings.guidance.auto = false;
+            self.push_settings();
+        }
+    }
+
+    /// The operator's deliberate resume of automatic cues.
+    pub fn resume_guidance(&mut self) {
+        self.settings.guidance.auto = true;
+        if let Some(link) = &self.vest_link {
+            link.resume_guidance();
+        }
+        self.vest.commanded();
+        let _ = self.guidance_tx.try_send(GuidanceInput::Resume);
+        self.push_settings();
+    }
+
+    /// Sends a manual command to the vest (holding automatic guidance off) and logs it; `cue` names it when
+    /// it is one of the vocabulary's cues. Returns what to tell the operator when it was not sent.
+    pub fn send_manual(&mut self, command: VestCommand, cue: Option<Cue>) -> Result<(), String> {
+        if command == VestCommand::StopAll {
+            self.stop_all();
+            return Ok(());
+        }
+        let _ = self.guidance_tx.try_send(GuidanceInput::ManualOverride(cue));
+        self.send_device(command)
+    }
+
+    /// Sends a command as the operator's and logs it, without holding automatic guidance off (the heading
+    /// stream and calibration commands go this way).
+    pub fn send_device(&mut self, command: VestCommand) -> Result<(), String> {
+        let result = match &self.vest_link {
+            None => Err(format!("{} not sent: no vest connected", command.describe())),
+            Some(link) => link
+                .send(command.clone(), CommandOrigin::Manual)
+                .map_err(|e| format!("{} not sent: {e}", command.describe())),
+        };
+        match &result {
+            Ok(()) => {
+                self.vest.commanded();
+                self.log(LogEntry::Command {
+                    origin: CommandOrigin::Manual,
+                    command,
+                    reason: "operator".into(),
+                });
+            }
+            Err(text) => {
+                self.vest.last_reply =
+                    Some(VestReply { text: text.clone(), refused: true, at: Instant::now() });
+            }
+        }
+        result
+    }
+
+    /// Logs an operator mark at the wearer's position.
+    pub fn mark(&mut self, label: &str) {
+        let pos = self.gps.last_position.as_ref().and_then(|f| f.lat_deg.zip(f.lon_deg));
+        self.log(LogEntry::Mark {
+            label: label.to_owned(),
+            lat_deg: pos.map(|p| p.0),
+            lon_deg: pos.map(|p| p.1),
+        });
+    }
+
+    fn log(&self, entry: LogEntry) {
+        if let Some(log) = &self.log_tx {
+            log.log(entry);
+        }
+    }
+
+    /// Age of the latest position at `now`, from the instant its bytes arrived.
+    pub fn position_age(&self, now: Instant) -> Option<Duration> {
+        self.gps.last_position.as_ref().and_then(|f| f.age(now))
+    }
+
+    /// The GPS alarm at `now`, if any.
+    pub fn gps_alarm(&self, now: Instant) -> Option<GpsAlarm> {
+        state::gps_alarm(
+            &self.gps,
+            self.gps_worker.is_some(),
+            now,
+            self.settings.guidance.stale_after_s,
+            self.settings.lost_after_s,
+        )
+    }
+
+    /// The stop alarm at `now`: the latest STOP ALL not confirmed by the unit.
+    pub fn stop_alarm(&self, now: Instant) -> Option<StopAlarm> {
+        self.vest.stop_alarm(now)
+    }
+
+    /// The view's turn: beats the view's liveness heartbeat, drains the workers' events into the state
+    /// (within [`DRAIN_BUDGET`] per channel), hands each to `view`, and keeps guidance and the autosave up
+    /// to date with the route and the settings.
+    pub fn pump(&mut self, mut view: impl FnMut(StationEvent<'_>)) {
+        if let Some(b) = &self.view_beat {
+            b.beat();
+        }
+        let mut gps_events = Vec::new();
+        drain_within(&self.gps_rx, DRAIN_BUDGET, |ev| gps_events.push(ev));
+        for ev in &gps_events {
+            self.gps_event(ev);
+            view(StationEvent::Gps(ev));
+        }
+        let mut vest_events = Vec::new();
+        drain_within(&self.vest_rx, DRAIN_BUDGET, |ev| vest_events.push(ev));
+        for ev in &vest_events {
+            self.vest_event(ev);
+            view(StationEvent::Vest(ev));
+        }
+        let mut latest = None;
+        drain_within(&self.guidance_rx, DRAIN_BUDGET, |st| latest = Some(st));
+        if let Some(st) = latest {
+            if st.route_revision == self.route.revision() && st.next != self.route.next() {
+                // Guidance moved on (an arrival) on the route it has: the route's next follows, and
+                // guidance need not hear it back.
+                self.route.set_next(st.next);
+                if self.route_sent == Some(st.route_revision) {
+                    self.route_sent = Some(self.route.revision());
+                }
+            }
+            self.guidance = Some(st);
+        }
+        if self.route_sent != Some(self.route.revision()) {
+            self.push_route();
+        }
+        if self.settings_pending {
+            self.push_settings();
+        }
+        let alarm = self.vest.stop_alarm(Instant::now());
+        if let Some(a) = &alarm
+            && !self.stop_alarm_was
+        {
+            self.log(LogEntry::Note { text: format!("STOP NOT CONFIRMED: {}", stop_alarm_text(a)) });
+        }
+        self.stop_alarm_was = alarm.is_some();
+        self.autosave_route(false);
+    }
+
+    /// Tells guidance the current route (retried every pump until it is taken).
+    fn push_route(&mut self) {
+        let msg = GuidanceInput::Route {
+            waypoints: self.route.waypoints().to_vec(),
+            next: self.route.next(),
+            revision: self.route.revision(),
+        };
+        if self.guidance_tx.try_send(msg).is_ok() {
+            self.route_sent = Some(self.route.revision());
+        }
+    }
+
+    /// Writes the route to the autosave when it changed (rate-limited, unless `now_or_never`); a failure
+    /// is raised once.
+    pub fn autosave_route(&mut self, now_or_never: bool) {
+        let Some(a) = &mut self.autosave else { return };
+        let r = &self.route;
+        if let Some(e) = a.poll(r.name(), r.waypoints(), r.next(), Instant::now(), now_or_never) {
+            self.notices.raise(Severity::Alarm, Subject::Route, e);
+        }
+    }
+
+    fn gps_event(&mut self, ev: &GpsEvent) {
+        match ev {
+            GpsEvent::State(s) => self.gps.state = Some(s.clone()),
+            GpsEvent::Fix(f) => {
+                if f.has_position() {
+                    self.gps.fixes += 1;
+                    self.gps.alarm_silenced = false;
+                    self.track.push(f);
+                    self.gps.last_position = Some((**f).clone());
+                }
+                self.gps.fix = Some((**f).clone());
+            }
+            GpsEvent::Stats(s) => self.gps.stats = Some(*s),
+            GpsEvent::Mark(m) => {
+                self.gps.notice = Some(format!("mark {} {} in the input", m.number, m.label));
+            }
+            GpsEvent::Notice(n) => self.gps.notice = Some(n.clone()),
+            GpsEvent::Attitude(a) => self.gps.attitude = Some(*a),
+            GpsEvent::Raw(_) => {}
+            GpsEvent::Discontinuity(n) => {
+                // A replay seek: the next position must not be joined to the last one.
+                self.track.break_segment();
+                self.gps.notice = Some(n.clone());
+            }
+        }
+    }
+
+    fn vest_event(&mut self, ev: &VestEvent) {
+        let now = Instant::now();
+        match ev {
+            VestEvent::State(s) => {
+                if *s != LinkState::Ready {
+                    self.vest.tactors_on = None;
+                    self.vest.status = None;
+                }
+                if matches!(s, LinkState::Lost { .. } | LinkState::Disconnected) {
+                    self.vest.device = None;
+                    self.vest.heading = None;
+                }
+                match s {
+                    LinkState::Lost { reason } => self.vest.lost = Some(reason.clone()),
+                    LinkState::Ready => self.vest.lost = None,
+                    _ => {}
+                }
+                self.vest.state = Some(s.clone());
+            }
+            VestEvent::Identified(info) => {
+                self.vest.device = Some(*info);
+                self.vest.heading = None;
+            }
+            VestEvent::TactorsOn(m) => self.vest.tactors_on = *m,
+            VestEvent::Acked { seq, kind } => {
+                self.vest.acked(*kind, now);
+                self.vest.last_reply =
+                    Some(VestReply { text: format!("ack: {} #{seq}", kind.name()), refused: false, at: now });
+            }
+            VestEvent::Rejected { kind, origin, reason } => {
+                let who = match origin {
+                    Some(CommandOrigin::Guidance) => "automatic ",
+                    Some(CommandOrigin::Manual) | None => "",
+                };
+                let text = format!("refused {who}{}: {reason}", kind.name());
+                if *kind == CommandKind::StopAll {
+                    self.notices.raise(Severity::Alarm, Subject::Vest, text.clone());
+                }
+                self.vest.last_reply = Some(VestReply { text, refused: true, at: now });
+            }
+            VestEvent::Status(st) => {
+                self.vest.tactors_on = Some(st.tactors_on);
+                self.vest.status = Some((*st, now));
+            }
+            VestEvent::Transport(e) => {
+                self.vest.last_reply =
+                    Some(VestReply { text: format!("transport: {e}"), refused: true, at: now });
+            }
+            VestEvent::Halted { reason } => {
+                // The worker latched automatic cues off; the settings say so too (no push: guidance knows).
+                self.settings.guidance.auto = false;
+                // The worker stopped the tactors (the operator's STOP ALL, or a stalled thread): track it.
+                if self.vest.stop.is_none_or(|s| s.acked_at.is_some()) {
+                    self.vest.stop_requested(now);
+                }
+                self.vest.halted = Some(reason.clone());
+            }
+            VestEvent::Resumed => self.vest.halted = None,
+            VestEvent::Heading(a) => self.vest.heading = Some(*a),
+        }
+    }
+}
+
+impl Drop for Station {
+    fn drop(&mut self) {
+        self.shutdown();
+    }
+}
+
+/// The stop alarm in words: how long, acknowledged or not, which tactors the unit reports on, what to do.
+pub fn stop_alarm_text(a: &StopAlarm) -> String {
+    let on = a.on.filter(|m| !m.is_empty()).map(|m| {
+        format!(
+            " and reports tactors {} on",
+            m.indices().map(|i| i.to_string()).collect::<Vec<_>>().join(", ")
+        )
+    });
+    let ack = if a.acked { "acknowledged STOP ALL but" } else { "not acknowledged STOP ALL" };
+    let what = match (a.acked, on) {
+        (true, Some(on)) => format!("the unit {ack}{on}"),
+        (false, Some(on)) => format!("the unit has {ack} for {:.1} s{on}", a.for_.as_secs_f64()),
+        (_, None) => format!("the unit has {ack} for {:.1} s", a.for_.as_secs_f64()),
+    };
+    format!("{what}. The wearer may still feel tactors: switch the vest unit off now.")
+}
+
+/// Loads the route the station starts with: the file named, else the autosave, else the demo route. An
+/// unreadable autosave is kept aside (`….corrupt-<time>`, so the next autosave does not overwrite what may be
+/// worth rescuing) and a notice names it.
+fn load_route(start: &RouteStart, notices: &mut Notices) -> (RouteModel, Option<route::Autosave>) {
+    let mut restored = None;
+    if start.file.is_none()
+        && let Some(path) = &start.autosave
+    {
+        match route::read_autosave(path) {
+            Ok(state) => restored = state,
+            Err(e) => {
+                let kept = match vestnav_files::keep_aside(path) {
+                    Ok(p) => format!("it was kept as {}", p.display()),
+                    Err(_) => {
+                        "it could not be moved aside and will be overwritten by the next autosave".to_owned()
+                    }
+                };
+                notices.raise(
+                    Severity::Alarm,
+                    Subject::Route,
+                    format!(
+                        "Route autosave {} is unreadable ({e}); started with the default route, {kept}.",
+                        path.display()
+                    ),
+                );
+            }
+        }
+    }
+    let state = restored.unwrap_or_else(|| {
+        let content = match &start.file {
+            Some(path) => route::read_gpx(path),
+            None => route::parse_gpx(route::DEMO_GPX).map_err(|e| format!("demo route: {e}")),
+        };
+        match content {
+            Ok(c) => {
+                RouteState { name: c.name.unwrap_or_else(|| "route".into()), waypoints: c.waypoints, next: 0 }
+            }
+            Err(e) => {
+                notices.raise(Severity::Alarm, Subject::Route, format!("route unreadable: {e}"));
+                RouteState { name: "route".into(), waypoints: Vec::new(), next: 0 }
+            }
+        }
+    });
+    if let Err(e) = RouteModel::check_len(state.waypoints.len()) {
+        notices.raise(Severity::Alarm, Subject::Route, format!("route not loaded: {e}"));
+    }
+    let ok = RouteModel::check_len(state.waypoints.len()).is_ok();
+    let model = if ok { RouteModel::new(state) } else { RouteModel::default() };
+    let autosave = start.autosave.clone().map(|p| route::Autosave::new(p, model.state()));
+    (model, autosave)
+}
+
+/// What the session log records of a GPS event.
+fn gps_log_entry(ev: &GpsEvent) -> Option<LogEntry> {
+    match ev {
+        GpsEvent::Fix(f) if f.has_position() => Some(LogEntry::Fix {
+            lat_deg: f.lat_deg?,
+            lon_deg: f.lon_deg?,
+            error_m: f.error.map(|e| e.horizontal_m),
+            speed_m_s: f.speed_m_s,
+            course_deg: f.course_deg,
+            gps_utc: f.time.map(|t| t.to_rfc3339_opts(chrono::SecondsFormat::Millis, true)),
+        }),
+        GpsEvent::State(s) => Some(LogEntry::Note { text: format!("gps {}", source_state_label(Some(s))) }),
+        GpsEvent::Notice(n) | GpsEvent::Discontinuity(n) => {
+            Some(LogEntry::Note { text: format!("gps: {n}") })
+        }
+        GpsEvent::Attitude(a) => Some(LogEntry::heading(a)),
+        _ => None,
+    }
+}
+
+/// A GPS source state in words (the GPS panel, the top bar, the session log and `vestnav station` say it
+/// the same way).
+pub fn source_state_label(s: Option<&SourceState>) -> String {
+    match s {
+        None => "disconnected".to_owned(),
+        Some(SourceState::Connecting { detail }) => format!("connecting: {detail}"),
+        Some(SourceState::Live { .. }) => "live".to_owned(),
+        Some(SourceState::Stale) => "stale: no data".to_owned(),
+        Some(SourceState::Lost { reason }) => format!("lost: {reason}"),
+        Some(SourceState::Reconnecting { attempt, delay_ms }) => {
+            format!("reconnecting (attempt {attempt}, in {:.1} s)", *delay_ms as f64 / 1000.0)
+        }
+        Some(SourceState::Finished) => "end of input".to_owned(),
+        Some(SourceState::Stopped) => "stopped".to_owned(),
+    }
+}
+
+/// What the session log records of a vest event.
+fn vest_log_entry(ev: &VestEvent) -> Option<LogEntry> {
+    Some(match ev {
+        VestEvent::Acked { seq, kind } => LogEntry::Ack { what: format!("{} #{seq}", kind.name()) },
+        VestEvent::TactorsOn(Some(mask)) => LogEntry::TactorsOn { mask: *mask },
+        VestEvent::Rejected { kind, reason, .. } => {
+            LogEntry::Note { text: format!("vest refused {}: {reason}", kind.name()) }
+        }
+        VestEvent::State(s) => LogEntry::Note { text: format!("vest {s}") },
+        VestEvent::Transport(t) => LogEntry::Note { text: format!("vest transport: {t}") },
+        VestEvent::Halted { reason } => LogEntry::Note { text: format!("guidance halted: {reason}") },
+        VestEvent::Resumed => LogEntry::Note { text: "guidance resumed".to_owned() },
+        VestEvent::Identified(info) => LogEntry::Note {
+            text: format!(
+                "vest identified: protocol v{}, firmware {}, {} tactors, watchdog {} ms",
+                info.protocol_version, info.firmware, info.tactor_count, info.watchdog_ms
+            ),
+        },
+        VestEvent::Heading(a) => LogEntry::heading(a),
+        VestEvent::TactorsOn(None) | VestEvent::Status(_) => return None,
+    })
+}

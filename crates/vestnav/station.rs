@@ -1,0 +1,190 @@
+//! `vestnav station`: the running system with no window — the GPS, the vest, guidance, the route and the
+//! session log of the console, driven from a terminal or a script.
+//!
+//! It prints one status line per `--status-every` seconds (JSON with `--json`) and takes commands on its
+//! standard input, one per line: `stop` (STOP ALL), `resume` (automatic cues again), `status`, `quit`.
+//! SIGTERM, SIGINT and SIGHUP stop the vest first and end the process within the stop path's deadline;
+//! `quit`, `--for` and the end of a replay (`--exit-when-done`) stop it the same way.
+#![allow(clippy::print_stdout)] // the status lines on stdout are this command's interface for scripts
+
+use std::fmt::Write as _;
+use std::io::BufRead as _;
+use std::path::PathBuf;
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+use anyhow::Context as _;
+use vestnav_device::gps::SourceState;
+use vestnav_station::hardware::Hardware;
+use vestnav_station::sources::{GpsSpec, VestSourceConfig, parse_gps_spec, parse_vest_spec};
+use vestnav_station::stop::StopPath;
+use vestnav_station::{Liveness, RouteStart, Station, StationOptions, StationSettings};
+
+/// `vestnav station` arguments.
+#[derive(Debug, clap::Args)]
+pub struct StationArgs {
+    /// The GPS: gpsd://HOST:PORT, serial:PATH[@BAUD], replay:FILE[@SPEED], sim[:ROUTE.gpx] or vest[@BAUD]
+    /// (as the console's --gps).
+    #[arg(long, value_name = "SPEC", value_parser = parse_gps_spec, default_value = "sim")]
+    pub gps: GpsSpec,
+    /// The vest: emulated, or serial:PATH (a WTCU on a serial or Bluetooth SPP port).
+    #[arg(long, value_name = "SPEC", value_parser = parse_vest_spec, default_value = "emulated")]
+    pub vest: VestSourceConfig,
+    /// The route to guide along (GPX); default: the one named by --gps sim:ROUTE, else the demo route.
+    #[arg(long, value_name = "FILE.gpx")]
+    pub route: Option<PathBuf>,
+    /// Where the session log goes (a new JSON Lines file per run).
+    #[arg(long, value_name = "DIR")]
+    pub log_dir: Option<PathBuf>,
+    /// Start with automatic cues off (manual cues only until `resume`).
+    #[arg(long)]
+    pub no_auto: bool,
+    /// Seconds between status lines (0: only on `status`).
+    #[arg(long, value_name = "SECONDS", default_value_t = 5.0)]
+    pub status_every: f64,
+    /// Status lines as JSON.
+    #[arg(long)]
+    pub json: bool,
+    /// Run this many seconds, then stop the vest and end (for scripts and tests).
+    #[arg(long = "for", value_name = "SECONDS")]
+    pub for_s: Option<f64>,
+    /// End (vest stopped first) when the GPS source has finished, e.g. a replay reached its end.
+    #[arg(long)]
+    pub exit_when_done: bool,
+}
+
+/// Runs the station until a signal, `quit`, `--for` or `--exit-when-done` ends it.
+pub fn run(a: &StationArgs) -> anyhow::Result<()> {
+    let stop = StopPath::default();
+    #[cfg(unix)]
+    vestnav_station::stop::exit_on_signals(stop.clone(), || {}).context("cannot watch for signals")?;
+    let mut settings = StationSettings::default();
+    settings.guidance.auto = !a.no_auto;
+    let route = a.route.clone().or_else(|| a.gps.route.clone());
+    if let Some(r) = &route {
+        // Checked before anything starts: a missing route file is the operator's to fix now.
+        std::fs::metadata(r).with_context(|| format!("route {}", r.display()))?;
+    }
+    let mut station = Station::new(
+        Box::new(Hardware::default()),
+        StationOptions {
+            settings,
+            gps: Some(a.gps.source.clone()),
+            vest: Some(a.vest.clone()),
+            log_dir: a.log_dir.clone(),
+            waker: None,
+            liveness: Some(Liveness { view: None, ..Liveness::default() }),
+            stop,
+            route: RouteStart { file: route, autosave: None },
+        },
+    );
+    for n in station.notices.all() {
+        eprintln!("vestnav station: {}", n.text);
+    }
+    station.connect_vest();
+    station.connect_gps(Vec::new());
+    if let Some(p) = station.log_path() {
+        eprintln!("vestnav station: session log {}", p.display());
+    }
+    let commands = stdin_commands();
+    let start = Instant::now();
+    let every = Duration::from_secs_f64(a.status_every.max(0.0));
+    let mut next_status = start + every;
+    let mut said = station.notices.revision();
+    loop {
+        station.pump(|_| {});
+        let now = Instant::now();
+        if station.notices.revision() != said {
+            said = station.notices.revision();
+            if let Some(n) = station.notices.all().last() {
+                eprintln!("vestnav station: {}", n.text);
+            }
+        }
+        let mut print = !every.is_zero() && now >= next_status;
+        match commands.try_recv() {
+            Ok(cmd) => match cmd.trim() {
+                "stop" => station.stop_all(),
+                "resume" => station.resume_guidance(),
+                "status" => print = true,
+                "quit" => break,
+                "" => {}
+                other => eprintln!("vestnav station: unknown command {other:?} (stop, resume, status, quit)"),
+            },
+            Err(mpsc::TryRecvError::Empty | mpsc::TryRecvError::Disconnected) => {}
+        }
+        if print {
+            next_status = now + every;
+            println!("{}", status_line(&station, now, start, a.json));
+        }
+        if a.for_s.is_some_and(|s| now.duration_since(start).as_secs_f64() >= s) {
+            break;
+        }
+        if a.exit_when_done && matches!(station.gps.state, Some(SourceState::Finished)) {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    station.shutdown();
+    println!("{}", status_line(&station, Instant::now(), start, a.json));
+    Ok(())
+}
+
+/// Lines of standard input, read on their own thread (a closed input just ends the thread).
+fn stdin_commands() -> mpsc::Receiver<String> {
+    let (tx, rx) = mpsc::channel();
+    let _ = std::thread::Builder::new().name("station-stdin".into()).spawn(move || {
+        for line in std::io::stdin().lock().lines() {
+            let Ok(line) = line else { break };
+            if tx.send(line).is_err() {
+                break;
+            }
+        }
+    });
+    rx
+}
+
+/// One status line: time, GPS state and position age, vest state and the tactors on, guidance's cue or
+/// hold, the alarms.
+fn status_line(s: &Station, now: Instant, start: Instant, json: bool) -> String {
+    let gps = vestnav_station::source_state_label(s.gps.state.as_ref());
+    let age_s = s.position_age(now).map(|a| a.as_secs_f64());
+    let pos = s.gps.last_position.as_ref().and_then(|f| f.lat_deg.zip(f.lon_deg));
+    let vest = s.vest.label();
+    let on = s.vest.tactors_on.map(|m| m.indices().collect::<Vec<_>>());
+    let g = s.guidance.as_ref();
+    let cue = g.and_then(|g| g.cue).map(vestnav_core::vest::Cue::name);
+    let hold = g.and_then(|g| g.hold.clone());
+    let alarm = s.gps_alarm(now).map(|a| format!("{a:?}"));
+    let stop = s.stop_alarm(now).map(|a| vestnav_station::stop_alarm_text(&a));
+    let t_s = now.duration_since(start).as_secs_f64();
+    let next = s.route().next();
+    if json {
+        serde_json::json!({
+            "t_s": t_s, "gps": gps, "position_age_s": age_s, "lat_deg": pos.map(|p| p.0), "lon_deg": pos.map(|p| p.1),
+            "fixes": s.gps.fixes, "vest": vest, "tactors_on": on, "halted": s.vest.halted, "cue": cue, "hold": hold,
+            "next_waypoint": next, "waypoints": s.route().waypoints().len(), "gps_alarm": alarm,
+            "stop_not_confirmed": stop,
+        })
+        .to_string()
+    } else {
+        let age = age_s.map_or_else(|| "no fix".to_owned(), |a| format!("fix {a:.1} s old"));
+        let mut line = format!(
+            "t={t_s:.1}s gps: {gps} ({age}, {} fixes) · vest: {vest} · waypoint {}/{} · cue: {} · {}",
+            s.gps.fixes,
+            (next + 1).min(s.route().waypoints().len()),
+            s.route().waypoints().len(),
+            cue.unwrap_or("none"),
+            hold.map_or_else(|| "guiding".to_owned(), |h| format!("hold: {h}")),
+        );
+        if let Some(a) = alarm {
+            let _ = write!(line, " · GPS ALARM {a}");
+        }
+        if let Some(why) = &s.vest.halted {
+            let _ = write!(line, " · HALTED: {why}");
+        }
+        if let Some(st) = stop {
+            let _ = write!(line, " · STOP NOT CONFIRMED: {st}");
+        }
+        line
+    }
+}
