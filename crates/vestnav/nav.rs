@@ -4,7 +4,6 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context as _;
 use clap::{Args, ValueEnum};
-use vestnav_core::geo::LatLon;
 use vestnav_core::gnss_sim::GnssErrorModel;
 use vestnav_core::guidance::{HeadingMode, StrategyKind, Waypoint};
 use vestnav_core::wearer::{HeadingSim, SimConfig, SimResult, SimSummary, simulate_many};
@@ -102,11 +101,8 @@ pub fn load_route(path: &Path) -> anyhow::Result<Vec<Waypoint>> {
     let Some(route) = file.default_route().filter(|r| !r.waypoints.is_empty()) else {
         anyhow::bail!("{}: no route points or waypoints", path.display());
     };
-    Ok(route
-        .waypoints
-        .into_iter()
-        .map(|w| Waypoint::new(w.name, LatLon::new(w.lat_deg, w.lon_deg)))
-        .collect())
+    // Each waypoint's own arrival radius (a vestnav GPX extension) is kept.
+    Ok(route.waypoints.iter().map(vestnav_device::route_file::Waypoint::to_guidance).collect())
 }
 
 fn strategies(arg: StrategyArg) -> Vec<StrategyKind> {

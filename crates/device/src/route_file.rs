@@ -58,6 +58,16 @@ impl Waypoint {
     pub fn new(name: impl Into<String>, lat_deg: f64, lon_deg: f64) -> Self {
         Self { name: name.into(), lat_deg, lon_deg, arrival_radius_m: None }
     }
+
+    /// The same waypoint as guidance takes it, its own arrival radius kept: the one conversion from a
+    /// file's waypoint to guidance's (the station's guidance worker and `nav simulate` both use it).
+    pub fn to_guidance(&self) -> vestnav_core::guidance::Waypoint {
+        vestnav_core::guidance::Waypoint::new(
+            self.name.clone(),
+            vestnav_core::geo::LatLon::new(self.lat_deg, self.lon_deg),
+        )
+        .with_arrival_radius_m(self.arrival_radius_m)
+    }
 }
 
 /// The XML namespace of vestnav's GPX extensions: `<extensions><vestnav:arrival_radius_m>` on a `wpt` or

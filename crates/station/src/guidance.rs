@@ -313,14 +313,7 @@ impl GuidanceWorker {
     /// Builds the engine for the current waypoints, heading for waypoint `next`.
     fn rebuild(&mut self, next: usize) {
         let (gcfg, rcfg) = engine_config(&self.settings);
-        let wps: Vec<CoreWaypoint> = self
-            .waypoints
-            .iter()
-            .map(|w| {
-                CoreWaypoint::new(w.name.clone(), LatLon::new(w.lat_deg, w.lon_deg))
-                    .with_arrival_radius_m(w.arrival_radius_m)
-            })
-            .collect();
+        let wps: Vec<CoreWaypoint> = self.waypoints.iter().map(Waypoint::to_guidance).collect();
         let halted = self.engine.as_ref().is_some_and(Guidance::is_halted);
         self.engine = match Route::new(wps, rcfg) {
             Ok(route) => {
