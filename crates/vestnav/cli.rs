@@ -5,8 +5,8 @@
 use clap::{Parser, Subcommand};
 
 use crate::{
-    analyze, completions, emulate_gps, emulate_vest, fieldtest, gps_configure, nav, nmea, sim_tactor,
-    sim_wave, tiles,
+    accuracy, analyze, completions, emulate_gps, emulate_vest, fieldtest, gps_configure, nav, nmea, ntrip,
+    sim_tactor, sim_wave, tiles,
 };
 
 /// One line: `-h`, and the NAME of the man page.
@@ -115,6 +115,8 @@ pub enum Command {
     /// Map tiles: make an area available offline (the console's prefetch, headless).
     #[command(subcommand)]
     Tiles(TilesCommand),
+    /// NTRIP client: RTK corrections (RTCM 3) from a caster to a receiver on a serial port.
+    Ntrip(ntrip::NtripArgs),
     /// Print a shell completion script for vestnav to standard output.
     #[command(hide = true)]
     Completions(completions::CompletionsArgs),
@@ -185,6 +187,12 @@ pub enum FieldtestCommand {
     Drift(fieldtest::DriftArgs),
     /// Cone test: consecutive distances between operator marks against the nominal spacing.
     Cones(fieldtest::ConesArgs),
+    /// Accuracy against a known point: error over time, bias, CEP50/CEP95, 2DRMS, R95, share within
+    /// 0.1-5 m, vertical error.
+    Accuracy(accuracy::AccuracyArgs),
+    /// Two or more receivers recorded at once: epochs matched by receiver time, their differences, each
+    /// against the reference.
+    Compare(accuracy::CompareArgs),
 }
 
 /// `vestnav tiles ...`
