@@ -210,7 +210,7 @@ struct Caster {
 }
 
 const TABLE: &str = "STR;RTCM32;Wettzell;RTCM 3.2;1077(1),1087(1);2;GPS+GLO;IGS;DEU;49.14;12.88;0;0;x;none;B;N;5000;\r\n\
-STR;BNDM;Bend;RTCM 3;1005(10),1074(1);2;GPS;ORGN;USA;44.06;-121.31;1;0;x;none;B;N;3000;\r\n\
+STR;BNDM;Bend;RTCM 3;1004(1),1006(10),1012(1);2;GPS+GLO;ORGN;USA;44.06;-121.31;1;0;x;none;B;N;3000;\r\n\
 ENDSOURCETABLE\r\n";
 
 impl Caster {
@@ -518,7 +518,7 @@ fn ntrip_cli_end_to_end() {
     assert!(got == expected, "frames through the CLI: {} of {} bytes", got.len(), expected.len());
     assert!(caster.upstream().iter().any(|l| l == GGA), "the receiver's GGA reached the caster");
     assert!(stdout.contains("connected: age"), "{stdout}");
-    assert!(stdout.contains("1005("), "{stdout}");
+    assert!(stdout.contains("1006("), "{stdout}");
 
     std::fs::write(&cred, format!("{USER}:nope\n")).unwrap();
     let out = Command::new(bin())
