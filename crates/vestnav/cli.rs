@@ -5,8 +5,8 @@
 use clap::{Parser, Subcommand};
 
 use crate::{
-    analyze, completions, emulate_gps, emulate_vest, fieldtest, gps_configure, nav, nmea, sim_tactor,
-    sim_wave, station, tiles,
+    accuracy, analyze, completions, emulate_gps, emulate_vest, fieldtest, gps_configure, nav, nmea, ntrip,
+    sim_tactor, sim_wave, station, tiles,
 };
 
 /// One line: `-h`, and the NAME of the man page.
@@ -118,6 +118,8 @@ pub enum Command {
     /// Run the station with no window: GPS, vest, guidance and session log, commands on standard input
     /// (stop, resume, status, quit), status lines on standard output.
     Station(station::StationArgs),
+    /// NTRIP client: RTK corrections (RTCM 3) from a caster to a receiver on a serial port.
+    Ntrip(ntrip::NtripArgs),
     /// Print a shell completion script for vestnav to standard output.
     #[command(hide = true)]
     Completions(completions::CompletionsArgs),
@@ -188,6 +190,12 @@ pub enum FieldtestCommand {
     Drift(fieldtest::DriftArgs),
     /// Cone test: consecutive distances between operator marks against the nominal spacing.
     Cones(fieldtest::ConesArgs),
+    /// Accuracy against a known point: error over time, bias, CEP50/CEP95, 2DRMS, R95, share within
+    /// 0.1-5 m, vertical error.
+    Accuracy(accuracy::AccuracyArgs),
+    /// Two or more receivers recorded at once: epochs matched by receiver time, their differences, each
+    /// against the reference.
+    Compare(accuracy::CompareArgs),
 }
 
 /// `vestnav tiles ...`

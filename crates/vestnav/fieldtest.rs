@@ -79,6 +79,9 @@ pub struct DriftArgs {
     /// Write a figure: scatter with CEP/2DRMS circles, and distance vs time (thesis Fig 65).
     #[arg(long)]
     pub png: Option<PathBuf>,
+    /// Also measure the fixes against a known point (the accuracy statistics).
+    #[command(flatten)]
+    pub reference: crate::accuracy::ReferenceArgs,
 }
 
 /// Arguments of `vestnav fieldtest cones`.
@@ -115,6 +118,10 @@ pub struct ConesArgs {
     /// Write a figure: track with the marks circled, consecutive distances with the RMSE line (Figs 67–70).
     #[arg(long)]
     pub png: Option<PathBuf>,
+    /// Also measure each mark against where its cone stands: the reference is the first cone's surveyed
+    /// position, the others follow at the spacing along the line bearing.
+    #[command(flatten)]
+    pub reference: crate::accuracy::ReferenceArgs,
 }
 
 /// An operator mark as read from a log.
@@ -128,10 +135,10 @@ struct LogMark {
 }
 
 /// A decoded log: positioned fixes with times, the marks with times, and the first fix's date.
-struct Log {
+pub(crate) struct Log {
     /// The format it was read as (never `Auto`).
     format: LogFormat,
-    fixes: Vec<TimedFix>,
+    pub(crate) fixes: Vec<TimedFix>,
     marks: Vec<LogMark>,
     date: Option<(i32, u8, u8)>,
     /// Rejected NMEA sentences, or skipped (cut-off) session-log lines.
@@ -140,12 +147,12 @@ struct Log {
     warnings: Vec<String>,
 }
 
-fn seconds_of_day(t: NaiveTime) -> f64 {
+pub(crate) fn seconds_of_day(t: NaiveTime) -> f64 {
     f64::from(t.num_seconds_from_midnight()) + f64::from(t.nanosecond()) / 1e9
 }
 
 /// Unwraps a time of day onto the running time line `prev` (adds days while it would jump back > 12 h).
-fn unwrap_tod(tod_s: f64, prev: Option<f64>) -> f64 {
+pub(crate) fn unwrap_tod(tod_s: f64, prev: Option<f64>) -> f64 {
     let Some(p) = prev else { return tod_s };
     let mut t = tod_s + 86_400.0 * ((p - tod_s) / 86_400.0).round();
     if t < p - 43_200.0 {
@@ -158,7 +165,7 @@ fn unwrap_tod(tod_s: f64, prev: Option<f64>) -> f64 {
 const SNIFF_BYTES: u64 = 64 * 1024;
 
 /// Reads the log at `path` in `format` (`Auto`: decided from the first non-blank byte).
-fn load(path: &Path, format: LogFormat) -> anyhow::Result<Log> {
+pub(crate) fn load(path: &Path, format: LogFormat) -> anyhow::Result<Log> {
     let format = match format {
         LogFormat::Auto => sniff(path)?,
         f => f,
@@ -170,7 +177,7 @@ fn load(path: &Path, format: LogFormat) -> anyhow::Result<Log> {
 }
 
 /// `Session` when the first non-blank byte (after a UTF-8 byte order mark) is `{`, else `Nmea`.
-fn sniff(path: &Path) -> anyhow::Result<LogFormat> {
+pub(crate) fn sniff(path: &Path) -> anyhow::Result<LogFormat> {
     let file = std::fs::File::open(path).with_context(|| format!("opening {}", path.display()))?;
     let mut head = Vec::new();
     file.take(SNIFF_BYTES).read_to_end(&mut head).with_context(|| format!("reading {}", path.display()))?;
@@ -281,6 +288,17 @@ pub fn run_drift(args: &DriftArgs) -> anyhow::Result<()> {
         drift(&log.fixes, earth).with_context(|| format!("{}: no positioned fixes", args.file.display()))?;
     s.warnings.extend(log.warnings.iter().cloned());
     let report = DriftReport::new(source(args.file.as_path(), &log), earth, None, Ok(s.clone()), &log.fixes);
+    if args.reference.is_set() {
+        let png = args.png.as_deref();
+        return crate::accuracy::finish_drift(
+            &args.file,
+            log.format,
+            &args.reference,
+            report,
+            args.json,
+            png,
+        );
+    }
     if args.json {
         print!("{}", to_json(&report)?);
     } else {
@@ -305,7 +323,7 @@ pub fn run_drift(args: &DriftArgs) -> anyhow::Result<()> {
 }
 
 /// Where a log's fixes came from, for the reports.
-fn source(path: &Path, log: &Log) -> Source {
+pub(crate) fn source(path: &Path, log: &Log) -> Source {
     Source {
         file: Some(path.display().to_string()),
         format: log.format.name().to_string(),
@@ -376,6 +394,9 @@ pub fn run_cones(args: &ConesArgs) -> anyhow::Result<()> {
         &marks,
         &log.fixes,
     );
+    if args.reference.is_set() {
+        return crate::accuracy::finish_cones(&args.reference, report, args.json, args.png.as_deref());
+    }
     if args.json {
         print!("{}", to_json(&report)?);
     } else {

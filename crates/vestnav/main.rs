@@ -2,6 +2,7 @@
 //!
 //! This file only parses the command line and dispatches; each subcommand family lives in its own module.
 
+mod accuracy;
 mod analyze;
 mod cli;
 mod completions;
@@ -11,6 +12,7 @@ mod fieldtest;
 mod gps_configure;
 mod nav;
 mod nmea;
+mod ntrip;
 mod sim_tactor;
 mod sim_wave;
 mod station;
@@ -104,6 +106,9 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Nav(NavCommand::Simulate(a)) => nav::run_simulate(&a),
         Command::Fieldtest(FieldtestCommand::Drift(a)) => fieldtest::run_drift(&a),
         Command::Fieldtest(FieldtestCommand::Cones(a)) => fieldtest::run_cones(&a),
+        Command::Fieldtest(FieldtestCommand::Accuracy(a)) => accuracy::run_accuracy(&a),
+        Command::Fieldtest(FieldtestCommand::Compare(a)) => accuracy::run_compare(&a),
+        Command::Ntrip(a) => ntrip::run(&a),
         Command::Tiles(TilesCommand::Prefetch(a)) => tiles::run_prefetch(&a),
         Command::Station(a) => station::run(&a),
         Command::Completions(a) => completions::run_completions(&a),

@@ -12,6 +12,7 @@ pub(crate) fn timing_exclusive() -> std::sync::MutexGuard<'static, ()> {
     TIMING.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
 }
 
+mod accuracy;
 mod cli;
 mod gps;
 mod gps_config;

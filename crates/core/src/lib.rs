@@ -15,7 +15,9 @@
 //! - [`guidance`]: route, heading source, cue selection, rate limiting, manual overrides, strategies;
 //! - [`gnss_sim`]: a GNSS error model (noise, wandering bias, static-navigation pinning) and a route walker;
 //! - [`wearer`]: the closed-loop simulated wearer used to compare strategies;
-//! - [`fieldtest`]: GPS drift and cone-test statistics (§5).
+//! - [`fieldtest`]: GPS drift and cone-test statistics (§5);
+//! - [`accuracy`]: GPS accuracy against a reference (CEP, DRMS, bias, vertical), receivers side by side;
+//! - [`coords`]: typed positions (decimal, DMS, UTM/UPS, MGRS) read and written.
 //!
 //! ```
 //! use vestnav_core::tactor::{TactorParams, Preset};
@@ -24,8 +26,10 @@
 //! assert!((p.steady_state().omega_rad_s - 834.22).abs() < 0.01);
 //! ```
 
+pub mod accuracy;
 pub mod analysis;
 pub mod compass;
+pub mod coords;
 pub mod fieldtest;
 pub mod fit;
 pub mod geo;

@@ -8,14 +8,18 @@
 //! - [`serial`]: serial-port discovery and opening (Bluetooth SPP ports are serial ports);
 //! - [`session_log`]: the console's session log (JSON Lines): records, writer, reader;
 //! - [`route_file`]: routes in GPX (waypoints, routes, tracks) read and written;
+//! - [`ntrip`]: the NTRIP client (v1, v2) forwarding RTK corrections to a serial receiver; [`rtcm3`]: RTCM 3
+//!   framing with CRC-24Q;
 //! - [`backoff`]: the one exponential reconnect backoff of the workers;
 //! - [`outbox`]: how workers hand events to their consumers (bounded, never blocking a stop).
 
 pub mod backoff;
 pub mod gps;
 pub mod heading;
+pub mod ntrip;
 pub mod outbox;
 pub mod route_file;
+pub mod rtcm3;
 pub mod serial;
 pub mod session_log;
 pub mod wtcu;

@@ -12,6 +12,8 @@
 //! - [`wave`]: Figs 52, 57, 59, the vest field and the midpoint signal;
 //! - [`fieldtest`]: the drift (Fig 65) and cone (Figs 67–70) sheets, [`fieldtest::DriftReport`],
 //!   [`fieldtest::ConesReport`];
+//! - [`accuracy`]: GPS accuracy against a reference and receivers side by side,
+//!   [`accuracy::AccuracyReport`], [`accuracy::CompareReport`], [`accuracy::AgainstReference`];
 //! - [`nav`]: the guidance simulation, [`nav::NavReport`];
 //! - [`series`]: `linspace`, time windows and `sig` (numbers with sensible precision in labels); [`csv`]: a figure's data as CSV.
 //!
@@ -28,6 +30,7 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+pub mod accuracy;
 pub mod analysis;
 pub mod csv;
 pub mod fieldtest;
