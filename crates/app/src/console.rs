@@ -125,6 +125,10 @@ pub struct Console {
     alarm: frame::AudibleAlarm,
     /// The window's logic step already pumped the station this frame (the frame then does not again).
     ticked: bool,
+    /// The station's automatic-cues switch as last synced into the settings (a change of the station's
+    /// own — STOP ALL, a stalled thread — is taken into the settings, an edit of the operator's is not
+    /// overwritten).
+    synced_auto: bool,
 }
 
 /// Options for [`Console::new`].
@@ -233,7 +237,9 @@ impl Console {
             log_viewer: crate::log_viewer::LogViewer::default(),
             alarm: frame::AudibleAlarm::default(),
             ticked: false,
+            synced_auto: false,
         };
+        console.synced_auto = console.station.settings().guidance.auto;
         if connect_now {
             console.connect_vest();
             console.connect_gps();
@@ -343,8 +349,11 @@ impl Console {
     /// too, without a second push to guidance.
     fn sync_settings_from_station(&mut self) {
         let auto = self.station.settings().guidance.auto;
-        self.cfg.guidance_auto = auto;
-        self.cfg_saved.guidance_auto = auto;
+        if auto != self.synced_auto {
+            self.synced_auto = auto;
+            self.cfg.guidance_auto = auto;
+            self.cfg_saved.guidance_auto = auto;
+        }
     }
 
     /// Logs an operator mark at the wearer's position.
@@ -410,6 +419,7 @@ impl Console {
             return;
         }
         self.station.set_settings(station_settings(&self.cfg));
+        self.synced_auto = self.station.settings().guidance.auto;
         self.save_config();
     }
 

@@ -656,7 +656,7 @@ impl MapView {
                 )
             }
             (Some(_), Some(w)) => match guidance
-                .filter(|st| st.next == route.next())
+                .filter(|st| st.next == route.next() && st.route_revision == route.revision())
                 .and_then(|st| st.distance_m.filter(|d| d.is_finite()).map(|d| (d, st.bearing_deg)))
             {
                 None => format!(
