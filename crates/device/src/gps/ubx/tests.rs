@@ -208,6 +208,7 @@ mod properties {
         Nmea(String),
         Ubx(u8, u8, Vec<u8>),
         Sirf(Vec<u8>),
+        Other,
     }
 
     fn run(chunks: &[&[u8]]) -> (Vec<Item>, DecodeStats) {
@@ -218,6 +219,7 @@ mod properties {
                 Frame::Nmea(s) => Item::Nmea(s.to_owned()),
                 Frame::Ubx { class, id, payload } => Item::Ubx(class, id, payload.to_vec()),
                 Frame::Sirf { payload } => Item::Sirf(payload.to_vec()),
+                Frame::Casic { .. } | Frame::Rtcm3 { .. } => Item::Other,
             });
         };
         for c in chunks {

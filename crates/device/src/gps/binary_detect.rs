@@ -1,0 +1,297 @@
+//! Recognising binary GPS protocols that vestnav does not decode, so the operator is told "binary
+//! protocol X detected, not decoded: switch the receiver to NMEA" instead of seeing nothing.
+//!
+//! The [`Detector`] looks at every byte the framer gets and reports a family once it has seen
+//! [`CONFIRM_FRAMES`] well-formed frames of it **back to back** (each starting where the previous one
+//! ended; [`CONFIRM_FRAMES_UNCHECKED`] for TSIP, which has no checksum). A frame is well formed when its
+//! sync bytes, length and checksum or end sequence all agree with the family's documented layout:
+//!
+//! | family | layout (documentation) | check |
+//! |---|---|---|
+//! | `SkyTraq` binary | `A0 A1 len16be payload cs 0D 0A` (`SkyTraq` AN0037 "Binary Messages of `SkyTraq` Venus 8", 2) | XOR of the payload, end `0D 0A` |
+//! | Rockwell/Conexant Zodiac | `FF 81 id16 ndata16 flags16 hcs16 [data16 x ndata dcs16]`, words little-endian (Zodiac "GPS Receiver Family Designer's Guide", 3.2) | header and data words each sum to 0 mod 2^16; output ids 1000-1499 |
+//! | `NovAtel` `SuperStar` II | `01 id ~id len data cs16le` ("`SuperStar` II Firmware Reference Manual", 3.1) | id and its complement, 16-bit sum of header and data |
+//! | Motorola Oncore | `@@` two letters, data, checksum, `0D 0A` ("Oncore User's Guide", "Binary Data Messages") | XOR of the bytes after `@@` |
+//! | Garmin binary | `10 id size data cs 10 03`, `10` doubled inside ("Garmin Device Interface Specification", 3.1) | two's complement checksum of id, size and data, size agrees |
+//! | Trimble TSIP | `10 id data 10 03`, `10` doubled inside ("TSIP Reference", "Packet Structure") | stuffing consistent, report id in 0x13..=0xBF, no Garmin checksum |
+//!
+//! NMEA, UBX, `SiRF`, CASIC and RTCM 3 streams (every log of gpsd's suite we have) never confirm a family:
+//! a false frame in their binary payloads has to pass a checksum, and then be followed immediately by
+//! more of them. Not recognised yet (their layouts could not be confirmed from documentation here): Javad
+//! GREIS, `NavCom`, iTalk, Geostar.
+//!
+//! Memory and time are bounded: bytes are looked at once, and at most [`MAX_FRAME`] bytes are held back
+//! while a frame might still be completing.
+
+use serde::{Deserialize, Serialize};
+
+/// Back-to-back well-formed frames that confirm a family with a checksum.
+pub const CONFIRM_FRAMES: u32 = 3;
+/// Back-to-back frames that confirm TSIP (no checksum).
+pub const CONFIRM_FRAMES_UNCHECKED: u32 = 5;
+/// Longest frame looked for [bytes]: longer length fields are not frames of these families.
+pub const MAX_FRAME: usize = 1100;
+
+const DLE: u8 = 0x10;
+const ETX: u8 = 0x03;
+
+/// A binary protocol recognised but not decoded.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum Protocol {
+    /// Trimble Standard Interface Protocol.
+    TrimbleTsip,
+    /// Motorola Oncore binary.
+    MotorolaOncore,
+    /// Garmin binary (serial).
+    GarminBinary,
+    /// `SkyTraq` binary.
+    SkyTraq,
+    /// Rockwell/Conexant Zodiac binary.
+    Zodiac,
+    /// `NovAtel` `SuperStar` II binary.
+    SuperStarII,
+}
+
+impl Protocol {
+    /// The family's name for the operator.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::TrimbleTsip => "Trimble TSIP",
+            Self::MotorolaOncore => "Motorola Oncore",
+            Self::GarminBinary => "Garmin binary",
+            Self::SkyTraq => "SkyTraq binary",
+            Self::Zodiac => "Zodiac binary",
+            Self::SuperStarII => "SuperStar II binary",
+        }
+    }
+
+    /// The one line the console and the decode summary show.
+    pub fn advice(self) -> String {
+        format!("binary protocol {} detected, not decoded: switch the receiver to NMEA", self.name())
+    }
+
+    const ALL: [Self; 6] = [
+        Self::TrimbleTsip,
+        Self::MotorolaOncore,
+        Self::GarminBinary,
+        Self::SkyTraq,
+        Self::Zodiac,
+        Self::SuperStarII,
+    ];
+
+    fn index(self) -> usize {
+        Self::ALL.iter().position(|p| *p == self).unwrap_or(0)
+    }
+}
+
+/// What the bytes at a position are.
+#[derive(Debug, PartialEq, Eq)]
+enum Probe {
+    /// A well-formed frame of this many bytes.
+    Frame(Protocol, usize),
+    /// Could be a frame: more bytes are needed.
+    NeedMore,
+    /// Not a frame start.
+    No,
+}
+
+/// Watches a byte stream for binary protocols we do not decode.
+#[derive(Debug, Clone, Default)]
+pub struct Detector {
+    /// Bytes not yet looked at, or held back while a frame may be completing.
+    pending: Vec<u8>,
+    /// Stream position of `pending[0]`.
+    offset: u64,
+    /// Per family: (stream position where its last frame ended, frames back to back).
+    chains: [(u64, u32); 6],
+    found: Option<Protocol>,
+}
+
+impl Detector {
+    /// Looks at more bytes; returns the family once it is confirmed (and from then on).
+    pub fn feed(&mut self, data: &[u8]) -> Option<Protocol> {
+        if self.found.is_some() {
+            return self.found;
+        }
+        self.pending.extend_from_slice(data);
+        let mut i = 0;
+        while i < self.pending.len() {
+            let rest = self.pending.get(i..).unwrap_or_default();
+            match probe(rest) {
+                Probe::Frame(p, len) => {
+                    let start = self.offset + i as u64;
+                    let chain = &mut self.chains[p.index()];
+                    chain.1 = if chain.0 == start && chain.1 > 0 { chain.1 + 1 } else { 1 };
+                    chain.0 = start + len as u64;
+                    let need =
+                        if p == Protocol::TrimbleTsip { CONFIRM_FRAMES_UNCHECKED } else { CONFIRM_FRAMES };
+                    if chain.1 >= need {
+                        self.found = Some(p);
+                        self.pending = Vec::new();
+                        return self.found;
+                    }
+                    i += len;
+                }
+                Probe::NeedMore if rest.len() < MAX_FRAME => break,
+                Probe::NeedMore | Probe::No => i += 1,
+            }
+        }
+        self.pending.drain(..i.min(self.pending.len()));
+        self.offset += i as u64;
+        None
+    }
+}
+
+/// What the bytes at the start of `b` are.
+fn probe(b: &[u8]) -> Probe {
+    let Some(&first) = b.first() else { return Probe::No };
+    match first {
+        0xA0 => skytraq(b),
+        0xFF => zodiac(b),
+        0x01 => superstar(b),
+        b'@' => oncore(b),
+        DLE => dle_framed(b),
+        _ => Probe::No,
+    }
+}
+
+fn byte(b: &[u8], i: usize) -> Option<u8> {
+    b.get(i).copied()
+}
+
+/// `A0 A1 len16be payload xor 0D 0A`.
+fn skytraq(b: &[u8]) -> Probe {
+    match b {
+        [_, second, ..] if *second != 0xA1 => return Probe::No,
+        [_] | [_, _] | [_, _, _] => return Probe::NeedMore,
+        _ => {}
+    }
+    let len = usize::from(u16::from_be_bytes([b[2], b[3]]));
+    if len == 0 || len + 7 > MAX_FRAME {
+        return Probe::No;
+    }
+    let Some(frame) = b.get(..len + 7) else { return Probe::NeedMore };
+    let payload = &frame[4..4 + len];
+    let cs = payload.iter().fold(0u8, |a, x| a ^ x);
+    if frame[4 + len] == cs && frame[5 + len..] == [0x0D, 0x0A] {
+        Probe::Frame(Protocol::SkyTraq, len + 7)
+    } else {
+        Probe::No
+    }
+}
+
+/// Little-endian 16-bit words.
+fn words(b: &[u8]) -> impl Iterator<Item = u16> + '_ {
+    b.chunks_exact(2).map(|w| u16::from_le_bytes([w[0], w[1]]))
+}
+
+/// `FF 81 id ndata flags hcs [data.. dcs]` in 16-bit little-endian words.
+fn zodiac(b: &[u8]) -> Probe {
+    if byte(b, 1).is_some_and(|x| x != 0x81) {
+        return Probe::No;
+    }
+    let Some(header) = b.get(..10) else { return Probe::NeedMore };
+    if words(header).fold(0u16, u16::wrapping_add) != 0 {
+        return Probe::No;
+    }
+    let id = u16::from_le_bytes([header[2], header[3]]);
+    let n = usize::from(u16::from_le_bytes([header[4], header[5]]));
+    if !(1000..=1499).contains(&id) {
+        return Probe::No;
+    }
+    let total = if n == 0 { 10 } else { 10 + 2 * n + 2 };
+    if total > MAX_FRAME {
+        return Probe::No;
+    }
+    let Some(frame) = b.get(..total) else { return Probe::NeedMore };
+    if n == 0 || words(&frame[10..]).fold(0u16, u16::wrapping_add) == 0 {
+        Probe::Frame(Protocol::Zodiac, total)
+    } else {
+        Probe::No
+    }
+}
+
+/// `01 id ~id len data cs16le`, the checksum the 16-bit sum of every byte before it.
+fn superstar(b: &[u8]) -> Probe {
+    match (byte(b, 1), byte(b, 2)) {
+        (Some(id), Some(not_id)) if id != !not_id => return Probe::No,
+        (Some(_), Some(_)) => {}
+        _ => return Probe::NeedMore,
+    }
+    let Some(len) = byte(b, 3) else { return Probe::NeedMore };
+    let total = 4 + usize::from(len) + 2;
+    let Some(frame) = b.get(..total) else { return Probe::NeedMore };
+    let sum = frame[..total - 2].iter().fold(0u16, |a, &x| a.wrapping_add(u16::from(x)));
+    if sum == u16::from_le_bytes([frame[total - 2], frame[total - 1]]) {
+        Probe::Frame(Protocol::SuperStarII, total)
+    } else {
+        Probe::No
+    }
+}
+
+/// `@@ Xx data cs 0D 0A`, the checksum the XOR of the bytes from the two letters to the data's end.
+fn oncore(b: &[u8]) -> Probe {
+    if byte(b, 1).is_some_and(|x| x != b'@') {
+        return Probe::No;
+    }
+    let Some(header) = b.get(..4) else { return Probe::NeedMore };
+    if !(header[2].is_ascii_uppercase() && header[3].is_ascii_alphabetic()) {
+        return Probe::No;
+    }
+    // The first CR LF after the header ends the frame (Oncore messages are at most ~300 bytes).
+    let window = &b[..b.len().min(MAX_FRAME)];
+    let Some(cr) = window.windows(2).skip(4).position(|w| w == [0x0D, 0x0A]).map(|p| p + 4) else {
+        return if b.len() < MAX_FRAME { Probe::NeedMore } else { Probe::No };
+    };
+    let (body, cs) = (&b[2..cr - 1], b[cr - 1]);
+    if cr >= 6 && body.iter().fold(0u8, |a, x| a ^ x) == cs {
+        Probe::Frame(Protocol::MotorolaOncore, cr + 2)
+    } else {
+        Probe::No
+    }
+}
+
+/// `10 id ... 10 03` with `10` doubled inside: Garmin binary when its size and checksum agree, else TSIP
+/// when the id is a TSIP report.
+fn dle_framed(b: &[u8]) -> Probe {
+    let Some(id) = byte(b, 1) else { return Probe::NeedMore };
+    if id == DLE || id == ETX {
+        return Probe::No;
+    }
+    // Unstuff up to the closing DLE ETX.
+    let mut body = Vec::new();
+    let mut i = 2;
+    loop {
+        if i >= MAX_FRAME {
+            return Probe::No;
+        }
+        match (byte(b, i), byte(b, i + 1)) {
+            (Some(DLE), Some(DLE)) => {
+                body.push(DLE);
+                i += 2;
+            }
+            (Some(DLE), Some(ETX)) => break,
+            (Some(DLE), Some(_)) => return Probe::No,
+            (Some(x), _) if x != DLE => {
+                body.push(x);
+                i += 1;
+            }
+            _ => return Probe::NeedMore,
+        }
+    }
+    let total = i + 2;
+    // Garmin: size, data[size], checksum.
+    if let Some((&size, rest)) = body.split_first()
+        && rest.len() == usize::from(size) + 1
+    {
+        let sum = body.iter().fold(id, |a, &x| a.wrapping_add(x));
+        if sum == 0 {
+            return Probe::Frame(Protocol::GarminBinary, total);
+        }
+    }
+    if (0x13..=0xBF).contains(&id) && !body.is_empty() {
+        Probe::Frame(Protocol::TrimbleTsip, total)
+    } else {
+        Probe::No
+    }
+}
