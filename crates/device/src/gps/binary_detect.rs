@@ -295,3 +295,177 @@ fn dle_framed(b: &[u8]) -> Probe {
         Probe::No
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `SkyTraq` binary, by AN0037's layout: A0 A1, payload length (big-endian), payload, XOR, 0D 0A.
+    fn skytraq_frame(payload: &[u8]) -> Vec<u8> {
+        let mut out = vec![0xA0, 0xA1, (payload.len() >> 8) as u8, payload.len() as u8];
+        out.extend_from_slice(payload);
+        out.push(payload.iter().fold(0, |a, x| a ^ x));
+        out.extend_from_slice(&[0x0D, 0x0A]);
+        out
+    }
+
+    /// Zodiac: five header words summing to zero, data words and their zero-sum checksum word.
+    fn zodiac_frame(id: u16, data: &[u16]) -> Vec<u16> {
+        let mut w = vec![0x81FF, id, data.len() as u16, 0];
+        let hcs = 0u16.wrapping_sub(w.iter().fold(0u16, |a, &x| a.wrapping_add(x)));
+        w.push(hcs);
+        if !data.is_empty() {
+            w.extend_from_slice(data);
+            w.push(0u16.wrapping_sub(data.iter().fold(0u16, |a, &x| a.wrapping_add(x))));
+        }
+        w
+    }
+
+    fn le_bytes(words: &[u16]) -> Vec<u8> {
+        words.iter().flat_map(|w| w.to_le_bytes()).collect()
+    }
+
+    /// `SuperStar` II: SOH, id, complement, length, data, 16-bit sum little-endian.
+    fn superstar_frame(id: u8, data: &[u8]) -> Vec<u8> {
+        let mut out = vec![0x01, id, !id, data.len() as u8];
+        out.extend_from_slice(data);
+        let sum = out.iter().fold(0u16, |a, &x| a.wrapping_add(u16::from(x)));
+        out.extend_from_slice(&sum.to_le_bytes());
+        out
+    }
+
+    /// Oncore: @@, two letters, data, XOR of letters and data, CR LF.
+    fn oncore_frame(letters: &[u8; 2], data: &[u8]) -> Vec<u8> {
+        let mut out = vec![b'@', b'@', letters[0], letters[1]];
+        out.extend_from_slice(data);
+        out.push(letters.iter().chain(data).fold(0, |a, x| a ^ x));
+        out.extend_from_slice(&[0x0D, 0x0A]);
+        out
+    }
+
+    /// DLE framing with DLE doubled inside.
+    fn dle_frame(id: u8, body: &[u8]) -> Vec<u8> {
+        let mut out = vec![DLE, id];
+        for &b in body {
+            out.push(b);
+            if b == DLE {
+                out.push(DLE);
+            }
+        }
+        out.extend_from_slice(&[DLE, ETX]);
+        out
+    }
+
+    /// Garmin: size, data, two's complement checksum of id, size and data.
+    fn garmin_frame(id: u8, data: &[u8]) -> Vec<u8> {
+        let mut body = vec![data.len() as u8];
+        body.extend_from_slice(data);
+        let sum = body.iter().fold(id, |a, &x| a.wrapping_add(x));
+        body.push(0u8.wrapping_sub(sum));
+        dle_frame(id, &body)
+    }
+
+    fn frames_of(p: Protocol, i: u8) -> Vec<u8> {
+        match p {
+            Protocol::SkyTraq => skytraq_frame(&[0xA8, i, 0x10, 0x0D, 0x0A, 0xA0, 0xA1]),
+            Protocol::Zodiac => le_bytes(&zodiac_frame(1000, &[u16::from(i), 0x8181, 0xFFFF])),
+            Protocol::SuperStarII => superstar_frame(20, &[i, 0x01, 0xFE, 0x10]),
+            Protocol::MotorolaOncore => oncore_frame(b"Ea", &[i, 0x40, 0x40, 0x00, 0x10, 0x03]),
+            Protocol::GarminBinary => garmin_frame(0x33, &[i, DLE, 0x03, 0x00]),
+            Protocol::TrimbleTsip => dle_frame(0x8F, &[0x20, i, DLE, 0x03, 0x55]),
+        }
+    }
+
+    fn detect(bytes: &[u8], chunk: usize) -> Option<Protocol> {
+        let mut d = Detector::default();
+        bytes.chunks(chunk).fold(None, |found, c| found.or(d.feed(c)))
+    }
+
+    #[test]
+    fn each_family_is_confirmed_by_back_to_back_frames_only() {
+        for p in Protocol::ALL {
+            let need = if p == Protocol::TrimbleTsip { CONFIRM_FRAMES_UNCHECKED } else { CONFIRM_FRAMES };
+            let frames: Vec<Vec<u8>> = (0..need as u8).map(|i| frames_of(p, i)).collect();
+            let all = frames.concat();
+            for chunk in [1, 3, 7, all.len()] {
+                assert_eq!(detect(&all, chunk), Some(p), "{p:?} in chunks of {chunk}");
+            }
+            // One frame fewer, or a byte between two of them: not (yet) confirmed.
+            let short = frames[1..].concat();
+            assert_eq!(detect(&short, 5), None, "{p:?}: one frame short");
+            let mut gap = frames[..2].concat();
+            gap.push(0x00);
+            gap.extend(frames[2..].concat());
+            assert_eq!(detect(&gap, 5), None, "{p:?}: not back to back");
+            // A corrupted checksum byte (the byte before the end) breaks the chain.
+            if p != Protocol::TrimbleTsip {
+                let mut bad = frames.clone();
+                let last = bad[1].len() - 3;
+                bad[1][last] ^= 0x5A;
+                assert_eq!(detect(&bad.concat(), 5), None, "{p:?}: bad checksum");
+            }
+        }
+    }
+
+    #[test]
+    fn the_advice_names_the_family() {
+        assert_eq!(
+            Protocol::TrimbleTsip.advice(),
+            "binary protocol Trimble TSIP detected, not decoded: switch the receiver to NMEA"
+        );
+    }
+
+    /// Every log we have (NMEA, UBX, `SiRF`, RTCM 3, junk-laden cold boots) never confirms a family, read
+    /// whole or in odd chunks.
+    #[test]
+    fn no_log_of_a_decoded_protocol_triggers_it() {
+        let root = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../tests/data");
+        let mut n = 0;
+        for dir in ["gpsd-logs", "gpsd-logs-more", "gpsd-rtcm"] {
+            for e in std::fs::read_dir(root.join(dir)).unwrap().flatten() {
+                let bytes = std::fs::read(e.path()).unwrap();
+                for chunk in [97, 4096] {
+                    assert_eq!(detect(&bytes, chunk), None, "{}", e.path().display());
+                }
+                n += 1;
+            }
+        }
+        assert!(n > 60);
+    }
+
+    /// Random bytes (line noise) never confirm a family, and the held-back bytes stay bounded.
+    #[test]
+    fn line_noise_does_not_trigger_it() {
+        let mut state = 0x2545_f491_4f6c_dd1d_u64;
+        let noise: Vec<u8> = (0..2_000_000)
+            .map(|_| {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                (state >> 24) as u8
+            })
+            .collect();
+        let mut d = Detector::default();
+        for c in noise.chunks(1000) {
+            assert_eq!(d.feed(c), None);
+            assert!(d.pending.len() <= MAX_FRAME + 1000);
+        }
+    }
+
+    #[test]
+    fn the_decoder_says_it_once_as_a_notice_and_in_its_stats() {
+        use crate::gps::{GpsEvent, NmeaDecoder};
+        let mut d = NmeaDecoder::default();
+        let now = std::time::Instant::now();
+        let stream: Vec<u8> = (0..10).flat_map(|i| frames_of(Protocol::SuperStarII, i)).collect();
+        d.handle_bytes(&stream, now);
+        d.handle_bytes(&stream, now);
+        d.finish(now);
+        let notices: Vec<String> = std::iter::from_fn(|| d.poll_event())
+            .filter_map(|e| if let GpsEvent::Notice(n) = e { Some(n) } else { None })
+            .collect();
+        assert_eq!(notices, [Protocol::SuperStarII.advice()]);
+        assert_eq!(d.stats().undecoded_protocol, Some(Protocol::SuperStarII));
+        assert!(d.stats().to_string().starts_with(&Protocol::SuperStarII.advice()));
+    }
+}

@@ -288,3 +288,6 @@ fn sat_info(id: u8, p: &[u8]) -> Result<(usize, Vec<Satellite>), UbxUnused> {
         .collect();
     Ok((system, list))
 }
+
+#[cfg(test)]
+mod tests;
