@@ -335,7 +335,7 @@ mod tests {
     }
 
     /// Oncore: @@, two letters, data, XOR of letters and data, CR LF.
-    fn oncore_frame(letters: &[u8; 2], data: &[u8]) -> Vec<u8> {
+    fn oncore_frame(letters: [u8; 2], data: &[u8]) -> Vec<u8> {
         let mut out = vec![b'@', b'@', letters[0], letters[1]];
         out.extend_from_slice(data);
         out.push(letters.iter().chain(data).fold(0, |a, x| a ^ x));
@@ -370,7 +370,7 @@ mod tests {
             Protocol::SkyTraq => skytraq_frame(&[0xA8, i, 0x10, 0x0D, 0x0A, 0xA0, 0xA1]),
             Protocol::Zodiac => le_bytes(&zodiac_frame(1000, &[u16::from(i), 0x8181, 0xFFFF])),
             Protocol::SuperStarII => superstar_frame(20, &[i, 0x01, 0xFE, 0x10]),
-            Protocol::MotorolaOncore => oncore_frame(b"Ea", &[i, 0x40, 0x40, 0x00, 0x10, 0x03]),
+            Protocol::MotorolaOncore => oncore_frame(*b"Ea", &[i, 0x40, 0x40, 0x00, 0x10, 0x03]),
             Protocol::GarminBinary => garmin_frame(0x33, &[i, DLE, 0x03, 0x00]),
             Protocol::TrimbleTsip => dle_frame(0x8F, &[0x20, i, DLE, 0x03, 0x55]),
         }

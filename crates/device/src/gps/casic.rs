@@ -59,7 +59,7 @@ pub fn checksum(class: u8, id: u8, payload: &[u8]) -> u32 {
 /// # Panics
 /// If the payload is longer than 65,535 bytes or not whole 4-byte words; every message we build fits.
 pub fn frame(class: u8, id: u8, payload: &[u8]) -> Vec<u8> {
-    assert!(payload.len() % 4 == 0, "CASIC payloads are whole 4-byte words");
+    assert!(payload.len().is_multiple_of(4), "CASIC payloads are whole 4-byte words");
     let len = u16::try_from(payload.len()).expect("CASIC payload longer than 65,535 bytes");
     let mut out = Vec::with_capacity(payload.len() + OVERHEAD);
     out.extend_from_slice(&SYNC);
@@ -145,7 +145,10 @@ impl CasicDecoder {
         let e = self.epoch.get_or_insert_with(|| Epoch { run_ms, ..Epoch::default() });
         let applied = match id {
             0x03 => apply_pv(e, payload),
-            0x01 => apply_dop(e, payload),
+            0x01 => {
+                apply_dop(e, payload);
+                Some(())
+            }
             0x10 => apply_timeutc(e, payload),
             _ => Some(()),
         };
@@ -211,7 +214,7 @@ impl CasicDecoder {
                     *fix.sats_used_by.entry(s.constellation).or_default() += 1;
                 }
             }
-            fix.satellites = lists.into_iter().cloned().collect();
+            fix.satellites = lists.into_iter().copied().collect();
         }
         fix
     }
@@ -238,11 +241,10 @@ fn apply_pv(e: &mut Epoch, p: &[u8]) -> Option<()> {
 }
 
 /// NAV-DOP: position, horizontal and vertical DOP (NAV-DOP's PDOP wins over NAV-PV's, they are the same).
-fn apply_dop(e: &mut Epoch, p: &[u8]) -> Option<()> {
+fn apply_dop(e: &mut Epoch, p: &[u8]) {
     e.pdop = f(r4(p, 4));
     e.hdop = f(r4(p, 8));
     e.vdop = f(r4(p, 12));
-    Some(())
 }
 
 /// NAV-TIMEUTC: UTC when time of week, week number and leap seconds are valid and the date is known.

@@ -336,7 +336,7 @@ impl Proto {
             (Self::Sirf, &[hi, lo]) => Some(usize::from(u16::from_be_bytes([hi, lo]))),
             (Self::Ubx, &[_, _, lo, hi]) => Some(usize::from(u16::from_le_bytes([lo, hi]))),
             (Self::Casic, &[lo, hi, _, _]) => {
-                Some(usize::from(u16::from_le_bytes([lo, hi]))).filter(|n| n % 4 == 0)
+                Some(usize::from(u16::from_le_bytes([lo, hi]))).filter(|n| n.is_multiple_of(4))
             }
             (Self::Rtcm3, &[hi, lo]) if hi & 0xFC == 0 => Some(usize::from(u16::from_be_bytes([hi, lo]))),
             _ => None,

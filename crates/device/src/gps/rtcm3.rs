@@ -131,7 +131,7 @@ mod tests {
         let mut k = 0u64;
         for fr in &frames {
             mixed.extend(fr);
-            mixed.extend(if k % 2 == 0 { &rtcm } else { &broken });
+            mixed.extend(if k.is_multiple_of(2) { &rtcm } else { &broken });
             k += 1;
         }
         mixed.extend(gga);

@@ -214,8 +214,8 @@ pub struct NmeaDecoder {
     /// Dates waiting for confirmation (docs/gps.md, "Date validation").
     dates: date::DateCheck,
     binary: BinaryState,
-    /// The undecoded binary protocol was announced ([`GpsEvent::Notice`], once).
-    undecoded_noticed: bool,
+    /// The undecoded binary protocol announced ([`GpsEvent::Notice`], once).
+    undecoded_noticed: Option<super::binary_detect::Protocol>,
 }
 
 /// Who gives the epochs when a receiver sends binary frames.
@@ -269,7 +269,7 @@ impl NmeaDecoder {
             casic: CasicDecoder::new(),
             dates: date::DateCheck::default(),
             binary: BinaryState::default(),
-            undecoded_noticed: false,
+            undecoded_noticed: None,
         }
     }
 
@@ -319,10 +319,10 @@ impl NmeaDecoder {
         let mut framer = std::mem::take(&mut self.framer);
         framer.feed(data, |f, stats| self.handle_frame(f, stats));
         self.framer = framer;
-        if !self.undecoded_noticed
+        if self.undecoded_noticed.is_none()
             && let Some(p) = self.framer.stats().undecoded_protocol
         {
-            self.undecoded_noticed = true;
+            self.undecoded_noticed = Some(p);
             self.events.push_back(GpsEvent::Notice(p.advice()));
         }
         // Bytes that were nothing but HDG sentences say nothing about the epoch: they do not hold the

@@ -229,12 +229,12 @@ proptest! {
                 (date.unwrap(), NaiveTime::from_num_seconds_from_midnight_opt(s, 0).unwrap())
             })
             .collect();
-        let mutated = NaiveDate::from_ymd_opt(year as i32, month, day).unwrap();
+        let mutated = NaiveDate::from_ymd_opt(i32::try_from(year).unwrap(), month, day).unwrap();
         prop_assume!(mutated != truth[at].0);
         // RMC has two-digit years (83-99 = 19xx, else 20xx): the mutation is the date it reads as.
         let mutated = if by_rmc {
             let yy = year % 100;
-            NaiveDate::from_ymd_opt(if yy >= 83 { 1900 + yy } else { 2000 + yy } as i32, month, day).unwrap()
+            NaiveDate::from_ymd_opt(i32::try_from(if yy >= 83 { 1900 + yy } else { 2000 + yy }).unwrap(), month, day).unwrap()
         } else {
             mutated
         };
