@@ -20,8 +20,8 @@
 //!   `azim` I2 6.
 //!
 //! An epoch is everything with one `runTime` (ms since the receiver started, the same in every NAV message
-//! of a solution); it closes when a NAV message with another `runTime` arrives or at [`CasicDecoder::finish`],
-//! and gives a fix when it had a NAV-PV. Position flags (`posValid`, 2.7.1 remark 1): 6 is a 2D fix, 7 3D,
+//! of a solution); it closes when a NAV message with another `runTime` arrives, at the end of the stream
+//! or after a quiet gap, and gives a fix when it had a NAV-PV. Position flags (`posValid`, 2.7.1 remark 1): 6 is a 2D fix, 7 3D,
 //! 8 GNSS + dead reckoning (3D); 4 dead reckoning alone is an estimated 2D fix; 0-3 and 5 (invalid,
 //! external input, rough estimate, last position held, quick mode) are no fix. The satellite lists are
 //! receiver state per system, kept until the next list of that system, as GSV is for NMEA.
