@@ -175,6 +175,8 @@ pub enum ErrorSource {
     Ubx,
     /// `SiRF` binary estimated horizontal/vertical position error (MID 41 `EHPE`, `EVPE`).
     Sirf,
+    /// CASIC NAV-PV `hAcc`/`vAcc` (sent as variances; the square roots).
+    Casic,
     /// gpsd's `eph`/`epv` (its own DOP model unless the receiver sent GST/PGRME; confidence unspecified).
     Gpsd,
     /// Our DOP model: `sigma_h = HDOP * UERE`, `sigma_v = VDOP * UERE` (see [`crate::gps::UERE_M`]).
@@ -193,6 +195,7 @@ impl ErrorSource {
             ErrorSource::Pgrme => "PGRME".to_owned(),
             ErrorSource::Ubx => "UBX hAcc".to_owned(),
             ErrorSource::Sirf => "SiRF EHPE".to_owned(),
+            ErrorSource::Casic => "CASIC hAcc".to_owned(),
             ErrorSource::Gpsd => "gpsd eph".to_owned(),
             ErrorSource::DopModel { uere_m } => format!("HDOP x {uere_m} m"),
         }
@@ -384,7 +387,11 @@ impl Fix {
     ///   cut to [`MAX_SATELLITES`] entries; each satellite's elevation within ±90°, azimuth normalised like a
     ///   course, SNR within [0, [`MAX_SNR_DBHZ`]];
     /// - error estimate: horizontal finite and within [0, [`MAX_ERROR_M`]] (else the estimate is removed),
-    ///   vertical likewise (else only it is removed).
+    ///   vertical likewise (else only it is removed);
+    /// - date: the UTC date and time are removed (the time of day kept) when the date is outside the GPS
+    ///   era, 1980-01-06 to 2099-12-31 ([`super::assembly::in_gps_era`]; the NMEA decoder also checks each
+    ///   date against the previous epochs' and counts its rejections in
+    ///   [`DecodeStats::implausible_dates`](super::DecodeStats::implausible_dates)).
     ///
     /// Every removal or correction other than the position is counted in
     /// [`FixCheck::implausible_values`]; values that pass are left bit for bit as they were.
@@ -430,6 +437,10 @@ impl Fix {
             keep_in(&mut s.elevation_deg, -90.0, 90.0, n);
             keep_angle(&mut s.azimuth_deg, n);
             keep_in(&mut s.snr_dbhz, 0.0, MAX_SNR_DBHZ, n);
+        }
+        if self.time.is_some_and(|t| !super::assembly::in_gps_era(t.date_naive())) {
+            self.time = None;
+            *n += 1;
         }
         if let Some(e) = &mut self.error {
             if e.horizontal_m.is_finite() && (0.0..=MAX_ERROR_M).contains(&e.horizontal_m) {

@@ -6,7 +6,11 @@
 //! - a u-blox UBX frame (`B5 62 class id len16le payload ck_a ck_b`) whose Fletcher checksum
 //!   ([`super::ubx::checksum`]) is correct;
 //! - a `SiRF` binary frame (`A0 A2 len16be payload ck16be B0 B3`) whose 15-bit checksum
-//!   ([`super::sirf::checksum`]) and end sequence are correct.
+//!   ([`super::sirf::checksum`]) and end sequence are correct;
+//! - a CASIC binary frame (`BA CE len16le class id payload ck32le`, `ZhongKeWei` / Quectel L76K) whose
+//!   32-bit word sum ([`super::casic::checksum`]) is correct;
+//! - an RTCM 3 frame (`D3 len10 payload crc24`) whose CRC-24Q ([`super::rtcm3::crc24q`]) is correct: handed
+//!   out so it is skipped whole (receivers mixing UBX, NMEA and RTCM 3 lose nothing to it).
 //!
 //! What it rejects:
 //! - a `$` (or `!`) in the middle of a line starts a new sentence; the interrupted one is counted as
@@ -24,7 +28,7 @@
 //! - sentences without a checksum, or with a wrong one, are rejected (gpsd rejects them too);
 //! - lines starting with `#` are comments (gpsd's test logs) and are skipped, not counted as errors.
 
-use super::{sirf, ubx};
+use super::{casic, rtcm3, sirf, ubx};
 
 /// Longest sentence accepted, `$` to the last checksum digit: twice NMEA's 82 (which includes CR LF).
 pub const MAX_SENTENCE_LEN: usize = 164;
@@ -50,6 +54,20 @@ pub enum Frame<'a> {
     /// A `SiRF` binary frame: its payload, message id (MID) first.
     Sirf {
         /// The payload (without start, length, checksum and end).
+        payload: &'a [u8],
+    },
+    /// A CASIC binary frame: its class, id and payload.
+    Casic {
+        /// Message class (0x01 NAV, ...).
+        class: u8,
+        /// Message id within the class.
+        id: u8,
+        /// The payload (without header, length and checksum).
+        payload: &'a [u8],
+    },
+    /// An RTCM 3 frame (corrections; not decoded): its payload, message number in the first 12 bits.
+    Rtcm3 {
+        /// The payload (without preamble, length and CRC).
         payload: &'a [u8],
     },
 }
@@ -99,6 +117,20 @@ pub struct DecodeStats {
     /// `SiRF` binary frames with a correct checksum and end sequence (decoded or ignored).
     #[serde(default)]
     pub sirf_frames: u64,
+    /// CASIC binary frames with a correct checksum (decoded or ignored).
+    #[serde(default)]
+    pub casic_frames: u64,
+    /// RTCM 3 frames with a correct CRC-24Q (corrections, skipped whole: not an error).
+    #[serde(default)]
+    pub rtcm3_frames: u64,
+    /// Dates (RMC, ZDA, binary time messages) outside the GPS era or inconsistent with the previous
+    /// epochs' date: not used for the fix's time (docs/gps.md, "Date validation").
+    #[serde(default)]
+    pub implausible_dates: u64,
+    /// A binary protocol we recognise but do not decode (Trimble TSIP, Motorola Oncore, ...), confirmed by
+    /// several well-formed frames: the receiver must be switched to NMEA ([`super::binary_detect`]).
+    #[serde(default)]
+    pub undecoded_protocol: Option<super::binary_detect::Protocol>,
     /// Binary frames rejected by the framer: a wrong checksum or `SiRF` end sequence, a length field over
     /// [`MAX_BINARY_PAYLOAD`], or a frame the stream ended inside (rejected; its bytes are scanned again).
     #[serde(default)]
@@ -123,6 +155,9 @@ pub struct DecodeStats {
     /// Fixes whose error estimate came from the receiver: `SiRF` EHPE/EVPE.
     #[serde(default)]
     pub accuracy_sirf: u64,
+    /// Fixes whose error estimate came from the receiver: CASIC `hAcc`/`vAcc`.
+    #[serde(default)]
+    pub accuracy_casic: u64,
     /// Fixes whose error estimate is gpsd's `eph`/`epv`.
     #[serde(default)]
     pub accuracy_gpsd: u64,
@@ -144,9 +179,9 @@ impl DecodeStats {
             + self.binary_malformed
     }
 
-    /// Fixes with an error estimate from the receiver itself (GST, PGRME, UBX, `SiRF`).
+    /// Fixes with an error estimate from the receiver itself (GST, PGRME, UBX, `SiRF`, CASIC).
     pub fn accuracy_receiver(&self) -> u64 {
-        self.accuracy_gst + self.accuracy_pgrme + self.accuracy_ubx + self.accuracy_sirf
+        self.accuracy_gst + self.accuracy_pgrme + self.accuracy_ubx + self.accuracy_sirf + self.accuracy_casic
     }
 
     /// Counts one emitted fix's error estimate by its source.
@@ -157,6 +192,7 @@ impl DecodeStats {
             Some(ErrorSource::Pgrme) => self.accuracy_pgrme += 1,
             Some(ErrorSource::Ubx) => self.accuracy_ubx += 1,
             Some(ErrorSource::Sirf) => self.accuracy_sirf += 1,
+            Some(ErrorSource::Casic) => self.accuracy_casic += 1,
             Some(ErrorSource::Gpsd) => self.accuracy_gpsd += 1,
             Some(ErrorSource::DopModel { .. }) => self.accuracy_dop_model += 1,
             None => {}
@@ -182,6 +218,10 @@ impl DecodeStats {
         self.implausible_values += o.implausible_values;
         self.ubx_frames += o.ubx_frames;
         self.sirf_frames += o.sirf_frames;
+        self.casic_frames += o.casic_frames;
+        self.rtcm3_frames += o.rtcm3_frames;
+        self.implausible_dates += o.implausible_dates;
+        self.undecoded_protocol = self.undecoded_protocol.or(o.undecoded_protocol);
         self.binary_bad_checksum += o.binary_bad_checksum;
         self.binary_malformed += o.binary_malformed;
         self.nmea_epochs_superseded += o.nmea_epochs_superseded;
@@ -189,6 +229,7 @@ impl DecodeStats {
         self.accuracy_pgrme += o.accuracy_pgrme;
         self.accuracy_ubx += o.accuracy_ubx;
         self.accuracy_sirf += o.accuracy_sirf;
+        self.accuracy_casic += o.accuracy_casic;
         self.accuracy_gpsd += o.accuracy_gpsd;
         self.accuracy_dop_model += o.accuracy_dop_model;
     }
@@ -196,16 +237,26 @@ impl DecodeStats {
 
 impl std::fmt::Display for DecodeStats {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if let Some(p) = self.undecoded_protocol {
+            write!(f, "{}; ", p.advice())?;
+        }
         write!(
             f,
-            "{} bytes, {} sentences, {} UBX frames, {} SiRF frames, {} epochs, {} marks; rejected {} (bad \
+            "{} bytes, {} sentences, {} UBX frames, {} SiRF frames, ",
+            self.bytes, self.sentences, self.ubx_frames, self.sirf_frames
+        )?;
+        if self.casic_frames > 0 {
+            write!(f, "{} CASIC frames, ", self.casic_frames)?;
+        }
+        if self.rtcm3_frames > 0 {
+            write!(f, "{} RTCM 3 frames (skipped), ", self.rtcm3_frames)?;
+        }
+        write!(
+            f,
+            "{} epochs, {} marks; rejected {} (bad \
              checksum {}, no checksum {}, truncated {}, overlong {}, malformed {}, bad binary frames {}, \
              malformed binary {}); ignored: {} unsupported sentences, {} unsupported binary frames, {} junk \
              bytes, {} comment lines",
-            self.bytes,
-            self.sentences,
-            self.ubx_frames,
-            self.sirf_frames,
             self.epochs,
             self.marks,
             self.rejected(),
@@ -226,10 +277,11 @@ impl std::fmt::Display for DecodeStats {
         }
         write!(
             f,
-            "; removed from fixes: {} invalid positions, {} implausible values; accuracy from the receiver {} \
-             (GST {}, PGRME {}, UBX {}, SiRF {}), gpsd {}, DOP model {}",
+            "; removed from fixes: {} invalid positions, {} implausible values, {} implausible dates; \
+             accuracy from the receiver {} (GST {}, PGRME {}, UBX {}, SiRF {}), gpsd {}, DOP model {}",
             self.invalid_positions,
             self.implausible_values,
+            self.implausible_dates,
             self.accuracy_receiver(),
             self.accuracy_gst,
             self.accuracy_pgrme,
@@ -238,6 +290,57 @@ impl std::fmt::Display for DecodeStats {
             self.accuracy_gpsd,
             self.accuracy_dop_model,
         )
+    }
+}
+
+/// A binary protocol the framer collects frames of.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Proto {
+    Ubx,
+    Sirf,
+    Casic,
+    Rtcm3,
+}
+
+impl Proto {
+    /// Sync bytes before the header.
+    const fn sync_len(self) -> usize {
+        match self {
+            Self::Rtcm3 => 1,
+            Self::Ubx | Self::Sirf | Self::Casic => 2,
+        }
+    }
+
+    /// Bytes of the header after the sync bytes (UBX: class, id, len16le; `SiRF`: len16be; CASIC: len16le,
+    /// class, id; RTCM 3: reserved 6 bits and len10).
+    const fn header_len(self) -> usize {
+        match self {
+            Self::Ubx | Self::Casic => 4,
+            Self::Sirf | Self::Rtcm3 => 2,
+        }
+    }
+
+    /// Bytes after the payload (UBX: `ck_a ck_b`; `SiRF`: ck16be, B0 B3; CASIC: ck32le; RTCM 3: CRC-24Q).
+    const fn trailer_len(self) -> usize {
+        match self {
+            Self::Ubx => 2,
+            Self::Rtcm3 => 3,
+            Self::Sirf | Self::Casic => 4,
+        }
+    }
+
+    /// The payload length a complete header announces; `None` when it cannot be a frame (RTCM 3's reserved
+    /// bits set, a CASIC payload that is not whole 4-byte words).
+    fn payload_len(self, header: &[u8]) -> Option<usize> {
+        match (self, header) {
+            (Self::Sirf, &[hi, lo]) => Some(usize::from(u16::from_be_bytes([hi, lo]))),
+            (Self::Ubx, &[_, _, lo, hi]) => Some(usize::from(u16::from_le_bytes([lo, hi]))),
+            (Self::Casic, &[lo, hi, _, _]) => {
+                Some(usize::from(u16::from_le_bytes([lo, hi]))).filter(|n| n.is_multiple_of(4))
+            }
+            (Self::Rtcm3, &[hi, lo]) if hi & 0xFC == 0 => Some(usize::from(u16::from_be_bytes([hi, lo]))),
+            _ => None,
+        }
     }
 }
 
@@ -251,19 +354,11 @@ enum State {
     Line,
     /// After an overlong line: discard until the end of the line.
     Discard,
-    /// Saw 0xB5 (UBX sync 1).
-    UbxSync,
-    /// Saw 0xA0 (`SiRF` sync 1).
-    SirfSync,
-    /// Collecting a binary frame after its sync bytes into `bin`: the header (UBX: class, id, len16le;
-    /// `SiRF`: len16be), then payload and trailer (UBX: `ck_a ck_b`; `SiRF`: ck16be, B0 B3). `total` is the
-    /// frame's length after the sync bytes, known once the header is in (0 before).
-    Binary { sirf: bool, total: usize },
-}
-
-/// Bytes of the header after the sync bytes.
-const fn header_len(sirf: bool) -> usize {
-    if sirf { 2 } else { 4 }
+    /// Saw the first of two sync bytes (UBX 0xB5, `SiRF` 0xA0, CASIC 0xBA).
+    Sync(Proto),
+    /// Collecting a binary frame after its sync bytes into `bin`: the header, then payload and trailer.
+    /// `total` is the frame's length after the sync bytes, known once the header is in (0 before).
+    Binary { proto: Proto, total: usize },
 }
 
 /// The framer: feed bytes, get checksum-verified [`Frame`]s.
@@ -280,6 +375,8 @@ pub struct Framer {
     rescanning: bool,
     at_line_start: bool,
     stats: DecodeStats,
+    /// Watches the bytes for binary protocols we do not decode.
+    detector: super::binary_detect::Detector,
 }
 
 impl Default for Framer {
@@ -293,6 +390,7 @@ impl Default for Framer {
             rescanning: false,
             at_line_start: true,
             stats: DecodeStats::default(),
+            detector: super::binary_detect::Detector::default(),
         }
     }
 }
@@ -311,6 +409,9 @@ impl Framer {
     /// Feeds bytes; calls `on_frame` with each sentence or binary frame whose checksum is correct.
     pub fn feed(&mut self, data: &[u8], mut on_frame: impl FnMut(Frame<'_>, &mut DecodeStats)) {
         self.stats.bytes += data.len() as u64;
+        if self.stats.undecoded_protocol.is_none() {
+            self.stats.undecoded_protocol = self.detector.feed(data);
+        }
         let mut i = 0;
         while i < data.len() {
             i += self.scan(data.get(i..).unwrap_or_default(), &mut on_frame);
@@ -341,12 +442,12 @@ impl Framer {
             let rest = data.get(i..).unwrap_or_default();
             // Fast paths: copy binary payloads and runs of plain sentence characters in bulk.
             match self.state {
-                State::Binary { sirf, total } if total > 0 => {
+                State::Binary { proto, total } if total > 0 => {
                     let k = (total - self.bin.len()).min(rest.len());
                     self.bin.extend_from_slice(rest.get(..k).unwrap_or_default());
                     i += k;
                     if self.bin.len() == total {
-                        self.end_binary(sirf, on_frame);
+                        self.end_binary(proto, on_frame);
                     }
                     continue;
                 }
@@ -381,8 +482,8 @@ impl Framer {
     /// Ends the stream: a sentence still being collected without its line end is handed out if its
     /// checksum is correct; a binary frame still being collected is rejected and its bytes scanned again.
     pub fn finish(&mut self, mut on_frame: impl FnMut(Frame<'_>, &mut DecodeStats)) {
-        while let State::Binary { .. } = self.state {
-            self.reject_binary();
+        while let State::Binary { proto, .. } = self.state {
+            self.reject_binary(proto);
             self.drain_rescan(&mut on_frame);
         }
         if self.state == State::Line {
@@ -435,32 +536,41 @@ impl Framer {
                 b'$' | b'!' => self.start_line(b),
                 _ => self.stats.junk_bytes += 1,
             },
-            State::UbxSync | State::SirfSync => {
-                let sirf = self.state == State::SirfSync;
-                if b == if sirf { sirf::START[1] } else { ubx::SYNC_2 } {
+            State::Sync(proto) => {
+                let second = match proto {
+                    Proto::Sirf => sirf::START[1],
+                    Proto::Casic => casic::SYNC[1],
+                    Proto::Ubx | Proto::Rtcm3 => ubx::SYNC_2,
+                };
+                if b == second {
                     self.bin.clear();
-                    self.state = State::Binary { sirf, total: 0 };
+                    self.state = State::Binary { proto, total: 0 };
                 } else {
                     self.stats.junk_bytes += 1;
                     self.state = State::Idle;
                     self.idle(b);
                 }
             }
-            State::Binary { sirf, total } => {
+            State::Binary { proto, total } => {
+                if proto == Proto::Rtcm3 && self.bin.is_empty() && b & 0xFC != 0 {
+                    // Reserved bits set: the 0xD3 was a stray byte, not a preamble (not counted as a frame).
+                    self.stats.junk_bytes += 1;
+                    self.state = State::Idle;
+                    self.idle(b);
+                    return;
+                }
                 // Only the header is collected byte by byte (the body takes the fast path).
                 self.bin.push(b);
-                if total == 0 && self.bin.len() == header_len(sirf) {
-                    let len = match (sirf, self.bin.as_slice()) {
-                        (true, &[hi, lo]) => usize::from(u16::from_be_bytes([hi, lo])),
-                        (false, &[_, _, lo, hi]) => usize::from(u16::from_le_bytes([lo, hi])),
-                        _ => usize::MAX,
-                    };
-                    if len > MAX_BINARY_PAYLOAD {
-                        self.reject_binary();
-                        return;
+                if total == 0 && self.bin.len() == proto.header_len() {
+                    match proto.payload_len(&self.bin).filter(|&n| n <= MAX_BINARY_PAYLOAD) {
+                        Some(len) => {
+                            self.state = State::Binary {
+                                proto,
+                                total: proto.header_len() + len + proto.trailer_len(),
+                            };
+                        }
+                        None => self.reject_binary(proto),
                     }
-                    let trailer = if sirf { 4 } else { 2 };
-                    self.state = State::Binary { sirf, total: header_len(sirf) + len + trailer };
                 }
             }
         }
@@ -474,8 +584,13 @@ impl Framer {
                 self.stats.comment_lines += 1;
                 self.state = State::Comment;
             }
-            ubx::SYNC_1 => self.state = State::UbxSync,
-            0xA0 => self.state = State::SirfSync,
+            ubx::SYNC_1 => self.state = State::Sync(Proto::Ubx),
+            0xA0 => self.state = State::Sync(Proto::Sirf),
+            casic::SYNC_1 => self.state = State::Sync(Proto::Casic),
+            rtcm3::PREAMBLE => {
+                self.bin.clear();
+                self.state = State::Binary { proto: Proto::Rtcm3, total: 0 };
+            }
             _ => {
                 self.stats.junk_bytes += 1;
                 self.at_line_start = false;
@@ -484,44 +599,47 @@ impl Framer {
     }
 
     /// A complete binary frame is in `bin`: hand it out if its checksum (and `SiRF` end) is right.
-    fn end_binary(&mut self, sirf: bool, on_frame: &mut impl FnMut(Frame<'_>, &mut DecodeStats)) {
-        let ok = if sirf {
-            match self.bin.as_slice() {
-                [_, _, payload @ .., ck_hi, ck_lo, e0, e1] => {
-                    [*e0, *e1] == sirf::END && sirf::checksum(payload) == u16::from_be_bytes([*ck_hi, *ck_lo])
-                }
-                _ => false,
+    fn end_binary(&mut self, proto: Proto, on_frame: &mut impl FnMut(Frame<'_>, &mut DecodeStats)) {
+        let frame = match (proto, self.bin.as_slice()) {
+            (Proto::Sirf, [_, _, payload @ .., ck_hi, ck_lo, e0, e1]) => ([*e0, *e1] == sirf::END
+                && sirf::checksum(payload) == u16::from_be_bytes([*ck_hi, *ck_lo]))
+            .then_some(Frame::Sirf { payload }),
+            (Proto::Ubx, [class, id, _, _, payload @ .., a, b]) => (ubx::checksum(*class, *id, payload)
+                == (*a, *b))
+                .then_some(Frame::Ubx { class: *class, id: *id, payload }),
+            (Proto::Casic, [_, _, class, id, payload @ .., c0, c1, c2, c3]) => {
+                (casic::checksum(*class, *id, payload) == u32::from_le_bytes([*c0, *c1, *c2, *c3]))
+                    .then_some(Frame::Casic { class: *class, id: *id, payload })
             }
-        } else {
-            match self.bin.as_slice() {
-                [class, id, _, _, payload @ .., a, b] => ubx::checksum(*class, *id, payload) == (*a, *b),
-                _ => false,
+            (Proto::Rtcm3, [h0, h1, payload @ .., c0, c1, c2]) => {
+                let mut crc = rtcm3::CRC24Q.digest();
+                crc.update(&[rtcm3::PREAMBLE, *h0, *h1]);
+                crc.update(payload);
+                (crc.finalize() == u32::from_be_bytes([0, *c0, *c1, *c2])).then_some(Frame::Rtcm3 { payload })
             }
+            _ => None,
         };
-        if !ok {
-            self.reject_binary();
+        let Some(frame) = frame else {
+            self.reject_binary(proto);
             return;
+        };
+        match frame {
+            Frame::Sirf { .. } => self.stats.sirf_frames += 1,
+            Frame::Ubx { .. } => self.stats.ubx_frames += 1,
+            Frame::Casic { .. } => self.stats.casic_frames += 1,
+            Frame::Rtcm3 { .. } => self.stats.rtcm3_frames += 1,
+            Frame::Nmea(_) => {}
         }
+        on_frame(frame, &mut self.stats);
         self.state = State::Idle;
         self.at_line_start = true;
-        if sirf {
-            self.stats.sirf_frames += 1;
-            if let [_, _, payload @ .., _, _, _, _] = self.bin.as_slice() {
-                on_frame(Frame::Sirf { payload }, &mut self.stats);
-            }
-        } else {
-            self.stats.ubx_frames += 1;
-            if let [class, id, _, _, payload @ .., _, _] = self.bin.as_slice() {
-                on_frame(Frame::Ubx { class: *class, id: *id, payload }, &mut self.stats);
-            }
-        }
     }
 
     /// Rejects the binary frame being collected: counted, its sync bytes are junk, the bytes after them
     /// are scanned again.
-    fn reject_binary(&mut self) {
+    fn reject_binary(&mut self, proto: Proto) {
         self.stats.binary_bad_checksum += 1;
-        self.stats.junk_bytes += 2;
+        self.stats.junk_bytes += proto.sync_len() as u64;
         self.state = State::Idle;
         self.at_line_start = false;
         let bytes = std::mem::take(&mut self.bin);
@@ -628,6 +746,8 @@ mod tests {
             Frame::Nmea(s) => format!("NMEA {s}"),
             Frame::Ubx { class, id, payload } => format!("UBX {class:02x} {id:02x} {}", hex(payload)),
             Frame::Sirf { payload } => format!("SiRF {}", hex(payload)),
+            Frame::Casic { class, id, payload } => format!("CASIC {class:02x} {id:02x} {}", hex(payload)),
+            Frame::Rtcm3 { payload } => format!("RTCM3 {}", hex(payload)),
         }
     }
 

@@ -23,12 +23,16 @@
 //! ```
 
 pub mod assembly;
+pub mod binary_detect;
+pub mod casic;
 pub mod fix;
 pub mod framing;
 pub mod gpsd;
+mod le;
 pub mod nmea_out;
 pub mod receiver_config;
 pub mod record;
+pub mod rtcm3;
 mod sentence;
 pub mod sim;
 pub mod sirf;

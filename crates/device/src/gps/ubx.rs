@@ -11,7 +11,7 @@ mod decoder;
 #[cfg(test)]
 mod tests;
 
-pub(crate) use decoder::{UbxDecoder, UbxUnused};
+pub(crate) use decoder::{UbxDecoder, UbxUnused, nmea_id, utc_from_calendar};
 
 /// First sync byte.
 pub const SYNC_1: u8 = 0xB5;

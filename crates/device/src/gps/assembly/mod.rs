@@ -35,11 +35,14 @@
 //! (a failure is counted as malformed). It neither opens nor closes an epoch, and bytes that carried only
 //! HDG sentences do not hold the quiet gap open, so a compass stream does not delay fixes.
 
+mod date;
+
 use std::collections::{BTreeMap, VecDeque};
 use std::time::{Duration, Instant};
 
 use chrono::{DateTime, NaiveDate, NaiveTime, Utc};
 
+use super::casic::CasicDecoder;
 use super::fix::{Constellation, ErrorEstimate, ErrorSource, Fix, FixMode, FixQuality, Satellite};
 use super::framing::{DecodeStats, Frame, Framer};
 use super::sentence::{self, Parsed, Unused};
@@ -47,6 +50,7 @@ use super::sirf::{SirfDecoder, SirfUnused};
 use super::ubx::{UbxDecoder, UbxUnused};
 use super::{GpsEvent, Mark, UERE_DGPS_M, UERE_M};
 use crate::heading::{HeadingOrigin, HeadingReference};
+pub use date::{CONFIRM_EPOCHS, FIRST_DATE, LAST_DATE, in_gps_era};
 
 /// Decoder settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -206,7 +210,12 @@ pub struct NmeaDecoder {
     raw_lines: bool,
     ubx: UbxDecoder,
     sirf: SirfDecoder,
+    casic: CasicDecoder,
+    /// Dates waiting for confirmation (docs/gps.md, "Date validation").
+    dates: date::DateCheck,
     binary: BinaryState,
+    /// The undecoded binary protocol announced ([`GpsEvent::Notice`], once).
+    undecoded_noticed: Option<super::binary_detect::Protocol>,
 }
 
 /// Who gives the epochs when a receiver sends binary frames.
@@ -257,7 +266,10 @@ impl NmeaDecoder {
             raw_lines: false,
             ubx: UbxDecoder::new(),
             sirf: SirfDecoder::new(),
+            casic: CasicDecoder::new(),
+            dates: date::DateCheck::default(),
             binary: BinaryState::default(),
+            undecoded_noticed: None,
         }
     }
 
@@ -281,6 +293,8 @@ impl NmeaDecoder {
             accuracy_pgrme: c.accuracy_pgrme,
             accuracy_ubx: c.accuracy_ubx,
             accuracy_sirf: c.accuracy_sirf,
+            accuracy_casic: c.accuracy_casic,
+            implausible_dates: c.implausible_dates,
             accuracy_gpsd: c.accuracy_gpsd,
             accuracy_dop_model: c.accuracy_dop_model,
             ..*self.framer.stats()
@@ -305,6 +319,12 @@ impl NmeaDecoder {
         let mut framer = std::mem::take(&mut self.framer);
         framer.feed(data, |f, stats| self.handle_frame(f, stats));
         self.framer = framer;
+        if self.undecoded_noticed.is_none()
+            && let Some(p) = self.framer.stats().undecoded_protocol
+        {
+            self.undecoded_noticed = Some(p);
+            self.events.push_back(GpsEvent::Notice(p.advice()));
+        }
         // Bytes that were nothing but HDG sentences say nothing about the epoch: they do not hold the
         // quiet gap open.
         if data.len() > self.attitude_bytes {
@@ -357,6 +377,11 @@ impl NmeaDecoder {
             Frame::Sirf { payload } => {
                 self.sirf.handle(payload, now).map_err(|e| matches!(e, SirfUnused::Malformed))
             }
+            Frame::Casic { class, id, payload } => {
+                self.casic.handle(class, id, payload, now).map_err(|e| e == UbxUnused::Malformed)
+            }
+            // Corrections: counted by the framer, nothing to decode.
+            Frame::Rtcm3 { .. } => return,
         };
         match decoded {
             Ok(Some(fix)) => self.emit_binary(fix),
@@ -369,7 +394,9 @@ impl NmeaDecoder {
     /// Closes the binary decoders' open epochs (end of stream, quiet gap).
     fn finish_binary(&mut self, now: Instant) {
         if std::mem::take(&mut self.binary.pending) {
-            for fix in [self.ubx.finish(now), self.sirf.finish(now)].into_iter().flatten() {
+            for fix in
+                [self.ubx.finish(now), self.sirf.finish(now), self.casic.finish(now)].into_iter().flatten()
+            {
                 self.emit_binary(fix);
             }
         }
@@ -377,16 +404,23 @@ impl NmeaDecoder {
 
     /// A fix from a binary decoder leaves like an NMEA one: validated, counted, stamped.
     fn emit_binary(&mut self, mut fix: Fix) {
-        self.binary.pending = self.ubx.has_open_epoch();
+        self.binary.pending = self.ubx.has_open_epoch() || self.casic.has_open_epoch();
         self.binary.owner = true;
         self.binary.nmea_epochs_since = 0;
         fix.received_at = self.now.or(fix.received_at);
+        // The date check, as for NMEA: a rejected date gives way to the running one (rolled at midnight).
+        if let Some(t) = fix.time {
+            let tod = Some(t.time());
+            if self.dates.accept(t.date_naive(), tod, self.date, self.last_tod) {
+                self.date = Some(t.date_naive());
+            } else {
+                self.checked.implausible_dates += 1;
+                self.date = self.date.map(|d| date::roll(d, self.last_tod, tod).max(d));
+                fix.time = self.date.map(|d| utc(d, t.time()));
+            }
+        }
         fix.validate().count_into(&mut self.checked);
         self.checked.count_accuracy(fix.error.as_ref());
-        // Operator marks in a binary stream take the time of its latest epoch.
-        if let Some(t) = fix.time {
-            self.date = Some(t.date_naive());
-        }
         if fix.time_of_day.is_some() {
             self.last_tod = fix.time_of_day;
         }
@@ -606,14 +640,17 @@ impl NmeaDecoder {
     }
 
     fn emit_epoch(&mut self, epoch: &Epoch) {
-        // Date: this epoch's, else the last one rolled over if the time of day wrapped past midnight.
-        if let Some(d) = epoch.date {
+        // Date: this epoch's if it passes the date check (docs/gps.md, "Date validation"), else the last
+        // one rolled over if the time of day wrapped past midnight.
+        let own = epoch.date.filter(|&d| self.dates.accept(d, epoch.tod, self.date, self.last_tod));
+        if epoch.date.is_some() && own.is_none() {
+            self.checked.implausible_dates += 1;
+        }
+        if let Some(d) = own {
             self.date = Some(d);
-        } else if let (Some(d), Some(prev), Some(t)) = (self.date, self.last_tod, epoch.tod)
-            && t < prev
-            && prev - t > chrono::TimeDelta::hours(12)
-        {
-            self.date = d.succ_opt();
+        } else if let Some(d) = self.date {
+            // Only forwards: an epoch without a date that jumps back in time says nothing about the day.
+            self.date = Some(date::roll(d, self.last_tod, epoch.tod).max(d));
         }
         if epoch.tod.is_some() {
             self.last_tod = epoch.tod;

@@ -1,6 +1,7 @@
 //! Tests of `assembly`.
 
 use super::*;
+use chrono::{Datelike, Timelike};
 use proptest::prelude::*;
 
 fn all_events(d: &mut NmeaDecoder) -> Vec<GpsEvent> {
@@ -153,4 +154,112 @@ fn implausible_vtg_and_gsa_values_are_removed_and_counted() {
     assert_eq!(f.sats_used, Some(8));
     // HDOP, VDOP, speed, course, and the DOP model's negative error estimate.
     assert_eq!(stats.implausible_values, 5, "{stats}");
+}
+
+/// One epoch of a receiver sending GGA and ZDA, at `hh:mm:ss` on `dd/mm/yyyy`.
+fn gga_zda(hms: (u32, u32, u32), dmy: (u32, u32, u32)) -> String {
+    use crate::gps::framing::with_checksum;
+    let t = format!("{:02}{:02}{:02}.00", hms.0, hms.1, hms.2);
+    [
+        with_checksum(&format!("GPGGA,{t},4221.0,N,07106.0,W,1,05,1.0,10.0,M,0.0,M,,")),
+        with_checksum(&format!("GPZDA,{t},{:02},{:02},{:04},00,00", dmy.0, dmy.1, dmy.2)),
+    ]
+    .concat()
+}
+
+/// The case: a ZDA with year 0255 and a valid checksum. Its date never becomes the fix's UTC
+/// (first epoch: only the range can judge it; later: the running date stays), the rest of the fix is kept,
+/// and the rejection is counted.
+#[test]
+fn a_zda_of_year_0255_never_becomes_the_fixs_time() {
+    let (fixes, stats) = crate::gps::decode_reader(gga_zda((12, 0, 0), (1, 1, 255)).as_bytes()).unwrap();
+    assert_eq!(fixes.len(), 1);
+    assert_eq!(fixes[0].time, None);
+    assert_eq!(fixes[0].time_of_day, NaiveTime::from_hms_opt(12, 0, 0));
+    assert!(fixes[0].has_position());
+    assert_eq!(stats.implausible_dates, 1);
+    assert!(stats.to_string().contains("1 implausible dates"), "{stats}");
+
+    let text = [
+        gga_zda((12, 0, 0), (3, 2, 2016)),
+        gga_zda((12, 0, 1), (1, 1, 255)),
+        gga_zda((12, 0, 2), (3, 2, 2016)),
+    ]
+    .concat();
+    let (fixes, stats) = crate::gps::decode_reader(text.as_bytes()).unwrap();
+    let times: Vec<String> = fixes.iter().map(|f| f.time.unwrap().to_rfc3339()).collect();
+    assert_eq!(
+        times,
+        ["2016-02-03T12:00:00+00:00", "2016-02-03T12:00:01+00:00", "2016-02-03T12:00:02+00:00"]
+    );
+    assert_eq!(stats.implausible_dates, 1);
+}
+
+/// A receiver that really changes its date (a spliced log, a corrected week rollover) is followed after
+/// [`CONFIRM_EPOCHS`] epochs agree; the epochs before that keep the running date.
+#[test]
+fn a_confirmed_new_date_is_followed() {
+    let text: String = (0..6)
+        .map(|i| if i < 2 { gga_zda((8, 0, i), (7, 4, 2019)) } else { gga_zda((8, 0, i), (22, 8, 1999)) })
+        .collect();
+    let (fixes, stats) = crate::gps::decode_reader(text.as_bytes()).unwrap();
+    let dates: Vec<String> = fixes.iter().map(|f| f.time.unwrap().date_naive().to_string()).collect();
+    assert_eq!(dates, ["2019-04-07", "2019-04-07", "2019-04-07", "2019-04-07", "1999-08-22", "1999-08-22"]);
+    assert_eq!(stats.implausible_dates, u64::from(CONFIRM_EPOCHS) - 1);
+}
+
+proptest! {
+    /// Mutation fuzzing of the date: one epoch of a consistent stream (crossing midnight) gets any other
+    /// date with a correct checksum, by ZDA or by RMC; no fix's UTC ever carries it, every fix keeps the
+    /// true date, and the mutation is counted.
+    #[test]
+    fn mutated_dates_never_reach_the_fix_time(
+        at in 1usize..8,
+        year in 0u32..10_000,
+        month in 1u32..=12,
+        day in 1u32..=28,
+        by_rmc in any::<bool>(),
+    ) {
+        use crate::gps::framing::with_checksum;
+        // 23:59:56 .. 00:00:03 across the new year 2023/2024.
+        let truth: Vec<(NaiveDate, NaiveTime)> = (0..8u32)
+            .map(|i| {
+                let s = (23 * 3600 + 59 * 60 + 56 + i) % 86_400;
+                let date = if s < 3600 { NaiveDate::from_ymd_opt(2024, 1, 1) } else { NaiveDate::from_ymd_opt(2023, 12, 31) };
+                (date.unwrap(), NaiveTime::from_num_seconds_from_midnight_opt(s, 0).unwrap())
+            })
+            .collect();
+        let mutated = NaiveDate::from_ymd_opt(i32::try_from(year).unwrap(), month, day).unwrap();
+        prop_assume!(mutated != truth[at].0);
+        // RMC has two-digit years (83-99 = 19xx, else 20xx): the mutation is the date it reads as.
+        let mutated = if by_rmc {
+            let yy = year % 100;
+            NaiveDate::from_ymd_opt(i32::try_from(if yy >= 83 { 1900 + yy } else { 2000 + yy }).unwrap(), month, day).unwrap()
+        } else {
+            mutated
+        };
+        prop_assume!(mutated != truth[at].0);
+        let text: String = truth
+            .iter()
+            .enumerate()
+            .map(|(i, (date, tod))| {
+                let d = if i == at { mutated } else { *date };
+                let t = tod.format("%H%M%S.00");
+                if by_rmc {
+                    with_checksum(&format!(
+                        "GPRMC,{t},A,4221.0,N,07106.0,W,0.0,0.0,{},,,A",
+                        d.format("%d%m%y")
+                    ))
+                } else {
+                    gga_zda((tod.hour(), tod.minute(), tod.second()), (d.day(), d.month(), d.year() as u32))
+                }
+            })
+            .collect();
+        let (fixes, stats) = crate::gps::decode_reader(text.as_bytes()).unwrap();
+        prop_assert_eq!(fixes.len(), truth.len());
+        for (f, (date, tod)) in fixes.iter().zip(&truth) {
+            prop_assert_eq!(f.time, Some(date.and_time(*tod).and_utc()));
+        }
+        prop_assert_eq!(stats.implausible_dates, 1);
+    }
 }

@@ -24,6 +24,7 @@ use std::time::Instant;
 use chrono::{DateTime, NaiveDate, TimeDelta, Utc};
 
 use crate::gps::fix::{Constellation, ErrorEstimate, ErrorSource, Fix, FixMode, FixQuality, Satellite};
+use crate::gps::le::{i1, i2, i4, u1, u2, u4};
 
 /// Why a verified frame was not used.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -42,29 +43,15 @@ fn gps_epoch() -> Option<DateTime<Utc>> {
     NaiveDate::from_ymd_opt(1980, 1, 6).and_then(|d| d.and_hms_opt(0, 0, 0)).map(|t| t.and_utc())
 }
 
-/// Little-endian readers: `None` past the end of the payload.
-fn u1(p: &[u8], o: usize) -> Option<u8> {
-    p.get(o).copied()
-}
-fn i1(p: &[u8], o: usize) -> Option<i8> {
-    p.get(o).map(|&b| i8::from_le_bytes([b]))
-}
-fn u2(p: &[u8], o: usize) -> Option<u16> {
-    p.get(o..o + 2)?.try_into().ok().map(u16::from_le_bytes)
-}
-fn i2(p: &[u8], o: usize) -> Option<i16> {
-    p.get(o..o + 2)?.try_into().ok().map(i16::from_le_bytes)
-}
-fn u4(p: &[u8], o: usize) -> Option<u32> {
-    p.get(o..o + 4)?.try_into().ok().map(u32::from_le_bytes)
-}
-fn i4(p: &[u8], o: usize) -> Option<i32> {
-    p.get(o..o + 4)?.try_into().ok().map(i32::from_le_bytes)
-}
-
 /// UTC from the calendar fields of NAV-PVT, NAV-TIMEUTC and HNR-PVT plus their signed nanosecond
 /// correction, rounded to the millisecond (gpsd prints milliseconds; the correction is a few µs).
-fn utc_from_calendar(year: u16, month: u8, day: u8, hms: (u8, u8, u8), nano: i32) -> Option<DateTime<Utc>> {
+pub(crate) fn utc_from_calendar(
+    year: u16,
+    month: u8,
+    day: u8,
+    hms: (u8, u8, u8),
+    nano: i32,
+) -> Option<DateTime<Utc>> {
     let date = NaiveDate::from_ymd_opt(i32::from(year), u32::from(month), u32::from(day))?;
     // A leap second (sec = 60) has no place in chrono's `and_hms_opt`: counted as the next second.
     let base = date.and_hms_opt(u32::from(hms.0), u32::from(hms.1), 0)?.and_utc();

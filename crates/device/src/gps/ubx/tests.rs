@@ -208,6 +208,7 @@ mod properties {
         Nmea(String),
         Ubx(u8, u8, Vec<u8>),
         Sirf(Vec<u8>),
+        Other,
     }
 
     fn run(chunks: &[&[u8]]) -> (Vec<Item>, DecodeStats) {
@@ -218,6 +219,7 @@ mod properties {
                 Frame::Nmea(s) => Item::Nmea(s.to_owned()),
                 Frame::Ubx { class, id, payload } => Item::Ubx(class, id, payload.to_vec()),
                 Frame::Sirf { payload } => Item::Sirf(payload.to_vec()),
+                Frame::Casic { .. } | Frame::Rtcm3 { .. } => Item::Other,
             });
         };
         for c in chunks {
@@ -466,5 +468,84 @@ mod mixed {
         assert_eq!(f.len(), 1);
         assert_eq!(f[0].received_at, Some(deadline));
         assert_eq!(d.poll_timeout(), None);
+    }
+}
+
+/// An ANTARIS / LEA-4T / timing receiver's epoch: NAV-SOL + NAV-POSLLH + NAV-TIMEUTC + NAV-DOP, no NAV-PVT,
+/// with RXM-RAWX and TIM-TP frames among them. Payloads written field by field from the u-blox 6 Receiver
+/// Description's tables; the epoch closes at the next iTOW, the other classes leave it intact.
+mod without_nav_pvt {
+    use crate::gps::fix::FixMode;
+    use crate::gps::ubx::frame;
+
+    fn put(p: &mut [u8], o: usize, b: &[u8]) {
+        p[o..o + b.len()].copy_from_slice(b);
+    }
+
+    fn epoch(itow: u32, sec: u8, lat_e7: i32, lon_e7: i32) -> Vec<u8> {
+        let mut sol = vec![0u8; 52];
+        put(&mut sol, 0, &itow.to_le_bytes());
+        put(&mut sol, 8, &1800i16.to_le_bytes()); // week
+        sol[10] = 3; // gpsFix 3D
+        sol[11] = 0x0D; // gpsFixOK, WKNSET, TOWSET
+        put(&mut sol, 44, &156u16.to_le_bytes()); // pDOP 1.56
+        sol[47] = 7; // numSV
+        let mut llh = vec![0u8; 28];
+        put(&mut llh, 0, &itow.to_le_bytes());
+        put(&mut llh, 4, &lon_e7.to_le_bytes());
+        put(&mut llh, 8, &lat_e7.to_le_bytes());
+        put(&mut llh, 12, &352_000i32.to_le_bytes()); // height 352 m
+        put(&mut llh, 16, &304_500i32.to_le_bytes()); // hMSL 304.5 m
+        put(&mut llh, 20, &2500u32.to_le_bytes()); // hAcc 2.5 m
+        put(&mut llh, 24, &4000u32.to_le_bytes()); // vAcc 4 m
+        let mut utc = vec![0u8; 20];
+        put(&mut utc, 0, &itow.to_le_bytes());
+        put(&mut utc, 12, &2014u16.to_le_bytes());
+        utc[14] = 7;
+        utc[15] = 9;
+        utc[16] = 10;
+        utc[17] = 11;
+        utc[18] = sec;
+        utc[19] = 0x07; // validTOW, validWKN, validUTC
+        let mut dop = vec![0u8; 18];
+        put(&mut dop, 0, &itow.to_le_bytes());
+        put(&mut dop, 6, &156u16.to_le_bytes());
+        put(&mut dop, 10, &121u16.to_le_bytes());
+        put(&mut dop, 12, &98u16.to_le_bytes());
+        let rawx = vec![0x5Au8; 16 + 32 * 3]; // RXM-RAWX, 3 measurements of filler
+        let tim_tp = vec![0u8; 16];
+        [
+            frame(0x02, 0x15, &rawx),
+            frame(0x01, 0x06, &sol),
+            frame(0x0D, 0x01, &tim_tp),
+            frame(0x01, 0x02, &llh),
+            frame(0x01, 0x21, &utc),
+            frame(0x01, 0x04, &dop),
+        ]
+        .concat()
+    }
+
+    #[test]
+    fn epochs_come_from_sol_posllh_timeutc_and_dop() {
+        let data = [epoch(200_000, 58, 485_123_456, 93_456_789), epoch(201_000, 59, 485_123_457, 93_456_790)]
+            .concat();
+        let (fixes, stats) = crate::gps::decode_reader(data.as_slice()).unwrap();
+        assert_eq!(fixes.len(), 2, "{stats}");
+        assert_eq!(stats.binary_frames, 4, "RXM-RAWX and TIM-TP are counted as not decoded");
+        assert_eq!(stats.rejected(), 0);
+        let f = &fixes[0];
+        assert_eq!(f.time.unwrap().to_rfc3339(), "2014-07-09T10:11:58+00:00");
+        assert_eq!(fixes[1].time.unwrap().to_rfc3339(), "2014-07-09T10:11:59+00:00");
+        assert_eq!(f.mode, Some(FixMode::Fix3D));
+        approx::assert_relative_eq!(f.lat_deg.unwrap(), 48.512_345_6, max_relative = 1e-12);
+        approx::assert_relative_eq!(f.lon_deg.unwrap(), 9.345_678_9, max_relative = 1e-12);
+        approx::assert_relative_eq!(fixes[1].lat_deg.unwrap(), 48.512_345_7, max_relative = 1e-12);
+        approx::assert_relative_eq!(f.alt_m.unwrap(), 304.5);
+        approx::assert_relative_eq!(f.geoid_sep_m.unwrap(), 352.0 - 304.5);
+        assert_eq!(f.sats_used, Some(7));
+        approx::assert_relative_eq!(f.pdop.unwrap(), 1.56);
+        approx::assert_relative_eq!(f.hdop.unwrap(), 0.98);
+        approx::assert_relative_eq!(f.vdop.unwrap(), 1.21);
+        approx::assert_relative_eq!(f.error.unwrap().horizontal_m, 2.5);
     }
 }
