@@ -83,7 +83,7 @@ pub fn run(devices: DeviceOverrides, screenshot: Option<Screenshot>) -> anyhow::
                 },
             );
             if let Some(e) = cfg_error {
-                console.status = e;
+                console.status = e.banner();
             }
             Ok(Box::new(App { console, screenshot: screenshot.map(ScreenshotState::new) }))
         }),
