@@ -3,8 +3,11 @@
 //! Location: `directories::ProjectDirs::from("org", "vestnav", "vestnav")` → on Linux
 //! `$XDG_CONFIG_HOME/vestnav/console.json` (usually `~/.config/vestnav/console.json`), on macOS
 //! `~/Library/Application Support/org.vestnav.vestnav/console.json`, on Windows
-//! `%APPDATA%\vestnav\vestnav\config\console.json`. A missing or unreadable file gives the defaults (and the
-//! reason is shown once in the status line); the file is rewritten when a setting changes.
+//! `%APPDATA%\vestnav\vestnav\config\console.json`. A missing file gives the defaults. A broken one
+//! (unreadable, truncated, too large, wrong types, binary) also gives the defaults, but is first moved
+//! aside to `console.json.corrupt-<UTC time>` and reported as a [`ConfigProblem`] for a banner; when it
+//! cannot be moved, saving is refused for the run so it is never overwritten. The file is rewritten
+//! atomically when a setting changes.
 
 use std::path::{Path, PathBuf};
 
@@ -134,28 +137,99 @@ pub fn route_autosave_path() -> PathBuf {
     data_dir().join(vestnav_station::route::AUTOSAVE_FILE)
 }
 
-impl Config {
-    /// Reads `path`; a missing file gives the defaults, a broken one gives the defaults and the reason.
-    pub fn load(path: &Path) -> (Self, Option<String>) {
-        match std::fs::read_to_string(path) {
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => (Self::default(), None),
-            Err(e) => (Self::default(), Some(format!("cannot read {}: {e}", path.display()))),
-            Ok(text) => match serde_json::from_str(&text) {
-                Ok(cfg) => (Self::sanitized(cfg), None),
-                Err(e) => (Self::default(), Some(format!("ignoring broken {}: {e}", path.display()))),
-            },
+/// Settings files larger than this are refused as broken (a real one is a few KiB, with many patterns
+/// and recent files some hundred).
+pub const MAX_CONFIG_BYTES: u64 = 4 * 1024 * 1024;
+
+/// A settings file that could not be used: the console started with the defaults and shows this in a
+/// banner until the operator dismisses it ([`ConfigProblem::banner`]).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ConfigProblem {
+    /// The settings file.
+    pub path: PathBuf,
+    /// Where the broken file was moved (`console.json.corrupt-<UTC time>`), intact; `None` when it could
+    /// not be moved, in which case saving is refused for this run ([`Config::save`]), so the file is
+    /// never overwritten.
+    pub kept_as: Option<PathBuf>,
+    /// Why it could not be used (the read or parse error, or the size).
+    pub reason: String,
+    /// Why it could not be moved aside, when it could not.
+    pub not_kept: Option<String>,
+}
+
+impl ConfigProblem {
+    /// The words of the banner: what happened, where the file is, what the console does about it.
+    pub fn banner(&self) -> String {
+        match (&self.kept_as, &self.not_kept) {
+            (Some(kept), _) => format!(
+                "Settings file {} could not be used ({}); started with default settings. \
+                 Your file was kept as {}.",
+                self.path.display(),
+                self.reason,
+                kept.display()
+            ),
+            (None, why) => format!(
+                "Settings file {} could not be used ({}); started with default settings. It could not be \
+                 moved aside ({}), so setting changes are NOT saved in this run, to leave it untouched.",
+                self.path.display(),
+                self.reason,
+                why.as_deref().unwrap_or("unknown reason")
+            ),
         }
     }
+}
 
-    /// Writes the config atomically (temp file + rename) so a crash never leaves half a file.
+/// Settings files that were broken and could not be moved aside: never written in this run.
+static PROTECTED: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
+
+fn is_protected(path: &Path) -> bool {
+    PROTECTED.lock().unwrap_or_else(std::sync::PoisonError::into_inner).iter().any(|p| p == path)
+}
+
+impl Config {
+    /// Reads `path` (at most [`MAX_CONFIG_BYTES`], a regular file). A missing file gives the defaults and
+    /// no problem. A file that cannot be read or parsed (truncated, too large, wrong types, binary, not
+    /// UTF-8, a FIFO) gives the defaults and a [`ConfigProblem`], after the file was moved aside with
+    /// [`vestnav_files::keep_aside`] so that no later save destroys it.
+    pub fn load(path: &Path) -> (Self, Option<ConfigProblem>) {
+        Self::load_with(path, vestnav_files::keep_aside)
+    }
+
+    fn load_with(
+        path: &Path,
+        keep_aside: impl FnOnce(&Path) -> std::io::Result<PathBuf>,
+    ) -> (Self, Option<ConfigProblem>) {
+        let reason = match vestnav_files::read_limited(path, MAX_CONFIG_BYTES) {
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return (Self::default(), None),
+            Err(e) => format!("cannot read it: {e}"),
+            Ok(bytes) => match serde_json::from_slice::<Self>(&bytes) {
+                Ok(cfg) => return (Self::sanitized(cfg), None),
+                Err(e) => format!("not valid settings: {e}"),
+            },
+        };
+        let (kept_as, not_kept) = match keep_aside(path) {
+            Ok(kept) => (Some(kept), None),
+            Err(e) => {
+                PROTECTED.lock().unwrap_or_else(std::sync::PoisonError::into_inner).push(path.to_path_buf());
+                (None, Some(e.to_string()))
+            }
+        };
+        let problem = ConfigProblem { path: path.to_path_buf(), kept_as, reason, not_kept };
+        (Self::default(), Some(problem))
+    }
+
+    /// Writes the settings atomically ([`vestnav_files::write_atomic`]: a unique temporary file, synced,
+    /// renamed), so a crash or a full disk never leaves half a file. Refused for a file that was broken
+    /// at [`Config::load`] and could not be moved aside.
     pub fn save(&self, path: &Path) -> std::io::Result<()> {
-        if let Some(dir) = path.parent() {
-            std::fs::create_dir_all(dir)?;
+        if is_protected(path) {
+            return Err(std::io::Error::new(
+                std::io::ErrorKind::PermissionDenied,
+                "not saved: the broken settings file there could not be moved aside and is left untouched",
+            ));
         }
-        let tmp = path.with_extension("json.tmp");
         let text = serde_json::to_string_pretty(self).map_err(std::io::Error::other)?;
-        std::fs::write(&tmp, text)?;
-        std::fs::rename(&tmp, path)
+        vestnav_files::write_atomic(path, text.as_bytes())
     }
 
     /// Clamps values a hand-edited file could set out of range.
@@ -185,8 +259,25 @@ mod tests {
     use super::*;
 
     #[test]
-    fn round_trip_and_broken_file() {
-        let dir = std::env::temp_dir().join(format!("vestnav-cfg-{}", std::process::id()));
+    fn temp_dir(tag: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("vestnav-cfg-{tag}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        dir
+    }
+
+    fn names_in(dir: &Path) -> Vec<String> {
+        let mut v: Vec<_> = std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        v.sort();
+        v
+    }
+
+    #[test]
+    fn round_trip_and_clamping() {
+        let dir = temp_dir("rt");
         let path = dir.join("console.json");
         let cfg = Config {
             gps: GpsSourceConfig::Gpsd { host: "10.0.0.2".into(), port: 2947 },
@@ -197,14 +288,92 @@ mod tests {
         let (back, err) = Config::load(&path);
         assert!(err.is_none());
         assert_eq!(back, cfg);
-        std::fs::write(&path, "{ not json").unwrap();
-        let (back, err) = Config::load(&path);
-        assert_eq!(back, Config::default());
-        assert!(err.unwrap().contains("broken"));
+        assert_eq!(names_in(&dir), ["console.json"], "no temporary left behind");
+        // Out-of-range values are clamped, not a broken file.
         std::fs::write(&path, r#"{"on_ms": 60000, "arrival_radius_m": -4}"#).unwrap();
-        let (back, _) = Config::load(&path);
+        let (back, err) = Config::load(&path);
+        assert!(err.is_none());
         assert_eq!(back.on_ms, 2000);
         assert!((back.arrival_radius_m - 1.0).abs() < 1e-12);
+        // Missing: the defaults, nothing to report.
+        std::fs::remove_file(&path).unwrap();
+        assert_eq!(Config::load(&path), (Config::default(), None));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// Each broken form: the defaults, a problem naming the file, the original bytes intact in
+    /// `console.json.corrupt-*`, and a later save that writes a fresh file without touching that copy.
+    #[test]
+    fn broken_settings_are_kept_aside_and_never_overwritten() {
+        let mut huge = b"{\"user_patterns\": [".to_vec();
+        huge.resize(usize::try_from(MAX_CONFIG_BYTES).unwrap() + 1, b' ');
+        let binary: Vec<u8> = (0..=255u8).cycle().take(4096).collect();
+        let good = serde_json::to_vec_pretty(&Config { on_ms: 250, ..Config::default() }).unwrap();
+        let forms: Vec<(&str, Vec<u8>, &str)> = vec![
+            ("truncated", good[..good.len() / 2].to_vec(), "EOF"),
+            ("huge", huge, "bytes"),
+            ("wrong types", br#"{"on_ms": "loud", "large_text": 3}"#.to_vec(), "invalid type"),
+            ("binary", binary, "not valid settings"),
+            ("not UTF-8", b"{\"strategy\": \"\xff\xfe\"}".to_vec(), "not valid settings"),
+            ("empty", Vec::new(), "EOF"),
+        ];
+        for (what, bytes, why) in forms {
+            let dir = temp_dir("broken");
+            let path = dir.join("console.json");
+            std::fs::write(&path, &bytes).unwrap();
+            let (cfg, problem) = Config::load(&path);
+            assert_eq!(cfg, Config::default(), "{what}");
+            let problem = problem.unwrap_or_else(|| panic!("{what}: no problem reported"));
+            assert_eq!(problem.path, path);
+            assert!(problem.reason.contains(why), "{what}: {}", problem.reason);
+            let kept = problem.kept_as.clone().unwrap();
+            assert!(
+                kept.file_name().unwrap().to_string_lossy().starts_with("console.json.corrupt-"),
+                "{kept:?}"
+            );
+            assert_eq!(std::fs::read(&kept).unwrap(), bytes, "{what}: the original bytes, intact");
+            let banner = problem.banner();
+            assert!(
+                banner.contains(&path.display().to_string()) && banner.contains(&kept.display().to_string())
+            );
+            // A setting changes (View > Large text) and is saved: a fresh file, the copy untouched.
+            Config { large_text: true, ..cfg }.save(&path).unwrap();
+            assert!(Config::load(&path).0.large_text);
+            assert_eq!(std::fs::read(&kept).unwrap(), bytes, "{what}: untouched by the save");
+            assert_eq!(names_in(&dir).len(), 2, "{:?}", names_in(&dir));
+            std::fs::remove_dir_all(&dir).unwrap();
+        }
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_fifo_in_place_of_the_settings_does_not_block() {
+        let dir = temp_dir("fifo");
+        let path = dir.join("console.json");
+        assert!(std::process::Command::new("mkfifo").arg(&path).status().unwrap().success());
+        let (cfg, problem) = Config::load(&path);
+        assert_eq!(cfg, Config::default());
+        let problem = problem.unwrap();
+        assert!(problem.reason.contains("FIFO"), "{}", problem.reason);
+        assert!(problem.kept_as.is_some());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_broken_file_that_cannot_be_moved_is_never_saved_over() {
+        let dir = temp_dir("stuck");
+        let path = dir.join("console.json");
+        std::fs::write(&path, b"{ half").unwrap();
+        let (cfg, problem) =
+            Config::load_with(&path, |_| Err(std::io::Error::from(std::io::ErrorKind::ReadOnlyFilesystem)));
+        let problem = problem.unwrap();
+        assert_eq!(problem.kept_as, None);
+        assert!(problem.banner().contains("NOT saved"), "{}", problem.banner());
+        let err = Config { large_text: true, ..cfg }.save(&path).unwrap_err();
+        assert!(err.to_string().contains("left untouched"), "{err}");
+        assert_eq!(std::fs::read(&path).unwrap(), b"{ half");
+        // Another file is saved as usual.
+        Config::default().save(&dir.join("other.json")).unwrap();
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -87,7 +87,7 @@ pub fn run(devices: DeviceOverrides, screenshot: Option<Screenshot>) -> anyhow::
                 },
             );
             if let Some(e) = cfg_error {
-                console.say(vestnav_station::Severity::Alarm, vestnav_station::Subject::Settings, e);
+                console.say(vestnav_station::Severity::Alarm, vestnav_station::Subject::Settings, e.banner());
             }
             Ok(Box::new(App { console, screenshot: screenshot.map(ScreenshotState::new) }))
         }),

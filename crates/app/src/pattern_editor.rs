@@ -174,37 +174,21 @@ impl std::error::Error for SaveError {}
 /// ([`SaveError::Exists`], decided by the file system at creation, not by an earlier look); with it the
 /// file is replaced in one rename, so a crash leaves the old file or the new one.
 pub fn save_pattern(pattern: &Pattern, path: &Path, overwrite: bool) -> Result<(), SaveError> {
-    use std::io::Write as _;
     let fail =
         |p: &Path, e: &dyn std::fmt::Display| SaveError::Io(format!("cannot write {}: {e}", p.display()));
     let text = serde_json::to_string_pretty(pattern).map_err(|e| fail(path, &e))?;
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).map_err(|e| fail(dir, &e))?;
-    }
-    let write = |target: &Path, create_new: bool| -> Result<(), SaveError> {
-        let mut f = std::fs::OpenOptions::new()
-            .write(true)
-            .create(true)
-            .truncate(true)
-            .create_new(create_new)
-            .open(target)
-            .map_err(|e| {
-                if e.kind() == std::io::ErrorKind::AlreadyExists {
-                    SaveError::Exists(target.to_path_buf())
-                } else {
-                    fail(target, &e)
-                }
-            })?;
-        f.write_all(text.as_bytes()).and_then(|()| f.sync_all()).map_err(|e| fail(target, &e))
+    let written = if overwrite {
+        vestnav_files::write_atomic(path, text.as_bytes())
+    } else {
+        vestnav_files::write_new(path, text.as_bytes())
     };
-    if !overwrite {
-        return write(path, true);
-    }
-    let mut tmp = path.as_os_str().to_owned();
-    tmp.push(".tmp");
-    let tmp = PathBuf::from(tmp);
-    write(&tmp, false)?;
-    std::fs::rename(&tmp, path).map_err(|e| fail(path, &e))
+    written.map_err(|e| {
+        if e.kind() == std::io::ErrorKind::AlreadyExists {
+            SaveError::Exists(path.to_path_buf())
+        } else {
+            fail(path, &e)
+        }
+    })
 }
 
 /// Reads a pattern file written by [`save_pattern`] (or by hand). Errors name the file.

@@ -5,6 +5,8 @@
 //!   a full disk or a second writer never leaves a half-written settings file, route, figure or tile.
 //! - **Open regular files only** ([`open_regular`]): a FIFO, a device node or a directory given where a
 //!   file is expected is refused with a clear error instead of blocking the caller forever.
+//! - **Create without replacing** ([`write_new`]): the same temporary file, linked in under the new name
+//!   only if that name is free.
 //! - **Keep a broken file** ([`keep_aside`]): a file the program cannot read is moved to
 //!   `NAME.corrupt-<UTC time>` before anything writes a fresh one, and the caller says where it went.
 //!
@@ -58,6 +60,43 @@ pub fn write_atomic_with(path: &Path, fill: impl FnOnce(&mut File) -> io::Result
         let _ = d.sync_all();
     }
     Ok(())
+}
+
+/// Writes a new file at `path` with `bytes`, never replacing one that exists (an
+/// [`io::ErrorKind::AlreadyExists`] error then, decided by the file system, not by an earlier look). The
+/// content goes to a unique temporary file first (written, `fsync`ed) and is then linked in under its name,
+/// so `path` never exists half-written. On file systems without hard links (FAT on a USB stick) the file is
+/// created exclusively and written in place instead.
+pub fn write_new(path: &Path, bytes: &[u8]) -> io::Result<()> {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    std::fs::create_dir_all(&dir)?;
+    let tmp = temp_name(path);
+    let written = (|| {
+        let mut f = std::fs::OpenOptions::new().write(true).create_new(true).open(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_all()
+    })();
+    let linked = written.and_then(|()| std::fs::hard_link(&tmp, path));
+    let _ = std::fs::remove_file(&tmp);
+    match linked {
+        Ok(()) => {
+            if let Ok(d) = File::open(&dir) {
+                let _ = d.sync_all();
+            }
+            Ok(())
+        }
+        Err(e) if e.kind() == io::ErrorKind::AlreadyExists => Err(e),
+        // No hard links here: exclusive creation still never replaces a file.
+        Err(e) if matches!(e.kind(), io::ErrorKind::Unsupported | io::ErrorKind::PermissionDenied) => {
+            let mut f = std::fs::OpenOptions::new().write(true).create_new(true).open(path)?;
+            f.write_all(bytes)?;
+            f.sync_all()
+        }
+        Err(e) => Err(e),
+    }
 }
 
 /// A temporary name beside `path`, unique within this process (counter) and across processes (pid):
@@ -185,6 +224,18 @@ mod tests {
         let err = write_atomic_with(&p, |_| Err(io::Error::other("disk full"))).unwrap_err();
         assert_eq!(err.to_string(), "disk full");
         assert_eq!(std::fs::read(&p).unwrap(), b"old");
+        assert_eq!(std::fs::read_dir(&d).unwrap().count(), 1);
+        std::fs::remove_dir_all(&d).unwrap();
+    }
+
+    #[test]
+    fn write_new_never_replaces_and_leaves_no_temporary() {
+        let d = temp_dir("new");
+        let p = d.join("pattern.json");
+        write_new(&p, b"first").unwrap();
+        let err = write_new(&p, b"second").unwrap_err();
+        assert_eq!(err.kind(), io::ErrorKind::AlreadyExists);
+        assert_eq!(std::fs::read(&p).unwrap(), b"first");
         assert_eq!(std::fs::read_dir(&d).unwrap().count(), 1);
         std::fs::remove_dir_all(&d).unwrap();
     }

@@ -9,9 +9,6 @@ use crate::draw_chart;
 use crate::text::{HAlign, TextStyle, VAlign, draw_text};
 use crate::{Chart, Heatmap, PlotError};
 
-/// Counts saves, so concurrent saves of one path in one process never share a temporary file.
-static SAVES: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
-
 /// Largest sheet side in pixels (a 16k x 16k RGBA sheet is already 1 GiB).
 const MAX_SIDE_PX: u32 = 16_384;
 /// Smallest panel side that still leaves room for axes.
@@ -163,19 +160,11 @@ impl Figure {
         self.render_pixmap()?.encode_png().map_err(|e| PlotError::Encode(e.to_string()))
     }
 
-    /// Render and write a PNG file atomically (a temporary file in the same directory, then a rename).
+    /// Render and write a PNG file atomically ([`vestnav_files::write_atomic`]: a unique temporary file
+    /// beside it, synced, then renamed over it).
     pub fn save_png(&self, path: &Path) -> Result<(), PlotError> {
         let bytes = self.render_png()?;
-        let io = |source| PlotError::Io { path: path.to_path_buf(), source };
-        let mut tmp_name = path.file_name().map(std::ffi::OsStr::to_os_string).unwrap_or_default();
-        let n = SAVES.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-        tmp_name.push(format!(".{}-{n}.tmp", std::process::id()));
-        let tmp = path.with_file_name(tmp_name);
-        let written = std::fs::write(&tmp, &bytes).and_then(|()| std::fs::rename(&tmp, path));
-        written.map_err(|e| {
-            // Best effort: the temporary file may not exist; the write/rename error is what matters.
-            let _ = std::fs::remove_file(&tmp);
-            io(e)
-        })
+        vestnav_files::write_atomic(path, &bytes)
+            .map_err(|source| PlotError::Io { path: path.to_path_buf(), source })
     }
 }

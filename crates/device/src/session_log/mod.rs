@@ -14,6 +14,12 @@
 //! writes a note `"N fix events dropped (flood)"` once per second while a flood lasts and when it ends, so
 //! a gpsd or unit flood produces a file of bounded size while every command and mark is kept.
 //!
+//! **Storage failures are shown, not silent.** A full disk, a read-only or failing medium does not stop
+//! the writer: it holds records in memory (bounded), counts what it must drop, retries every second, and
+//! resumes with a note saying how many records were lost and when. [`SessionLog::health`] tells the
+//! console ([`LogHealth`], with [`LogHealth::banner`] as the words to show); `tracing::error!` tells
+//! stderr once per failure episode. Details in the `write` module.
+//!
 //! **Compatibility.** Logs written by the console before this module (commands as the app's own
 //! `VestCommand`, whose `Fire` had an `on_ms` field) still read: the `Fire` on-time is accepted under both
 //! `duration_ms` (written now) and `on_ms` (read only).
@@ -38,7 +44,7 @@
 //! ```
 
 use std::fmt;
-use std::io::{self, BufWriter, Write};
+use std::io;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
@@ -390,12 +396,15 @@ struct Shared {
 /// What the writer did, returned by [`SessionLog::close`].
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct WriteStats {
-    /// Lines written (flood notes included).
+    /// Lines written (flood and storage notes included).
     pub written: u64,
     /// Records suppressed by the flood filter.
     pub coalesced: u64,
     /// Records dropped because the queue was full.
     pub queue_dropped: u64,
+    /// Records lost to storage failures (a full disk, a read-only or failing medium): see
+    /// [`LogHealth`].
+    pub storage_lost: u64,
 }
 
 /// The console's handle on the writer thread. Dropping it lets the thread finish once every
@@ -404,6 +413,7 @@ pub struct WriteStats {
 pub struct SessionLog {
     tx: Option<SyncSender<LogRecord>>,
     shared: Arc<Shared>,
+    health: SharedHealth,
     start: Instant,
     path: PathBuf,
     thread: Option<JoinHandle<io::Result<WriteStats>>>,
@@ -419,8 +429,9 @@ pub struct LogSender {
 
 impl LogSender {
     /// Stamps `entry` with the session time (since the log's start instant) and the wall clock, and
-    /// queues it; when the queue is full it is dropped and counted. Returns `false` once the writer is
-    /// gone (it stopped on a disk error).
+    /// queues it; when the queue is full it is dropped and counted. Never waits, whatever the disk does
+    /// (a storage failure is the writer's business: [`SessionLog::health`]). Returns `false` once the
+    /// writer is gone (the log was closed).
     pub fn log(&self, entry: LogEntry) -> bool {
         let t_s = self.start.elapsed().as_secs_f64();
         self.send(LogRecord { t_s, utc: utc_stamp(chrono::Utc::now()), entry })
@@ -463,18 +474,39 @@ impl LogSender {
 
 impl SessionLog {
     /// Creates `dir/session-<UTC now>.jsonl` (with `-1`, `-2`, ... when that name exists) and starts the
-    /// writer thread; session time counts from now.
+    /// writer thread; session time counts from now. Fails when the file cannot be created (see
+    /// [`SessionLog::create_resilient`] for a log that waits for its folder instead).
     pub fn create(dir: &Path) -> io::Result<Self> {
-        std::fs::create_dir_all(dir)?;
-        let stem = chrono::Utc::now().format("session-%Y%m%d-%H%M%S").to_string();
-        let mut n = 0u32;
-        loop {
-            let name = if n == 0 { format!("{stem}.jsonl") } else { format!("{stem}-{n}.jsonl") };
-            let path = dir.join(name);
-            match std::fs::OpenOptions::new().write(true).create_new(true).open(&path) {
-                Ok(file) => return Self::start_writer(file, path, Instant::now(), RateLimits::default()),
-                Err(e) if e.kind() == io::ErrorKind::AlreadyExists && n < 1000 => n += 1,
-                Err(e) => return Err(e),
+        let (path, file) = create_session_file(dir)?;
+        Self::with_sink(
+            Box::new(SessionFile::open(path.clone(), file)),
+            path,
+            Instant::now(),
+            RateLimits::default(),
+        )
+    }
+
+    /// As [`SessionLog::create`], but a folder that cannot be written (read-only HOME, full disk) does not
+    /// stop the log: it starts in [`LogHealth::Failing`] (logged, shown by the console) and creates the
+    /// file as soon as a retry succeeds. Fails only when the writer thread cannot start.
+    pub fn create_resilient(dir: &Path) -> io::Result<Self> {
+        match create_session_file(dir) {
+            Ok((path, file)) => Self::with_sink(
+                Box::new(SessionFile::open(path.clone(), file)),
+                path,
+                Instant::now(),
+                RateLimits::default(),
+            ),
+            Err(e) => {
+                let path = dir.join(chrono::Utc::now().format("session-%Y%m%d-%H%M%S.jsonl").to_string());
+                Self::start_writer(
+                    Box::new(SessionFile::later(path.clone())),
+                    path,
+                    Instant::now(),
+                    RateLimits::default(),
+                    WriterOptions::default(),
+                    Some(&e),
+                )
             }
         }
     }
@@ -487,22 +519,42 @@ impl SessionLog {
     /// Creates (or appends to) the log at `path`; session time counts from `start`; `limits` coalesce floods.
     pub fn create_with(path: &Path, start: Instant, limits: RateLimits) -> io::Result<Self> {
         let file = std::fs::OpenOptions::new().create(true).append(true).open(path)?;
-        Self::start_writer(file, path.to_path_buf(), start, limits)
+        Self::with_sink(
+            Box::new(SessionFile::open(path.to_path_buf(), file)),
+            path.to_path_buf(),
+            start,
+            limits,
+        )
     }
 
-    fn start_writer(
-        file: std::fs::File,
+    /// A log writing into `sink` (named `path` in messages): for tests that inject storage failures.
+    pub fn with_sink(
+        sink: Box<dyn LogSink>,
         path: PathBuf,
         start: Instant,
         limits: RateLimits,
     ) -> io::Result<Self> {
+        Self::start_writer(sink, path, start, limits, WriterOptions::default(), None)
+    }
+
+    fn start_writer(
+        sink: Box<dyn LogSink>,
+        path: PathBuf,
+        start: Instant,
+        limits: RateLimits,
+        opts: WriterOptions,
+        initial_error: Option<&io::Error>,
+    ) -> io::Result<Self> {
         let (tx, rx) = sync_channel::<LogRecord>(QUEUE_LIMITED + QUEUE_RESERVED);
         let shared = Arc::new(Shared::default());
+        let health = SharedHealth::default();
+        let journal = Journal::new(sink, path.clone(), start, opts, health.clone(), initial_error);
         let writer_shared = shared.clone();
+        let tick = opts.retry.min(Duration::from_secs(1));
         let thread = std::thread::Builder::new()
             .name("vestnav-session-log".into())
-            .spawn(move || write_loop(&rx, &mut BufWriter::new(file), &writer_shared, limits, start))?;
-        Ok(Self { tx: Some(tx), shared, start, path, thread: Some(thread) })
+            .spawn(move || write_loop(&rx, journal, &writer_shared, limits, start, tick))?;
+        Ok(Self { tx: Some(tx), shared, health, start, path, thread: Some(thread) })
     }
 
     /// A handle for other threads (`None` after the log was stopped).
@@ -514,7 +566,7 @@ impl SessionLog {
         })
     }
 
-    /// The file being written.
+    /// The file being written (for [`SessionLog::create_resilient`], the file to be created).
     pub fn path(&self) -> &Path {
         &self.path
     }
@@ -530,7 +582,15 @@ impl SessionLog {
         self.shared.queue_dropped.load(Ordering::Relaxed)
     }
 
-    /// Waits until every sender is gone and the writer has written everything queued; what it did.
+    /// Whether records reach the file, for the console to read each frame (a mutex held for a clone; the
+    /// writer updates it at most once per batch of records). [`LogHealth::banner`] words it.
+    pub fn health(&self) -> LogHealth {
+        self.health.lock().unwrap_or_else(std::sync::PoisonError::into_inner).clone()
+    }
+
+    /// Waits until every sender is gone and the writer has written everything queued; what it did. An
+    /// error when records could not be written by then (storage failure still going on; the count is in
+    /// the message) or the writer thread panicked.
     pub fn close(mut self) -> io::Result<WriteStats> {
         self.tx = None;
         match self.thread.take() {
@@ -552,37 +612,48 @@ impl Drop for SessionLog {
     }
 }
 
-fn write_record(out: &mut impl Write, rec: &LogRecord, stats: &mut WriteStats) -> io::Result<()> {
-    serde_json::to_writer(&mut *out, rec).map_err(io::Error::other)?;
-    out.write_all(b"\n")?;
-    stats.written += 1;
-    Ok(())
+/// Creates a new `dir/session-<UTC now>[-N].jsonl`, never an existing one.
+fn create_session_file(dir: &Path) -> io::Result<(PathBuf, std::fs::File)> {
+    std::fs::create_dir_all(dir)?;
+    let stem = chrono::Utc::now().format("session-%Y%m%d-%H%M%S").to_string();
+    let mut n = 0u32;
+    loop {
+        let name = if n == 0 { format!("{stem}.jsonl") } else { format!("{stem}-{n}.jsonl") };
+        let path = dir.join(name);
+        match std::fs::OpenOptions::new().write(true).create_new(true).open(&path) {
+            Ok(file) => return Ok((path, file)),
+            Err(e) if e.kind() == io::ErrorKind::AlreadyExists && n < 1000 => n += 1,
+            Err(e) => return Err(e),
+        }
+    }
 }
 
-/// Writes records until every sender is gone: the flood filter, a note per second for queue drops, a
-/// flush whenever the queue runs empty, and the pending flood notes after a second of quiet and at the end.
+/// Writes records until every sender is gone: the flood filter, a note per second for queue drops, the
+/// journal handed to the file whenever the queue runs empty (retried every `tick` while it fails), and the
+/// pending flood notes after a quiet `tick` and at the end.
 fn write_loop(
     rx: &Receiver<LogRecord>,
-    out: &mut impl Write,
+    mut out: Journal,
     shared: &Shared,
     limits: RateLimits,
     start: Instant,
+    tick: Duration,
 ) -> io::Result<WriteStats> {
     let mut filter = Coalescer::new(limits);
-    let mut stats = WriteStats::default();
     let mut queue_notes = QueueDropNotes::default();
     let now = || (start.elapsed().as_secs_f64(), utc_stamp(chrono::Utc::now()));
     loop {
-        let first = match rx.recv_timeout(Duration::from_secs(1)) {
+        let first = match rx.recv_timeout(tick) {
             Ok(rec) => rec,
             Err(RecvTimeoutError::Timeout) => {
-                // Quiet for a second: the flood (if any) has ended.
+                // Quiet for a while: the flood (if any) has ended.
                 let (t_s, utc) = now();
                 for note in filter.summaries(t_s, &utc) {
-                    write_record(out, &note, &mut stats)?;
+                    out.push(&note, Instant::now());
                 }
-                queue_notes.write(out, shared, t_s, &utc, true, &mut stats)?;
-                out.flush()?;
+                queue_notes.write(&mut out, shared, t_s, &utc, true);
+                out.drain(Instant::now(), false);
+                out.publish();
                 continue;
             }
             Err(RecvTimeoutError::Disconnected) => break,
@@ -593,27 +664,28 @@ fn write_loop(
                 shared.queued_limited.fetch_sub(1, Ordering::AcqRel);
             }
             let (notes, keep) = filter.admit(&rec);
+            let t = Instant::now();
             for note in &notes {
-                write_record(out, note, &mut stats)?;
+                out.push(note, t);
             }
             if keep {
-                write_record(out, &rec, &mut stats)?;
+                out.push(&rec, t);
             }
             next = rx.try_recv().ok();
         }
         let (t_s, utc) = now();
-        queue_notes.write(out, shared, t_s, &utc, false, &mut stats)?;
-        out.flush()?;
+        queue_notes.write(&mut out, shared, t_s, &utc, false);
+        out.drain(Instant::now(), false);
+        out.publish();
     }
     let (t_s, utc) = now();
     for note in filter.summaries(t_s, &utc) {
-        write_record(out, &note, &mut stats)?;
+        out.push(&note, Instant::now());
     }
-    queue_notes.write(out, shared, t_s, &utc, true, &mut stats)?;
-    out.flush()?;
-    stats.coalesced = filter.total_suppressed();
-    stats.queue_dropped = shared.queue_dropped.load(Ordering::Relaxed);
-    Ok(stats)
+    queue_notes.write(&mut out, shared, t_s, &utc, true);
+    out.stats.coalesced = filter.total_suppressed();
+    out.stats.queue_dropped = shared.queue_dropped.load(Ordering::Relaxed);
+    out.finish()
 }
 
 /// Notes of records dropped on a full queue: at most one per second of writer time.
@@ -624,32 +696,23 @@ struct QueueDropNotes {
 }
 
 impl QueueDropNotes {
-    fn write(
-        &mut self,
-        out: &mut impl Write,
-        shared: &Shared,
-        t_s: f64,
-        utc: &str,
-        force: bool,
-        stats: &mut WriteStats,
-    ) -> io::Result<()> {
+    fn write(&mut self, out: &mut Journal, shared: &Shared, t_s: f64, utc: &str, force: bool) {
         if !force && self.last_t_s.is_some_and(|last| t_s - last < 1.0) {
-            return Ok(());
+            return;
         }
         let dropped = shared.queue_dropped.load(Ordering::Relaxed);
         if dropped > self.reported {
             let text = format!("{} events dropped (writer queue full)", dropped - self.reported);
-            write_record(
-                out,
-                &LogRecord { t_s, utc: utc.to_owned(), entry: LogEntry::Note { text } },
-                stats,
-            )?;
+            out.push(&LogRecord { t_s, utc: utc.to_owned(), entry: LogEntry::Note { text } }, Instant::now());
             self.reported = dropped;
             self.last_t_s = Some(t_s);
         }
-        Ok(())
     }
 }
+
+mod write;
+use write::{Journal, SessionFile, SharedHealth, WriterOptions};
+pub use write::{LogHealth, LogSink, PENDING_LIMIT_BYTES, RETRY_INTERVAL, SYNC_INTERVAL, StorageError};
 
 mod read;
 pub use read::*;
@@ -657,6 +720,7 @@ pub use read::*;
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::io::Write as _;
 
     fn temp_dir(tag: &str) -> PathBuf {
         let dir = std::env::temp_dir().join(format!("vestnav-session-log-{tag}-{}", std::process::id()));
@@ -721,7 +785,7 @@ mod tests {
         }
         drop(tx);
         let stats = log.close().unwrap();
-        assert_eq!(stats, WriteStats { written: entries.len() as u64, coalesced: 0, queue_dropped: 0 });
+        assert_eq!(stats, WriteStats { written: entries.len() as u64, ..WriteStats::default() });
         // A crash mid-line leaves a partial record: it must not hide the rest.
         let mut f = std::fs::OpenOptions::new().append(true).open(&path).unwrap();
         f.write_all(b"{\"t_s\":9,\"utc\":\"x\",\"kind\":\"fi").unwrap();
