@@ -8,7 +8,7 @@ use std::process::{Command, Stdio};
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
-use vestnav_app::tiles::{TileKey, TileSourceConfig};
+use vestnav_tiles::{TileKey, TileSourceConfig};
 
 #[path = "../support/tile_server.rs"]
 mod tile_server;
@@ -162,10 +162,10 @@ fn prefetch_into_mbtiles_survives_a_kill_and_resumes() {
 
     // With the server stopped, the file opens as a tile source.
     server.stop();
-    let mut store = vestnav_app::tiles::store::open(&TileSourceConfig::MbTiles(out.clone()), &dir).unwrap();
+    let mut store = vestnav_tiles::store::open(&TileSourceConfig::MbTiles(out.clone()), &dir).unwrap();
     let &(z, x, y) = expected.iter().next_back().unwrap();
-    let (bytes, _) = store.get(TileKey::new(z, x, y).unwrap()).unwrap().unwrap();
-    assert_eq!(bytes, *server.png);
+    let found = store.get(TileKey::new(z, x, y).unwrap()).unwrap().unwrap();
+    assert_eq!(found.bytes, *server.png);
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

@@ -1,7 +1,8 @@
 //! Test support shared by the tile tests of the console (`crates/app/tests/tiles.rs`) and of
 //! `vestnav tiles prefetch` (`tests/integration/tiles_cli.rs`): a generated solid-colour PNG, a tile server
-//! on 127.0.0.1 that counts what it is asked for, and the tiles of a box by the closed-form slippy-map
-//! formulas. Each test crate includes this file with `#[path]`.
+//! on 127.0.0.1 that counts what it is asked for (and can redirect, to itself or to another host), and the
+//! tiles of a box by the closed-form slippy-map formulas. Each test crate includes this file with
+//! `#[path]`.
 #![allow(dead_code, clippy::unwrap_used)]
 
 use std::collections::BTreeSet;
@@ -24,7 +25,11 @@ pub fn solid_png(c: [u8; 3]) -> Vec<u8> {
 
 /// A tile server on 127.0.0.1: answers `GET /{z}/{x}/{y}.png` with a generated PNG after `delay` (the
 /// throttle), one request per connection; records every tile requested and the most requests in flight.
+/// `GET /r/{z}/{x}/{y}.png` answers `302` to `/{z}/{x}/{y}.png` on the same server; a server started with
+/// [`TileServer::redirecting`] answers every tile with `302` to the same path under another base URL.
 pub struct TileServer {
+    /// The address it listens on.
+    pub ip: &'static str,
     /// The port it listens on.
     pub port: u16,
     /// Every tile requested, in order (recorded when the request arrives, before the throttle).
@@ -40,7 +45,17 @@ pub struct TileServer {
 
 impl TileServer {
     pub fn start(delay: Duration) -> Self {
-        let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+        Self::start_on("127.0.0.1", delay, None)
+    }
+
+    /// A server on `ip` that sends every tile request to `base` (e.g. `http://127.0.0.2:PORT`) with a
+    /// `302 Found`, recording the request first.
+    pub fn redirecting(ip: &'static str, base: String) -> Self {
+        Self::start_on(ip, Duration::ZERO, Some(base))
+    }
+
+    pub fn start_on(ip: &'static str, delay: Duration, redirect_to: Option<String>) -> Self {
+        let listener = TcpListener::bind((ip, 0)).unwrap();
         listener.set_nonblocking(true).unwrap();
         let port = listener.local_addr().unwrap().port();
         let requests = Arc::new(Mutex::new(Vec::new()));
@@ -57,6 +72,7 @@ impl TileServer {
                     continue;
                 };
                 let (rq, inf, mx, png) = (rq.clone(), inf.clone(), mx.clone(), png2.clone());
+                let redirect_to = redirect_to.clone();
                 std::thread::spawn(move || {
                     stream.set_nonblocking(false).unwrap();
                     let mut reader = BufReader::new(stream.try_clone().unwrap());
@@ -72,8 +88,10 @@ impl TileServer {
                             break;
                         }
                     }
-                    let path = line.split_whitespace().nth(1).unwrap_or("");
-                    let path = path.split('?').next().unwrap_or("");
+                    let full = line.split_whitespace().nth(1).unwrap_or("").to_owned();
+                    let path = full.split('?').next().unwrap_or("");
+                    let same_host = path.strip_prefix("/r");
+                    let path = same_host.unwrap_or(path);
                     let parts: Vec<&str> =
                         path.trim_start_matches('/').trim_end_matches(".png").split('/').collect();
                     let key: Option<Tile> = (parts.len() == 3)
@@ -86,7 +104,19 @@ impl TileServer {
                     }
                     std::thread::sleep(delay);
                     let mut s = stream;
+                    let location = match (&redirect_to, same_host) {
+                        (Some(base), _) => Some(format!("{base}{full}")),
+                        (None, Some(_)) => Some(full.trim_start_matches("/r").to_owned()),
+                        (None, None) => None,
+                    };
                     let _ = match key {
+                        Some(_) if location.is_some() => {
+                            let head = format!(
+                                "HTTP/1.1 302 Found\r\nLocation: {}\r\nContent-Length: 0\r\nConnection: close\r\n\r\n",
+                                location.unwrap_or_default()
+                            );
+                            s.write_all(head.as_bytes())
+                        }
                         Some(_) => {
                             let head = format!(
                                 "HTTP/1.1 200 OK\r\nContent-Type: image/png\r\nContent-Length: {}\r\nConnection: close\r\n\r\n",
@@ -103,11 +133,16 @@ impl TileServer {
                 });
             }
         });
-        Self { port, requests, in_flight, max_in_flight, stop, thread: Some(thread), png }
+        Self { ip, port, requests, in_flight, max_in_flight, stop, thread: Some(thread), png }
     }
 
     pub fn url(&self) -> String {
-        format!("http://127.0.0.1:{}/{{z}}/{{x}}/{{y}}.png?key=SECRET", self.port)
+        format!("{}/{{z}}/{{x}}/{{y}}.png?key=SECRET", self.base())
+    }
+
+    /// `http://IP:PORT`.
+    pub fn base(&self) -> String {
+        format!("http://{}:{}", self.ip, self.port)
     }
 
     pub fn requested(&self) -> Vec<Tile> {

@@ -16,13 +16,13 @@ use vestnav_app::config::{Config, GpsSourceConfig, VestSourceConfig};
 use vestnav_app::console::{Console, ConsoleOptions};
 use vestnav_app::devices::{DeviceFactory, GpsWorker};
 use vestnav_app::route::Waypoint;
-use vestnav_app::tiles::pmtiles::{Entry, HEADER_LEN, Header, write_directory, write_header, zxy_to_tile_id};
-use vestnav_app::tiles::prefetch::{Prefetch, PrefetchRequest, PrefetchTarget};
-use vestnav_app::tiles::store::TileStore as _;
-use vestnav_app::tiles::{BBox, TileKey, TileSourceConfig, cache};
 use vestnav_device::gps::GpsEvent;
 use vestnav_device::outbox::Outbox;
 use vestnav_device::wtcu::{VestEvent, VestHandle};
+use vestnav_tiles::pmtiles::{Entry, HEADER_LEN, Header, write_directory, write_header, zxy_to_tile_id};
+use vestnav_tiles::prefetch::{Prefetch, PrefetchRequest, PrefetchTarget};
+use vestnav_tiles::store::TileStore as _;
+use vestnav_tiles::{BBox, TileKey, TileSourceConfig, cache};
 
 #[path = "../../../tests/support/tile_server.rs"]
 mod tile_server;
@@ -208,7 +208,7 @@ fn pmtiles_archive_is_drawn() {
     let dir = temp_dir("pm");
     let path = dir.join("area.pmtiles");
     write_pmtiles(&path, &solid_png(RED));
-    let mut r = vestnav_app::tiles::pmtiles::PmTilesReader::open(&path).unwrap();
+    let mut r = vestnav_tiles::pmtiles::PmTilesReader::open(&path).unwrap();
     assert!(r.tile(TileKey::new(3, 2, 2).unwrap()).unwrap().is_some());
     assert!(r.tile(TileKey::new(4, 2, 2).unwrap()).unwrap().is_none());
     let (mut h, tex) = console(map_cfg(TileSourceConfig::PmTiles(path)));
@@ -280,7 +280,7 @@ fn tile_folder_is_drawn_and_bad_tiles_are_named() {
     assert!(colours.iter().all(|c| *c == c32(BLUE)), "{colours:?}");
 
     // Hostile files: not an image, and too large; errors name the file, nothing panics.
-    let mut store = vestnav_app::tiles::store::FolderStore::open(&dir).unwrap();
+    let mut store = vestnav_tiles::store::FolderStore::open(&dir).unwrap();
     std::fs::write(dir.join("3/1/1.png"), b"<html>not a tile</html>").unwrap();
     let e = store.get(TileKey::new(3, 1, 1).unwrap()).unwrap_err().to_string();
     assert!(e.contains("3/1/1.png") && e.contains("not a PNG"), "{e}");
@@ -290,13 +290,10 @@ fn tile_folder_is_drawn_and_bad_tiles_are_named() {
     // A file that is not a PMTiles archive or MBTiles database.
     let junk = dir.join("junk.pmtiles");
     std::fs::write(&junk, b"hello").unwrap();
-    let e = vestnav_app::tiles::store::open(&TileSourceConfig::PmTiles(junk.clone()), &dir)
-        .err()
-        .unwrap()
-        .to_string();
-    assert!(e.contains("junk.pmtiles"), "{e}");
     let e =
-        vestnav_app::tiles::store::open(&TileSourceConfig::MbTiles(junk), &dir).err().unwrap().to_string();
+        vestnav_tiles::store::open(&TileSourceConfig::PmTiles(junk.clone()), &dir).err().unwrap().to_string();
+    assert!(e.contains("junk.pmtiles"), "{e}");
+    let e = vestnav_tiles::store::open(&TileSourceConfig::MbTiles(junk), &dir).err().unwrap().to_string();
     assert!(e.contains("junk.pmtiles"), "{e}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
