@@ -79,7 +79,11 @@ pub fn open_regular(path: &Path) -> io::Result<File> {
     let f = File::open(path)?;
     // The path could have been swapped between the check and the open: check what was opened.
     let meta = f.metadata()?;
-    if meta.is_file() { Ok(f) } else { Err(io::Error::new(io::ErrorKind::InvalidInput, not_regular(&meta))) }
+    if meta.is_file() {
+        Ok(f)
+    } else {
+        Err(io::Error::new(io::ErrorKind::InvalidInput, not_regular(&meta)))
+    }
 }
 
 fn not_regular(meta: &std::fs::Metadata) -> String {
