@@ -17,7 +17,36 @@ pub type Tile = (u8, u32, u32);
 
 /// A 256×256 PNG of one colour.
 pub fn solid_png(c: [u8; 3]) -> Vec<u8> {
-    let img = image::RgbaImage::from_pixel(256, 256, image::Rgba([c[0], c[1], c[2], 255]));
+    solid_png_sized(c, 256)
+}
+
+/// A real PNG whose IHDR declares `side`x`side` px: a 4x4 image's encoding with the IHDR's size and
+/// CRC rewritten (the header of a decompression bomb; readers that trust it allocate side² pixels).
+pub fn png_declaring(side: u32) -> Vec<u8> {
+    let mut b = solid_png_sized([7, 7, 7], 4);
+    assert_eq!(&b[12..16], b"IHDR");
+    b[16..20].copy_from_slice(&side.to_be_bytes());
+    b[20..24].copy_from_slice(&side.to_be_bytes());
+    let crc = crc32(&b[12..29]);
+    b[29..33].copy_from_slice(&crc.to_be_bytes());
+    b
+}
+
+/// CRC-32 as PNG uses it (PNG 1.2 spec, annex D: polynomial 0xEDB88320 reflected, initial and final
+/// value 0xFFFFFFFF), bit by bit.
+fn crc32(data: &[u8]) -> u32 {
+    let mut c = 0xFFFF_FFFFu32;
+    for &byte in data {
+        c ^= u32::from(byte);
+        for _ in 0..8 {
+            c = if c & 1 == 1 { 0xEDB8_8320 ^ (c >> 1) } else { c >> 1 };
+        }
+    }
+    c ^ 0xFFFF_FFFF
+}
+
+fn solid_png_sized(c: [u8; 3], side: u32) -> Vec<u8> {
+    let img = image::RgbaImage::from_pixel(side, side, image::Rgba([c[0], c[1], c[2], 255]));
     let mut out = std::io::Cursor::new(Vec::new());
     img.write_to(&mut out, image::ImageFormat::Png).unwrap();
     out.into_inner()

@@ -377,8 +377,8 @@ pub enum TileError {
         /// The OS error.
         source: std::io::Error,
     },
-    /// A FIFO, device, socket or folder where a tile file (or a PMTiles/MBTiles file) was expected: never
-    /// opened, so it never blocks.
+    /// A FIFO, device, socket or folder where a tile file (or a PMTiles/MBTiles file) was expected, or
+    /// anything but a folder where a tile folder was: never opened, so it never blocks.
     #[error("{what} refused: {why}")]
     NotRegular {
         /// The path.

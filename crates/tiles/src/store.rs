@@ -106,6 +106,13 @@ impl FolderStore {
     /// Opens `root`; its zoom range is read from the numeric folder names directly inside it.
     pub fn open(root: &Path) -> Result<Self, TileError> {
         let what = root.display().to_string();
+        // Only a folder is listed: a FIFO or device given as the folder is refused from its metadata.
+        match std::fs::metadata(root) {
+            Ok(m) if !m.is_dir() => {
+                return Err(TileError::NotRegular { what, why: "not a folder".into() });
+            }
+            _ => {}
+        }
         let rd = std::fs::read_dir(root).map_err(|source| TileError::Io { what: what.clone(), source })?;
         let zooms: Vec<u8> = rd
             .filter_map(Result::ok)

@@ -17,7 +17,7 @@ use vestnav_tiles::{BBox, MAX_TILE_PX, TileKey, TileSourceConfig, parse_tiles_sp
 #[path = "../../../tests/support/tile_server.rs"]
 mod tile_server;
 
-use tile_server::{TileServer, solid_png};
+use tile_server::{TileServer, png_declaring, solid_png};
 
 fn temp_dir(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("vestnav-tiles-hostile-{name}-{}", std::process::id()));
@@ -57,32 +57,6 @@ fn load_one(loader: &TileLoader, key: TileKey) -> Loaded {
 
 fn no_waker() -> vestnav_tiles::Waker {
     Arc::new(|| {})
-}
-
-/// A real PNG (a valid zlib stream of two 8-bit grey rows, CRCs right) whose IHDR declares
-/// `side`x`side` px: the header of a decompression bomb. Written from the PNG 1.2 spec's chunk layout.
-fn png_declaring(side: u32) -> Vec<u8> {
-    fn chunk(out: &mut Vec<u8>, kind: &[u8; 4], data: &[u8]) {
-        out.extend_from_slice(&u32::try_from(data.len()).unwrap().to_be_bytes());
-        let mut crc = flate2::Crc::new();
-        crc.update(kind);
-        crc.update(data);
-        out.extend_from_slice(kind);
-        out.extend_from_slice(data);
-        out.extend_from_slice(&crc.sum().to_be_bytes());
-    }
-    let mut ihdr = Vec::new();
-    ihdr.extend_from_slice(&side.to_be_bytes());
-    ihdr.extend_from_slice(&side.to_be_bytes());
-    ihdr.extend_from_slice(&[8, 0, 0, 0, 0]); // 8-bit greyscale, deflate, filter 0, no interlace
-    let mut z = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::best());
-    std::io::Write::write_all(&mut z, &vec![0u8; 2 * (side as usize + 1)]).unwrap();
-    let idat = z.finish().unwrap();
-    let mut out = b"\x89PNG\r\n\x1a\n".to_vec();
-    chunk(&mut out, b"IHDR", &ihdr);
-    chunk(&mut out, b"IDAT", &idat);
-    chunk(&mut out, b"IEND", &[]);
-    out
 }
 
 fn refused(l: &Loaded) -> &str {
