@@ -56,7 +56,7 @@ pub struct Cli {
     /// pmtiles:FILE, mbtiles:FILE, folder:DIR (holding {z}/{x}/{y}.png), or a path ending in .pmtiles or
     /// .mbtiles, or a folder.
     #[arg(long, value_name = "SOURCE", value_parser = parse_tiles)]
-    pub tiles: Option<vestnav_app::tiles::TileSourceConfig>,
+    pub tiles: Option<vestnav_tiles::TileSourceConfig>,
     /// Console only: save a PNG of the window after --screenshot-after seconds, then close it (the vest is
     /// stopped first, as on any close). For documentation and bug reports; works under Xvfb.
     #[arg(long, value_name = "FILE.png")]
@@ -80,8 +80,8 @@ fn parse_screenshot_after(s: &str) -> Result<f64, String> {
         .ok_or_else(|| format!("{s:?}: seconds from 0 to 3600"))
 }
 
-fn parse_tiles(s: &str) -> Result<vestnav_app::tiles::TileSourceConfig, String> {
-    vestnav_app::tiles::parse_tiles_spec(s)
+fn parse_tiles(s: &str) -> Result<vestnav_tiles::TileSourceConfig, String> {
+    vestnav_tiles::parse_tiles_spec(s)
 }
 
 fn parse_vest(s: &str) -> Result<vestnav_station::sources::VestSourceConfig, String> {

@@ -1,6 +1,6 @@
 //! `vestnav tiles prefetch`: the console's "Make this area available offline", headless. The checks, the
-//! download workers and the writers are the console's own (`vestnav_app::tiles::prefetch`); this file only
-//! turns the command line into a `PrefetchRequest` and reports progress on stderr.
+//! download workers and the writers are the console's own (`vestnav_tiles::prefetch`, no GUI linked for
+//! them); this file only turns the command line into a `PrefetchRequest` and reports progress on stderr.
 
 use std::io::Write as _;
 use std::path::PathBuf;
@@ -8,10 +8,10 @@ use std::time::Duration;
 
 use anyhow::{Context as _, bail};
 use clap::Args;
-use vestnav_app::tiles::prefetch::{
+use vestnav_tiles::prefetch::{
     self, DEFAULT_PARALLELISM, MAX_PARALLELISM, Prefetch, PrefetchRequest, PrefetchTarget, Snapshot,
 };
-use vestnav_app::tiles::{BBox, MAX_ZOOM, TileSourceConfig, cache, parse_tiles_spec, redact_url, url_host};
+use vestnav_tiles::{BBox, MAX_ZOOM, TileSourceConfig, cache, parse_tiles_spec, redact_url, url_host};
 
 /// `vestnav tiles prefetch`.
 #[derive(Debug, Args)]

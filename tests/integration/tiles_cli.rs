@@ -1,6 +1,7 @@
 //! `vestnav tiles prefetch` against a tile server on 127.0.0.1 started here: the tiles of the box over the
 //! zooms and no others, into an MBTiles file that survives a SIGKILL mid-run and is resumed, with no more
-//! requests in flight than `--parallel`; the bulk-download policy refusals; `--dry-run`.
+//! requests in flight than `--parallel`; the bulk-download policy refusals; `--dry-run`; a redirect to
+//! another host not followed (issue 21 item 7); a FIFO as the `--tiles` path refused at once.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -8,7 +9,7 @@ use std::process::{Command, Stdio};
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
-use vestnav_app::tiles::{TileKey, TileSourceConfig};
+use vestnav_tiles::{TileKey, TileSourceConfig};
 
 #[path = "../support/tile_server.rs"]
 mod tile_server;
@@ -162,10 +163,10 @@ fn prefetch_into_mbtiles_survives_a_kill_and_resumes() {
 
     // With the server stopped, the file opens as a tile source.
     server.stop();
-    let mut store = vestnav_app::tiles::store::open(&TileSourceConfig::MbTiles(out.clone()), &dir).unwrap();
+    let mut store = vestnav_tiles::store::open(&TileSourceConfig::MbTiles(out.clone()), &dir).unwrap();
     let &(z, x, y) = expected.iter().next_back().unwrap();
-    let (bytes, _) = store.get(TileKey::new(z, x, y).unwrap()).unwrap().unwrap();
-    assert_eq!(bytes, *server.png);
+    let found = store.get(TileKey::new(z, x, y).unwrap()).unwrap().unwrap();
+    assert_eq!(found.bytes, *server.png);
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
@@ -202,5 +203,64 @@ fn refusals_and_dry_run_download_nothing() {
     assert!(o.contains(&format!("{} tiles at zooms 13-18", expected().len())) && o.contains("MB"), "{o}");
     assert!(server.requested().is_empty());
     assert!(!out.exists());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Issue 21 item 7: a server that redirects every tile to another host (127.0.0.2 — a distinct host on
+/// the loopback) makes the prefetch stop with the reason, and the other host is never asked.
+#[test]
+fn prefetch_follows_no_redirect_to_another_host() {
+    let dir = temp_dir("redirect");
+    let out = dir.join("area.mbtiles");
+    let other = TileServer::start_on("127.0.0.2", Duration::ZERO, None);
+    let first = TileServer::redirecting("127.0.0.1", other.base());
+    let run = Command::new(env!("CARGO_BIN_EXE_vestnav")).args(prefetch_args(&first, &out)).output().unwrap();
+    let e = String::from_utf8_lossy(&run.stderr);
+    assert!(!run.status.success(), "{e}");
+    assert!(
+        e.contains(&format!(
+            "redirected to {}: not followed (prefetch only downloads from the host you named)",
+            other.base()
+        )),
+        "{e}"
+    );
+    assert!(e.contains("not stored") && !e.contains("SECRET"), "{e}");
+    assert!(other.requested().is_empty(), "the second host was asked: {:?}", other.requested());
+    assert!((1..=PARALLEL).contains(&first.requested().len()), "stops at the first: {:?}", first.requested());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Issue 21 item 7: `--tiles` naming a FIFO is refused while the command line is parsed — the console
+/// never starts, nothing opens the FIFO, nothing blocks.
+#[cfg(unix)]
+#[test]
+fn a_fifo_as_the_tiles_path_is_refused_at_once() {
+    let dir = temp_dir("fifo");
+    for name in ["area.pmtiles", "area.mbtiles"] {
+        let fifo = dir.join(name);
+        assert!(Command::new("mkfifo").arg(&fifo).status().unwrap().success());
+        let mut child = Command::new(env!("CARGO_BIN_EXE_vestnav"))
+            .arg("--tiles")
+            .arg(&fifo)
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let t0 = Instant::now();
+        let status = loop {
+            if let Some(s) = child.try_wait().unwrap() {
+                break s;
+            }
+            if t0.elapsed() > Duration::from_secs(20) {
+                child.kill().unwrap();
+                panic!("vestnav --tiles {name} (a FIFO) did not exit within 20 s");
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        };
+        let mut err = String::new();
+        std::io::Read::read_to_string(&mut child.stderr.take().unwrap(), &mut err).unwrap();
+        assert!(!status.success(), "{err}");
+        assert!(err.contains("FIFO (named pipe), not a regular file") && err.contains(name), "{err}");
+    }
     std::fs::remove_dir_all(&dir).unwrap();
 }

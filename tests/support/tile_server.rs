@@ -1,7 +1,8 @@
 //! Test support shared by the tile tests of the console (`crates/app/tests/tiles.rs`) and of
 //! `vestnav tiles prefetch` (`tests/integration/tiles_cli.rs`): a generated solid-colour PNG, a tile server
-//! on 127.0.0.1 that counts what it is asked for, and the tiles of a box by the closed-form slippy-map
-//! formulas. Each test crate includes this file with `#[path]`.
+//! on 127.0.0.1 that counts what it is asked for (and can redirect, to itself or to another host), and the
+//! tiles of a box by the closed-form slippy-map formulas. Each test crate includes this file with
+//! `#[path]`.
 #![allow(dead_code, clippy::unwrap_used)]
 
 use std::collections::BTreeSet;
@@ -16,7 +17,36 @@ pub type Tile = (u8, u32, u32);
 
 /// A 256×256 PNG of one colour.
 pub fn solid_png(c: [u8; 3]) -> Vec<u8> {
-    let img = image::RgbaImage::from_pixel(256, 256, image::Rgba([c[0], c[1], c[2], 255]));
+    solid_png_sized(c, 256)
+}
+
+/// A real PNG whose IHDR declares `side`x`side` px: a 4x4 image's encoding with the IHDR's size and
+/// CRC rewritten (the header of a decompression bomb; readers that trust it allocate side² pixels).
+pub fn png_declaring(side: u32) -> Vec<u8> {
+    let mut b = solid_png_sized([7, 7, 7], 4);
+    assert_eq!(&b[12..16], b"IHDR");
+    b[16..20].copy_from_slice(&side.to_be_bytes());
+    b[20..24].copy_from_slice(&side.to_be_bytes());
+    let crc = crc32(&b[12..29]);
+    b[29..33].copy_from_slice(&crc.to_be_bytes());
+    b
+}
+
+/// CRC-32 as PNG uses it (PNG 1.2 spec, annex D: polynomial 0xEDB88320 reflected, initial and final
+/// value 0xFFFFFFFF), bit by bit.
+fn crc32(data: &[u8]) -> u32 {
+    let mut c = 0xFFFF_FFFFu32;
+    for &byte in data {
+        c ^= u32::from(byte);
+        for _ in 0..8 {
+            c = if c & 1 == 1 { 0xEDB8_8320 ^ (c >> 1) } else { c >> 1 };
+        }
+    }
+    c ^ 0xFFFF_FFFF
+}
+
+fn solid_png_sized(c: [u8; 3], side: u32) -> Vec<u8> {
+    let img = image::RgbaImage::from_pixel(side, side, image::Rgba([c[0], c[1], c[2], 255]));
     let mut out = std::io::Cursor::new(Vec::new());
     img.write_to(&mut out, image::ImageFormat::Png).unwrap();
     out.into_inner()
@@ -24,7 +54,11 @@ pub fn solid_png(c: [u8; 3]) -> Vec<u8> {
 
 /// A tile server on 127.0.0.1: answers `GET /{z}/{x}/{y}.png` with a generated PNG after `delay` (the
 /// throttle), one request per connection; records every tile requested and the most requests in flight.
+/// `GET /r/{z}/{x}/{y}.png` answers `302` to `/{z}/{x}/{y}.png` on the same server; a server started with
+/// [`TileServer::redirecting`] answers every tile with `302` to the same path under another base URL.
 pub struct TileServer {
+    /// The address it listens on.
+    pub ip: &'static str,
     /// The port it listens on.
     pub port: u16,
     /// Every tile requested, in order (recorded when the request arrives, before the throttle).
@@ -40,7 +74,17 @@ pub struct TileServer {
 
 impl TileServer {
     pub fn start(delay: Duration) -> Self {
-        let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+        Self::start_on("127.0.0.1", delay, None)
+    }
+
+    /// A server on `ip` that sends every tile request to `base` (e.g. `http://127.0.0.2:PORT`) with a
+    /// `302 Found`, recording the request first.
+    pub fn redirecting(ip: &'static str, base: String) -> Self {
+        Self::start_on(ip, Duration::ZERO, Some(base))
+    }
+
+    pub fn start_on(ip: &'static str, delay: Duration, redirect_to: Option<String>) -> Self {
+        let listener = TcpListener::bind((ip, 0)).unwrap();
         listener.set_nonblocking(true).unwrap();
         let port = listener.local_addr().unwrap().port();
         let requests = Arc::new(Mutex::new(Vec::new()));
@@ -57,6 +101,7 @@ impl TileServer {
                     continue;
                 };
                 let (rq, inf, mx, png) = (rq.clone(), inf.clone(), mx.clone(), png2.clone());
+                let redirect_to = redirect_to.clone();
                 std::thread::spawn(move || {
                     stream.set_nonblocking(false).unwrap();
                     let mut reader = BufReader::new(stream.try_clone().unwrap());
@@ -72,8 +117,10 @@ impl TileServer {
                             break;
                         }
                     }
-                    let path = line.split_whitespace().nth(1).unwrap_or("");
-                    let path = path.split('?').next().unwrap_or("");
+                    let full = line.split_whitespace().nth(1).unwrap_or("").to_owned();
+                    let path = full.split('?').next().unwrap_or("");
+                    let same_host = path.strip_prefix("/r");
+                    let path = same_host.unwrap_or(path);
                     let parts: Vec<&str> =
                         path.trim_start_matches('/').trim_end_matches(".png").split('/').collect();
                     let key: Option<Tile> = (parts.len() == 3)
@@ -86,7 +133,19 @@ impl TileServer {
                     }
                     std::thread::sleep(delay);
                     let mut s = stream;
+                    let location = match (&redirect_to, same_host) {
+                        (Some(base), _) => Some(format!("{base}{full}")),
+                        (None, Some(_)) => Some(full.trim_start_matches("/r").to_owned()),
+                        (None, None) => None,
+                    };
                     let _ = match key {
+                        Some(_) if location.is_some() => {
+                            let head = format!(
+                                "HTTP/1.1 302 Found\r\nLocation: {}\r\nContent-Length: 0\r\nConnection: close\r\n\r\n",
+                                location.unwrap_or_default()
+                            );
+                            s.write_all(head.as_bytes())
+                        }
                         Some(_) => {
                             let head = format!(
                                 "HTTP/1.1 200 OK\r\nContent-Type: image/png\r\nContent-Length: {}\r\nConnection: close\r\n\r\n",
@@ -103,11 +162,16 @@ impl TileServer {
                 });
             }
         });
-        Self { port, requests, in_flight, max_in_flight, stop, thread: Some(thread), png }
+        Self { ip, port, requests, in_flight, max_in_flight, stop, thread: Some(thread), png }
     }
 
     pub fn url(&self) -> String {
-        format!("http://127.0.0.1:{}/{{z}}/{{x}}/{{y}}.png?key=SECRET", self.port)
+        format!("{}/{{z}}/{{x}}/{{y}}.png?key=SECRET", self.base())
+    }
+
+    /// `http://IP:PORT`.
+    pub fn base(&self) -> String {
+        format!("http://{}:{}", self.ip, self.port)
     }
 
     pub fn requested(&self) -> Vec<Tile> {

@@ -49,10 +49,10 @@ pub struct Config {
     /// Draw map tiles; off = local metric grid only.
     pub map_tiles: bool,
     /// Where the tiles come from (`vestnav --tiles SOURCE` overrides it for one run).
-    pub tiles: crate::tiles::TileSourceConfig,
+    pub tiles: vestnav_tiles::TileSourceConfig,
     /// Size limit of the tile cache [MB]; the least recently used tiles are pruned above it.
     pub tile_cache_mb: u64,
-    /// Tile cache folder; `None` = the platform cache folder (`crate::tiles::cache::default_root`).
+    /// Tile cache folder; `None` = the platform cache folder (`vestnav_tiles::cache::default_root`).
     pub tile_cache_dir: Option<PathBuf>,
     /// Parallel downloads of the offline prefetch.
     pub prefetch_parallelism: usize,
@@ -97,10 +97,10 @@ impl Default for Config {
             manual_hold_s: 10.0,
             walking_speed_m_s: 1.3,
             map_tiles: true,
-            tiles: crate::tiles::TileSourceConfig::Osm,
-            tile_cache_mb: crate::tiles::cache::DEFAULT_LIMIT_MB,
+            tiles: vestnav_tiles::TileSourceConfig::Osm,
+            tile_cache_mb: vestnav_tiles::cache::DEFAULT_LIMIT_MB,
             tile_cache_dir: None,
-            prefetch_parallelism: crate::tiles::prefetch::DEFAULT_PARALLELISM,
+            prefetch_parallelism: vestnav_tiles::prefetch::DEFAULT_PARALLELISM,
             follow: true,
             stale_after_s: 3.0,
             lost_after_s: 10.0,
@@ -245,7 +245,7 @@ impl Config {
         self.lost_after_s = fix(self.lost_after_s, self.stale_after_s, 600.0, d.lost_after_s);
         self.tile_cache_mb = self.tile_cache_mb.clamp(10, 100_000);
         self.prefetch_parallelism =
-            self.prefetch_parallelism.clamp(1, crate::tiles::prefetch::MAX_PARALLELISM);
+            self.prefetch_parallelism.clamp(1, vestnav_tiles::prefetch::MAX_PARALLELISM);
         self.recent = std::mem::take(&mut self.recent).sanitized();
         if let GpsSourceConfig::Replay { speed, .. } = &mut self.gps {
             *speed = fix(*speed, 0.0, 1000.0, 1.0);

@@ -88,7 +88,7 @@ pub struct DeviceOverrides {
     /// `--vest`.
     pub vest: Option<VestSourceConfig>,
     /// `--tiles`: the map's tile source for this run.
-    pub tiles: Option<crate::tiles::TileSourceConfig>,
+    pub tiles: Option<vestnav_tiles::TileSourceConfig>,
 }
 
 /// The console.
@@ -100,7 +100,7 @@ pub struct Console {
     /// Device settings as read from the config file, written back instead of command-line overrides.
     file_devices: (GpsSourceConfig, VestSourceConfig),
     /// The tile source as read from the config file, written back instead of a `--tiles` override.
-    file_tiles: crate::tiles::TileSourceConfig,
+    file_tiles: vestnav_tiles::TileSourceConfig,
     overrides: DeviceOverrides,
     /// The running system.
     pub station: Station,

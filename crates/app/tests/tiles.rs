@@ -1,6 +1,7 @@
 //! Tile sources end to end, without the network: a PMTiles archive, an MBTiles file and a tile folder
 //! made here are drawn by the console's map (the painted meshes sampled for a tile's colour), and the
-//! offline prefetch runs against a tile server on 127.0.0.1 started by the test.
+//! offline prefetch runs against a tile server on 127.0.0.1 started by the test; hostile tiles (a FIFO in
+//! a tile folder, PNGs declaring 20000x20000 px in an MBTiles file) are shown as refused, with the reason.
 #![allow(clippy::unwrap_used)]
 
 use std::collections::{BTreeSet, HashMap};
@@ -14,20 +15,20 @@ use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable as _;
 use vestnav_app::config::{Config, GpsSourceConfig, VestSourceConfig};
 use vestnav_app::console::{Console, ConsoleOptions};
-use vestnav_app::tiles::pmtiles::{Entry, HEADER_LEN, Header, write_directory, write_header, zxy_to_tile_id};
-use vestnav_app::tiles::prefetch::{Prefetch, PrefetchRequest, PrefetchTarget};
-use vestnav_app::tiles::store::TileStore as _;
-use vestnav_app::tiles::{BBox, TileKey, TileSourceConfig, cache};
+use vestnav_station::devices::{DeviceFactory, GpsWorker};
+use vestnav_station::route::Waypoint;
 use vestnav_device::gps::GpsEvent;
 use vestnav_device::outbox::Outbox;
 use vestnav_device::wtcu::{VestEvent, VestHandle};
-use vestnav_station::devices::{DeviceFactory, GpsWorker};
-use vestnav_station::route::Waypoint;
+use vestnav_tiles::pmtiles::{Entry, HEADER_LEN, Header, write_directory, write_header, zxy_to_tile_id};
+use vestnav_tiles::prefetch::{Prefetch, PrefetchRequest, PrefetchTarget};
+use vestnav_tiles::store::TileStore as _;
+use vestnav_tiles::{BBox, TileKey, TileSourceConfig, cache};
 
 #[path = "../../../tests/support/tile_server.rs"]
 mod tile_server;
 
-use tile_server::{TileServer, expected_tiles, solid_png};
+use tile_server::{TileServer, expected_tiles, png_declaring, solid_png};
 
 /// No devices: the map needs none.
 struct NoDevices;
@@ -208,7 +209,7 @@ fn pmtiles_archive_is_drawn() {
     let dir = temp_dir("pm");
     let path = dir.join("area.pmtiles");
     write_pmtiles(&path, &solid_png(RED));
-    let mut r = vestnav_app::tiles::pmtiles::PmTilesReader::open(&path).unwrap();
+    let mut r = vestnav_tiles::pmtiles::PmTilesReader::open(&path).unwrap();
     assert!(r.tile(TileKey::new(3, 2, 2).unwrap()).unwrap().is_some());
     assert!(r.tile(TileKey::new(4, 2, 2).unwrap()).unwrap().is_none());
     let (mut h, tex) = console(map_cfg(TileSourceConfig::PmTiles(path)));
@@ -280,7 +281,7 @@ fn tile_folder_is_drawn_and_bad_tiles_are_named() {
     assert!(colours.iter().all(|c| *c == c32(BLUE)), "{colours:?}");
 
     // Hostile files: not an image, and too large; errors name the file, nothing panics.
-    let mut store = vestnav_app::tiles::store::FolderStore::open(&dir).unwrap();
+    let mut store = vestnav_tiles::store::FolderStore::open(&dir).unwrap();
     std::fs::write(dir.join("3/1/1.png"), b"<html>not a tile</html>").unwrap();
     let e = store.get(TileKey::new(3, 1, 1).unwrap()).unwrap_err().to_string();
     assert!(e.contains("3/1/1.png") && e.contains("not a PNG"), "{e}");
@@ -290,13 +291,10 @@ fn tile_folder_is_drawn_and_bad_tiles_are_named() {
     // A file that is not a PMTiles archive or MBTiles database.
     let junk = dir.join("junk.pmtiles");
     std::fs::write(&junk, b"hello").unwrap();
-    let e = vestnav_app::tiles::store::open(&TileSourceConfig::PmTiles(junk.clone()), &dir)
-        .err()
-        .unwrap()
-        .to_string();
-    assert!(e.contains("junk.pmtiles"), "{e}");
     let e =
-        vestnav_app::tiles::store::open(&TileSourceConfig::MbTiles(junk), &dir).err().unwrap().to_string();
+        vestnav_tiles::store::open(&TileSourceConfig::PmTiles(junk.clone()), &dir).err().unwrap().to_string();
+    assert!(e.contains("junk.pmtiles"), "{e}");
+    let e = vestnav_tiles::store::open(&TileSourceConfig::MbTiles(junk), &dir).err().unwrap().to_string();
     assert!(e.contains("junk.pmtiles"), "{e}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
@@ -454,6 +452,81 @@ fn tiles_window_refuses_osm_prefetch_and_switches_source() {
     h.get_by_label("Use this source").click();
     h.run_ok();
     assert_eq!(h.state().cfg.tiles, TileSourceConfig::Osm);
+    drop(h);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Runs frames until the indicator counts refused tiles (bounded: a loader blocked on a FIFO would
+/// leave them "loading" and fail here); returns the indicator's text.
+fn until_refused(h: &mut Harness<'static, Console>) -> String {
+    let mut text = String::new();
+    for _ in 0..300 {
+        h.step();
+        text = h.state().map.tiles.indicator(&h.state().cfg).0;
+        if text.contains("refused") && !text.contains("loading") {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    text
+}
+
+/// Issue 21 item 7 on the screen: a tile folder whose tiles are FIFOs, and an MBTiles file whose tiles
+/// are PNGs declaring 20000x20000 px. The indicator counts them as refused (not missing, not loading
+/// forever), and the map's grid note gives the reason instead of "has none here".
+#[cfg(unix)]
+#[test]
+fn refused_tiles_are_shown_with_the_reason_not_as_absent() {
+    let dir = temp_dir("refused");
+    let folder = dir.join("fifos");
+    for z in 0..=3u8 {
+        let n = 1u32 << z;
+        for x in 0..n {
+            for y in 0..n {
+                let p = folder.join(format!("{z}/{x}/{y}.png"));
+                std::fs::create_dir_all(p.parent().unwrap()).unwrap();
+                assert!(std::process::Command::new("mkfifo").arg(&p).status().unwrap().success());
+            }
+        }
+    }
+    let (mut h, _) = console(map_cfg(TileSourceConfig::Folder(folder)));
+    let text = until_refused(&mut h);
+    assert!(text.contains("refused") && !text.contains("missing") && !text.contains("loading"), "{text}");
+    let note = h.state().map.tiles.note(&h.state().cfg, true);
+    assert!(note.contains("refused: a FIFO (named pipe), not a regular file"), "{note}");
+    assert!(!note.contains("has none here"), "{note}");
+    drop(h);
+
+    let mb = dir.join("bombs.mbtiles");
+    let conn = rusqlite::Connection::open(&mb).unwrap();
+    conn.execute_batch(
+        "CREATE TABLE metadata (name TEXT, value TEXT);
+         CREATE TABLE tiles (zoom_level INTEGER, tile_column INTEGER, tile_row INTEGER, tile_data BLOB);
+         INSERT INTO metadata VALUES ('format', 'png'), ('minzoom', '0'), ('maxzoom', '2');",
+    )
+    .unwrap();
+    let bomb = png_declaring(20_000);
+    for z in 0..=2u8 {
+        for x in 0..1u32 << z {
+            for row in 0..1u32 << z {
+                conn.execute("INSERT INTO tiles VALUES (?1, ?2, ?3, ?4)", rusqlite::params![z, x, row, bomb])
+                    .unwrap();
+            }
+        }
+    }
+    drop(conn);
+    let (mut h, _) = console(map_cfg(TileSourceConfig::MbTiles(mb.clone())));
+    let text = until_refused(&mut h);
+    assert!(text.contains("refused") && !text.contains("missing"), "{text}");
+    let note = h.state().map.tiles.note(&h.state().cfg, true);
+    assert!(
+        note.contains(&format!(
+            " of {} refused: PNG declares 20000x20000 px, more than 1024 px a side",
+            mb.display()
+        )),
+        "{note}"
+    );
+    assert!(note.starts_with("no tiles: metric grid (tile 2/"), "{note}");
     drop(h);
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -1,26 +1,22 @@
-//! [`SourceTiles`]: the one `walkers::Tiles` implementation behind every tile source. Loader threads own
-//! the store (a file or the HTTP cache), read and decode tiles off the UI thread and hand the decoded
-//! images back; the UI thread turns them into textures, keeps a bounded number of them, magnifies the
+//! [`SourceTiles`]: the one `walkers::Tiles` implementation behind every tile source. The loader threads
+//! of `vestnav_tiles::loader` own the store (a file or the HTTP cache), read and decode tiles off the UI
+//! thread and hand the decoded images back (or why a tile is absent, refused or failed); the UI thread turns them into textures, keeps a bounded number of them, magnifies the
 //! store's deepest zoom beyond it, and shows a coarser tile while a finer one loads.
 
-use std::collections::{HashMap, HashSet, VecDeque};
-
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Condvar, Mutex, PoisonError};
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, Instant};
 
 use egui::{ColorImage, Rect, TextureHandle, pos2};
+use vestnav_tiles::loader::{Loaded, TileLoader};
+use vestnav_tiles::store::{Origin, StoreInfo};
+use vestnav_tiles::{MAX_ZOOM, TileImage, TileKey, TileSourceConfig};
 use walkers::sources::Attribution;
 use walkers::{Tile, TileId, TilePiece, Tiles};
 
-use super::store::{Origin, StoreInfo, TileStore};
-use super::{TileKey, TileSourceConfig, decode_tile};
-
 /// Textures kept at most (256 px tiles: 256 kB each, so 64 MB).
 pub const MAX_TEXTURES: usize = 256;
-/// Requests waiting at most; older ones are dropped (the map has moved on).
-pub const MAX_QUEUE: usize = 256;
-/// A failed tile is tried again after this long.
+/// A failed or refused tile is tried again after this long.
 pub const RETRY_FAILED_AFTER: Duration = Duration::from_secs(30);
 /// Coarser zooms searched for a stand-in while a tile loads.
 const FALLBACK_LEVELS: u8 = 6;
@@ -36,8 +32,13 @@ pub struct FrameCounts {
     pub stale: u32,
     /// Drawn from a download this session.
     pub downloaded: u32,
-    /// Not held by the source, or failed.
+    /// Not held by the source.
     pub missing: u32,
+    /// Held by the source but refused (not a regular file, too large, declaring too many pixels, not
+    /// an image, redirected elsewhere): the loader's last error says why.
+    pub refused: u32,
+    /// Could not be read or fetched.
+    pub failed: u32,
     /// Still loading.
     pub loading: u32,
 }
@@ -52,7 +53,7 @@ impl FrameCounts {
 enum Slot {
     Ready { tex: TextureHandle, origin: Origin, used: u64 },
     Missing { used: u64 },
-    Failed { at: Instant, used: u64 },
+    Failed { at: Instant, used: u64, refused: bool },
 }
 
 impl Slot {
@@ -63,39 +64,25 @@ impl Slot {
     }
 }
 
-type Outcome = Result<Option<(ColorImage, Origin)>, String>;
-
-#[derive(Default)]
-struct Queue {
-    waiting: VecDeque<TileKey>,
-    pending: HashSet<TileKey>,
-}
-
-struct Shared {
-    queue: Mutex<Queue>,
-    wake: Condvar,
-    done: Mutex<Vec<(TileKey, Outcome)>>,
-    stop: AtomicBool,
-    /// The store's description once open, or why it could not be opened.
-    opened: Mutex<Option<Result<StoreInfo, String>>>,
-    /// The latest tile error, for the indicator.
-    last_error: Mutex<Option<String>>,
-}
-
 fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
     m.lock().unwrap_or_else(PoisonError::into_inner)
 }
 
-/// Tiles of one source, loaded off the UI thread.
+/// Tiles of one source, loaded off the UI thread by a [`TileLoader`].
 pub struct SourceTiles {
     source: TileSourceConfig,
-    shared: Arc<Shared>,
+    loader: TileLoader,
     slots: HashMap<TileKey, Slot>,
     ctx: egui::Context,
     frame: u64,
     counts: FrameCounts,
     last_counts: FrameCounts,
     attribution: &'static str,
+}
+
+/// The egui image of a decoded tile.
+fn color_image(img: &TileImage) -> ColorImage {
+    ColorImage::from_rgba_unmultiplied([img.width as usize, img.height as usize], &img.rgba)
 }
 
 /// Attribution strings handed to walkers, which wants `&'static str`: each distinct text is leaked once.
@@ -114,29 +101,13 @@ impl SourceTiles {
     /// Starts the loader threads of `source` (two for HTTP sources, the OpenStreetMap policy's limit of
     /// parallel connections; one for local files); `cache_dir` holds downloaded tiles.
     pub fn new(source: TileSourceConfig, cache_dir: &std::path::Path, ctx: egui::Context) -> Self {
-        let shared = Arc::new(Shared {
-            queue: Mutex::default(),
-            wake: Condvar::new(),
-            done: Mutex::default(),
-            stop: AtomicBool::new(false),
-            opened: Mutex::new(None),
-            last_error: Mutex::new(None),
-        });
-        let threads = if source.url_template().is_some() { 2 } else { 1 };
-        for i in 0..threads {
-            let (sh, source, cache_dir, ctx) =
-                (shared.clone(), source.clone(), cache_dir.to_path_buf(), ctx.clone());
-            let spawned = std::thread::Builder::new()
-                .name(format!("tiles-{i}"))
-                .spawn(move || loader(&sh, &source, &cache_dir, &ctx));
-            if let Err(e) = spawned {
-                *lock(&shared.opened) = Some(Err(format!("cannot start the tile loader thread: {e}")));
-            }
-        }
+        let repaint = ctx.clone();
+        let waker: vestnav_tiles::Waker = Arc::new(move || repaint.request_repaint());
+        let loader = TileLoader::start(&source, cache_dir, &waker);
         let attribution = intern(&source.attribution());
         Self {
             source,
-            shared,
+            loader,
             slots: HashMap::new(),
             ctx,
             frame: 0,
@@ -165,12 +136,12 @@ impl SourceTiles {
 
     /// `Some(Err)` when the source could not be opened (the file is missing or not a tile file).
     pub fn open_state(&self) -> Option<Result<StoreInfo, String>> {
-        lock(&self.shared.opened).clone()
+        self.loader.open_state()
     }
 
-    /// The latest tile error (names the file or URL).
+    /// The latest tile refusal or failure (names the tile and its file or URL).
     pub fn last_error(&self) -> Option<String> {
-        lock(&self.shared.last_error).clone()
+        self.loader.last_error()
     }
 
     /// The attribution to show: the source's own, else the file's metadata.
@@ -185,23 +156,21 @@ impl SourceTiles {
     }
 
     fn drain(&mut self) {
-        let done = std::mem::take(&mut *lock(&self.shared.done));
-        for (key, outcome) in done {
-            let slot = match outcome {
-                Ok(Some((img, origin))) => Slot::Ready {
+        for (key, loaded) in self.loader.take_done() {
+            let used = self.frame;
+            let slot = match loaded {
+                Loaded::Image(img, origin) => Slot::Ready {
                     tex: self.ctx.load_texture(
                         format!("tile-{}-{}-{}", key.z, key.x, key.y),
-                        img,
+                        color_image(&img),
                         egui::TextureOptions::LINEAR,
                     ),
                     origin,
-                    used: self.frame,
+                    used,
                 },
-                Ok(None) => Slot::Missing { used: self.frame },
-                Err(e) => {
-                    *lock(&self.shared.last_error) = Some(e);
-                    Slot::Failed { at: Instant::now(), used: self.frame }
-                }
+                Loaded::Absent => Slot::Missing { used },
+                Loaded::Refused(_) => Slot::Failed { at: Instant::now(), used, refused: true },
+                Loaded::Failed(_) => Slot::Failed { at: Instant::now(), used, refused: false },
             };
             self.slots.insert(key, slot);
         }
@@ -214,24 +183,11 @@ impl SourceTiles {
         }
     }
 
-    fn request(&self, key: TileKey) {
-        let mut q = lock(&self.shared.queue);
-        if q.pending.insert(key) {
-            q.waiting.push_back(key);
-            while q.waiting.len() > MAX_QUEUE {
-                if let Some(old) = q.waiting.pop_front() {
-                    q.pending.remove(&old);
-                }
-            }
-            self.shared.wake.notify_one();
-        }
-    }
-
     fn zoom_range(&self) -> Option<(u8, u8)> {
         match self.open_state() {
             Some(Ok(i)) => Some((i.min_zoom, i.max_zoom)),
             Some(Err(_)) => None,
-            None => Some((0, super::MAX_ZOOM)),
+            None => Some((0, MAX_ZOOM)),
         }
     }
 
@@ -252,15 +208,24 @@ impl SourceTiles {
                 self.slots.remove(&fetch);
                 need_request = true;
             }
-            Some(Slot::Missing { used } | Slot::Failed { used, .. }) => {
+            Some(Slot::Missing { used }) => {
                 *used = frame;
                 self.counts.missing += 1;
+                return None;
+            }
+            Some(Slot::Failed { used, refused, .. }) => {
+                *used = frame;
+                if *refused {
+                    self.counts.refused += 1;
+                } else {
+                    self.counts.failed += 1;
+                }
                 return None;
             }
             Some(Slot::Ready { .. }) => {}
         }
         if need_request {
-            self.request(fetch);
+            self.loader.request(fetch);
         }
         let lowest = fetch_z.saturating_sub(FALLBACK_LEVELS).max(min_zoom);
         for z in (lowest..=fetch_z).rev() {
@@ -300,57 +265,5 @@ impl Tiles for SourceTiles {
 
     fn tile_size(&self) -> u32 {
         256
-    }
-}
-
-impl Drop for SourceTiles {
-    fn drop(&mut self) {
-        self.shared.stop.store(true, Ordering::SeqCst);
-        self.shared.wake.notify_all();
-    }
-}
-
-/// One loader thread: opens its own store, then serves the newest request first until stopped.
-fn loader(shared: &Shared, source: &TileSourceConfig, cache_dir: &std::path::Path, ctx: &egui::Context) {
-    let mut store: Box<dyn TileStore> = match super::store::open(source, cache_dir) {
-        Ok(s) => {
-            lock(&shared.opened).get_or_insert(Ok(s.info()));
-            s
-        }
-        Err(e) => {
-            *lock(&shared.opened) = Some(Err(e.to_string()));
-            ctx.request_repaint();
-            return;
-        }
-    };
-    ctx.request_repaint();
-    loop {
-        let key = {
-            let mut q = lock(&shared.queue);
-            loop {
-                if shared.stop.load(Ordering::SeqCst) {
-                    return;
-                }
-                if let Some(k) = q.waiting.pop_back() {
-                    break k;
-                }
-                q = shared
-                    .wake
-                    .wait_timeout(q, Duration::from_millis(500))
-                    .unwrap_or_else(PoisonError::into_inner)
-                    .0;
-            }
-        };
-        let what = format!("tile {}/{}/{}", key.z, key.x, key.y);
-        let outcome: Outcome = match store.get(key) {
-            Ok(Some((bytes, origin))) => {
-                decode_tile(&bytes, &what).map(|img| Some((img, origin))).map_err(|e| e.to_string())
-            }
-            Ok(None) => Ok(None),
-            Err(e) => Err(e.to_string()),
-        };
-        lock(&shared.done).push((key, outcome));
-        lock(&shared.queue).pending.remove(&key);
-        ctx.request_repaint();
     }
 }

@@ -6,8 +6,10 @@ use std::path::PathBuf;
 
 use egui::{Color32, RichText};
 
-use super::prefetch::{self, Prefetch, PrefetchRequest, PrefetchTarget};
-use super::{BBox, SourceTiles, TileSourceConfig, cache, check_url_template};
+use vestnav_tiles::prefetch::{self, Prefetch, PrefetchRequest, PrefetchTarget};
+use vestnav_tiles::{BBox, MAX_ZOOM, TileSourceConfig, cache, check_url_template, url_host};
+
+use super::SourceTiles;
 use crate::config::Config;
 use vestnav_station::route::Waypoint;
 
@@ -126,15 +128,18 @@ impl MapTiles {
     }
 
     /// The note at the map's bottom right: the attribution with tiles, "no tiles: metric grid" (and why)
-    /// without.
+    /// without: the source that could not be opened, the tiles refused or failed (the latest reason,
+    /// naming the tile and its file), or that the source has none here.
     pub fn note(&self, cfg: &Config, offline: bool) -> String {
         if !cfg.map_tiles {
             return "no tiles: metric grid (tiles off)".into();
         }
         let Some(t) = &self.active else { return "no tiles: metric grid".into() };
         if offline {
-            return match t.open_state() {
-                Some(Err(e)) => format!("no tiles: metric grid ({e})"),
+            let c = t.counts();
+            return match (t.open_state(), t.last_error()) {
+                (Some(Err(e)), _) => format!("no tiles: metric grid ({e})"),
+                (_, Some(e)) if c.refused + c.failed > 0 => format!("no tiles: metric grid ({e})"),
                 _ => format!("no tiles: metric grid ({} has none here)", t.source().label()),
             };
         }
@@ -160,14 +165,17 @@ impl MapTiles {
             (c.stale, "stale"),
             (c.loading, "loading"),
             (c.missing, "missing"),
+            (c.refused, "refused"),
+            (c.failed, "failed"),
         ] {
             if n > 0 {
                 parts.push(format!("{n} {what}"));
             }
         }
-        let colour = if c.missing > 0 && c.shown() == 0 {
+        let not_shown = c.missing + c.refused + c.failed;
+        let colour = if not_shown > 0 && c.shown() == 0 {
             Color32::from_rgb(220, 80, 60)
-        } else if c.missing > 0 || c.stale > 0 || c.loading > 0 {
+        } else if not_shown > 0 || c.stale > 0 || c.loading > 0 {
             Color32::from_rgb(220, 170, 40)
         } else {
             Color32::from_rgb(70, 170, 90)
@@ -246,7 +254,7 @@ impl MapTiles {
                 let url = self.url.trim().to_owned();
                 check_url_template(&url)?;
                 let attribution = if self.attribution.trim().is_empty() {
-                    format!("tiles: {}", super::url_host(&url))
+                    format!("tiles: {}", url_host(&url))
                 } else {
                     self.attribution.trim().to_owned()
                 };
@@ -378,9 +386,9 @@ impl MapTiles {
             });
             ui.horizontal(|ui| {
                 ui.label("Zooms");
-                ui.add(egui::DragValue::new(&mut self.z0).range(0..=super::MAX_ZOOM));
+                ui.add(egui::DragValue::new(&mut self.z0).range(0..=MAX_ZOOM));
                 ui.label("to");
-                ui.add(egui::DragValue::new(&mut self.z1).range(0..=super::MAX_ZOOM));
+                ui.add(egui::DragValue::new(&mut self.z1).range(0..=MAX_ZOOM));
                 ui.label("Parallel downloads");
                 ui.add(
                     egui::DragValue::new(&mut cfg.prefetch_parallelism).range(1..=prefetch::MAX_PARALLELISM),
@@ -486,7 +494,8 @@ impl MapTiles {
                 parallelism: cfg.prefetch_parallelism,
                 target,
             };
-            match Prefetch::start(&req, Some(ctx)) {
+            let repaint = ctx.clone();
+            match Prefetch::start(&req, Some(std::sync::Arc::new(move || repaint.request_repaint()))) {
                 Ok(p) => {
                     self.prefetch = Some(p);
                     self.prefetch_file = file;

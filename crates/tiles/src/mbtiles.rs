@@ -42,7 +42,7 @@ const SCHEMA: &str = "
     CREATE UNIQUE INDEX IF NOT EXISTS tile_index ON tiles (zoom_level, tile_column, tile_row);";
 
 impl MbTilesWriter {
-    /// Creates `path`, or opens it to resume: checks it (`PRAGMA quick_check`), creates the schema where
+    /// Creates `path`, or opens it to resume (a regular file only): checks it (`PRAGMA quick_check`), creates the schema where
     /// missing and writes the metadata (zoom range and bounds widened to cover what the file held).
     pub fn open(path: &Path, meta: &MbTilesMeta) -> Result<Self, TileError> {
         let what = path.display().to_string();
@@ -50,6 +50,8 @@ impl MbTilesWriter {
             what: what.clone(),
             why: format!("cannot write it as an MBTiles file: {e}"),
         };
+        // A FIFO or device given as the file is refused before SQLite could open (and block on) it.
+        super::refuse_non_regular(path)?;
         let conn = rusqlite::Connection::open(path).map_err(sql)?;
         conn.busy_timeout(std::time::Duration::from_secs(5)).map_err(sql)?;
         let check: String = conn.query_row("PRAGMA quick_check", [], |r| r.get(0)).map_err(sql)?;
@@ -155,7 +157,12 @@ mod tests {
     use super::super::store::{MbTilesStore, TileStore as _};
     use super::*;
 
-    const PNG: &[u8] = b"\x89PNG\r\n\x1a\nnot decoded here";
+    /// A real 2x2 PNG (the reader checks the header's declared size).
+    fn png() -> Vec<u8> {
+        let mut out = std::io::Cursor::new(Vec::new());
+        image::RgbImage::new(2, 2).write_to(&mut out, image::ImageFormat::Png).unwrap();
+        out.into_inner()
+    }
 
     #[test]
     fn written_tiles_read_back_through_the_reader() {
@@ -173,9 +180,10 @@ mod tests {
         let a = TileKey::new(3, 5, 1).unwrap();
         let b = TileKey::new(4, 2, 9).unwrap();
         let mut w = MbTilesWriter::open(&path, &meta).unwrap();
-        let mut pa = PNG.to_vec();
+        let png = png();
+        let mut pa = png.clone();
         pa.push(1);
-        w.write_batch(&[(a, pa.clone()), (b, PNG.to_vec())]).unwrap();
+        w.write_batch(&[(a, pa.clone()), (b, png.clone())]).unwrap();
         assert_eq!(w.present(&[a, b, TileKey::new(4, 0, 0).unwrap()]).unwrap(), HashSet::from([a, b]));
         drop(w);
         // Resumed with a wider zoom range: the metadata widens, the tiles stay.
@@ -187,8 +195,8 @@ mod tests {
         let info = r.info();
         assert_eq!((info.min_zoom, info.max_zoom), (3, 6));
         assert_eq!(info.attribution.as_deref(), Some("© test"));
-        assert_eq!(r.get(a).unwrap().unwrap().0, pa);
-        assert_eq!(r.get(b).unwrap().unwrap().0, PNG);
+        assert_eq!(r.get(a).unwrap().unwrap().bytes, pa);
+        assert_eq!(r.get(b).unwrap().unwrap().bytes, png);
         assert!(r.get(TileKey::new(3, 5, 6).unwrap()).unwrap().is_none(), "TMS row, not XYZ");
         // The rows are TMS rows, and the file is what the spec says.
         let c = rusqlite::Connection::open(&path).unwrap();

@@ -234,12 +234,15 @@ pub struct PmTilesReader {
 }
 
 impl PmTilesReader {
-    /// Opens `path` and reads its header and root directory. Refuses vector archives and compressed tiles.
+    /// Opens `path` (a regular file only) and reads its header and root directory. Refuses vector archives
+    /// and compressed tiles.
     pub fn open(path: &Path) -> Result<Self, TileError> {
         let what = path.display().to_string();
         let corrupt = |why: String| TileError::Corrupt { what: what.clone(), why };
         let io = |source| TileError::Io { what: what.clone(), source };
-        let mut file = File::open(path).map_err(io)?;
+        // Regular files only: a FIFO or device given as the archive is refused, never opened.
+        let mut file =
+            vestnav_files::open_regular(path).map_err(|e| TileError::from_open(what.clone(), e))?;
         let file_len = file.metadata().map_err(io)?.len();
         let mut head = [0u8; HEADER_LEN];
         file.read_exact(&mut head).map_err(|_| corrupt("shorter than a PMTiles header".into()))?;
@@ -329,7 +332,7 @@ impl PmTilesReader {
             if e.run_length > 0 {
                 if u64::from(e.length) > MAX_TILE_BYTES as u64 {
                     return Err(TileError::TooLarge {
-                        what: format!("{} tile {}/{}/{}", self.path.display(), key.z, key.x, key.y),
+                        what: super::tile_what(key, &self.path.display().to_string()),
                         bytes: u64::from(e.length),
                     });
                 }

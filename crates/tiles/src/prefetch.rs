@@ -17,7 +17,7 @@ use std::sync::{Arc, Mutex, PoisonError};
 use std::thread::JoinHandle;
 
 use super::mbtiles::{MbTilesMeta, MbTilesWriter};
-use super::{BBox, TileKey, TileSourceConfig, cache, store};
+use super::{BBox, TileError, TileKey, TileSourceConfig, Waker, cache, store};
 
 /// Most tiles one prefetch may download (z18 over a few km² is already ~10 000).
 pub const MAX_PREFETCH_TILES: u64 = 50_000;
@@ -169,8 +169,8 @@ struct Job {
     tiles: Vec<TileKey>,
     next: AtomicUsize,
     url: String,
-    client: reqwest::blocking::Client,
-    waker: Option<egui::Context>,
+    client: store::TileClient,
+    waker: Option<Waker>,
 }
 
 impl Job {
@@ -180,7 +180,7 @@ impl Job {
 
     fn wake(&self) {
         if let Some(w) = &self.waker {
-            w.request_repaint();
+            w();
         }
     }
 
@@ -193,13 +193,15 @@ impl Job {
         let p = &self.progress;
         while !self.cancel.load(Ordering::SeqCst) {
             let Some(&key) = self.tiles.get(self.next.fetch_add(1, Ordering::SeqCst)) else { break };
+            let url = key.url(&self.url);
+            let what = super::tile_what(key, &super::redact_url(&url));
             if let Some(dir) = cache_dir
-                && store::read_capped(&cache::tile_path(dir, key)).is_ok_and(|b| b.is_some())
+                && store::read_capped(&cache::tile_path(dir, key), &what).is_ok_and(|b| b.is_some())
             {
                 p.skipped.fetch_add(1, Ordering::SeqCst);
                 continue;
             }
-            match store::download(&self.client, &key.url(&self.url)) {
+            match self.client.download(&url, &what) {
                 Ok(Some(b)) => {
                     let n = b.len() as u64;
                     match store(key, b) {
@@ -218,6 +220,11 @@ impl Job {
                 }
                 Err(e) => {
                     p.failed.fetch_add(1, Ordering::SeqCst);
+                    // A server sending us elsewhere does so for every tile: stop at the first instead
+                    // of asking it for each of them.
+                    if matches!(e, TileError::Redirected { .. }) {
+                        self.cancel.store(true, Ordering::SeqCst);
+                    }
                     self.error(e.to_string());
                 }
             }
@@ -228,10 +235,12 @@ impl Job {
 
 impl Prefetch {
     /// Checks the request ([`PrefetchRequest::check`]) and starts the coordinator thread, which opens the
-    /// target and starts the workers. `waker` is asked to repaint as tiles arrive.
-    pub fn start(req: &PrefetchRequest, waker: Option<&egui::Context>) -> Result<Self, String> {
+    /// target and starts the workers. `waker` is called as tiles arrive (the console's repaint request).
+    /// Downloads follow no redirect to another host ([`store::TileClient`]): the first such redirect
+    /// stops the prefetch, and its error says where the server pointed.
+    pub fn start(req: &PrefetchRequest, waker: Option<Waker>) -> Result<Self, String> {
         let (tiles, url) = req.check()?;
-        let client = store::http_client().map_err(|e| e.to_string())?;
+        let client = store::TileClient::new("prefetch").map_err(|e| e.to_string())?;
         let progress = Arc::new(Progress::default());
         progress.total.store(tiles.len() as u64, Ordering::SeqCst);
         progress.running.store(1, Ordering::SeqCst);
@@ -243,7 +252,7 @@ impl Prefetch {
             next: AtomicUsize::new(0),
             url,
             client,
-            waker: waker.cloned(),
+            waker,
         };
         let req = req.clone();
         let coordinator = std::thread::Builder::new()

@@ -35,22 +35,20 @@ pub fn tile_path(dir: &Path, key: TileKey) -> PathBuf {
     dir.join(key.z.to_string()).join(key.x.to_string()).join(format!("{}.png", key.y))
 }
 
-/// Marks a cached tile as just used (its access time), for the least-recently-used pruning.
+/// Marks a cached tile as just used (its access time), for the least-recently-used pruning. Opens
+/// regular files only, and only for reading (setting the times of one's own file needs no write
+/// access), so a FIFO put in the cache never blocks the loader.
 pub fn touch(path: &Path) {
-    if let Ok(f) = std::fs::File::options().write(true).open(path) {
+    if let Ok(f) = vestnav_files::open_regular(path) {
         // Best effort: a cache on a read-only disk still serves tiles, it only prunes by download time.
         let _ = f.set_times(std::fs::FileTimes::new().set_accessed(SystemTime::now()));
     }
 }
 
-/// Writes a tile atomically (temporary file, then rename), so a killed prefetch never leaves half a tile.
+/// Writes a tile atomically ([`vestnav_files::write_atomic`]: a unique temporary file, synced, then
+/// renamed), so a killed prefetch never leaves half a tile and two writers never share a temporary.
 pub fn store(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
-    if let Some(dir) = path.parent() {
-        std::fs::create_dir_all(dir)?;
-    }
-    let tmp = path.with_extension(format!("tmp{}", std::process::id()));
-    std::fs::write(&tmp, bytes)?;
-    std::fs::rename(&tmp, path)
+    vestnav_files::write_atomic(path, bytes)
 }
 
 /// One cached file.

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, SystemTime};
 
 use super::pmtiles::PmTilesReader;
-use super::{MAX_TILE_BYTES, TileError, TileKey, TileSourceConfig, check_tile_bytes, redact_url};
+use super::{MAX_TILE_BYTES, TileError, TileKey, TileSourceConfig, check_tile_bytes, redact_url, tile_what};
 
 /// A cached tile older than this is stale: shown, and fetched again when the server answers.
 pub const STALE_AFTER: Duration = Duration::from_hours(30 * 24);
@@ -39,13 +39,25 @@ pub struct StoreInfo {
     pub attribution: Option<String>,
 }
 
+/// One tile's bytes as a store found them.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct FoundTile {
+    /// The bytes, checked with [`check_tile_bytes`] (signature, size, declared dimensions).
+    pub bytes: Vec<u8>,
+    /// Where they came from.
+    pub origin: Origin,
+    /// How the tile is named in messages: `tile z/x/y of FILE-or-URL` ([`tile_what`]).
+    pub what: String,
+}
+
 /// A source of tile bytes.
 pub trait TileStore: Send {
     /// What the store holds.
     fn info(&self) -> StoreInfo;
-    /// The tile's bytes (checked with [`check_tile_bytes`]) and their origin; `None` when the store does
-    /// not have this tile.
-    fn get(&mut self, key: TileKey) -> Result<Option<(Vec<u8>, Origin)>, TileError>;
+    /// The tile: `Ok(Some)` with its checked bytes, `Ok(None)` when the store does not have it, `Err`
+    /// when it could not be read or was refused ([`TileError::is_refusal`]) — a refused tile is never
+    /// reported as absent.
+    fn get(&mut self, key: TileKey) -> Result<Option<FoundTile>, TileError>;
 }
 
 /// Opens the store of `source`; `cache_dir` holds downloaded tiles of the HTTP sources.
@@ -61,24 +73,24 @@ pub fn open(source: &TileSourceConfig, cache_dir: &Path) -> Result<Box<dyn TileS
     })
 }
 
-/// Reads a file of at most [`MAX_TILE_BYTES`] (checking the size before reading), `None` if absent.
-pub fn read_capped(path: &Path) -> Result<Option<Vec<u8>>, TileError> {
-    let what = || path.display().to_string();
-    let file = match std::fs::File::open(path) {
-        Ok(f) => f,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
-        Err(source) => return Err(TileError::Io { what: what(), source }),
-    };
-    let mut buf = Vec::new();
-    file.take(MAX_TILE_BYTES as u64 + 1)
-        .read_to_end(&mut buf)
-        .map_err(|source| TileError::Io { what: what(), source })?;
-    if buf.len() > MAX_TILE_BYTES {
-        let bytes = std::fs::metadata(path).map_or(buf.len() as u64, |m| m.len());
-        return Err(TileError::TooLarge { what: what(), bytes });
+/// Reads a tile file of at most [`MAX_TILE_BYTES`] and checks it ([`check_tile_bytes`]); `Ok(None)` when
+/// there is no such file. Opens regular files only ([`vestnav_files::read_limited`]): a FIFO, device or
+/// folder in its place is refused without being opened, so a loader never blocks on it. `what` names
+/// the tile in messages.
+pub fn read_capped(path: &Path, what: &str) -> Result<Option<Vec<u8>>, TileError> {
+    match vestnav_files::read_limited(path, MAX_TILE_BYTES as u64) {
+        Ok(buf) => {
+            check_tile_bytes(&buf, what)?;
+            Ok(Some(buf))
+        }
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
+        // read_limited says InvalidData for "over the limit" (and only for that).
+        Err(e) if e.kind() == std::io::ErrorKind::InvalidData => {
+            let bytes = std::fs::metadata(path).map_or(MAX_TILE_BYTES as u64 + 1, |m| m.len());
+            Err(TileError::TooLarge { what: what.to_owned(), bytes })
+        }
+        Err(e) => Err(TileError::from_open(what.to_owned(), e)),
     }
-    check_tile_bytes(&buf, &what())?;
-    Ok(Some(buf))
 }
 
 /// A folder of `{z}/{x}/{y}.png` tiles (also `.jpg`, `.jpeg`, `.webp`; the content decides the format).
@@ -94,6 +106,13 @@ impl FolderStore {
     /// Opens `root`; its zoom range is read from the numeric folder names directly inside it.
     pub fn open(root: &Path) -> Result<Self, TileError> {
         let what = root.display().to_string();
+        // Only a folder is listed: a FIFO or device given as the folder is refused from its metadata.
+        match std::fs::metadata(root) {
+            Ok(m) if !m.is_dir() => {
+                return Err(TileError::NotRegular { what, why: "not a folder".into() });
+            }
+            _ => {}
+        }
         let rd = std::fs::read_dir(root).map_err(|source| TileError::Io { what: what.clone(), source })?;
         let zooms: Vec<u8> = rd
             .filter_map(Result::ok)
@@ -115,11 +134,13 @@ impl TileStore for FolderStore {
     fn info(&self) -> StoreInfo {
         self.info.clone()
     }
-    fn get(&mut self, key: TileKey) -> Result<Option<(Vec<u8>, Origin)>, TileError> {
+    fn get(&mut self, key: TileKey) -> Result<Option<FoundTile>, TileError> {
         let dir = self.root.join(key.z.to_string()).join(key.x.to_string());
         for ext in EXTENSIONS {
-            if let Some(b) = read_capped(&dir.join(format!("{}.{ext}", key.y)))? {
-                return Ok(Some((b, Origin::Local)));
+            let path = dir.join(format!("{}.{ext}", key.y));
+            let what = tile_what(key, &path.display().to_string());
+            if let Some(bytes) = read_capped(&path, &what)? {
+                return Ok(Some(FoundTile { bytes, origin: Origin::Local, what }));
             }
         }
         Ok(None)
@@ -133,10 +154,11 @@ impl TileStore for PmStore {
     fn info(&self) -> StoreInfo {
         StoreInfo { min_zoom: self.0.header.min_zoom, max_zoom: self.0.header.max_zoom, attribution: None }
     }
-    fn get(&mut self, key: TileKey) -> Result<Option<(Vec<u8>, Origin)>, TileError> {
-        let Some(b) = self.0.tile(key)? else { return Ok(None) };
-        check_tile_bytes(&b, &format!("{} tile {}/{}/{}", self.0.path().display(), key.z, key.x, key.y))?;
-        Ok(Some((b, Origin::Local)))
+    fn get(&mut self, key: TileKey) -> Result<Option<FoundTile>, TileError> {
+        let Some(bytes) = self.0.tile(key)? else { return Ok(None) };
+        let what = tile_what(key, &self.0.path().display().to_string());
+        check_tile_bytes(&bytes, &what)?;
+        Ok(Some(FoundTile { bytes, origin: Origin::Local, what }))
     }
 }
 
@@ -149,16 +171,15 @@ pub struct MbTilesStore {
 }
 
 impl MbTilesStore {
-    /// Opens `path` read-only and reads its metadata (zoom range, attribution, format).
+    /// Opens `path` read-only and reads its metadata (zoom range, attribution, format). The path must
+    /// be a regular file: a FIFO or device is refused before SQLite could open (and block on) it.
     pub fn open(path: &Path) -> Result<Self, TileError> {
         let what = path.display().to_string();
         let sql = |e: rusqlite::Error| TileError::Corrupt {
             what: what.clone(),
             why: format!("not a readable MBTiles file: {e}"),
         };
-        if !path.is_file() {
-            return Err(TileError::Io { what, source: std::io::Error::from(std::io::ErrorKind::NotFound) });
-        }
+        vestnav_files::open_regular(path).map_err(|e| TileError::from_open(what.clone(), e))?;
         let conn = rusqlite::Connection::open_with_flags(
             path,
             rusqlite::OpenFlags::SQLITE_OPEN_READ_ONLY | rusqlite::OpenFlags::SQLITE_OPEN_NO_MUTEX,
@@ -206,8 +227,8 @@ impl TileStore for MbTilesStore {
     fn info(&self) -> StoreInfo {
         self.info.clone()
     }
-    fn get(&mut self, key: TileKey) -> Result<Option<(Vec<u8>, Origin)>, TileError> {
-        let what = format!("{} tile {}/{}/{}", self.path.display(), key.z, key.x, key.y);
+    fn get(&mut self, key: TileKey) -> Result<Option<FoundTile>, TileError> {
+        let what = tile_what(key, &self.path.display().to_string());
         let sql = |e: rusqlite::Error| TileError::Corrupt { what: what.clone(), why: e.to_string() };
         let params = rusqlite::params![key.z, key.x, key.tms_row()];
         // The length first, so that a huge blob is refused without being read.
@@ -233,55 +254,117 @@ impl TileStore for MbTilesStore {
             )
             .map_err(sql)?;
         check_tile_bytes(&b, &what)?;
-        Ok(Some((b, Origin::Local)))
+        Ok(Some(FoundTile { bytes: b, origin: Origin::Local, what }))
     }
 }
 
-/// Downloads one tile: `Ok(None)` for 404/204 (the server has no such tile), the checked bytes for 200.
-pub fn download(client: &reqwest::blocking::Client, url: &str) -> Result<Option<Vec<u8>>, TileError> {
-    let what = redact_url(url);
-    let http = |why: String| TileError::Http { what: what.clone(), why };
-    let resp = client.get(url).send().map_err(|e| http(format!("request failed: {}", e.without_url())))?;
-    let status = resp.status();
-    if status == reqwest::StatusCode::NOT_FOUND || status == reqwest::StatusCode::NO_CONTENT {
-        return Ok(None);
-    }
-    if !status.is_success() {
-        return Err(http(format!("server answered {status}")));
-    }
-    if resp.content_length().is_some_and(|l| l > MAX_TILE_BYTES as u64) {
-        return Err(TileError::TooLarge { what, bytes: resp.content_length().unwrap_or(0) });
-    }
-    let mut buf = Vec::new();
-    resp.take(MAX_TILE_BYTES as u64 + 1)
-        .read_to_end(&mut buf)
-        .map_err(|e| http(format!("reading the body failed: {e}")))?;
-    check_tile_bytes(&buf, &what)?;
-    Ok(Some(buf))
+/// Most same-host redirects followed for one tile.
+pub const MAX_REDIRECTS: usize = 5;
+
+/// A blocking HTTP client for tiles: identifying User-Agent, [`HTTP_TIMEOUT`], and a redirect policy that
+/// follows at most [`MAX_REDIRECTS`] redirects and only to the host (and port) the URL named, never from
+/// https to http; any other redirect is handed back unfollowed and reported as
+/// [`TileError::Redirected`].
+#[derive(Clone)]
+pub struct TileClient {
+    client: reqwest::blocking::Client,
+    who: &'static str,
 }
 
-/// A blocking HTTP client for tiles: identifying User-Agent, [`HTTP_TIMEOUT`], no redirects to other
-/// schemes beyond reqwest's default policy.
-pub fn http_client() -> Result<reqwest::blocking::Client, TileError> {
-    reqwest::blocking::Client::builder()
-        .user_agent(USER_AGENT)
-        .timeout(HTTP_TIMEOUT)
-        .build()
-        .map_err(|e| TileError::Http { what: "HTTP client".into(), why: e.to_string() })
+/// Whether a redirect from `from` to `to` stays where the user pointed: same host and port, and no
+/// step down from https to http.
+fn same_origin(from: &reqwest::Url, to: &reqwest::Url) -> bool {
+    let downgrade = from.scheme() == "https" && to.scheme() != "https";
+    !downgrade
+        && matches!(to.scheme(), "http" | "https")
+        && from.host_str().map(str::to_ascii_lowercase) == to.host_str().map(str::to_ascii_lowercase)
+        && from.port_or_known_default() == to.port_or_known_default()
+}
+
+/// `scheme://host[:port]` of a URL, for messages (no path, no query: they may hold a key).
+fn origin_text(u: &reqwest::Url) -> String {
+    let host = u.host_str().unwrap_or("?");
+    match u.port() {
+        Some(p) => format!("{}://{host}:{p}", u.scheme()),
+        None => format!("{}://{host}", u.scheme()),
+    }
+}
+
+impl TileClient {
+    /// A client; `who` names the caller in a refused redirect's message ("prefetch", "the map").
+    pub fn new(who: &'static str) -> Result<Self, TileError> {
+        let policy = reqwest::redirect::Policy::custom(|attempt| {
+            let Some(first) = attempt.previous().first() else { return attempt.stop() };
+            if !same_origin(first, attempt.url()) {
+                // Handed back as the 3xx response: `download` names where it pointed.
+                attempt.stop()
+            } else if attempt.previous().len() > MAX_REDIRECTS {
+                attempt.error(format!("more than {MAX_REDIRECTS} redirects"))
+            } else {
+                attempt.follow()
+            }
+        });
+        let client = reqwest::blocking::Client::builder()
+            .user_agent(USER_AGENT)
+            .timeout(HTTP_TIMEOUT)
+            .redirect(policy)
+            .build()
+            .map_err(|e| TileError::Http { what: "HTTP client".into(), why: e.to_string() })?;
+        Ok(Self { client, who })
+    }
+
+    /// Downloads one tile: `Ok(None)` for 404/204 (the server has no such tile), the checked bytes for
+    /// 200. A redirect this client does not follow is [`TileError::Redirected`]; the body is read only up
+    /// to [`MAX_TILE_BYTES`].
+    pub fn download(&self, url: &str, what: &str) -> Result<Option<Vec<u8>>, TileError> {
+        let http = |why: String| TileError::Http { what: what.to_owned(), why };
+        let resp =
+            self.client.get(url).send().map_err(|e| http(format!("request failed: {}", e.without_url())))?;
+        let status = resp.status();
+        if status == reqwest::StatusCode::NOT_FOUND || status == reqwest::StatusCode::NO_CONTENT {
+            return Ok(None);
+        }
+        if status.is_redirection() {
+            let to = resp
+                .headers()
+                .get(reqwest::header::LOCATION)
+                .and_then(|l| l.to_str().ok())
+                .and_then(|l| resp.url().join(l).ok());
+            return Err(match to {
+                Some(to) => {
+                    TileError::Redirected { what: what.to_owned(), to: origin_text(&to), who: self.who }
+                }
+                None => http(format!("server answered {status} without a usable Location")),
+            });
+        }
+        if !status.is_success() {
+            return Err(http(format!("server answered {status}")));
+        }
+        if let Some(bytes) = resp.content_length().filter(|l| *l > MAX_TILE_BYTES as u64) {
+            return Err(TileError::TooLarge { what: what.to_owned(), bytes });
+        }
+        let mut buf = Vec::new();
+        resp.take(MAX_TILE_BYTES as u64 + 1)
+            .read_to_end(&mut buf)
+            .map_err(|e| http(format!("reading the body failed: {e}")))?;
+        check_tile_bytes(&buf, what)?;
+        Ok(Some(buf))
+    }
 }
 
 /// An XYZ server seen through the on-disk cache: a fresh cached tile is served from disk; a missing or
-/// stale one is downloaded and cached; when the download fails a stale tile is still served.
+/// stale one is downloaded and cached; when the download fails a stale tile is still served (a refused
+/// download is reported, never replaced by a stale tile silently: the operator sees why).
 pub struct HttpStore {
     url: String,
     dir: PathBuf,
-    client: reqwest::blocking::Client,
+    client: TileClient,
 }
 
 impl HttpStore {
     /// A store for `url` (an XYZ template) caching into `dir`.
     pub fn new(url: String, dir: PathBuf) -> Result<Self, TileError> {
-        Ok(Self { url, dir, client: http_client()? })
+        Ok(Self { url, dir, client: TileClient::new("the map")? })
     }
 }
 
@@ -289,9 +372,13 @@ impl TileStore for HttpStore {
     fn info(&self) -> StoreInfo {
         StoreInfo { min_zoom: 0, max_zoom: 19, attribution: None }
     }
-    fn get(&mut self, key: TileKey) -> Result<Option<(Vec<u8>, Origin)>, TileError> {
+    fn get(&mut self, key: TileKey) -> Result<Option<FoundTile>, TileError> {
         let path = super::cache::tile_path(&self.dir, key);
-        let cached = read_capped(&path).ok().flatten();
+        let url = key.url(&self.url);
+        let what = tile_what(key, &redact_url(&url));
+        // A cached file that is not a usable tile (or not a regular file) is as good as none: it is
+        // downloaded again and replaced.
+        let cached = read_capped(&path, &what).ok().flatten();
         let age = std::fs::metadata(&path)
             .and_then(|m| m.modified())
             .ok()
@@ -300,18 +387,18 @@ impl TileStore for HttpStore {
             && age.is_some_and(|a| a < STALE_AFTER)
         {
             super::cache::touch(&path);
-            return Ok(Some((b.clone(), Origin::Cache)));
+            return Ok(Some(FoundTile { bytes: b.clone(), origin: Origin::Cache, what }));
         }
-        match download(&self.client, &key.url(&self.url)) {
-            Ok(Some(b)) => {
+        match self.client.download(&url, &what) {
+            Ok(Some(bytes)) => {
                 // A cache that cannot be written is not worth losing the tile over.
-                let _ = super::cache::store(&path, &b);
-                Ok(Some((b, Origin::Downloaded)))
+                let _ = super::cache::store(&path, &bytes);
+                Ok(Some(FoundTile { bytes, origin: Origin::Downloaded, what }))
             }
             Ok(None) => Ok(None),
             Err(e) => match cached {
-                Some(b) => Ok(Some((b, Origin::Stale))),
-                None => Err(e),
+                Some(bytes) if !e.is_refusal() => Ok(Some(FoundTile { bytes, origin: Origin::Stale, what })),
+                _ => Err(e),
             },
         }
     }
