@@ -5,7 +5,7 @@
 use clap::{Parser, Subcommand};
 
 use crate::{
-    analyze, completions, emulate_gps, emulate_vest, fieldtest, gps_configure, nav, nmea, sim_tactor,
+    analyze, completions, doctor, emulate_gps, emulate_vest, fieldtest, gps_configure, nav, nmea, sim_tactor,
     sim_wave, tiles,
 };
 
@@ -115,6 +115,9 @@ pub enum Command {
     /// Map tiles: make an area available offline (the console's prefetch, headless).
     #[command(subcommand)]
     Tiles(TilesCommand),
+    /// Check this machine's set-up: serial-port permissions, Bluetooth, OpenGL libraries, folders, optional
+    /// parts; each finding with its fix.
+    Doctor(doctor::DoctorArgs),
     /// Print a shell completion script for vestnav to standard output.
     #[command(hide = true)]
     Completions(completions::CompletionsArgs),

@@ -5,6 +5,7 @@
 mod analyze;
 mod cli;
 mod completions;
+mod doctor;
 mod emulate_gps;
 mod emulate_vest;
 mod fieldtest;
@@ -104,6 +105,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Fieldtest(FieldtestCommand::Drift(a)) => fieldtest::run_drift(&a),
         Command::Fieldtest(FieldtestCommand::Cones(a)) => fieldtest::run_cones(&a),
         Command::Tiles(TilesCommand::Prefetch(a)) => tiles::run_prefetch(&a),
+        Command::Doctor(a) => doctor::run(&a),
         Command::Completions(a) => completions::run_completions(&a),
         Command::Man => completions::run_man(),
     }

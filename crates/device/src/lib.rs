@@ -9,9 +9,11 @@
 //! - [`session_log`]: the console's session log (JSON Lines): records, writer, reader;
 //! - [`route_file`]: routes in GPX (waypoints, routes, tracks) read and written;
 //! - [`backoff`]: the one exponential reconnect backoff of the workers;
+//! - [`doctor`]: the set-up checks of `vestnav doctor` (ports, Bluetooth, OpenGL, folders, optional parts);
 //! - [`outbox`]: how workers hand events to their consumers (bounded, never blocking a stop).
 
 pub mod backoff;
+pub mod doctor;
 pub mod gps;
 pub mod heading;
 pub mod outbox;
