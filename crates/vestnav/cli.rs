@@ -5,7 +5,7 @@
 use clap::{Parser, Subcommand};
 
 use crate::{
-    accuracy, analyze, completions, emulate_gps, emulate_vest, fieldtest, gps_configure, nav, nmea, ntrip,
+    accuracy, analyze, completions, doctor, emulate_gps, emulate_vest, fieldtest, gps_configure, nav, nmea, ntrip,
     sim_tactor, sim_wave, station, tiles,
 };
 
@@ -120,6 +120,9 @@ pub enum Command {
     Station(station::StationArgs),
     /// NTRIP client: RTK corrections (RTCM 3) from a caster to a receiver on a serial port.
     Ntrip(ntrip::NtripArgs),
+    /// Check this machine's set-up: serial-port permissions, Bluetooth, OpenGL libraries, folders, optional
+    /// parts; each finding with its fix.
+    Doctor(doctor::DoctorArgs),
     /// Print a shell completion script for vestnav to standard output.
     #[command(hide = true)]
     Completions(completions::CompletionsArgs),

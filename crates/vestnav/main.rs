@@ -6,6 +6,7 @@ mod accuracy;
 mod analyze;
 mod cli;
 mod completions;
+mod doctor;
 mod emulate_gps;
 mod emulate_vest;
 mod fieldtest;
@@ -111,6 +112,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Ntrip(a) => ntrip::run(&a),
         Command::Tiles(TilesCommand::Prefetch(a)) => tiles::run_prefetch(&a),
         Command::Station(a) => station::run(&a),
+        Command::Doctor(a) => doctor::run(&a),
         Command::Completions(a) => completions::run_completions(&a),
         Command::Man => completions::run_man(),
     }

@@ -22,7 +22,8 @@ fn vestnav(args: &[&str]) -> String {
 }
 
 /// The subcommands a user types; each must be in the help, the completions and the man page.
-const SUBCOMMANDS: [&str; 8] = ["sim", "analyze", "nmea", "gps", "emulate", "nav", "fieldtest", "tiles"];
+const SUBCOMMANDS: [&str; 9] =
+    ["sim", "analyze", "nmea", "gps", "emulate", "nav", "fieldtest", "tiles", "doctor"];
 
 #[test]
 fn help_says_that_no_subcommand_opens_the_console() {

@@ -14,6 +14,7 @@ pub(crate) fn timing_exclusive() -> std::sync::MutexGuard<'static, ()> {
 
 mod accuracy;
 mod cli;
+mod doctor;
 mod gps;
 mod gps_config;
 mod latency;
@@ -23,7 +24,7 @@ mod sim_tactor;
 mod sim_wave;
 mod tiles_cli;
 // Several tests of each serve the emulated unit on a PTY (`PtyEmulator::spawn` exists on Unix only), so
-// neither module compiles elsewhere. `latency` and `safety` gate themselves (`#![cfg(unix)]`).
+// neither module compiles elsewhere. `doctor`, `latency` and `safety` gate themselves (`#![cfg(unix)]`).
 #[cfg(unix)]
 mod wtcu;
 #[cfg(unix)]

@@ -11,9 +11,11 @@
 //! - [`ntrip`]: the NTRIP client (v1, v2) forwarding RTK corrections to a serial receiver; [`rtcm3`]: RTCM 3
 //!   framing with CRC-24Q;
 //! - [`backoff`]: the one exponential reconnect backoff of the workers;
+//! - [`doctor`]: the set-up checks of `vestnav doctor` (ports, Bluetooth, OpenGL, folders, optional parts);
 //! - [`outbox`]: how workers hand events to their consumers (bounded, never blocking a stop).
 
 pub mod backoff;
+pub mod doctor;
 pub mod gps;
 pub mod heading;
 pub mod ntrip;
