@@ -5,8 +5,8 @@
 use clap::{Parser, Subcommand};
 
 use crate::{
-    analyze, completions, emulate_gps, emulate_vest, fieldtest, gps_configure, nav, nmea, sim_tactor,
-    sim_wave, tiles,
+    analyze, completions, emulate_gps, emulate_vest, fieldtest, gps_configure, nav, nmea, route_plan,
+    sim_tactor, sim_wave, tiles,
 };
 
 /// One line: `-h`, and the NAME of the man page.
@@ -115,6 +115,12 @@ pub enum Command {
     /// Map tiles: make an area available offline (the console's prefetch, headless).
     #[command(subcommand)]
     Tiles(TilesCommand),
+    /// Walking routes along the paths of an OpenStreetMap extract, offline.
+    #[command(subcommand)]
+    Route(RouteCommand),
+    /// The offline map of an OpenStreetMap extract.
+    #[command(subcommand)]
+    Map(MapCommand),
     /// Print a shell completion script for vestnav to standard output.
     #[command(hide = true)]
     Completions(completions::CompletionsArgs),
@@ -193,4 +199,20 @@ pub enum TilesCommand {
     /// Download the tiles of a route's or a box's area over a zoom range into the tile cache or an
     /// MBTiles file (resumable; tiles already there are skipped).
     Prefetch(tiles::PrefetchArgs),
+}
+
+/// `vestnav route ...`
+#[derive(Debug, Subcommand)]
+pub enum RouteCommand {
+    /// Plan a walk from --from to --to (through each --via) along an .osm.pbf extract's paths, honouring
+    /// access, barriers and the profile; write it as GPX for `nav simulate` and the console.
+    Plan(route_plan::PlanArgs),
+}
+
+/// `vestnav map ...`
+#[derive(Debug, Subcommand)]
+pub enum MapCommand {
+    /// Draw an .osm.pbf extract offline into a PNG (the tiles the console's map would show), optionally
+    /// with a route over it.
+    Render(route_plan::RenderArgs),
 }

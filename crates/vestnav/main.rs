@@ -11,6 +11,7 @@ mod fieldtest;
 mod gps_configure;
 mod nav;
 mod nmea;
+mod route_plan;
 mod sim_tactor;
 mod sim_wave;
 mod tiles;
@@ -18,8 +19,8 @@ mod tiles;
 use clap::Parser;
 
 use cli::{
-    AnalyzeCommand, Cli, Command, EmulateCommand, FieldtestCommand, GpsCommand, NavCommand, NmeaCommand,
-    SimCommand, TilesCommand,
+    AnalyzeCommand, Cli, Command, EmulateCommand, FieldtestCommand, GpsCommand, MapCommand, NavCommand,
+    NmeaCommand, RouteCommand, SimCommand, TilesCommand,
 };
 
 fn main() -> std::process::ExitCode {
@@ -104,6 +105,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Fieldtest(FieldtestCommand::Drift(a)) => fieldtest::run_drift(&a),
         Command::Fieldtest(FieldtestCommand::Cones(a)) => fieldtest::run_cones(&a),
         Command::Tiles(TilesCommand::Prefetch(a)) => tiles::run_prefetch(&a),
+        Command::Route(RouteCommand::Plan(a)) => route_plan::run_plan(&a),
+        Command::Map(MapCommand::Render(a)) => route_plan::run_render(&a),
         Command::Completions(a) => completions::run_completions(&a),
         Command::Man => completions::run_man(),
     }
