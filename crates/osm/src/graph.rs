@@ -452,22 +452,24 @@ impl PathGraph {
             at = p;
         }
         chain.reverse();
+        let steps = step_lengths(self, from, to, &chain, start, goal);
         let mut points = vec![from.pos];
         let mut ways: Vec<i64> = Vec::new();
-        for &(node, way) in &chain {
+        for (&(node, way), &step_m) in chain.iter().zip(&steps) {
             let p = if node == goal { to.pos } else { self.pos[node as usize] };
             if points.last() != Some(&p) {
                 points.push(p);
             }
+            // A start or goal snapped exactly onto a node walks none of the segment it was snapped to.
             let id = self.ways[way as usize].0;
-            if ways.last() != Some(&id) {
+            if step_m > 0.0 && ways.last() != Some(&id) {
                 ways.push(id);
             }
         }
         if points.len() < 2 {
             points.push(to.pos);
         }
-        let length_m = chain_length(self, from, to, &chain, start, goal);
+        let length_m = steps.iter().sum();
         Some(Route {
             points,
             length_m,
@@ -479,24 +481,35 @@ impl PathGraph {
     }
 }
 
-/// Length of a chain of nodes from a snapped start to a snapped goal: whole edges by their geodesic length,
-/// the partial first and last segments by their fraction.
-fn chain_length(g: &PathGraph, from: Snap, to: Snap, chain: &[(u32, u32)], start: u32, goal: u32) -> f64 {
+/// Length of each step of a chain of nodes from a snapped start to a snapped goal: whole edges by their
+/// geodesic length, the partial first and last segments by their fraction.
+fn step_lengths(
+    g: &PathGraph,
+    from: Snap,
+    to: Snap,
+    chain: &[(u32, u32)],
+    start: u32,
+    goal: u32,
+) -> Vec<f64> {
     let fs = g.segments[from.segment as usize];
     let ts = g.segments[to.segment as usize];
-    let mut total = 0.0;
+    let mut steps = Vec::with_capacity(chain.len());
     let mut at = start;
-    for &(node, _) in chain {
-        total += if at == start && node == goal {
+    for &(node, way) in chain {
+        steps.push(if at == start && node == goal {
             (from.t - to.t).abs() * fs.length_m
         } else if at == start {
             if node == fs.a { from.t * fs.length_m } else { (1.0 - from.t) * fs.length_m }
         } else if node == goal {
             if at == ts.a { to.t * ts.length_m } else { (1.0 - to.t) * ts.length_m }
         } else {
-            g.edges_of(at).iter().filter(|e| e.to == node).map(|e| e.length_m).fold(f64::INFINITY, f64::min)
-        };
+            g.edges_of(at)
+                .iter()
+                .filter(|e| e.to == node && e.way == way)
+                .map(|e| e.length_m)
+                .fold(f64::INFINITY, f64::min)
+        });
         at = node;
     }
-    total
+    steps
 }

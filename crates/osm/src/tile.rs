@@ -104,7 +104,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn tiles_match_the_osm_wiki_examples() {
+    fn tiles_follow_the_web_mercator_formula() {
         // Munich, lat 48.1372, lon 11.5755, at zoom 16: x = 34875.26, y = 22743.88 from the same formula
         // written independently as python's `(1 - asinh(tan(lat)) / pi) / 2 * 2**z`; 0/0/0 is the world.
         let munich = LatLon::new(48.1372, 11.5755);
