@@ -451,6 +451,7 @@ fn draw_names(pm: &mut Pixmap, map: &MapData, id: TileId, near: &[FeatureRef]) {
     const SIZE_PX: f32 = 11.0;
     const MARGIN_PX: f32 = 2.0;
     let mut placed: Vec<LabelBox> = Vec::new();
+    let mut names: std::collections::HashSet<String> = std::collections::HashSet::new();
     let px = |m: &DVec2| {
         let p = id.pixel_of_mercator(*m);
         (p.x as f32, p.y as f32)
@@ -483,8 +484,10 @@ fn draw_names(pm: &mut Pixmap, map: &MapData, id: TileId, near: &[FeatureRef]) {
                     continue;
                 }
                 let pts: Vec<(f32, f32)> = m.iter().map(px).collect();
+                // A name goes on a line at least as long as the name (streets are split into many short ways).
+                let length: f32 = pts.windows(2).map(|w| (w[1].0 - w[0].0).hypot(w[1].1 - w[0].1)).sum();
                 if let Some(c) = midpoint(&pts) {
-                    candidates.push((0, name.clone(), c, f32::MAX));
+                    candidates.push((0, name.clone(), c, length));
                 }
             }
             FeatureRef::Barrier(_) => {}
@@ -506,10 +509,12 @@ fn draw_names(pm: &mut Pixmap, map: &MapData, id: TileId, near: &[FeatureRef]) {
             && b.y0 >= MARGIN_PX
             && b.x1 <= TILE_SIZE as f32 - MARGIN_PX
             && b.y1 <= TILE_SIZE as f32 - MARGIN_PX;
-        if !inside || placed.iter().any(|p| p.overlaps(&b)) {
+        if !inside || placed.iter().any(|p| p.overlaps(&b)) || names.contains(&text) {
             continue;
         }
         vestnav_plot::draw_label(pm, &text, cx, cy, SIZE_PX, colors::LABEL, 1.5);
         placed.push(b);
+        // Once per tile: a street's many ways would repeat its name.
+        names.insert(text);
     }
 }
