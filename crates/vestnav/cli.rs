@@ -6,7 +6,7 @@ use clap::{Parser, Subcommand};
 
 use crate::{
     accuracy, analyze, completions, doctor, emulate_gps, emulate_vest, fieldtest, gps_configure, nav, nmea, ntrip,
-    sim_tactor, sim_wave, station, tiles,
+    route_plan, sim_tactor, sim_wave, station, tiles,
 };
 
 /// One line: `-h`, and the NAME of the man page.
@@ -123,6 +123,12 @@ pub enum Command {
     /// Check this machine's set-up: serial-port permissions, Bluetooth, OpenGL libraries, folders, optional
     /// parts; each finding with its fix.
     Doctor(doctor::DoctorArgs),
+    /// Walking routes along the paths of an OpenStreetMap extract, offline.
+    #[command(subcommand)]
+    Route(RouteCommand),
+    /// The offline map of an OpenStreetMap extract.
+    #[command(subcommand)]
+    Map(MapCommand),
     /// Print a shell completion script for vestnav to standard output.
     #[command(hide = true)]
     Completions(completions::CompletionsArgs),
@@ -207,4 +213,20 @@ pub enum TilesCommand {
     /// Download the tiles of a route's or a box's area over a zoom range into the tile cache or an
     /// MBTiles file (resumable; tiles already there are skipped).
     Prefetch(tiles::PrefetchArgs),
+}
+
+/// `vestnav route ...`
+#[derive(Debug, Subcommand)]
+pub enum RouteCommand {
+    /// Plan a walk from --from to --to (through each --via) along an .osm.pbf extract's paths, honouring
+    /// access, barriers and the profile; write it as GPX for `nav simulate` and the console.
+    Plan(route_plan::PlanArgs),
+}
+
+/// `vestnav map ...`
+#[derive(Debug, Subcommand)]
+pub enum MapCommand {
+    /// Draw an .osm.pbf extract offline into a PNG (the tiles the console's map would show), optionally
+    /// with a route over it.
+    Render(route_plan::RenderArgs),
 }

@@ -14,6 +14,7 @@ mod gps_configure;
 mod nav;
 mod nmea;
 mod ntrip;
+mod route_plan;
 mod sim_tactor;
 mod sim_wave;
 mod station;
@@ -22,8 +23,8 @@ mod tiles;
 use clap::Parser;
 
 use cli::{
-    AnalyzeCommand, Cli, Command, EmulateCommand, FieldtestCommand, GpsCommand, NavCommand, NmeaCommand,
-    SimCommand, TilesCommand,
+    AnalyzeCommand, Cli, Command, EmulateCommand, FieldtestCommand, GpsCommand, MapCommand, NavCommand,
+    NmeaCommand, RouteCommand, SimCommand, TilesCommand,
 };
 
 fn main() -> std::process::ExitCode {
@@ -113,6 +114,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Tiles(TilesCommand::Prefetch(a)) => tiles::run_prefetch(&a),
         Command::Station(a) => station::run(&a),
         Command::Doctor(a) => doctor::run(&a),
+        Command::Route(RouteCommand::Plan(a)) => route_plan::run_plan(&a),
+        Command::Map(MapCommand::Render(a)) => route_plan::run_render(&a),
         Command::Completions(a) => completions::run_completions(&a),
         Command::Man => completions::run_man(),
     }

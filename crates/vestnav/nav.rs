@@ -91,6 +91,13 @@ pub struct SimulateArgs {
     /// Write a figure: the route with the first run's true path and fixes, per strategy.
     #[arg(long)]
     pub png: Option<PathBuf>,
+    /// Follow paths: plan every leg between the route's points along this OpenStreetMap extract's paths
+    /// (`route plan`'s planner) and walk the dense result.
+    #[arg(long, value_name = "AREA.osm.pbf")]
+    pub osm: Option<PathBuf>,
+    /// How the planner weighs ways, with --osm.
+    #[arg(long, value_enum, default_value = "shortest", requires = "osm")]
+    pub profile: crate::route_plan::ProfileArg,
 }
 
 /// Reads the waypoints of a GPX route file: its first route with points, else its waypoints, else its first
@@ -146,7 +153,10 @@ pub fn run_simulate(args: &SimulateArgs) -> anyhow::Result<()> {
     if args.runs == 0 || args.runs > 10_000 {
         anyhow::bail!("--runs must be between 1 and 10000");
     }
-    let waypoints = load_route(&args.route)?;
+    let mut waypoints = load_route(&args.route)?;
+    if let Some(osm) = &args.osm {
+        waypoints = crate::route_plan::follow_paths(osm, &waypoints, args.profile.into())?;
+    }
     let mut all: Vec<(SimSummary, Vec<SimResult>)> = Vec::new();
     let headings: Vec<Option<HeadingArg>> =
         if args.heading.is_empty() { vec![None] } else { args.heading.iter().copied().map(Some).collect() };

@@ -19,6 +19,7 @@ mod gps;
 mod gps_config;
 mod latency;
 mod nav;
+mod osm;
 mod safety;
 mod sim_tactor;
 mod sim_wave;

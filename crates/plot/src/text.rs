@@ -216,6 +216,27 @@ pub(crate) fn draw_text(
     run.width_px
 }
 
+/// Width of a map label (see [`draw_label`]) in pixels.
+pub fn label_width(text: &str, size_px: f32) -> f32 {
+    text_width(text, size_px)
+}
+
+/// Draws `text` as a map label: centred on `(x, y)`, in `color`, on a white halo of `halo_px` so it reads over
+/// any ground. Returns its width in pixels. Used by the offline map renderer (vestnav-osm) for street and
+/// place names, so the map and the figures share one text path.
+pub fn draw_label(
+    pixmap: &mut Pixmap,
+    text: &str,
+    x: f32,
+    y: f32,
+    size_px: f32,
+    color: Color,
+    halo_px: f32,
+) -> f32 {
+    let style = TextStyle::new(size_px).color(color).halo(halo_px);
+    draw_text(pixmap, text, x, y, HAlign::Center, VAlign::Middle, 0.0, style)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

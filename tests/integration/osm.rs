@@ -1,0 +1,153 @@
+//! The offline OpenStreetMap through the binary: `route plan` on the Helsinki extract (© OpenStreetMap
+//! contributors, ODbL; tests/data/osm) writes a GPX that `nav simulate` walks to the end in every run;
+//! `nav simulate --osm` plans the legs itself; `map render` draws a PNG; bad input is refused by name.
+
+use std::path::PathBuf;
+use std::process::Command;
+
+use approx::assert_relative_eq;
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn helsinki() -> String {
+    root().join("tests/data/osm/helsinki.osm.pbf").to_str().unwrap().to_owned()
+}
+
+fn vestnav(args: &[&str]) -> (bool, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_vestnav")).args(args).output().expect("run vestnav");
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("vestnav-osm-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn all_runs_arrive(json: &str) {
+    let v: serde_json::Value = serde_json::from_str(json).unwrap();
+    for s in v["strategies"].as_array().unwrap() {
+        assert_relative_eq!(s["summary"]["finish_rate"].as_f64().unwrap(), 1.0);
+    }
+}
+
+#[test]
+fn a_planned_walk_is_written_as_gpx_and_every_simulated_run_arrives() {
+    let dir = temp_dir("plan");
+    let gpx = dir.join("walk.gpx");
+    let (ok, out, err) = vestnav(&[
+        "route",
+        "plan",
+        "--osm",
+        &helsinki(),
+        "--from",
+        "60.1700,24.9400",
+        "--to",
+        "60.1660,24.9500",
+        "--gpx",
+        gpx.to_str().unwrap(),
+        "--json",
+    ]);
+    assert!(ok, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let length = v["length_m"].as_f64().unwrap();
+    assert!(
+        length
+            >= v["geodesic_m"].as_f64().unwrap()
+                - v["from_snap_m"].as_f64().unwrap()
+                - v["to_snap_m"].as_f64().unwrap()
+    );
+    assert!(v["points"].as_array().unwrap().len() > 10);
+    let (ok, out, err) = vestnav(&[
+        "nav",
+        "simulate",
+        "--route",
+        gpx.to_str().unwrap(),
+        "--strategy",
+        "both",
+        "--runs",
+        "5",
+        "--json",
+    ]);
+    assert!(ok, "{err}");
+    all_runs_arrive(&out);
+    // The map of the same area with the route over it.
+    let png = dir.join("map.png");
+    let (ok, _, err) = vestnav(&[
+        "map",
+        "render",
+        "--osm",
+        &helsinki(),
+        "--zoom",
+        "17",
+        "--route",
+        gpx.to_str().unwrap(),
+        "--png",
+        png.to_str().unwrap(),
+    ]);
+    assert!(ok, "{err}");
+    assert_eq!(&std::fs::read(&png).unwrap()[1..4], b"PNG");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn nav_simulate_follows_paths_between_sparse_waypoints() {
+    let dir = temp_dir("follow");
+    let gpx = dir.join("two.gpx");
+    std::fs::write(
+        &gpx,
+        r#"<?xml version="1.0"?><gpx version="1.1" creator="test" xmlns="http://www.topografix.com/GPX/1/1">
+<rte><rtept lat="60.1700" lon="24.9400"><name>A</name></rtept><rtept lat="60.1660" lon="24.9500"><name>B</name></rtept>
+<rtept lat="60.1690" lon="24.9520"><name>C</name></rtept></rte></gpx>"#,
+    )
+    .unwrap();
+    let (ok, out, err) = vestnav(&[
+        "nav",
+        "simulate",
+        "--route",
+        gpx.to_str().unwrap(),
+        "--osm",
+        &helsinki(),
+        "--profile",
+        "prefer-footways",
+        "--runs",
+        "5",
+        "--json",
+    ]);
+    assert!(ok, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert!(v["waypoints"].as_u64().unwrap() > 20, "dense route expected: {}", v["waypoints"]);
+    all_runs_arrive(&out);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn bad_extracts_and_unreachable_points_are_refused_by_name() {
+    let dir = temp_dir("bad");
+    let junk = dir.join("junk.osm.pbf");
+    std::fs::write(&junk, b"not a pbf").unwrap();
+    let (ok, _, err) = vestnav(&[
+        "route",
+        "plan",
+        "--osm",
+        junk.to_str().unwrap(),
+        "--from",
+        "60.17,24.94",
+        "--to",
+        "60.166,24.95",
+    ]);
+    assert!(!ok);
+    assert!(err.contains("junk.osm.pbf") && err.contains("not a valid .osm.pbf"), "{err}");
+    let (ok, _, err) =
+        vestnav(&["route", "plan", "--osm", &helsinki(), "--from", "61.0,24.94", "--to", "60.166,24.95"]);
+    assert!(!ok);
+    assert!(err.contains("no walkable way within 300 m"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
