@@ -41,7 +41,8 @@ pub fn run(args: &DoctorArgs) -> anyhow::Result<()> {
     let env = Environment::system();
     let config_path = vestnav_app::config::default_path();
     let (config, config_error) = match &config_path {
-        Some(path) => Config::load(path),
+        // Looking must not move the user's broken file aside (the console does that when it starts).
+        Some(path) => Config::inspect(path),
         None => (Config::default(), None),
     };
     let mut request = Request { ports: args.ports.clone(), folders: Vec::new(), broker: args.broker.clone() };
@@ -55,7 +56,7 @@ pub fn run(args: &DoctorArgs) -> anyhow::Result<()> {
     }
     let data = config.log_dir.clone().unwrap_or_else(vestnav_app::config::data_dir);
     request.folders.push(("data folder".into(), data));
-    let tiles = config.tile_cache_dir.clone().unwrap_or_else(vestnav_app::tiles::cache::default_root);
+    let tiles = config.tile_cache_dir.clone().unwrap_or_else(vestnav_tiles::cache::default_root);
     request.folders.push(("tile cache".into(), tiles));
 
     let mut report = doctor::run(&env, &request);

@@ -195,6 +195,19 @@ impl Config {
         Self::load_with(path, vestnav_files::keep_aside)
     }
 
+    /// Reads `path` as [`Config::load`] does but changes nothing on disk: a broken file stays where it is
+    /// and the reason is returned (`vestnav doctor` looks; only the console keeps a broken file aside).
+    pub fn inspect(path: &Path) -> (Self, Option<String>) {
+        match vestnav_files::read_limited(path, MAX_CONFIG_BYTES) {
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => (Self::default(), None),
+            Err(e) => (Self::default(), Some(format!("{}: cannot read it: {e}", path.display()))),
+            Ok(bytes) => match serde_json::from_slice::<Self>(&bytes) {
+                Ok(cfg) => (Self::sanitized(cfg), None),
+                Err(e) => (Self::default(), Some(format!("{}: not valid settings: {e}", path.display()))),
+            },
+        }
+    }
+
     fn load_with(
         path: &Path,
         keep_aside: impl FnOnce(&Path) -> std::io::Result<PathBuf>,

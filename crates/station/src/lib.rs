@@ -173,6 +173,8 @@ pub struct Station {
     pub notices: Notices,
     /// Whether the stop alarm was on at the last pump (its rising edge is logged once).
     stop_alarm_was: bool,
+    /// The session log's health as last shown.
+    log_health: vestnav_device::session_log::LogHealth,
 }
 
 impl Station {
@@ -182,7 +184,8 @@ impl Station {
     pub fn new(factory: Box<dyn DeviceFactory>, opts: StationOptions) -> Self {
         let StationOptions { settings, gps, vest, log_dir, waker, liveness, stop, route: route_start } = opts;
         let mut notices = Notices::default();
-        let log = log_dir.and_then(|d| match SessionLog::create(&d) {
+        // A log whose folder cannot be written now starts failing (shown, retried) instead of being off.
+        let log = log_dir.and_then(|d| match SessionLog::create_resilient(&d) {
             Ok(l) => Some(l),
             Err(e) => {
                 notices.raise(
@@ -239,6 +242,7 @@ impl Station {
             guidance: None,
             notices,
             stop_alarm_was: false,
+            log_health: vestnav_device::session_log::LogHealth::Ok,
         }
     }
 
@@ -603,7 +607,24 @@ impl Station {
             self.log(LogEntry::Note { text: format!("STOP NOT CONFIRMED: {}", stop_alarm_text(a)) });
         }
         self.stop_alarm_was = alarm.is_some();
+        self.watch_log();
         self.autosave_route(false);
+    }
+
+    /// Shows the session log's storage failures (full disk, read-only medium, I/O errors) where the
+    /// operator looks, one notice replaced as the episode changes, gone when all is well again.
+    fn watch_log(&mut self) {
+        let Some(log) = &self.log else { return };
+        let health = log.health();
+        if health == self.log_health {
+            return;
+        }
+        self.notices.dismiss_subject(Subject::Storage);
+        if let Some(text) = health.banner(log.path()) {
+            let severity = if health.is_failing() { Severity::Alarm } else { Severity::Warning };
+            self.notices.raise(severity, Subject::Storage, text);
+        }
+        self.log_health = health;
     }
 
     /// Tells guidance the current route (retried every pump until it is taken).
