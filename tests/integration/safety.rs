@@ -20,8 +20,9 @@ use vestnav_app::config::{Config, GpsSourceConfig, VestSourceConfig};
 use vestnav_app::console::{Console, ConsoleOptions, Liveness};
 use vestnav_app::hardware::Hardware;
 use vestnav_device::wtcu::CommandKind;
+use vestnav_device::wtcu::emulator::UnitConfig;
 use vestnav_device::wtcu::emulator::{Pty, SERVE_POLL};
-use vestnav_device::wtcu::engine::{Engine, EngineConfig, EngineEvent};
+use vestnav_device::wtcu::engine::EngineEvent;
 
 /// A WTCU on the master of a PTY pair, logging what it accepted and when.
 struct Unit {
@@ -39,7 +40,7 @@ impl Unit {
         let (l, s) = (log.clone(), stop.clone());
         let thread = std::thread::spawn(move || {
             let _slave = slave;
-            let mut engine = Engine::new(EngineConfig::default());
+            let mut engine = UnitConfig::default().build();
             let mut buf = [0u8; 1024];
             while !s.load(Ordering::Relaxed) {
                 match master.read(&mut buf) {

@@ -15,7 +15,7 @@ use vestnav_app::devices::{DeviceFactory, GpsWorker};
 use vestnav_app::route::Waypoint;
 use vestnav_device::gps::{ErrorEstimate, ErrorSource, Fix, FixMode, FixQuality, GpsEvent};
 use vestnav_device::outbox::Outbox;
-use vestnav_device::wtcu::engine::EngineConfig;
+use vestnav_device::wtcu::emulator::UnitConfig;
 use vestnav_device::wtcu::{VestConfig, VestEvent, VestHandle};
 
 /// Hands the GPS outboxes to the bench so it can push fixes as fast as it likes; the vest is the
@@ -39,7 +39,7 @@ impl DeviceFactory for Tap {
         Ok(Box::new(Idle))
     }
     fn open_vest(&self, _s: &VestSourceConfig, out: Vec<Outbox<VestEvent>>) -> Result<VestHandle, String> {
-        VestHandle::spawn(VestConfig::Emulated(EngineConfig::default()), out).map_err(|e| e.to_string())
+        VestHandle::spawn(VestConfig::Emulated(UnitConfig::default()), out).map_err(|e| e.to_string())
     }
 }
 

@@ -31,7 +31,7 @@ use vestnav_device::wtcu::{
     CommandKind, CommandOrigin, DeviceInfo, LinkState, UnitStatus, VestCommand, VestEvent, VestHandle,
 };
 
-use crate::config::{Config, GpsSourceConfig, GpsSpec, VestSourceConfig};
+use crate::config::{Config, GpsSourceConfig, VestSourceConfig};
 use crate::devices::{DeviceFactory, GpsWorker};
 use crate::fieldtest_panel::FieldTestPanel;
 use crate::guidance::{GuidanceInput, GuidanceSettings, GuidanceStatus};
@@ -233,7 +233,7 @@ impl ExitGuard {
 #[derive(Debug, Clone, Default)]
 pub struct DeviceOverrides {
     /// `--gps`.
-    pub gps: Option<GpsSpec>,
+    pub gps: Option<GpsSourceConfig>,
     /// `--vest`.
     pub vest: Option<VestSourceConfig>,
     /// `--tiles`: the map's tile source for this run.
@@ -345,7 +345,7 @@ impl Console {
         let file_devices = (cfg.gps.clone(), cfg.vest.clone());
         let connect_now = cfg.auto_connect || devices.gps.is_some() || devices.vest.is_some();
         if let Some(g) = &devices.gps {
-            cfg.gps = g.source.clone();
+            cfg.gps = g.clone();
         }
         if let Some(v) = &devices.vest {
             cfg.vest = v.clone();
@@ -357,7 +357,7 @@ impl Console {
         }
 
         let mut map = MapView::new(cfg.follow);
-        let cli_route = devices.gps.as_ref().and_then(|g| g.route.clone());
+        let cli_route = devices.gps.as_ref().and_then(|g| g.sim_route()).map(std::path::Path::to_path_buf);
         if let Some(e) = load_route(&mut map, cli_route, route_autosave.as_deref()) {
             status = e;
         }
@@ -835,7 +835,7 @@ impl Console {
         // Devices given on the command line are for this run only: the file keeps its own unless the
         // operator changed them in the console.
         let mut on_disk = self.cfg.clone();
-        if self.overrides.gps.as_ref().is_some_and(|g| g.source == on_disk.gps) {
+        if self.overrides.gps.as_ref().is_some_and(|g| *g == on_disk.gps) {
             on_disk.gps = self.file_devices.0.clone();
         }
         if self.overrides.vest.as_ref().is_some_and(|v| *v == on_disk.vest) {
