@@ -19,7 +19,7 @@ use crate::route_file::{DEMO_GPX, DefaultRoute, parse_gpx, read_gpx};
 pub fn load_route_gpx(path: &Path) -> Result<Vec<(f64, f64)>, GpsError> {
     let err = |reason: String| GpsError::Route { path: path.display().to_string(), reason };
     let file = read_gpx(path).map_err(|e| err(e.to_string()))?;
-    file.default_route().map(points).ok_or_else(|| err("no route, track or waypoints".into()))
+    file.default_route().as_ref().map(points).ok_or_else(|| err("no route, track or waypoints".into()))
 }
 
 /// The demo route (`assets/routes/demo.gpx`, a loop around MIT's Briggs Field) as (latitude, longitude)
@@ -27,10 +27,10 @@ pub fn load_route_gpx(path: &Path) -> Result<Vec<(f64, f64)>, GpsError> {
 pub fn demo_route() -> Result<Vec<(f64, f64)>, GpsError> {
     let err = |reason: String| GpsError::Route { path: "(built-in demo route)".into(), reason };
     let file = parse_gpx(DEMO_GPX).map_err(|e| err(e.to_string()))?;
-    file.default_route().map(points).ok_or_else(|| err("no route, track or waypoints".into()))
+    file.default_route().as_ref().map(points).ok_or_else(|| err("no route, track or waypoints".into()))
 }
 
-fn points(route: DefaultRoute) -> Vec<(f64, f64)> {
+fn points(route: &DefaultRoute) -> Vec<(f64, f64)> {
     route.waypoints.iter().map(|w| (w.lat_deg, w.lon_deg)).collect()
 }
 

@@ -146,10 +146,10 @@ fn timeline(data: &[u8]) -> Vec<(std::ops::Range<usize>, Option<u64>)> {
                     let t_s = unwrap_time_of_day(tod_s, last.map(|p| p as f64 / 1000.0));
                     ms = (t_s * 1000.0).round() as i64;
                 }
-                if let Some(prev) = last {
-                    if ms < prev || ms - prev > 60_000 {
-                        shift_ms += (ms - prev) - 1000;
-                    }
+                if let Some(prev) = last
+                    && (ms < prev || ms - prev > 60_000)
+                {
+                    shift_ms += (ms - prev) - 1000;
                 }
                 last = Some(ms);
                 let f = *first.get_or_insert(ms);

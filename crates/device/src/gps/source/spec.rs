@@ -450,12 +450,14 @@ mod tests {
             let json = serde_json::to_string(&s).unwrap();
             let back = serde_json::from_str::<GpsSourceSpec>(&json).unwrap();
             // serde_json's default float parser may miss the nearest double by one unit in the last place.
-            match (&back, &s) {
-                (
-                    GpsSourceSpec::Replay { path: a, speed: ReplaySpeed::Times(x) },
-                    GpsSourceSpec::Replay { path: b, speed: ReplaySpeed::Times(y) },
-                ) => prop_assert!(a == b && (x - y).abs() <= 1e-12 * y.abs(), "{}", json),
-                _ => prop_assert_eq!(back, s, "{}", json),
+            if let (
+                GpsSourceSpec::Replay { path: a, speed: ReplaySpeed::Times(x) },
+                GpsSourceSpec::Replay { path: b, speed: ReplaySpeed::Times(y) },
+            ) = (&back, &s)
+            {
+                prop_assert!(a == b && (x - y).abs() <= 1e-12 * y.abs(), "{}", json);
+            } else {
+                prop_assert_eq!(back, s, "{}", json);
             }
         }
 
