@@ -22,7 +22,7 @@ use vestnav_report::accuracy::{AccuracyReport, AgainstReference, CompareReport, 
 use vestnav_report::fieldtest::{ConesReport, DriftReport, Source};
 use vestnav_report::to_json;
 
-use crate::fieldtest::{EarthArg, LogFormat, seconds_of_day, unwrap_tod};
+use crate::fieldtest::{EarthArg, LogFormat, seconds_of_day};
 
 /// Where the truth comes from (one of `--reference`, `--reference-gpx`, `--reference-average-s`).
 #[derive(Debug, Args, Default)]
@@ -145,7 +145,7 @@ pub fn load_samples(path: &Path, format: LogFormat) -> anyhow::Result<LoadedLog>
     let mut prev: Option<f64> = None;
     for f in fixes.iter().filter(|f| f.has_position()) {
         let t = match f.time_of_day {
-            Some(tod) => unwrap_tod(seconds_of_day(tod), prev),
+            Some(tod) => vestnav_core::fieldtest::unwrap_time_of_day(seconds_of_day(tod), prev),
             None => prev.map_or(0.0, |p| p + 1.0),
         };
         prev = Some(t);

@@ -46,7 +46,7 @@ pub struct Cli {
     /// route to guide along), vest[@BAUD] (the receiver on the vest unit's second UART, forwarded inside
     /// the vest's link; default 9600 baud).
     #[arg(long, value_name = "SPEC", value_parser = parse_gps)]
-    pub gps: Option<vestnav_station::sources::GpsSpec>,
+    pub gps: Option<vestnav_device::gps::GpsSourceSpec>,
     /// Console only: the vest to connect at start, winning over the saved settings for this run.
     /// One of emulated, serial:PATH (a WTCU on a serial or Bluetooth SPP port such as /dev/rfcomm0).
     #[arg(long, value_name = "SPEC", value_parser = parse_vest)]
@@ -69,8 +69,8 @@ pub struct Cli {
     pub command: Option<Command>,
 }
 
-fn parse_gps(s: &str) -> Result<vestnav_station::sources::GpsSpec, String> {
-    vestnav_station::sources::parse_gps_spec(s)
+fn parse_gps(s: &str) -> Result<vestnav_device::gps::GpsSourceSpec, String> {
+    s.parse().map_err(|e| format!("--gps {e}"))
 }
 
 fn parse_screenshot_after(s: &str) -> Result<f64, String> {

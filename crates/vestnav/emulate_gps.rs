@@ -13,10 +13,11 @@ use std::time::{Duration, Instant};
 use anyhow::Context as _;
 use clap::Args;
 use vestnav_core::gnss_sim::GnssErrorModel;
+use vestnav_device::gps::ReplaySpeed;
 use vestnav_device::gps::receiver_config::emulator::{
     EmulatedFamily, EmulatedReceiver, EmulatedSettings, Protocol,
 };
-use vestnav_device::gps::sim::{DEFAULT_ROUTE, SimulatedReceiver, load_route_gpx, whole_second_now};
+use vestnav_device::gps::sim::{SimulatedReceiver, demo_route, load_route_gpx, whole_second_now};
 use vestnav_device::gps::source::replay_lines;
 
 /// Arguments of `vestnav emulate gps`.
@@ -30,15 +31,15 @@ pub struct GpsArgs {
     /// Simulate a walker along a route with `SiRF` III-like error.
     #[arg(long)]
     pub simulate: bool,
-    /// Route for --simulate (GPX: route, track or waypoints); default assets/routes/demo.gpx.
+    /// Route for --simulate (GPX: route, track or waypoints); default the built-in demo route (assets/routes/demo.gpx).
     #[arg(long, requires = "simulate")]
     pub route: Option<PathBuf>,
     /// Serve on a new pseudo-terminal and print its path (default: write to standard output).
     #[arg(long)]
     pub pty: bool,
-    /// Replay speed factor (1 = recorded speed).
-    #[arg(long, default_value_t = 1.0)]
-    pub speed: f64,
+    /// Replay speed factor (1 = recorded speed, 0 = as fast as possible, at most 1000).
+    #[arg(long, default_value_t = ReplaySpeed::default())]
+    pub speed: ReplaySpeed,
     /// Walking pace for --simulate [m/s].
     #[arg(long, default_value_t = 1.4)]
     pub pace_m_s: f64,
@@ -121,7 +122,7 @@ pub fn run(args: &GpsArgs) -> anyhow::Result<()> {
         let data = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
         loop {
             let mut err = None;
-            replay_lines(&data, Some(args.speed), &stop, |line| match write_line(&mut out, line) {
+            replay_lines(&data, args.speed, &stop, |line| match write_line(&mut out, line) {
                 Ok(()) => true,
                 Err(e) => {
                     err = Some(e);
@@ -136,13 +137,9 @@ pub fn run(args: &GpsArgs) -> anyhow::Result<()> {
             }
         }
     }
-    let demo = PathBuf::from("assets/routes/demo.gpx");
-    let route = if let Some(p) = &args.route {
-        load_route_gpx(p)?
-    } else if demo.exists() {
-        load_route_gpx(&demo)?
-    } else {
-        DEFAULT_ROUTE.to_vec()
+    let route = match &args.route {
+        Some(p) => load_route_gpx(p)?,
+        None => demo_route()?,
     };
     simulate(args, &route)
 }

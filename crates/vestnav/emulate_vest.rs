@@ -17,11 +17,10 @@ use std::time::{Duration, Instant};
 use anyhow::Context;
 use clap::Args;
 use vestnav_core::vest::{GRID, TactorMask};
+use vestnav_device::sim::{CompassSetup, WearerMotion};
 #[cfg(unix)]
 use vestnav_device::wtcu::emulator::Pty;
-use vestnav_device::wtcu::emulator::{
-    CompassSetup, EmulatorControl, SERVE_POLL, ServeEnd, WearerMotion, describe, serve,
-};
+use vestnav_device::wtcu::emulator::{EmulatorControl, SERVE_POLL, ServeEnd, UnitConfig, describe, serve};
 use vestnav_device::wtcu::engine::{Engine, EngineConfig, EngineEvent, battery_pct_from_mv};
 use vestnav_device::wtcu::firmware_sim::{FirmwareSim, FirmwareSimConfig, SimEvent, field_for_heading};
 use vestnav_device::wtcu::limits::Limits;
@@ -84,17 +83,22 @@ pub struct VestArgs {
 }
 
 impl VestArgs {
-    fn engine_config(&self) -> anyhow::Result<EngineConfig> {
+    fn unit_config(&self) -> anyhow::Result<UnitConfig> {
         let gps_nmea = match &self.gps_nmea {
             Some(path) => Some(read_nmea(path)?),
             None => None,
         };
-        Ok(EngineConfig {
+        let engine = EngineConfig {
             limits: Limits { max_simultaneous: self.max_simultaneous, ..Limits::default() },
             watchdog_ms: self.watchdog_ms,
             intensity: !self.no_intensity,
             battery_mv: self.battery_mv,
             protocol_version: self.protocol,
+            gps_nmea,
+            ..EngineConfig::default()
+        };
+        Ok(UnitConfig {
+            engine,
             compass: (!self.no_compass).then_some(CompassSetup {
                 motion: if self.turn_deg_s == 0.0 {
                     WearerMotion::Still { heading_deg: self.heading_deg }
@@ -105,8 +109,6 @@ impl VestArgs {
                 ideal: self.ideal_compass,
                 seed: 1,
             }),
-            gps_nmea,
-            ..EngineConfig::default()
         })
     }
 }
@@ -131,7 +133,7 @@ pub fn run(args: &VestArgs) -> anyhow::Result<()> {
     if let Some(elf) = &args.firmware {
         return run_firmware(elf, args);
     }
-    let mut engine = Engine::new(args.engine_config()?);
+    let mut engine = args.unit_config()?.build();
     let control = Arc::new(EmulatorControl::default());
     spawn_drop_reporter(control.clone())?;
     if args.stdio {

@@ -16,7 +16,9 @@ use std::path::{Path, PathBuf};
 use anyhow::Context as _;
 use chrono::{Datelike as _, NaiveTime, Timelike as _};
 use clap::{Args, ValueEnum};
-use vestnav_core::fieldtest::{ConeConfig, ConeMark, TimedFix, cones, drift, position_at};
+use vestnav_core::fieldtest::{
+    ConeConfig, ConeMark, TimedFix, cones, drift, position_at, unwrap_time_of_day,
+};
 use vestnav_core::geo::{Earth, LatLon, declination_deg, true_from_magnetic_deg};
 use vestnav_device::gps::{Fix, decode_reader_with_marks};
 use vestnav_device::session_log::{LogEntry, ReadMode, read_log_with};
@@ -151,16 +153,6 @@ pub(crate) fn seconds_of_day(t: NaiveTime) -> f64 {
     f64::from(t.num_seconds_from_midnight()) + f64::from(t.nanosecond()) / 1e9
 }
 
-/// Unwraps a time of day onto the running time line `prev` (adds days while it would jump back > 12 h).
-pub(crate) fn unwrap_tod(tod_s: f64, prev: Option<f64>) -> f64 {
-    let Some(p) = prev else { return tod_s };
-    let mut t = tod_s + 86_400.0 * ((p - tod_s) / 86_400.0).round();
-    if t < p - 43_200.0 {
-        t += 86_400.0;
-    }
-    t
-}
-
 /// Bytes looked at to recognise the format.
 const SNIFF_BYTES: u64 = 64 * 1024;
 
@@ -197,7 +189,7 @@ fn load_nmea(path: &Path) -> anyhow::Result<Log> {
     let mut date = None;
     for f in raw.iter().filter(|f| f.has_position()) {
         let t = match f.time_of_day {
-            Some(tod) => unwrap_tod(seconds_of_day(tod), prev),
+            Some(tod) => unwrap_time_of_day(seconds_of_day(tod), prev),
             None => prev.map_or(0.0, |p| p + 1.0),
         };
         prev = Some(t);
@@ -212,7 +204,7 @@ fn load_nmea(path: &Path) -> anyhow::Result<Log> {
     let marks = marks
         .into_iter()
         .map(|m| LogMark {
-            t_s: m.time_of_day.map(|tod| unwrap_tod(seconds_of_day(tod), first_t)),
+            t_s: m.time_of_day.map(|tod| unwrap_time_of_day(seconds_of_day(tod), first_t)),
             label: if m.label.is_empty() { format!("{}", m.number) } else { m.label },
             pos: None,
         })

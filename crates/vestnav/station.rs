@@ -16,7 +16,7 @@ use std::time::{Duration, Instant};
 use anyhow::Context as _;
 use vestnav_device::gps::SourceState;
 use vestnav_station::hardware::Hardware;
-use vestnav_station::sources::{GpsSpec, VestSourceConfig, parse_gps_spec, parse_vest_spec};
+use vestnav_station::sources::{GpsSourceConfig, VestSourceConfig, parse_gps_spec, parse_vest_spec};
 use vestnav_station::stop::StopPath;
 use vestnav_station::{Liveness, RouteStart, Station, StationOptions, StationSettings};
 
@@ -26,7 +26,7 @@ pub struct StationArgs {
     /// The GPS: gpsd://HOST:PORT, serial:PATH[@BAUD], replay:FILE[@SPEED], sim[:ROUTE.gpx] or vest[@BAUD]
     /// (as the console's --gps).
     #[arg(long, value_name = "SPEC", value_parser = parse_gps_spec, default_value = "sim")]
-    pub gps: GpsSpec,
+    pub gps: GpsSourceConfig,
     /// The vest: emulated, or serial:PATH (a WTCU on a serial or Bluetooth SPP port).
     #[arg(long, value_name = "SPEC", value_parser = parse_vest_spec, default_value = "emulated")]
     pub vest: VestSourceConfig,
@@ -60,7 +60,7 @@ pub fn run(a: &StationArgs) -> anyhow::Result<()> {
     vestnav_station::stop::exit_on_signals(stop.clone(), || {}).context("cannot watch for signals")?;
     let mut settings = StationSettings::default();
     settings.guidance.auto = !a.no_auto;
-    let route = a.route.clone().or_else(|| a.gps.route.clone());
+    let route = a.route.clone().or_else(|| a.gps.sim_route().map(std::path::Path::to_path_buf));
     if let Some(r) = &route {
         // Checked before anything starts: a missing route file is the operator's to fix now.
         std::fs::metadata(r).with_context(|| format!("route {}", r.display()))?;
@@ -69,7 +69,7 @@ pub fn run(a: &StationArgs) -> anyhow::Result<()> {
         Box::new(Hardware::default()),
         StationOptions {
             settings,
-            gps: Some(a.gps.source.clone()),
+            gps: Some(a.gps.clone()),
             vest: Some(a.vest.clone()),
             log_dir: a.log_dir.clone(),
             waker: None,

@@ -17,6 +17,7 @@ use std::time::{Duration, Instant};
 use proptest::prelude::*;
 use vestnav_core::vest::{Frame, Pattern, TACTOR_COUNT, TactorMask};
 use vestnav_device::wtcu::codec::{CRC16, FrameCodec, MAX_ENCODED, WireCodec, cobs_encode};
+use vestnav_device::wtcu::emulator::UnitConfig;
 use vestnav_device::wtcu::engine::{Engine, EngineConfig};
 use vestnav_device::wtcu::limits::Limits;
 use vestnav_device::wtcu::link::{Link, LinkConfig, LinkState};
@@ -275,7 +276,7 @@ struct Unit {
 impl Unit {
     fn new(config: EngineConfig, t0: Instant) -> Self {
         Self {
-            engine: Engine::new(config.clone()),
+            engine: UnitConfig::from(config.clone()).build(),
             config,
             timeline: vec![(t0, TactorMask::NONE)],
             tap: FrameCodec::new(),

@@ -27,8 +27,9 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use vestnav_core::vest::{Frame, TactorMask};
+use vestnav_device::sim::{CompassSetup, WearerMotion};
 use vestnav_device::wtcu::codec::{FrameCodec, WireCodec, cobs_encode};
-use vestnav_device::wtcu::emulator::{CompassSetup, PtyEmulator, WearerMotion};
+use vestnav_device::wtcu::emulator::{PtyEmulator, UnitConfig};
 use vestnav_device::wtcu::engine::{EngineConfig, battery_pct_from_mv};
 use vestnav_device::wtcu::firmware_sim::{FirmwareSim, FirmwareSimConfig, SimEvent, field_for_heading};
 use vestnav_device::wtcu::message::{
@@ -69,15 +70,17 @@ struct Unit {
 impl Unit {
     fn emulator() -> Self {
         let nmea = std::fs::read(Path::new(ROOT).join(GPS_LOG)).unwrap();
-        let config = EngineConfig {
-            battery_mv: BATTERY_MV,
+        let config = UnitConfig {
+            engine: EngineConfig {
+                battery_mv: BATTERY_MV,
+                gps_nmea: Some(nmea.into()),
+                ..EngineConfig::default()
+            },
             compass: Some(CompassSetup {
                 motion: WearerMotion::Still { heading_deg: 0.0 },
                 ideal: true,
                 ..CompassSetup::default()
             }),
-            gps_nmea: Some(nmea.into()),
-            ..EngineConfig::default()
         };
         let emu = PtyEmulator::spawn(config).unwrap();
         Self {

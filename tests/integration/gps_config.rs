@@ -7,7 +7,7 @@ use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};
 
 use vestnav_device::gps::receiver_config::{ConfigEvent, ConfigTicket, Family, Outcome, ReceiverConfig};
-use vestnav_device::gps::{Fix, GpsEvent, GpsHandle, GpsSource, SourceConfig};
+use vestnav_device::gps::{Fix, GpsEvent, GpsHandle, GpsSource, ReplaySpeed, SourceConfig};
 
 use super::gps::Kill;
 
@@ -113,8 +113,12 @@ fn ublox8_acks_cfg_rate_and_sends_epochs_at_5_hz() {
 #[test]
 fn a_replay_cannot_configure_a_receiver() {
     let log = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/gpsd-logs/nd-1005.log");
-    let (h, _rx) =
-        GpsSource::spawn_channel(SourceConfig::Replay { path: log, speed: None }, 1024, None).unwrap();
+    let (h, _rx) = GpsSource::spawn_channel(
+        SourceConfig::Replay { path: log, speed: ReplaySpeed::AsFastAsPossible },
+        1024,
+        None,
+    )
+    .unwrap();
     let cfg = ReceiverConfig { rate_hz: Some(5), ..ReceiverConfig::new(Family::Ublox) };
     assert!(h.configure(cfg).unwrap_err().contains("no receiver"));
 }

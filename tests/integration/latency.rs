@@ -37,8 +37,9 @@ use vestnav_device::gps::nmea_out::{EpochOut, SimSatellite, epoch_sentences};
 use vestnav_device::serial::Pty as GpsPty;
 use vestnav_device::wtcu::LinkState;
 use vestnav_device::wtcu::codec::{DecodeError, FrameCodec, WireCodec};
+use vestnav_device::wtcu::emulator::UnitConfig;
 use vestnav_device::wtcu::emulator::{EmulatorControl, Pty as VestPty, serve};
-use vestnav_device::wtcu::engine::{Engine, EngineConfig, EngineEvent};
+use vestnav_device::wtcu::engine::EngineEvent;
 use vestnav_device::wtcu::message::{CommandKind, Packet, Request};
 use vestnav_station::hardware::Hardware;
 use vestnav_station::route::Waypoint;
@@ -204,7 +205,7 @@ fn nmea_fix_to_vest_play_latency_p50_p99() {
             .name("latency-unit".into())
             .spawn(move || {
                 let _slave = slave;
-                let mut engine = Engine::new(EngineConfig::default());
+                let mut engine = UnitConfig::default().build();
                 let mut tap = Tap {
                     port: &mut master,
                     codec: FrameCodec::new(),

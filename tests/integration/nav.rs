@@ -7,7 +7,45 @@ use std::process::Command;
 use approx::assert_relative_eq;
 use vestnav_core::fieldtest::{TimedFix, drift};
 use vestnav_core::geo::{Earth, LatLon};
-use vestnav_core::gnss_sim::{GnssErrorModel, GnssErrorState, LocalFrame as SimFrame};
+use vestnav_core::gnss_sim::{GnssErrorModel, GnssErrorState};
+
+/// A flat east/north frame on WGS-84's radii of curvature at the origin (meridional `M`, prime vertical
+/// `N`): `east = dlon N cos(phi0)`, `north = dlat M`. An independent formula, good to ~1e-5 relative over
+/// a few hundred metres, to check core's geodesic `LocalFrame` against.
+struct SimFrame {
+    lat0_deg: f64,
+    lon0_deg: f64,
+    m_per_rad_north: f64,
+    m_per_rad_east: f64,
+}
+
+impl SimFrame {
+    fn new(lat0_deg: f64, lon0_deg: f64) -> Self {
+        let (a_m, e2) = (6_378_137.0, 6.694_379_990_14e-3);
+        let phi = f64::to_radians(lat0_deg);
+        let w = 1.0 - e2 * phi.sin().powi(2);
+        Self {
+            lat0_deg,
+            lon0_deg,
+            m_per_rad_north: a_m * (1.0 - e2) / w.powf(1.5),
+            m_per_rad_east: a_m / w.sqrt() * phi.cos(),
+        }
+    }
+
+    fn en_from_latlon(&self, lat_deg: f64, lon_deg: f64) -> vestnav_core::geo::DVec2 {
+        vestnav_core::geo::DVec2::new(
+            (lon_deg - self.lon0_deg).to_radians() * self.m_per_rad_east,
+            (lat_deg - self.lat0_deg).to_radians() * self.m_per_rad_north,
+        )
+    }
+
+    fn latlon_from_en(&self, en: vestnav_core::geo::DVec2) -> (f64, f64) {
+        (
+            self.lat0_deg + (en.y / self.m_per_rad_north).to_degrees(),
+            self.lon0_deg + (en.x / self.m_per_rad_east).to_degrees(),
+        )
+    }
+}
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))

@@ -18,7 +18,8 @@ use std::time::{Duration, Instant};
 
 use vestnav_core::vest::TactorMask;
 use vestnav_device::wtcu::emulator::{Pty, SERVE_POLL};
-use vestnav_device::wtcu::engine::{Engine, EngineConfig, EngineEvent};
+use vestnav_device::wtcu::emulator::UnitConfig;
+use vestnav_device::wtcu::engine::EngineEvent;
 use vestnav_device::wtcu::message::Faults;
 use vestnav_device::wtcu::{CommandKind, FrameCodec, Reply, WireCodec as _};
 use vestnav_station::hardware::Hardware;
@@ -63,7 +64,7 @@ impl Unit {
         let (l, r, s) = (log.clone(), received.clone(), stop.clone());
         let thread = std::thread::spawn(move || {
             let _slave = slave;
-            let mut engine = Engine::new(EngineConfig::default());
+            let mut engine = UnitConfig::default().build();
             let mut requests = FrameCodec::new();
             let (mut replies_in, mut replies_out) = (FrameCodec::new(), FrameCodec::new());
             let mut stop_seqs: Vec<u8> = Vec::new();

@@ -13,7 +13,8 @@ use vestnav_core::vest::{Cue, DEFAULT_ON_MS, Frame, TactorMask};
 use vestnav_device::outbox::{Outbox, Overflow};
 use vestnav_device::wtcu::codec::{FrameCodec, WireCodec, hex};
 use vestnav_device::wtcu::emulator::PtyEmulator;
-use vestnav_device::wtcu::engine::{Engine, EngineConfig};
+use vestnav_device::wtcu::emulator::UnitConfig;
+use vestnav_device::wtcu::engine::EngineConfig;
 use vestnav_device::wtcu::limits::Limits;
 use vestnav_device::wtcu::link::LinkState;
 use vestnav_device::wtcu::message::{
@@ -131,7 +132,7 @@ fn reply_vectors_match_the_document_both_ways() {
 #[test]
 fn the_emulator_identifies_itself_as_the_vector_says() {
     let now = Instant::now();
-    let mut engine = Engine::new(EngineConfig::default());
+    let mut engine = UnitConfig::default().build();
     engine.handle_bytes(&unhex("00 03 01 01 01 03 44 c5 00"), now);
     let identify = reply_vectors()[0].2;
     assert_eq!(hex(&engine.poll_transmit().unwrap()), identify);
@@ -601,7 +602,7 @@ fn measure_codec_cost_and_pty_round_trip() {
 #[test]
 fn emulated_vest_in_process_connects_out_of_the_box() {
     let (out, rx) = Outbox::channel(1024, Overflow::DropNewest, None);
-    let handle = VestHandle::spawn(VestConfig::Emulated(EngineConfig::default()), vec![out]).unwrap();
+    let handle = VestHandle::spawn(VestConfig::Emulated(UnitConfig::default()), vec![out]).unwrap();
     let vest = Vest { handle, rx };
     let mut seen = Vec::new();
     let s = Duration::from_secs(3);

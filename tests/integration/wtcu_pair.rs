@@ -10,6 +10,7 @@ use std::time::{Duration, Instant};
 
 use vestnav_core::vest::{Cue, DEFAULT_ON_MS, Frame, TactorMask};
 use vestnav_device::wtcu::codec::{FrameCodec, WireCodec};
+use vestnav_device::wtcu::emulator::UnitConfig;
 use vestnav_device::wtcu::engine::{Engine, EngineConfig};
 use vestnav_device::wtcu::limits::LimitError;
 use vestnav_device::wtcu::link::{CommandError, Link, LinkConfig, LinkEvent, LinkState};
@@ -40,7 +41,7 @@ impl Pair {
         Self {
             now: t0,
             console: Link::new(LinkConfig::default()),
-            unit: Engine::new(EngineConfig::default()),
+            unit: UnitConfig::default().build(),
             drop_to_unit: Box::new(|_| false),
             drop_to_console: Box::new(|_| false),
             events: Vec::new(),
@@ -340,7 +341,7 @@ fn a_repeated_pattern_cannot_bypass_the_on_time_limit() {
         Err(CommandError::Limit(LimitError::OnTooLong { requested_ms: 5000, max_ms: 2000 }))
     );
     // The unit refuses it too when a console does not check.
-    let mut unit = Engine::new(EngineConfig::default());
+    let mut unit = UnitConfig::default().build();
     let codec = FrameCodec::with_max_version(1);
     unit.handle_bytes(&codec.encode_request(0, &Request::Hello).unwrap(), p.now);
     let play = Request::Play { frames: pattern.frames.clone(), repeats: 5 };
@@ -400,7 +401,7 @@ fn chained_cues_cannot_keep_a_tactor_on_past_the_limit() {
     // The unit saw only what the console let through and refused nothing.
     assert_eq!(p.unit.stats().naks_sent, 0);
     // The unit holds the same line on its own: a console that does not check gets a NAK 0x05.
-    let mut unit = Engine::new(EngineConfig::default());
+    let mut unit = UnitConfig::default().build();
     let codec = FrameCodec::with_max_version(1);
     let t = p.now;
     let ms = |m| t + Duration::from_millis(m);
@@ -433,7 +434,7 @@ fn chained_cues_cannot_keep_a_tactor_on_past_the_limit() {
 fn unit_naks_out_of_bound_and_bad_requests() {
     let t = Instant::now();
     let codec = FrameCodec::with_max_version(1);
-    let mut unit = Engine::new(EngineConfig { intensity: false, ..EngineConfig::default() });
+    let mut unit = UnitConfig::from(EngineConfig { intensity: false, ..EngineConfig::default() }).build();
     let mut replies = FrameCodec::new();
     let mut ask = |unit: &mut Engine, bytes: Vec<u8>| -> Reply {
         unit.handle_bytes(&bytes, t);

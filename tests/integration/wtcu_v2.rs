@@ -9,8 +9,9 @@ use std::time::{Duration, Instant};
 
 use vestnav_core::compass::Calibration;
 use vestnav_device::heading::{HeadingOrigin, HeadingReference};
+use vestnav_device::sim::{CompassSetup, SimulatedCompass, WearerMotion};
 use vestnav_device::wtcu::codec::{FrameCodec, WireCodec, hex};
-use vestnav_device::wtcu::emulator::{CompassSetup, PtyEmulator, SimulatedCompass, WearerMotion};
+use vestnav_device::wtcu::emulator::{PtyEmulator, UnitConfig};
 use vestnav_device::wtcu::engine::{Engine, EngineConfig, HeadingSensor, heading_report};
 use vestnav_device::wtcu::limits::Limits;
 use vestnav_device::wtcu::link::{Link, LinkConfig, LinkEvent, LinkState};
@@ -281,7 +282,7 @@ fn pty_heading_stream_reaches_the_console_and_a_v1_emulator_still_works() {
         ideal: true,
         seed: 3,
     };
-    let emu = PtyEmulator::spawn(EngineConfig { compass: Some(setup), ..EngineConfig::default() }).unwrap();
+    let emu = PtyEmulator::spawn(UnitConfig { compass: Some(setup), ..UnitConfig::default() }).unwrap();
     let vest =
         Vest::spawn(pty_connector(Arc::new(Mutex::new(emu.path().to_owned()))), WorkerSettings::default());
     let mut seen = Vec::new();
@@ -356,7 +357,7 @@ fn the_emulated_compass_follows_the_gps_simulator_s_walker() {
     use vestnav_core::geo::{Earth, LatLon};
     use vestnav_core::gnss_sim::GnssErrorModel;
     use vestnav_device::gps::{GpsEvent, GpsSource, SourceConfig};
-    use vestnav_device::heading::SharedTruth;
+    use vestnav_device::sim::SharedTruth;
 
     let route = vec![(42.3562, -71.1000), (42.3572, -71.0985), (42.3580, -71.1000)];
     let truth = SharedTruth::default();

@@ -13,7 +13,7 @@ use vestnav_app::config::{Config, GpsSourceConfig, VestSourceConfig};
 use vestnav_app::console::{Console, ConsoleOptions};
 use vestnav_device::gps::{ErrorEstimate, ErrorSource, Fix, FixMode, FixQuality, GpsEvent};
 use vestnav_device::outbox::Outbox;
-use vestnav_device::wtcu::engine::EngineConfig;
+use vestnav_device::wtcu::emulator::UnitConfig;
 use vestnav_device::wtcu::{VestConfig, VestEvent, VestHandle};
 use vestnav_station::devices::{DeviceFactory, GpsWorker};
 use vestnav_station::route::Waypoint;
@@ -39,7 +39,7 @@ impl DeviceFactory for Tap {
         Ok(Box::new(Idle))
     }
     fn open_vest(&self, _s: &VestSourceConfig, out: Vec<Outbox<VestEvent>>) -> Result<VestHandle, String> {
-        VestHandle::spawn(VestConfig::Emulated(EngineConfig::default()), out).map_err(|e| e.to_string())
+        VestHandle::spawn(VestConfig::Emulated(UnitConfig::default()), out).map_err(|e| e.to_string())
     }
 }
 

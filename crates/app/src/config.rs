@@ -14,10 +14,11 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 use vestnav_core::vest::{DEFAULT_ON_MS, Pattern};
 
-pub use vestnav_station::sources::{
-    GPS_SPEC_FORMS, GpsSourceConfig, GpsSpec, VEST_SPEC_FORMS, VestSourceConfig, parse_gps_spec,
-    parse_vest_spec,
-};
+/// Where the GPS fixes come from: the device crate's one GPS source spec (its text form is `--gps`'s, its
+/// serde form what this file has always stored), under the name the console uses.
+pub use vestnav_device::gps::{GpsSourceSpec as GpsSourceConfig, ReplaySpeed};
+
+pub use vestnav_station::sources::{VEST_SPEC_FORMS, VestSourceConfig, parse_vest_spec};
 
 /// Every remembered setting.
 #[allow(clippy::struct_excessive_bools)] // independent on/off settings of the operator, not a state machine
@@ -85,7 +86,7 @@ pub struct Config {
 impl Default for Config {
     fn default() -> Self {
         Self {
-            gps: GpsSourceConfig::Simulator,
+            gps: GpsSourceConfig::default(),
             vest: VestSourceConfig::Emulated,
             auto_connect: true,
             on_ms: DEFAULT_ON_MS,
@@ -260,9 +261,6 @@ impl Config {
         self.prefetch_parallelism =
             self.prefetch_parallelism.clamp(1, vestnav_tiles::prefetch::MAX_PARALLELISM);
         self.recent = std::mem::take(&mut self.recent).sanitized();
-        if let GpsSourceConfig::Replay { speed, .. } = &mut self.gps {
-            *speed = fix(*speed, 0.0, 1000.0, 1.0);
-        }
         self
     }
 }
@@ -271,7 +269,6 @@ impl Config {
 mod tests {
     use super::*;
 
-    #[test]
     fn temp_dir(tag: &str) -> PathBuf {
         let dir = std::env::temp_dir().join(format!("vestnav-cfg-{tag}-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);

@@ -29,7 +29,7 @@ use vestnav_station::{
     Notice, Severity as NoticeSeverity, Station, StationEvent, StationOptions, StationSettings, Subject,
 };
 
-use crate::config::{Config, GpsSourceConfig, GpsSpec, VestSourceConfig};
+use crate::config::{Config, GpsSourceConfig, VestSourceConfig};
 use crate::fieldtest_panel::FieldTestPanel;
 use crate::map_panel::MapView;
 use crate::sim_panel::SimPanel;
@@ -84,7 +84,7 @@ pub struct VestUi {
 #[derive(Debug, Clone, Default)]
 pub struct DeviceOverrides {
     /// `--gps`.
-    pub gps: Option<GpsSpec>,
+    pub gps: Option<GpsSourceConfig>,
     /// `--vest`.
     pub vest: Option<VestSourceConfig>,
     /// `--tiles`: the map's tile source for this run.
@@ -180,7 +180,7 @@ impl Console {
         let file_devices = (cfg.gps.clone(), cfg.vest.clone());
         let connect_now = cfg.auto_connect || devices.gps.is_some() || devices.vest.is_some();
         if let Some(g) = &devices.gps {
-            cfg.gps = g.source.clone();
+            cfg.gps = g.clone();
         }
         if let Some(v) = &devices.vest {
             cfg.vest = v.clone();
@@ -203,7 +203,7 @@ impl Console {
                 liveness,
                 stop,
                 route: vestnav_station::RouteStart {
-                    file: devices.gps.as_ref().and_then(|g| g.route.clone()),
+                    file: devices.gps.as_ref().and_then(GpsSourceConfig::sim_route).map(std::path::Path::to_path_buf),
                     autosave: route_autosave,
                 },
             },
@@ -429,7 +429,7 @@ impl Console {
         // Devices given on the command line are for this run only: the file keeps its own unless the
         // operator changed them in the console.
         let mut on_disk = self.cfg.clone();
-        if self.overrides.gps.as_ref().is_some_and(|g| g.source == on_disk.gps) {
+        if self.overrides.gps.as_ref().is_some_and(|g| *g == on_disk.gps) {
             on_disk.gps = self.file_devices.0.clone();
         }
         if self.overrides.vest.as_ref().is_some_and(|v| *v == on_disk.vest) {

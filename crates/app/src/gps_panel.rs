@@ -12,7 +12,7 @@ use vestnav_device::gps::{Constellation, Fix, FixMode, RawLine, ReplayProgress, 
 use vestnav_device::heading::{Attitude, HeadingOrigin, HeadingReference};
 use vestnav_device::serial::{PortInfo, PortKind};
 
-use crate::config::GpsSourceConfig;
+use crate::config::{GpsSourceConfig, ReplaySpeed};
 use crate::console::{Console, GpsAlarm};
 use crate::file_dialog::RecentKind;
 
@@ -81,7 +81,7 @@ impl SourcePicker {
             ..Self::default()
         };
         match cfg {
-            GpsSourceConfig::Simulator => p.kind = SourceKind::Simulator,
+            GpsSourceConfig::Simulator { .. } => p.kind = SourceKind::Simulator,
             GpsSourceConfig::Serial { port, baud } => {
                 p.kind = SourceKind::Serial;
                 p.port.clone_from(port);
@@ -90,7 +90,7 @@ impl SourcePicker {
             GpsSourceConfig::Replay { path, speed } => {
                 p.kind = SourceKind::Replay;
                 p.replay_path = path.display().to_string();
-                p.replay_speed = *speed;
+                p.replay_speed = speed.factor();
             }
             GpsSourceConfig::Gpsd { host, port } => {
                 p.kind = SourceKind::Gpsd;
@@ -109,7 +109,7 @@ impl SourcePicker {
     /// (the last file's folder, else the documents folder), never in the working directory.
     pub fn to_config(&self, base: &std::path::Path) -> Result<GpsSourceConfig, String> {
         match self.kind {
-            SourceKind::Simulator => Ok(GpsSourceConfig::Simulator),
+            SourceKind::Simulator => Ok(GpsSourceConfig::default()),
             SourceKind::Serial if self.port.trim().is_empty() => Err("pick a serial port".into()),
             SourceKind::Serial => {
                 Ok(GpsSourceConfig::Serial { port: self.port.trim().to_owned(), baud: self.baud })
@@ -118,7 +118,7 @@ impl SourcePicker {
             SourceKind::Replay => Ok(GpsSourceConfig::Replay {
                 path: crate::file_dialog::resolve(&self.replay_path, base)
                     .unwrap_or_else(|| PathBuf::from(self.replay_path.trim())),
-                speed: self.replay_speed,
+                speed: ReplaySpeed::from_factor(self.replay_speed).map_err(|e| e.to_string())?,
             }),
             SourceKind::Gpsd if self.gpsd_host.trim().is_empty() => Err("enter the gpsd host".into()),
             SourceKind::Gpsd => {
@@ -913,9 +913,9 @@ mod tests {
     #[test]
     fn picker_round_trips_every_source() {
         for src in [
-            GpsSourceConfig::Simulator,
+            GpsSourceConfig::default(),
             GpsSourceConfig::Serial { port: "/dev/rfcomm0".into(), baud: None },
-            GpsSourceConfig::Replay { path: "a.nmea".into(), speed: 4.0 },
+            GpsSourceConfig::Replay { path: "a.nmea".into(), speed: ReplaySpeed::Times(4.0) },
             GpsSourceConfig::Gpsd { host: "h".into(), port: 1234 },
             GpsSourceConfig::ThroughVest { baud: 38_400 },
         ] {

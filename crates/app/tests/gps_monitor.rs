@@ -94,7 +94,10 @@ impl vestnav_station::devices::DeviceFactory for ReplayDevices {
         _r: &[vestnav_station::route::Waypoint],
         out: Vec<vestnav_device::outbox::Outbox<GpsEvent>>,
     ) -> Result<Box<dyn vestnav_station::devices::GpsWorker>, String> {
-        let cfg = vestnav_device::gps::SourceConfig::Replay { path: self.file.clone(), speed: Some(1.0) };
+        let cfg = vestnav_device::gps::SourceConfig::Replay {
+            path: self.file.clone(),
+            speed: vestnav_device::gps::ReplaySpeed::Times(1.0),
+        };
         Ok(Box::new(vestnav_device::gps::GpsSource::spawn(cfg, out).map_err(|e| e.to_string())?))
     }
     fn open_vest(

@@ -17,9 +17,10 @@ use vestnav_core::vest::TactorMask;
 use vestnav_device::gps::{ErrorEstimate, ErrorSource, Fix, FixMode, GpsEvent};
 use vestnav_device::outbox::Outbox;
 use vestnav_device::session_log::LogEntry;
+use vestnav_device::sim::{CompassSetup, SimulatedCompass, WearerMotion};
 use vestnav_device::wtcu::codec::{FrameCodec, WireCodec};
-use vestnav_device::wtcu::emulator::{CompassSetup, SimulatedCompass, WearerMotion};
-use vestnav_device::wtcu::engine::{EngineConfig, HeadingSensor as _};
+use vestnav_device::wtcu::emulator::UnitConfig;
+use vestnav_device::wtcu::engine::HeadingSensor as _;
 use vestnav_device::wtcu::worker::{EmulatedPort, Transport, WorkerSettings};
 use vestnav_device::wtcu::{LinkState, Request, VestCommand, VestEvent, VestHandle};
 use vestnav_station::devices::{DeviceFactory, GpsWorker};
@@ -89,7 +90,7 @@ impl DeviceFactory for Fake {
         let compass = self.compass.clone();
         let connector = Box::new(move || {
             let port = EmulatedPort::new(
-                EngineConfig { compass: compass.clone(), ..EngineConfig::default() },
+                &UnitConfig { compass: compass.clone(), ..UnitConfig::default() },
                 Duration::from_millis(2),
             );
             Ok(Box::new(RecordingUnit { port, codec: FrameCodec::new(), sent: sent.clone() })
@@ -359,7 +360,7 @@ fn nmea_replay_shows_the_fix_then_the_no_fix_alarm() {
     assert!(h.query_by_label_contains("GPS: FIX LOST").is_some());
     assert_eq!(
         h.state().cfg.gps,
-        GpsSourceConfig::Replay { path: file.into(), speed: 10.0 },
+        GpsSourceConfig::Replay { path: file.into(), speed: vestnav_device::gps::ReplaySpeed::Times(10.0) },
         "the chosen source is remembered in the config"
     );
 }
@@ -739,7 +740,7 @@ impl DeviceFactory for Killable {
             if dead.load(std::sync::atomic::Ordering::SeqCst) {
                 return Err(std::io::Error::new(std::io::ErrorKind::NotFound, "no unit on the port"));
             }
-            let port = EmulatedPort::new(EngineConfig::default(), Duration::from_millis(2));
+            let port = EmulatedPort::new(&UnitConfig::default(), Duration::from_millis(2));
             let unit = RecordingUnit { port, codec: FrameCodec::new(), sent: sent.clone() };
             Ok(Box::new(MortalUnit { unit, dead: dead.clone() }) as Box<dyn Transport>)
         });

@@ -412,12 +412,75 @@ pub fn cones(
     })
 }
 
+/// Seconds in a UTC day (receivers report no leap second in their time of day that matters here).
+pub const DAY_S: f64 = 86_400.0;
+
+/// Places a receiver's UTC time of day `tod_s` (seconds since midnight, in [0, 86 400]) on a running time
+/// line whose previous value was `prev_s` (seconds, on the same line; `None` for the first): the one rule for
+/// logs, replays and live tests that cross midnight.
+///
+/// Rule: the result is `tod_s + 86 400 k` with the integer `k` that puts it within half a day of `prev_s`,
+/// i.e. in `[prev_s - 43 200, prev_s + 43 200)`. A receiver reports at least every few seconds, so the nearest
+/// day is the right one: 23:59:59 then 00:00:00 is one second later, not 86 399 s earlier, and the day
+/// count goes on growing across any number of midnights. A step back of less than half a day stays a step
+/// back (a spliced log), for the caller to see. The first value is `tod_s` itself.
+///
+/// ```
+/// use vestnav_core::fieldtest::unwrap_time_of_day;
+/// let t = unwrap_time_of_day(0.5, Some(86_399.5)); // half a second past midnight
+/// assert!((t - 86_400.5).abs() < 1e-9);
+/// ```
+pub fn unwrap_time_of_day(tod_s: f64, prev_s: Option<f64>) -> f64 {
+    let Some(prev) = prev_s.filter(|p| p.is_finite()) else { return tod_s };
+    let k = ((prev - DAY_S / 2.0 - tod_s) / DAY_S).ceil();
+    tod_s + DAY_S * k
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use approx::assert_relative_eq;
 
     const C: LatLon = LatLon::new(42.3575, -71.1010);
+
+    #[test]
+    fn time_of_day_unwraps_at_midnight() {
+        assert_relative_eq!(unwrap_time_of_day(100.0, None), 100.0);
+        // Across midnight, forwards: 23:59:59 -> 00:00:01 is 2 s later.
+        assert_relative_eq!(unwrap_time_of_day(1.0, Some(86_399.0)), 86_401.0);
+        // Exactly at midnight.
+        assert_relative_eq!(unwrap_time_of_day(0.0, Some(86_399.0)), 86_400.0);
+        assert_relative_eq!(unwrap_time_of_day(86_399.0, Some(86_400.0)), 86_399.0);
+        // Same day, normal steps and a short step back (a splice) stay as they are.
+        assert_relative_eq!(unwrap_time_of_day(43_000.0, Some(42_999.0)), 43_000.0);
+        assert_relative_eq!(unwrap_time_of_day(40_000.0, Some(42_999.0)), 40_000.0);
+        // Half a day is the boundary: exactly 12 h back is still the same day, more is the next.
+        assert_relative_eq!(unwrap_time_of_day(0.0, Some(43_200.0)), 0.0);
+        assert_relative_eq!(unwrap_time_of_day(0.0, Some(43_200.5)), 86_400.0);
+    }
+
+    #[test]
+    fn time_of_day_unwraps_across_several_days() {
+        // A 1 Hz receiver logging for three and a half days from 22:00 UTC: the unwrapped time line is the
+        // elapsed time, whatever the day.
+        let start = 22.0 * 3600.0;
+        let mut prev = None;
+        for k in 0..(3 * 86_400 + 43_200) {
+            let elapsed = f64::from(k);
+            let tod = (start + elapsed).rem_euclid(DAY_S);
+            let t = unwrap_time_of_day(tod, prev);
+            assert_relative_eq!(t, start + elapsed, epsilon = 1e-6);
+            prev = Some(t);
+        }
+        // Gaps of up to almost half a day across midnight too, in steps of 11 h.
+        let mut prev = Some(20.0 * 3600.0);
+        for k in 1..10 {
+            let truth = 20.0 * 3600.0 + 11.0 * 3600.0 * f64::from(k);
+            let t = unwrap_time_of_day(truth.rem_euclid(DAY_S), prev);
+            assert_relative_eq!(t, truth, epsilon = 1e-6);
+            prev = Some(t);
+        }
+    }
 
     #[test]
     fn nearest_rank_percentiles() {

@@ -194,7 +194,8 @@ fn sphere_bearing_deg(a: LatLon, b: LatLon) -> f64 {
     normalize_deg(y.atan2(x).to_degrees())
 }
 
-/// A local east/north frame around a reference point, for plots, statistics and guidance geometry.
+/// The one local east/north frame around a reference point, for plots, statistics, guidance geometry, the
+/// console's metric grid and the GNSS simulator's walker (`gnss_sim::RouteWalker`).
 ///
 /// The mapping is the **azimuthal equidistant** projection centred on the origin: a point at distance `s`
 /// and initial bearing `alpha` from the origin maps to `(east, north) = (s sin alpha, s cos alpha)`. Distances
@@ -399,6 +400,55 @@ mod tests {
                 assert!((back - en).length() < 1e-6, "{earth:?} {en} -> {back}");
             }
         }
+    }
+
+    #[test]
+    fn local_frame_matches_closed_forms_on_wgs84() {
+        // The published geodesic of the JFK–LHR test above, seen from JFK: (s sin a1, s cos a1).
+        let f = LocalFrame::new(LatLon::new(40.64, -73.78), Earth::Wgs84);
+        let en = f.enu_from_wgs84(LatLon::new(51.47, -0.46));
+        let (s, a1) = (5_554_747.739_655_674_f64, 51.381_751_569_861_784_f64.to_radians());
+        assert_relative_eq!(en.x, s * a1.sin(), max_relative = 1e-10);
+        assert_relative_eq!(en.y, s * a1.cos(), max_relative = 1e-10);
+        // Along the equator the geodesic is the equator: east = a * dlon.
+        let a_m = 6_378_137.0_f64;
+        let f = LocalFrame::new(LatLon::new(0.0, 10.0), Earth::Wgs84);
+        let en = f.enu_from_wgs84(LatLon::new(0.0, 10.05));
+        assert_relative_eq!(en.x, a_m * 0.05_f64.to_radians(), max_relative = 1e-12);
+        assert!(en.y.abs() < 1e-6, "{en}");
+        // Along a meridian: north = the meridian arc, the integral of M(phi) = a (1 - e2) / (1 - e2 sin2
+        // phi)^(3/2) from phi0 to phi1, here by Simpson's rule (an independent computation).
+        let e2 = 0.006_694_379_990_14_f64;
+        let m = |phi: f64| a_m * (1.0 - e2) / (1.0 - e2 * phi.sin().powi(2)).powf(1.5);
+        let (p0, p1) = (42.0_f64.to_radians(), 42.2_f64.to_radians());
+        let n = 1000;
+        let h = (p1 - p0) / f64::from(n);
+        let arc: f64 = (0..=n)
+            .map(|k| {
+                let w = if k == 0 || k == n {
+                    1.0
+                } else if k % 2 == 1 {
+                    4.0
+                } else {
+                    2.0
+                };
+                w * m(p0 + h * f64::from(k))
+            })
+            .sum::<f64>()
+            * h
+            / 3.0;
+        let f = LocalFrame::new(LatLon::new(42.0, -71.0), Earth::Wgs84);
+        let en = f.enu_from_wgs84(LatLon::new(42.2, -71.0));
+        assert_relative_eq!(en.y, arc, max_relative = 1e-10);
+        assert!(en.x.abs() < 1e-6, "{en}");
+        // Within a walk of the origin it agrees with the flat-earth frame on the radii of curvature at the
+        // origin (east = dlon N cos phi0, north = dlat M), to that frame's own ~1e-5 relative accuracy.
+        let phi0 = 42.0_f64.to_radians();
+        let n_m = a_m / (1.0 - e2 * phi0.sin().powi(2)).sqrt();
+        let p = LatLon::new(42.003, -70.996);
+        let en = f.enu_from_wgs84(p);
+        assert_relative_eq!(en.x, 0.004_f64.to_radians() * n_m * phi0.cos(), max_relative = 1e-4);
+        assert_relative_eq!(en.y, 0.003_f64.to_radians() * m(phi0), max_relative = 1e-4);
     }
 
     #[test]

@@ -21,10 +21,7 @@ use rand::SeedableRng;
 use rand::rngs::StdRng;
 use rand_distr::{Distribution, StandardNormal};
 
-/// WGS-84 semi-major axis [m].
-const WGS84_A_M: f64 = 6_378_137.0;
-/// WGS-84 first eccentricity squared.
-const WGS84_E2: f64 = 6.694_379_990_14e-3;
+use crate::geo::{Earth, LatLon, LocalFrame};
 
 /// Parameters of the simulated receiver error, per horizontal axis (east and north independently).
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -151,60 +148,6 @@ fn normal(rng: &mut StdRng) -> f64 {
     StandardNormal.sample(rng)
 }
 
-/// A local flat east/north frame around a reference point (walking scale: a few km).
-///
-/// Uses the WGS-84 radii of curvature at the reference latitude:
-/// meridional `M = a (1 - e^2) / (1 - e^2 sin^2 phi0)^(3/2)`, prime vertical `N = a / sqrt(1 - e^2 sin^2 phi0)`;
-/// `east = (lon - lon0) N cos(phi0)`, `north = (lat - lat0) M` (angles in radians). Relative error below
-/// 1e-3 within a few km of the origin; geodesic distances proper belong to the guidance code.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct LocalFrame {
-    /// Latitude of the origin [deg].
-    pub lat0_deg: f64,
-    /// Longitude of the origin [deg].
-    pub lon0_deg: f64,
-    m_per_rad_north: f64,
-    m_per_rad_east: f64,
-}
-
-impl LocalFrame {
-    /// A frame with its origin at `(lat0_deg, lon0_deg)`.
-    pub fn new(lat0_deg: f64, lon0_deg: f64) -> Self {
-        let phi = lat0_deg.to_radians();
-        let w = 1.0 - WGS84_E2 * phi.sin().powi(2);
-        let m = WGS84_A_M * (1.0 - WGS84_E2) / w.powf(1.5);
-        let n = WGS84_A_M / w.sqrt();
-        Self { lat0_deg, lon0_deg, m_per_rad_north: m, m_per_rad_east: n * phi.cos() }
-    }
-
-    /// East/north metres of a latitude/longitude in degrees.
-    pub fn en_from_latlon(&self, lat_deg: f64, lon_deg: f64) -> DVec2 {
-        let mut dlon = lon_deg - self.lon0_deg;
-        if dlon > 180.0 {
-            dlon -= 360.0;
-        } else if dlon < -180.0 {
-            dlon += 360.0;
-        }
-        DVec2::new(
-            dlon.to_radians() * self.m_per_rad_east,
-            (lat_deg - self.lat0_deg).to_radians() * self.m_per_rad_north,
-        )
-    }
-
-    /// Latitude/longitude in degrees of an east/north position in metres (the inverse of
-    /// [`Self::en_from_latlon`]).
-    pub fn latlon_from_en(&self, en_m: DVec2) -> (f64, f64) {
-        let lat = self.lat0_deg + (en_m.y / self.m_per_rad_north).to_degrees();
-        let mut lon = self.lon0_deg + (en_m.x / self.m_per_rad_east).to_degrees();
-        if lon > 180.0 {
-            lon -= 360.0;
-        } else if lon < -180.0 {
-            lon += 360.0;
-        }
-        (lat, lon)
-    }
-}
-
 /// Where the walker is at one instant.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct WalkerSample {
@@ -270,8 +213,9 @@ impl RouteWalker {
                 return Err(RouteError::BadWaypoint { index, lat_deg, lon_deg });
             }
         }
-        let frame = LocalFrame::new(lat0, lon0);
-        let points_m: Vec<DVec2> = waypoints.iter().map(|&(la, lo)| frame.en_from_latlon(la, lo)).collect();
+        let frame = LocalFrame::new(LatLon::new(lat0, lon0), Earth::Wgs84);
+        let points_m: Vec<DVec2> =
+            waypoints.iter().map(|&(la, lo)| frame.enu_from_wgs84(LatLon::new(la, lo))).collect();
         let mut cumulative_m = Vec::with_capacity(points_m.len());
         let mut total = 0.0;
         cumulative_m.push(0.0);
@@ -282,7 +226,7 @@ impl RouteWalker {
         Ok(Self { frame, points_m, cumulative_m, pace_m_s })
     }
 
-    /// The local frame of the route (origin = first waypoint).
+    /// The local frame of the route (origin = first waypoint, WGS-84).
     pub fn frame(&self) -> &LocalFrame {
         &self.frame
     }
@@ -320,7 +264,7 @@ impl RouteWalker {
             }
             _ => (DVec2::ZERO, 0.0),
         };
-        let (lat_deg, lon_deg) = self.frame.latlon_from_en(en_m);
+        let LatLon { lat_deg, lon_deg } = self.frame.wgs84_from_enu(en_m);
         WalkerSample {
             lat_deg,
             lon_deg,
@@ -412,23 +356,13 @@ mod tests {
     }
 
     #[test]
-    fn local_frame_round_trips_and_scales() {
-        let f = LocalFrame::new(42.36, -71.09);
-        let (la, lo) = f.latlon_from_en(DVec2::new(123.0, -456.0));
-        let back = f.en_from_latlon(la, lo);
-        assert_relative_eq!(back.x, 123.0, max_relative = 1e-9);
-        assert_relative_eq!(back.y, -456.0, max_relative = 1e-9);
-        // One arc-minute of latitude is ~1852 m (the nautical mile's definition, to 0.5 %).
-        let one_min = f.en_from_latlon(42.36 + 1.0 / 60.0, -71.09);
-        assert_relative_eq!(one_min.y, 1852.0, max_relative = 5e-3);
-    }
-
-    #[test]
     fn walker_follows_legs() {
-        let f = LocalFrame::new(42.0, -71.0);
-        let a = f.latlon_from_en(DVec2::ZERO);
-        let b = f.latlon_from_en(DVec2::new(0.0, 100.0));
-        let c = f.latlon_from_en(DVec2::new(50.0, 100.0));
+        let f = LocalFrame::new(LatLon::new(42.0, -71.0), Earth::Wgs84);
+        let ll = |en: DVec2| {
+            let p = f.wgs84_from_enu(en);
+            (p.lat_deg, p.lon_deg)
+        };
+        let (a, b, c) = (ll(DVec2::ZERO), ll(DVec2::new(0.0, 100.0)), ll(DVec2::new(50.0, 100.0)));
         let w = RouteWalker::new(&[a, b, c], 1.25).unwrap();
         assert_relative_eq!(w.length_m(), 150.0, max_relative = 1e-9);
         let s = w.sample(40.0); // 50 m along the first leg, heading north

@@ -5,7 +5,6 @@
 //! ([`crate::gps::Fix::true_heading_deg`]); an [`Attitude`] is a reading that stands on its own, timed by
 //! when its bytes arrived like a fix, so its age is computed the same way everywhere.
 
-use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, Instant};
 
 use serde::{Deserialize, Serialize};
@@ -83,44 +82,6 @@ impl Attitude {
             return Err("negative or non-finite field strength");
         }
         Ok(())
-    }
-}
-
-/// Where a simulated wearer truly is and faces: what the GPS simulator walks and the emulated vest's
-/// compass measures, so the two simulated devices of one console see one wearer.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct BodyTruth {
-    /// True heading of the body \[deg\].
-    pub heading_true_deg: f64,
-    /// Position east of the route's first waypoint \[m\].
-    pub east_m: f64,
-    /// Position north of the route's first waypoint \[m\].
-    pub north_m: f64,
-    /// Walking pace \[m/s\] (0 standing).
-    pub pace_m_s: f64,
-}
-
-/// A [`BodyTruth`] shared between threads: the GPS simulator writes it every epoch, the emulated unit's
-/// compass reads it. Empty until the simulator's first epoch.
-#[derive(Debug, Clone, Default)]
-pub struct SharedTruth(Arc<Mutex<Option<BodyTruth>>>);
-
-impl SharedTruth {
-    /// Records where the wearer is now.
-    pub fn set(&self, truth: BodyTruth) {
-        *self.0.lock().unwrap_or_else(PoisonError::into_inner) = Some(truth);
-    }
-
-    /// Where the wearer is now, if anyone has said.
-    pub fn get(&self) -> Option<BodyTruth> {
-        *self.0.lock().unwrap_or_else(PoisonError::into_inner)
-    }
-}
-
-impl PartialEq for SharedTruth {
-    /// The same shared cell (not merely equal contents).
-    fn eq(&self, other: &Self) -> bool {
-        Arc::ptr_eq(&self.0, &other.0)
     }
 }
 

@@ -2,10 +2,16 @@
 //!
 //! Protocols are sans-IO state machines (fed bytes and the current time, drained of events and bytes to
 //! send); transports are thin `Read + Write` adapters owned by one worker thread each.
-//! - [`gps`]: NMEA 0183 decoding and fix assembly, GPS sources (serial, log replay, gpsd, simulator);
+//! - [`gps`]: NMEA 0183, u-blox UBX and `SiRF` binary decoding into fixes, receiver configuration, GPS
+//!   sources (serial, log replay, gpsd, simulator, the receiver behind the vest) and the one GPS source
+//!   spec ([`gps::GpsSourceSpec`]);
 //! - [`heading`]: one heading/attitude reading from any source (vest magnetometer, NMEA compass, gpsd);
-//! - [`wtcu`]: the Wireless Tactile Control Unit protocol, link, and vest emulator;
-//! - [`serial`]: serial-port discovery and opening (Bluetooth SPP ports are serial ports);
+//! - [`wtcu`]: the Wireless Tactile Control Unit protocol, link and unit engine (sans-IO), the vest
+//!   worker, and the emulated unit on a PTY;
+//! - [`sim`]: simulation glue: the one simulated wearer shared by the GPS simulator and the emulated
+//!   unit's compass;
+//! - [`serial`]: serial-port discovery and opening (Bluetooth SPP ports are serial ports), the PTY pair,
+//!   and the transports' one "nothing yet" rule ([`serial::is_timeout`]);
 //! - [`session_log`]: the console's session log (JSON Lines): records, writer, reader;
 //! - [`route_file`]: routes in GPX (waypoints, routes, tracks) read and written;
 //! - [`ntrip`]: the NTRIP client (v1, v2) forwarding RTK corrections to a serial receiver; [`rtcm3`]: RTCM 3
@@ -24,4 +30,5 @@ pub mod route_file;
 pub mod rtcm3;
 pub mod serial;
 pub mod session_log;
+pub mod sim;
 pub mod wtcu;

@@ -105,6 +105,13 @@ pub fn kind_from_name(name: &str) -> PortKind {
     }
 }
 
+/// Whether an IO error on a port with a read or write timeout only means "nothing yet" (timed out, would
+/// block, interrupted): the transport's one rule, used by every worker and server loop.
+pub fn is_timeout(e: &std::io::Error) -> bool {
+    use std::io::ErrorKind;
+    matches!(e.kind(), ErrorKind::TimedOut | ErrorKind::WouldBlock | ErrorKind::Interrupted)
+}
+
 /// Opens `port` at `baud`, 8N1, with a short read timeout so a worker can check for shutdown between reads.
 pub fn open(port: &str, baud: u32, read_timeout: Duration) -> Result<Box<dyn SerialPort>, SerialError> {
     serialport::new(port, baud)

@@ -506,7 +506,7 @@ mod tests {
     use vestnav_device::gps::{Fix, FixMode};
     use vestnav_device::outbox::Overflow;
     use vestnav_device::wtcu::VestConfig;
-    use vestnav_device::wtcu::engine::EngineConfig;
+    use vestnav_device::wtcu::emulator::UnitConfig;
 
     /// The vest worker's events reach guidance straight from the worker, so its `Ready` can arrive before
     /// the console's message naming the new vest: guidance must still guide.
@@ -527,7 +527,7 @@ mod tests {
         };
         let _t = spawn(in_rx, settings, ui, None).unwrap();
         let vest =
-            Arc::new(VestHandle::spawn(VestConfig::Emulated(EngineConfig::default()), Vec::new()).unwrap());
+            Arc::new(VestHandle::spawn(VestConfig::Emulated(UnitConfig::default()), Vec::new()).unwrap());
         in_tx.send(GuidanceInput::Vest(VestEvent::State(LinkState::Ready))).unwrap();
         in_tx.send(GuidanceInput::VestLink(Some(vest), Duration::ZERO)).unwrap();
         // One waypoint 100 m due north; the wearer walks due east: a turn is wanted at once.

@@ -12,9 +12,9 @@ use std::time::Duration;
 use vestnav_core::gnss_sim::GnssErrorModel;
 use vestnav_device::gps::through_vest::{VestGpsReader, VestGpsWriter, vest_gps_pipe};
 use vestnav_device::gps::{GpsEvent, GpsSource, SourceConfig};
-use vestnav_device::heading::SharedTruth;
 use vestnav_device::outbox::Outbox;
-use vestnav_device::wtcu::emulator::{CompassSetup, WearerMotion};
+use vestnav_device::sim::{CompassSetup, SharedTruth, WearerMotion};
+use vestnav_device::wtcu::emulator::UnitConfig;
 use vestnav_device::wtcu::worker::WorkerSettings;
 use vestnav_device::wtcu::{self, VestEvent, VestHandle};
 
@@ -75,12 +75,12 @@ impl DeviceFactory for Hardware {
         outputs: Vec<Outbox<VestEvent>>,
     ) -> Result<VestHandle, String> {
         let config = match source {
-            VestSourceConfig::Emulated => wtcu::VestConfig::Emulated(wtcu::engine::EngineConfig {
+            VestSourceConfig::Emulated => wtcu::VestConfig::Emulated(UnitConfig {
                 compass: Some(CompassSetup {
                     motion: WearerMotion::Follow(self.truth.clone()),
                     ..CompassSetup::default()
                 }),
-                ..wtcu::engine::EngineConfig::default()
+                ..UnitConfig::default()
             }),
             VestSourceConfig::Serial { port } if port.trim().is_empty() => {
                 return Err("pick the vest's port".into());
@@ -102,7 +102,7 @@ pub fn device_config(
     seed: u64,
 ) -> Result<SourceConfig, String> {
     Ok(match source {
-        GpsSourceConfig::Simulator => {
+        GpsSourceConfig::Simulator { .. } => {
             if route.is_empty() {
                 return Err("the simulator needs a route: add waypoints first".into());
             }
@@ -121,7 +121,7 @@ pub fn device_config(
             if !path.is_file() {
                 return Err(format!("no such file: {}", path.display()));
             }
-            SourceConfig::Replay { path: path.clone(), speed: (*speed > 0.0).then_some(*speed) }
+            SourceConfig::Replay { path: path.clone(), speed: *speed }
         }
         GpsSourceConfig::Gpsd { host, port } => SourceConfig::Gpsd { host: host.clone(), port: *port },
         GpsSourceConfig::ThroughVest { .. } => {
@@ -140,7 +140,7 @@ mod tests {
     fn simulator_walks_the_demo_route() {
         let route = crate::route::parse_gpx(crate::route::DEMO_GPX).unwrap().waypoints;
         let SourceConfig::Simulator { route: r, pace_m_s, model, seed, .. } =
-            device_config(&GpsSourceConfig::Simulator, &route, 1).unwrap()
+            device_config(&GpsSourceConfig::default(), &route, 1).unwrap()
         else {
             panic!("not a simulator config")
         };
@@ -178,7 +178,10 @@ mod tests {
 
     #[test]
     fn missing_replay_file_is_a_clear_error() {
-        let src = GpsSourceConfig::Replay { path: "/nonexistent/x.nmea".into(), speed: 1.0 };
+        let src = GpsSourceConfig::Replay {
+            path: "/nonexistent/x.nmea".into(),
+            speed: vestnav_device::gps::ReplaySpeed::default(),
+        };
         let err = Hardware::default().open_gps(&src, &[], Vec::new()).err().unwrap();
         assert!(err.contains("/nonexistent/x.nmea"));
     }

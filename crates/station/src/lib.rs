@@ -216,7 +216,7 @@ impl Station {
         let (route, autosave) = load_route(&route_start, &mut notices);
         Self {
             settings,
-            gps_source: gps.unwrap_or(GpsSourceConfig::Simulator),
+            gps_source: gps.unwrap_or_default(),
             vest_source: vest.unwrap_or(VestSourceConfig::Emulated),
             factory,
             liveness,

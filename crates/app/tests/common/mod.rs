@@ -10,7 +10,7 @@ use vestnav_app::config::{Config, GpsSourceConfig, VestSourceConfig};
 use vestnav_app::console::{Console, ConsoleOptions};
 use vestnav_device::gps::{GpsEvent, SourceState};
 use vestnav_device::outbox::Outbox;
-use vestnav_device::wtcu::engine::EngineConfig;
+use vestnav_device::wtcu::emulator::UnitConfig;
 use vestnav_device::wtcu::worker::{EmulatedPort, Transport, WorkerSettings};
 use vestnav_device::wtcu::{VestEvent, VestHandle};
 use vestnav_station::devices::{DeviceFactory, GpsWorker};
@@ -51,7 +51,7 @@ impl DeviceFactory for Devices {
     }
     fn open_vest(&self, _s: &VestSourceConfig, out: Vec<Outbox<VestEvent>>) -> Result<VestHandle, String> {
         let connector = Box::new(|| {
-            Ok(Box::new(EmulatedPort::new(EngineConfig::default(), Duration::from_millis(2)))
+            Ok(Box::new(EmulatedPort::new(&UnitConfig::default(), Duration::from_millis(2)))
                 as Box<dyn Transport>)
         });
         VestHandle::spawn_with(connector, WorkerSettings::default(), out).map_err(|e| e.to_string())

@@ -1,13 +1,21 @@
-//! GPS: NMEA 0183 decoding into fixes, and the sources that produce them.
+//! GPS: NMEA 0183, UBX and `SiRF` decoding into fixes, and the sources that produce them.
 //!
 //! - [`framing`]: bytes to checksummed sentences (resync, binary frames, junk, limits);
 //! - [`assembly`]: sentences to epochs to [`Fix`]es — the sans-IO [`NmeaDecoder`];
+//! - [`ubx`]: u-blox UBX binary frames, the navigation messages decoded into the same [`Fix`];
+//! - [`sirf`]: `SiRF` binary frames (MID 2, 4 and 41 navigation output) decoded into the same [`Fix`];
+//! - [`receiver_config`]: the operator's receiver settings as UBX / `SiRF` commands, the sans-IO session
+//!   that sends them and reads the acknowledgements, and the emulated receiver's answers;
+//! - [`through_vest`]: the byte pipe from the vest worker to the source reading the receiver on the vest
+//!   unit's second UART;
+//! - [`sim`]: the built-in simulated receiver (a walker on a GPX route or the demo route, as NMEA);
 //! - [`fix`]: the fix type and its plausibility check ([`Fix::validate`], applied to every fix from every
 //!   source);
 //! - [`gpsd`]: gpsd's JSON protocol (TPV/SKY to [`Fix`], ATT to [`Attitude`]) and its bounded line framer;
 //! - [`nmea_out`]: NMEA sentence generation (simulator, emulator);
 //! - [`record`]: the timestamped recording format;
-//! - [`source`]: worker threads for serial, replay, gpsd and simulator sources with one event stream.
+//! - [`source`]: worker threads for serial, replay, gpsd, simulator and through-the-vest sources with one
+//!   event stream, and [`GpsSourceSpec`], the one way to name a source (text, serde).
 //!
 //! Headings: HDT/THS (a receiver's true heading) stay in their epoch's [`Fix::true_heading_deg`]; an
 //! external compass's HDG and gpsd's ATT reports stand on their own as [`GpsEvent::Attitude`]
@@ -53,7 +61,10 @@ use crate::heading::Attitude;
 pub use assembly::{DecoderConfig, NmeaDecoder};
 pub use fix::{Constellation, ErrorEstimate, ErrorSource, Fix, FixCheck, FixMode, FixQuality, Satellite};
 pub use framing::{DecodeStats, MAX_SENTENCE_LEN};
-pub use source::{GpsHandle, GpsSource, ReplayControl, ReplayProgress, SourceConfig, SourceState};
+pub use source::{
+    GpsHandle, GpsSource, GpsSourceSpec, ReplayControl, ReplayProgress, ReplaySpeed, SourceConfig,
+    SourceState,
+};
 
 /// User equivalent range error of an autonomous (SPS) fix, 1 sigma [m], used by the DOP error model
 /// `sigma_h = HDOP * UERE` when the receiver sends no GST. 5 m is the typical single-frequency SPS figure

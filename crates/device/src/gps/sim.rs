@@ -1,4 +1,8 @@
 //! The built-in simulated receiver: a walker along a route plus the error model, as NMEA.
+//!
+//! Routes come from GPX through [`crate::route_file`] (the one reader: size limit, checked coordinates,
+//! the one choice of what to walk); with no file, the simulator walks the one demo route,
+//! [`crate::route_file::DEMO_GPX`].
 
 use std::path::Path;
 
@@ -7,27 +11,27 @@ use vestnav_core::gnss_sim::{GnssErrorModel, GnssErrorState, RouteWalker};
 
 use super::GpsError;
 use super::nmea_out::{EpochOut, SimSatellite, epoch_sentences};
+use crate::route_file::{DEMO_GPX, DefaultRoute, parse_gpx, read_gpx};
 
-/// A demo route (a ~250 m loop near MIT's Briggs Field) used when no GPX route is given.
-pub const DEFAULT_ROUTE: &[(f64, f64)] =
-    &[(42.35620, -71.10000), (42.35680, -71.09900), (42.35780, -71.09950), (42.35620, -71.10000)];
-
-/// Reads a route from a GPX file: the first route's points, else the first track's, else the waypoints.
+/// The points of a GPX file's route to walk, as (latitude, longitude) \[deg\]: what
+/// [`crate::route_file::RouteFile::default_route`] picks (the first route, else the waypoints, else the first
+/// track).
 pub fn load_route_gpx(path: &Path) -> Result<Vec<(f64, f64)>, GpsError> {
     let err = |reason: String| GpsError::Route { path: path.display().to_string(), reason };
-    let file = std::fs::File::open(path).map_err(|e| err(e.to_string()))?;
-    let gpx = gpx::read(std::io::BufReader::new(file)).map_err(|e| err(e.to_string()))?;
-    let pts: Vec<(f64, f64)> = if let Some(r) = gpx.routes.iter().find(|r| !r.points.is_empty()) {
-        r.points.iter().map(|w| (w.point().y(), w.point().x())).collect()
-    } else if let Some(t) = gpx.tracks.iter().flat_map(|t| t.segments.iter()).find(|s| !s.points.is_empty()) {
-        t.points.iter().map(|w| (w.point().y(), w.point().x())).collect()
-    } else {
-        gpx.waypoints.iter().map(|w| (w.point().y(), w.point().x())).collect()
-    };
-    if pts.is_empty() {
-        return Err(err("no route, track or waypoints".into()));
-    }
-    Ok(pts)
+    let file = read_gpx(path).map_err(|e| err(e.to_string()))?;
+    file.default_route().as_ref().map(points).ok_or_else(|| err("no route, track or waypoints".into()))
+}
+
+/// The demo route (`assets/routes/demo.gpx`, a loop around MIT's Briggs Field) as (latitude, longitude)
+/// \[deg\]: what the simulator walks when no route is given.
+pub fn demo_route() -> Result<Vec<(f64, f64)>, GpsError> {
+    let err = |reason: String| GpsError::Route { path: "(built-in demo route)".into(), reason };
+    let file = parse_gpx(DEMO_GPX).map_err(|e| err(e.to_string()))?;
+    file.default_route().as_ref().map(points).ok_or_else(|| err("no route, track or waypoints".into()))
+}
+
+fn points(route: &DefaultRoute) -> Vec<(f64, f64)> {
+    route.waypoints.iter().map(|w| (w.lat_deg, w.lon_deg)).collect()
 }
 
 /// The current UTC time truncated to a whole second (receivers report epochs on the second).
@@ -88,7 +92,7 @@ impl SimulatedReceiver {
         self.t_s += dt_s;
         let truth = self.walker.sample(self.t_s);
         let en = self.error.apply(dt_s, truth.en_m, truth.speed_m_s);
-        let (lat, lon) = self.walker.frame().latlon_from_en(en);
+        let vestnav_core::geo::LatLon { lat_deg: lat, lon_deg: lon } = self.walker.frame().wgs84_from_enu(en);
         let time = self.time();
         let satellites = (0u16..10)
             .map(|k| SimSatellite {
@@ -120,11 +124,28 @@ impl SimulatedReceiver {
 mod tests {
     use super::*;
     use crate::gps::decode_reader;
+    use vestnav_core::geo::{Earth, LatLon, LocalFrame};
+
+    #[test]
+    fn bad_gpx_is_refused_by_the_one_reader() {
+        let dir = std::env::temp_dir().join(format!("vestnav-simgpx-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("bad.gpx");
+        let gpx = r#"<gpx version="1.1"><rte><rtept lat="95" lon="0"/></rte></gpx>"#;
+        std::fs::write(&path, gpx).unwrap();
+        let e = load_route_gpx(&path).unwrap_err().to_string();
+        assert!(e.contains("bad.gpx") && e.contains("rtept #1") && e.contains("latitude"), "{e}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 
     #[test]
     fn demo_gpx_loads_and_simulation_decodes() {
         let gpx = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/routes/demo.gpx");
-        let route = if gpx.exists() { load_route_gpx(&gpx).unwrap() } else { DEFAULT_ROUTE.to_vec() };
+        let route = load_route_gpx(&gpx).unwrap();
+        assert_eq!(route, demo_route().unwrap());
+        // The first point as typed in the file.
+        assert_eq!(route.len(), 7);
+        assert!((route[0].0 - 42.3562).abs() < 1e-12 && (route[0].1 + 71.1).abs() < 1e-12);
         let mut rx =
             SimulatedReceiver::new(&route, 1.4, GnssErrorModel::perfect(), 1, DateTime::UNIX_EPOCH).unwrap();
         let text: String = (0..30).map(|_| rx.next_epoch(1.0)).collect();
@@ -132,8 +153,9 @@ mod tests {
         assert_eq!(stats.rejected(), 0);
         assert_eq!(fixes.len(), 30);
         // Perfect model: 1.4 m/s along the first leg, so fix 10 is 14 m from the start.
-        let frame = vestnav_core::gnss_sim::LocalFrame::new(route[0].0, route[0].1);
-        let d = frame.en_from_latlon(fixes[9].lat_deg.unwrap(), fixes[9].lon_deg.unwrap()).length();
+        let frame = LocalFrame::new(LatLon::new(route[0].0, route[0].1), Earth::Wgs84);
+        let d =
+            frame.enu_from_wgs84(LatLon::new(fixes[9].lat_deg.unwrap(), fixes[9].lon_deg.unwrap())).length();
         assert!((d - 14.0).abs() < 0.05, "{d}");
     }
 }

@@ -1,8 +1,11 @@
-//! The emulated WTCU: the [`Engine`] served on a pseudo-terminal or any `Read + Write`, with the wall clock.
+//! The emulated WTCU: an [`Engine`] with a simulated compass ([`UnitConfig`]), served on a pseudo-terminal
+//! or any `Read + Write`, with the wall clock.
 //!
-//! [`serve`] is the loop (`vestnav emulate vest` runs it on the main thread with a terminal view);
-//! [`PtyEmulator`] runs it on a named thread behind a PTY whose slave path a console can open, with controls
-//! that tests use to make the unit go out of range or vanish mid-frame.
+//! This module sits on top of the sans-IO [`Engine`]: the engine knows nothing of it, of ports or of
+//! threads, and measures headings through the [`HeadingSensor`](super::engine::HeadingSensor) trait that [`crate::sim::SimulatedCompass`]
+//! implements. [`serve`] is the loop (`vestnav emulate vest` runs it on the main thread with a terminal
+//! view); [`PtyEmulator`] runs it on a named thread behind a PTY whose slave path a console can open, with
+//! controls that tests use to make the unit go out of range or vanish mid-frame.
 //!
 //! A unit must not stop because nobody listens: when its replies go unread (the PTY buffer is full, a write
 //! times out), [`serve`] drops them and counts them in [`EmulatorControl::replies_dropped`] instead of
@@ -17,125 +20,43 @@ use std::time::{Duration, Instant};
 
 use vestnav_core::vest::{TACTOR_COUNT, TactorMask};
 
-use chrono::Datelike as _;
-use vestnav_core::compass::{MagnetometerModel, MagnetometerSim, SensorPose, SteelObject};
-use vestnav_core::geo::LatLon;
-
-use crate::heading::SharedTruth;
-
-use super::codec::WireCodec;
-use super::engine::{Engine, EngineConfig, EngineEvent, EngineStats, HeadingSensor};
+use super::codec::{FrameCodec, WireCodec};
+use super::engine::{Engine, EngineConfig, EngineEvent, EngineStats};
 use super::message::{Faults, Reply};
+use crate::serial::is_timeout;
+use crate::sim::{CompassSetup, SimulatedCompass};
 
-/// How the emulated wearer's body moves: the truth the emulated magnetometer measures.
+/// An emulated unit: the engine's settings and, for protocol v2, the simulated magnetometer it carries.
 #[derive(Debug, Clone, PartialEq)]
-pub enum WearerMotion {
-    /// Standing, facing `heading_deg` (true).
-    Still {
-        /// True heading \[deg\].
-        heading_deg: f64,
-    },
-    /// Turning in place at `rate_deg_s` from `start_deg` (true): a calibration rotation.
-    Turning {
-        /// True heading at the start \[deg\].
-        start_deg: f64,
-        /// Turn rate, clockwise positive \[deg/s\].
-        rate_deg_s: f64,
-    },
-    /// Where the GPS simulator's walker is and faces (the console's simulated wearer): one wearer for both
-    /// simulated devices. Standing facing north until the simulator's first epoch.
-    Follow(SharedTruth),
+pub struct UnitConfig {
+    /// The protocol side (firmware version, limits, watchdog, the receiver on the second UART).
+    pub engine: EngineConfig,
+    /// The unit's magnetometer, or none. Only a v2 unit (`engine.protocol_version >= 2`) has one.
+    pub compass: Option<CompassSetup>,
 }
 
-impl WearerMotion {
-    /// The wearer's pose after `t_s` seconds on the unit's clock.
-    pub fn pose(&self, t_s: f64) -> SensorPose {
-        let standing =
-            |heading_true_deg| SensorPose { t_s, heading_true_deg, east_m: 0.0, north_m: 0.0, pace_m_s: 0.0 };
-        match self {
-            Self::Still { heading_deg } => standing(*heading_deg),
-            Self::Turning { start_deg, rate_deg_s } => {
-                standing((start_deg + rate_deg_s * t_s).rem_euclid(360.0))
-            }
-            Self::Follow(cell) => cell.get().map_or_else(
-                || standing(0.0),
-                |b| SensorPose {
-                    t_s,
-                    heading_true_deg: b.heading_true_deg,
-                    east_m: b.east_m,
-                    north_m: b.north_m,
-                    pace_m_s: b.pace_m_s,
-                },
-            ),
-        }
-    }
-}
-
-/// The emulated unit's magnetometer (protocol v2): which sensor, where, and how the wearer moves.
-#[derive(Debug, Clone, PartialEq)]
-pub struct CompassSetup {
-    /// How the wearer moves.
-    pub motion: WearerMotion,
-    /// A parked car (a steel dipole of 30 µT m³) this far east of the wearer \[m\], if any: within 1–2 m
-    /// it turns the heading by tens of degrees and lowers the quality figure.
-    pub steel_east_m: Option<f64>,
-    /// An ideal sensor (no iron, no noise) instead of a typical uncalibrated vest unit.
-    pub ideal: bool,
-    /// Seed of the sensor noise.
-    pub seed: u64,
-}
-
-impl Default for CompassSetup {
+impl Default for UnitConfig {
+    /// A v2 unit with a typical uncalibrated magnetometer, the wearer standing facing north.
     fn default() -> Self {
-        Self { motion: WearerMotion::Still { heading_deg: 0.0 }, steel_east_m: None, ideal: false, seed: 1 }
+        Self { engine: EngineConfig::default(), compass: Some(CompassSetup::default()) }
     }
 }
 
-/// Where the emulated wearer stands: the demo route's start by the MIT campus (42.3562° N, 71.1000° W).
-/// The World Magnetic Model field there is what the emulated sensor measures.
-pub const EMULATED_PLACE: (f64, f64) = (42.3562, -71.1000);
-
-/// The emulated unit's magnetometer and accelerometer: `vestnav_core::compass`'s sensor model (hard and
-/// soft iron, noise, the WMM field at [`EMULATED_PLACE`] on today's date, steel) seeing a wearer who moves
-/// as [`CompassSetup::motion`] says, on the unit's clock.
-#[derive(Debug)]
-pub struct SimulatedCompass {
-    sim: MagnetometerSim,
-    motion: WearerMotion,
-    start: Option<Instant>,
+impl From<EngineConfig> for UnitConfig {
+    /// A unit with `engine`'s settings and the default magnetometer (none for a v1 unit).
+    fn from(engine: EngineConfig) -> Self {
+        Self { engine, ..Self::default() }
+    }
 }
 
-impl SimulatedCompass {
-    /// The sensor for `setup`. The WMM has no model for dates it does not cover; then the field of the
-    /// model's epoch at the place is used.
-    pub fn new(setup: &CompassSetup) -> Self {
-        let mut model =
-            if setup.ideal { MagnetometerModel::ideal() } else { MagnetometerModel::typical_vest() };
-        if let Some(east_m) = setup.steel_east_m {
-            model.steel.push(SteelObject { east_m, north_m: 0.0, moment_ut_m3: 30.0 });
+impl UnitConfig {
+    /// The unit's engine, its [`SimulatedCompass`] fitted when it has one.
+    pub fn build(&self) -> Engine<FrameCodec> {
+        let engine = Engine::new(self.engine.clone());
+        match self.compass.as_ref().filter(|_| self.engine.protocol_version >= 2) {
+            Some(setup) => engine.with_heading_sensor(Box::new(SimulatedCompass::new(setup))),
+            None => engine,
         }
-        let place = LatLon::new(EMULATED_PLACE.0, EMULATED_PLACE.1);
-        let today = chrono::Utc::now().date_naive();
-        let date = (today.year(), today.month() as u8, today.day() as u8);
-        let sim = MagnetometerSim::new(model.clone(), place, 0.0, date, setup.seed)
-            .or_else(|_| MagnetometerSim::new(model.clone(), place, 0.0, (2025, 1, 1), setup.seed))
-            // Boston's field (WMM2025): 14.3 µT north, -4.2 µT east, 47.9 µT down.
-            .unwrap_or_else(|_| MagnetometerSim::with_field(model, [18.9, -5.1, 47.0], setup.seed));
-        Self { sim, motion: setup.motion.clone(), start: None }
-    }
-
-    /// Declination of the emulated place's field, east positive \[deg\].
-    pub fn declination_deg(&self) -> f64 {
-        self.sim.declination_deg()
-    }
-}
-
-impl HeadingSensor for SimulatedCompass {
-    fn sample(&mut self, at: Instant) -> ([f64; 3], [f64; 3]) {
-        let start = *self.start.get_or_insert(at);
-        let t_s = at.saturating_duration_since(start).as_secs_f64();
-        let s = self.sim.sample(&self.motion.pose(t_s));
-        (s.raw_mag_body_ut, s.accel_body_m_s2)
     }
 }
 
@@ -183,7 +104,7 @@ pub fn serve<C: WireCodec>(
             return Ok(ServeEnd::Stopped);
         }
         if control.vanish.load(Ordering::Relaxed) {
-            let frame = super::codec::FrameCodec::with_max_version(1).encode_reply(
+            let frame = FrameCodec::with_max_version(1).encode_reply(
                 0xEE,
                 &Reply::Report { tactors_on: TactorMask::ALL, faults: Faults::default() },
             );
@@ -223,11 +144,6 @@ pub fn serve<C: WireCodec>(
             control.replies_dropped.fetch_add(dropped, Ordering::Relaxed);
         }
     }
-}
-
-/// Whether a read error only means "nothing yet".
-pub fn is_timeout(e: &io::Error) -> bool {
-    matches!(e.kind(), io::ErrorKind::TimedOut | io::ErrorKind::WouldBlock | io::ErrorKind::Interrupted)
 }
 
 /// What a running emulator shows: the unit's state and a short history, for views and test assertions.
@@ -306,14 +222,15 @@ impl PtyEmulator {
     /// Opens a PTY pair and serves a unit built from `config` on the master side; consoles open
     /// [`Self::path`]. The emulator keeps its own handle on the slave so consoles may come and go.
     #[cfg(unix)]
-    pub fn spawn(config: EngineConfig) -> io::Result<Self> {
+    pub fn spawn(config: impl Into<UnitConfig>) -> io::Result<Self> {
+        let config = config.into();
         let Pty { mut master, path, slave } = Pty::open_with_timeout(SERVE_POLL)?;
         let view = Arc::new(Mutex::new(EmulatorView::default()));
         let control = Arc::new(EmulatorControl::default());
         let (v, c) = (view.clone(), control.clone());
         let thread = std::thread::Builder::new().name("vest-emulator".to_owned()).spawn(move || {
             let _slave = slave;
-            let mut engine = Engine::new(config);
+            let mut engine = config.build();
             serve(&mut engine, &mut master, &c, |engine, event| {
                 v.lock().unwrap_or_else(PoisonError::into_inner).observe(engine, event);
             })

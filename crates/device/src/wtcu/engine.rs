@@ -25,8 +25,6 @@ use super::limits::{
 };
 use vestnav_core::compass::{Calibration, tilt_compensated_heading};
 
-use super::emulator::{CompassSetup, SimulatedCompass};
-
 use super::message::{
     Capabilities, CommandKind, DeviceInfo, Faults, FirmwareVersion, GPS_BAUDS, HeadingReport, NakReason,
     Packet, Reply, Request, UnitStatus,
@@ -34,8 +32,8 @@ use super::message::{
 
 /// The unit's magnetometer and accelerometer, sampled by the engine for its heading stream (protocol v2).
 ///
-/// The emulator's implementation is [`super::emulator::SimulatedCompass`] (a seeded sensor model); firmware
-/// reads real chips.
+/// The engine knows the sensor only through this trait. The emulator fits [`crate::sim::SimulatedCompass`]
+/// (a seeded sensor model, see [`super::emulator::UnitConfig`]); firmware reads real chips.
 pub trait HeadingSensor: Send + std::fmt::Debug {
     /// The raw magnetometer reading \[µT\] and the accelerometer reading \[m/s²\] at `at`, body frame (x
     /// forward, y right, z down).
@@ -118,8 +116,6 @@ pub struct EngineConfig {
     /// Newest protocol version the unit speaks (1 or 2): a unit with `1` behaves exactly as v1 firmware,
     /// answering a v2 header with NAK 0x04.
     pub protocol_version: u8,
-    /// The unit's magnetometer (v2 only), or none.
-    pub compass: Option<CompassSetup>,
     /// What the GPS receiver on the unit's second UART sends, played in a loop at the requested baud (v2
     /// only, [`Capabilities::GPS`]), or none: the unit has no receiver.
     pub gps_nmea: Option<std::sync::Arc<[u8]>>,
@@ -134,7 +130,6 @@ impl Default for EngineConfig {
             intensity: true,
             battery_mv: 3900,
             protocol_version: PROTOCOL_VERSION,
-            compass: Some(CompassSetup::default()),
             gps_nmea: None,
         }
     }
@@ -267,16 +262,13 @@ struct HeadingState {
 }
 
 impl Engine<FrameCodec> {
-    /// An engine speaking [`FrameCodec`].
+    /// An engine speaking [`FrameCodec`] up to `config.protocol_version`, with no magnetometer (fit one
+    /// with [`Self::with_heading_sensor`]).
     pub fn new(config: EngineConfig) -> Self {
-        let compass = config.compass.clone().filter(|_| config.protocol_version >= 2);
         let codec = FrameCodec::with_max_version(config.protocol_version);
         let mut engine = Self::with_codec(config, codec);
         engine.gps.source = engine.config.gps_nmea.clone().filter(|b| !b.is_empty());
-        match compass {
-            Some(setup) => engine.with_heading_sensor(Box::new(SimulatedCompass::new(&setup))),
-            None => engine,
-        }
+        engine
     }
 }
 

@@ -8,9 +8,16 @@
 //! - [`limits`]: on-time, current budget and duty-cycle limits, shared by console and unit;
 //! - [`link`]: the console side as a sans-IO state machine (handshake, acks, retransmit, heartbeat, loss),
 //!   plus a pure reconnect [`link::Backoff`];
-//! - [`engine`]: the unit side as a sans-IO state machine (limits, patterns, watchdog);
+//! - [`engine`]: the unit side as a sans-IO state machine (limits, patterns, watchdog, the heading stream
+//!   from any [`engine::HeadingSensor`]);
 //! - [`worker`]: [`worker::VestHandle`], a named thread owning a port (or the in-process emulator);
-//! - [`emulator`]: the engine served on a pseudo-terminal or any `Read + Write`.
+//! - [`emulator`]: an emulated unit ([`emulator::UnitConfig`]: the engine with
+//!   [`crate::sim::SimulatedCompass`]) served on a pseudo-terminal or any `Read + Write`;
+//! - [`firmware_sim`]: the reference C firmware run in simavr, for the emulator's command and the
+//!   conformance suite.
+//!
+//! The protocol layers (`message`, `codec`, `limits`, `link`, `engine`) import nothing of the emulator,
+//! the worker, serial ports, the simulation or threads; the emulator and the worker stand on them.
 //!
 //! ```
 //! use std::time::Instant;

@@ -30,13 +30,13 @@ use std::time::{Duration, Instant};
 
 use vestnav_core::vest::{Pattern, TactorMask};
 
-use super::emulator::is_timeout;
-use super::engine::EngineConfig;
+use super::emulator::UnitConfig;
 use super::link::{Backoff, CommandError, Link, LinkConfig, LinkEvent, LinkState};
 use super::message::{CalibrationWire, Capabilities, CommandKind, DeviceInfo, UnitStatus};
 use crate::gps::through_vest::{ForwardingState, VestGpsWriter};
 use crate::heading::Attitude;
 use crate::outbox::Outbox;
+use crate::serial::is_timeout;
 
 mod emulated_port;
 #[cfg(test)]
@@ -63,7 +63,7 @@ pub enum VestConfig {
         baud: u32,
     },
     /// The emulated unit, in process (no port needed).
-    Emulated(EngineConfig),
+    Emulated(UnitConfig),
 }
 
 /// A command for the vest.
@@ -427,7 +427,7 @@ impl VestHandle {
             }
             VestConfig::Emulated(engine) => {
                 let poll = settings.io_poll;
-                Box::new(move || Ok(Box::new(EmulatedPort::new(engine.clone(), poll)) as Box<dyn Transport>))
+                Box::new(move || Ok(Box::new(EmulatedPort::new(&engine, poll)) as Box<dyn Transport>))
             }
         };
         Self::spawn_with(connector, settings, events)

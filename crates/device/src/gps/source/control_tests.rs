@@ -55,9 +55,12 @@ fn pause_seek_and_progress_follow_the_file() {
     let text = epochs_log(11); // 12:00:00 .. 12:00:10: a 10 s span, the middle epoch at 12:00:05
     let path = temp_path("seek.nmea");
     std::fs::write(&path, &text).unwrap();
-    let (mut h, rx) =
-        GpsSource::spawn_channel(SourceConfig::Replay { path: path.clone(), speed: Some(2.0) }, 4096, None)
-            .unwrap();
+    let (mut h, rx) = GpsSource::spawn_channel(
+        SourceConfig::Replay { path: path.clone(), speed: ReplaySpeed::Times(2.0) },
+        4096,
+        None,
+    )
+    .unwrap();
     let ctl = h.replay_control().expect("a replay has controls");
     collect(&rx, |e| e.iter().any(|e| matches!(e, GpsEvent::Raw(_))), Duration::from_secs(5));
     ctl.set_paused(true);
@@ -102,9 +105,12 @@ fn raw_lines_are_the_sentences_as_received() {
     let text = epochs_log(3);
     let path = temp_path("raw.nmea");
     std::fs::write(&path, &text).unwrap();
-    let (mut h, rx) =
-        GpsSource::spawn_channel(SourceConfig::Replay { path: path.clone(), speed: None }, 4096, None)
-            .unwrap();
+    let (mut h, rx) = GpsSource::spawn_channel(
+        SourceConfig::Replay { path: path.clone(), speed: ReplaySpeed::AsFastAsPossible },
+        4096,
+        None,
+    )
+    .unwrap();
     let ev = collect(&rx, finished, Duration::from_secs(5));
     let raw: Vec<&RawLine> =
         ev.iter().filter_map(|e| if let GpsEvent::Raw(r) = e { Some(r) } else { None }).collect();
@@ -130,9 +136,11 @@ fn recording_replays_as_the_original_source() {
     let again = RecordingTap::default().start(&out).unwrap_err();
     assert!(again.contains(&out.display().to_string()), "{again}");
     let (chan, rx) = crate::outbox::Outbox::channel(4096, Overflow::Wait, None);
-    let mut h =
-        GpsSource::spawn(SourceConfig::Replay { path: original, speed: None }, vec![chan, tap.outbox()])
-            .unwrap();
+    let mut h = GpsSource::spawn(
+        SourceConfig::Replay { path: original, speed: ReplaySpeed::AsFastAsPossible },
+        vec![chan, tap.outbox()],
+    )
+    .unwrap();
     let a = fixes(&collect(&rx, finished, Duration::from_secs(10)));
     h.stop();
     let status = tap.stop().unwrap();
@@ -140,9 +148,12 @@ fn recording_replays_as_the_original_source() {
     assert_eq!(status.bytes, std::fs::metadata(&out).unwrap().len());
     assert!(status.sentences > 0);
 
-    let (mut h2, rx2) =
-        GpsSource::spawn_channel(SourceConfig::Replay { path: out.clone(), speed: None }, 4096, None)
-            .unwrap();
+    let (mut h2, rx2) = GpsSource::spawn_channel(
+        SourceConfig::Replay { path: out.clone(), speed: ReplaySpeed::AsFastAsPossible },
+        4096,
+        None,
+    )
+    .unwrap();
     let b = fixes(&collect(&rx2, finished, Duration::from_secs(10)));
     h2.stop();
     let strip = |v: Vec<Fix>| v.into_iter().map(|f| Fix { received_at: None, ..f }).collect::<Vec<_>>();

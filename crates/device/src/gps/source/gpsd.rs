@@ -109,8 +109,7 @@ fn gpsd_read_loop(w: &Worker, mut read: impl FnMut(&mut [u8]) -> std::io::Result
                     }
                 }
             }
-            Err(e) if matches!(e.kind(), std::io::ErrorKind::TimedOut | std::io::ErrorKind::WouldBlock) => {}
-            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) if crate::serial::is_timeout(&e) => {}
             Err(e) => return Some(e.to_string()),
         }
         let idle = now.saturating_duration_since(last_line);

@@ -31,12 +31,17 @@ mod gpsd;
 mod replay;
 mod serial;
 mod simulator;
+mod spec;
 #[cfg(test)]
 mod tests;
 mod through_vest;
 
 pub use replay::{ReplayControl, ReplayProgress, replay_lines};
 pub use serial::{detect_baud, score_baud};
+pub use spec::{
+    DEFAULT_VEST_GPS_BAUD, GPS_SPEC_FORMS, GpsSourceSpec, MAX_REPLAY_SPEED, ReplaySpeed, SERIAL_BAUDS,
+    SpecError,
+};
 
 use gpsd::run_gpsd;
 use replay::run_replay;
@@ -56,7 +61,8 @@ pub const GPSD_READ_TIMEOUT: Duration = Duration::from_millis(50);
 /// The longest [`GpsHandle::stop`] waits for the worker thread before detaching it.
 pub const STOP_WAIT: Duration = Duration::from_millis(250);
 
-/// Where fixes come from.
+/// Where fixes come from, as a running source needs it: [`GpsSourceSpec`] (what the operator names) plus
+/// what exists only at run time (the loaded route, the simulator's settings, the vest's byte pipe).
 #[derive(Debug, Clone, PartialEq)]
 pub enum SourceConfig {
     /// A serial port (USB, Bluetooth SPP `/dev/rfcomm*`, a PTY); `baud: None` detects it.
@@ -70,8 +76,8 @@ pub enum SourceConfig {
     Replay {
         /// The file.
         path: PathBuf,
-        /// Speed factor (1 = recorded speed, 10 = ten times faster); `None` = as fast as possible.
-        speed: Option<f64>,
+        /// How fast.
+        speed: ReplaySpeed,
     },
     /// A gpsd daemon's JSON stream.
     Gpsd {
@@ -97,7 +103,7 @@ pub enum SourceConfig {
         looped: bool,
         /// Where to publish the walker's true position, course and pace every epoch (for an emulated vest's
         /// compass to measure the same wearer), if anywhere.
-        truth: Option<crate::heading::SharedTruth>,
+        truth: Option<crate::sim::SharedTruth>,
     },
     /// The receiver on the vest unit's second UART, forwarded inside the vest's link (protocol v2): its
     /// bytes come from the vest worker through this pipe.

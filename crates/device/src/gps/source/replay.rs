@@ -4,7 +4,9 @@
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
-use super::{SourceState, Worker};
+use vestnav_core::fieldtest::unwrap_time_of_day;
+
+use super::{ReplaySpeed, SourceState, Worker};
 use crate::gps::sentence;
 use crate::gps::{DecoderConfig, GpsEvent, NmeaDecoder};
 
@@ -131,7 +133,6 @@ fn timeline(data: &[u8]) -> Vec<(std::ops::Range<usize>, Option<u64>)> {
     let mut out = Vec::new();
     let mut first: Option<i64> = None;
     let mut shift_ms: i64 = 0;
-    let mut offset_ms: i64 = 0;
     let mut last: Option<i64> = None;
     let mut start = 0;
     for line in data.split_inclusive(|&b| b == b'\n') {
@@ -139,16 +140,16 @@ fn timeline(data: &[u8]) -> Vec<(std::ops::Range<usize>, Option<u64>)> {
         start = range.end;
         let stamp = match line_stamp(line) {
             Some((is_ts, mut ms)) if is_ts == has_ts => {
-                if let Some(prev) = last {
-                    if !has_ts && ms + offset_ms < prev - 43_200_000 {
-                        offset_ms += 86_400_000; // time of day wrapped past midnight
-                    }
-                    ms += offset_ms;
-                    if ms < prev || ms - prev > 60_000 {
-                        shift_ms += (ms - prev) - 1000;
-                    }
-                } else {
-                    ms += offset_ms;
+                if !has_ts {
+                    // A time of day: onto the running line, across midnight (core's one rule).
+                    let tod_s = ms as f64 / 1000.0;
+                    let t_s = unwrap_time_of_day(tod_s, last.map(|p| p as f64 / 1000.0));
+                    ms = (t_s * 1000.0).round() as i64;
+                }
+                if let Some(prev) = last
+                    && (ms < prev || ms - prev > 60_000)
+                {
+                    shift_ms += (ms - prev) - 1000;
                 }
                 last = Some(ms);
                 let f = *first.get_or_insert(ms);
@@ -176,11 +177,11 @@ pub(crate) enum ReplayItem<'a> {
 
 /// Hands out the lines of a log in time: by its `$PVNAV,TS` stamps when it has them, else by the
 /// sentences' UTC times of day (midnight wrap handled; a splice — a jump back, or forward by more than a
-/// minute — continues one second later). `speed`: 1 = recorded speed, `None` = no waiting. Returns false
+/// minute — continues one second later), at `speed`. Returns false
 /// when stopped or when `emit` returns false.
 pub fn replay_lines(
     data: &[u8],
-    speed: Option<f64>,
+    speed: ReplaySpeed,
     stop: &AtomicBool,
     mut emit: impl FnMut(&[u8]) -> bool,
 ) -> bool {
@@ -194,12 +195,12 @@ pub fn replay_lines(
 /// when asked, publishing the position after every line.
 pub(crate) fn replay_controlled(
     data: &[u8],
-    speed: Option<f64>,
+    speed: ReplaySpeed,
     stop: &AtomicBool,
     ctl: &ReplayControl,
     mut emit: impl FnMut(ReplayItem<'_>) -> bool,
 ) -> bool {
-    let speed = speed.filter(|s| s.is_finite() && *s > 0.0);
+    let speed = speed.pace();
     let lines = timeline(data);
     let span_ms = lines.iter().filter_map(|(_, s)| *s).max().unwrap_or(0);
     ctl.total_bytes.store(data.len() as u64, Ordering::Relaxed);
@@ -263,7 +264,7 @@ fn clock_text(ms: u64) -> String {
     format!("{}:{:04.1}", ms / 60_000, (ms % 60_000) as f64 / 1000.0)
 }
 
-pub(super) fn run_replay(w: &Worker, path: &std::path::Path, speed: Option<f64>, ctl: &ReplayControl) {
+pub(super) fn run_replay(w: &Worker, path: &std::path::Path, speed: ReplaySpeed, ctl: &ReplayControl) {
     if !w.state(SourceState::Connecting { detail: path.display().to_string() }) {
         return;
     }

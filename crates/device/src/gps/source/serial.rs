@@ -208,8 +208,7 @@ fn read_loop<T: Read + Write + ?Sized>(
                     }
                 }
             }
-            Err(e) if matches!(e.kind(), std::io::ErrorKind::TimedOut | std::io::ErrorKind::WouldBlock) => {}
-            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) if crate::serial::is_timeout(&e) => {}
             Err(e) => return Some(e.to_string()),
         }
         d.handle_timeout(Instant::now());

@@ -7,7 +7,7 @@ use vestnav_core::gnss_sim::GnssErrorModel;
 use super::{SourceState, Worker};
 use crate::gps::sim::SimulatedReceiver;
 use crate::gps::{DecoderConfig, GpsEvent, NmeaDecoder};
-use crate::heading::{BodyTruth, SharedTruth};
+use crate::sim::{BodyTruth, SharedTruth};
 
 /// The simulator's settings, as given in [`SourceConfig::Simulator`](super::SourceConfig::Simulator).
 pub(super) struct SimParams<'a> {

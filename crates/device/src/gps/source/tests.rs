@@ -28,7 +28,10 @@ fn logs() -> PathBuf {
 
 #[test]
 fn replay_as_fast_as_possible_gives_every_epoch() {
-    let (mut h, rx) = spawn(SourceConfig::Replay { path: logs().join("nd-1005.log"), speed: None });
+    let (mut h, rx) = spawn(SourceConfig::Replay {
+        path: logs().join("nd-1005.log"),
+        speed: ReplaySpeed::AsFastAsPossible,
+    });
     let ev = collect(&rx, |e| e.contains(&GpsEvent::State(SourceState::Finished)), Duration::from_secs(10));
     let fixes = ev.iter().filter(|e| matches!(e, GpsEvent::Fix(_))).count();
     assert_eq!(fixes, 16);
@@ -39,7 +42,8 @@ fn replay_as_fast_as_possible_gives_every_epoch() {
 fn replay_paces_by_utc_time() {
     // mr-350p: 14 epochs over 13 s; at 26x that is 0.5 s.
     let t0 = Instant::now();
-    let (mut h, rx) = spawn(SourceConfig::Replay { path: logs().join("mr-350p.log"), speed: Some(26.0) });
+    let (mut h, rx) =
+        spawn(SourceConfig::Replay { path: logs().join("mr-350p.log"), speed: ReplaySpeed::Times(26.0) });
     let ev = collect(&rx, |e| e.contains(&GpsEvent::State(SourceState::Finished)), Duration::from_secs(10));
     let dt = t0.elapsed().as_secs_f64();
     assert!(ev.contains(&GpsEvent::State(SourceState::Finished)));
@@ -50,7 +54,7 @@ fn replay_paces_by_utc_time() {
 #[test]
 fn simulator_emits_fixes_and_stops() {
     let (mut h, rx) = spawn(SourceConfig::Simulator {
-        route: super::super::sim::DEFAULT_ROUTE.to_vec(),
+        route: super::super::sim::demo_route().unwrap(),
         pace_m_s: 1.4,
         model: GnssErrorModel::sirf3_open_sky(),
         seed: 5,
@@ -90,7 +94,7 @@ fn pty_fix_latency_p50_p99() {
     let mut pty = crate::serial::Pty::open().unwrap();
     let (_h, events) = spawn(SourceConfig::Serial { port: pty.path().to_owned(), baud: Some(4800) });
     let mut rx = super::super::sim::SimulatedReceiver::new(
-        super::super::sim::DEFAULT_ROUTE,
+        &super::super::sim::demo_route().unwrap(),
         1.4,
         GnssErrorModel::perfect(),
         1,
@@ -388,7 +392,7 @@ fn gpsd_closing_mid_line_is_lost_then_reconnected() {
 #[test]
 fn stop_wins_over_a_stalled_lossless_consumer() {
     let (mut h, rx) = GpsSource::spawn_channel(
-        SourceConfig::Replay { path: logs().join("nd-1005.log"), speed: None },
+        SourceConfig::Replay { path: logs().join("nd-1005.log"), speed: ReplaySpeed::AsFastAsPossible },
         1,
         None,
     )
@@ -451,7 +455,8 @@ fn replay_delivers_hdg_as_attitude() {
                 $HCHDG,98.3,0.0,E,12.6,W*57\r\n\
                 $GPGGA,110519.000,5709.8067,N,00207.2822,W,1,08,1.0,59.3,M,48.2,M,,0000*76\r\n";
     std::fs::write(&path, text).unwrap();
-    let (mut h, rx) = spawn(SourceConfig::Replay { path: path.clone(), speed: None });
+    let (mut h, rx) =
+        spawn(SourceConfig::Replay { path: path.clone(), speed: ReplaySpeed::AsFastAsPossible });
     let ev = collect(&rx, |e| e.contains(&GpsEvent::State(SourceState::Finished)), Duration::from_secs(10));
     h.stop();
     let _ = std::fs::remove_file(&path);

@@ -3,7 +3,8 @@
 use std::io::{self, Read, Write};
 use std::time::{Duration, Instant};
 
-use crate::wtcu::engine::{Engine, EngineConfig};
+use crate::wtcu::emulator::UnitConfig;
+use crate::wtcu::engine::Engine;
 
 /// The emulated unit as an in-process transport: writes feed the [`Engine`] at the wall-clock time, reads
 /// return its replies, waiting at most the read timeout (the engine's timers run inside reads).
@@ -16,8 +17,8 @@ pub struct EmulatedPort {
 
 impl EmulatedPort {
     /// A fresh unit built from `config`; reads wait at most `read_timeout`.
-    pub fn new(config: EngineConfig, read_timeout: Duration) -> Self {
-        Self { engine: Engine::new(config), pending: std::collections::VecDeque::new(), read_timeout }
+    pub fn new(config: &UnitConfig, read_timeout: Duration) -> Self {
+        Self { engine: config.build(), pending: std::collections::VecDeque::new(), read_timeout }
     }
 
     /// The unit behind the port.

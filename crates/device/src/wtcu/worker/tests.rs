@@ -1,12 +1,12 @@
 //! Tests of the vest worker against the in-process emulated unit: STOP ALL, guidance latch, liveness, exit.
 
 use super::*;
-use crate::wtcu::engine::EngineConfig;
+use crate::wtcu::emulator::UnitConfig;
 use vestnav_core::vest::Frame;
 
 fn emulated() -> (VestHandle, Receiver<VestEvent>) {
     let connector: Connector = Box::new(|| {
-        Ok(Box::new(EmulatedPort::new(EngineConfig::default(), Duration::from_millis(2)))
+        Ok(Box::new(EmulatedPort::new(&UnitConfig::default(), Duration::from_millis(2)))
             as Box<dyn Transport>)
     });
     VestHandle::spawn_with_receiver(connector, WorkerSettings::default()).unwrap()
