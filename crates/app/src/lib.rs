@@ -59,6 +59,8 @@ pub fn run(devices: DeviceOverrides, screenshot: Option<Screenshot>) -> anyhow::
     let options = eframe::NativeOptions {
         viewport: egui::ViewportBuilder::default()
             .with_title("vestnav console")
+            // Wayland docks match the window to vestnav.desktop by this id (X11: StartupWMClass).
+            .with_app_id("vestnav")
             .with_inner_size([1400.0, 880.0])
             .with_min_inner_size([900.0, 600.0]),
         ..eframe::NativeOptions::default()

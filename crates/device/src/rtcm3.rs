@@ -44,10 +44,20 @@ impl Frame<'_> {
 
     /// The message number: the payload's first 12 bits (`None` for a payload shorter than 2 bytes).
     pub fn message_type(&self) -> Option<u16> {
-        match self.payload() {
-            [a, b, ..] => Some((u16::from(*a) << 4) | (u16::from(*b) >> 4)),
-            _ => None,
-        }
+        message_number(self.payload())
+    }
+}
+
+/// CRC-24Q over `bytes` (preamble, length and payload of a frame).
+pub fn crc24q(bytes: &[u8]) -> u32 {
+    CRC24Q.checksum(bytes)
+}
+
+/// The message number of a payload (its first 12 bits), if it has two bytes.
+pub fn message_number(payload: &[u8]) -> Option<u16> {
+    match payload {
+        [a, b, ..] => Some((u16::from(*a) << 4) | (u16::from(*b) >> 4)),
+        _ => None,
     }
 }
 

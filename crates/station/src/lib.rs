@@ -175,6 +175,8 @@ pub struct Station {
     stop_alarm_was: bool,
     /// The session log's health as last shown.
     log_health: vestnav_device::session_log::LogHealth,
+    /// Ports whose set-up findings were shown since they were connected (each said once).
+    diagnosed: Vec<String>,
 }
 
 impl Station {
@@ -243,6 +245,7 @@ impl Station {
             notices,
             stop_alarm_was: false,
             log_health: vestnav_device::session_log::LogHealth::Ok,
+            diagnosed: Vec::new(),
         }
     }
 
@@ -368,6 +371,7 @@ impl Station {
         }
         outputs.extend(taps);
         self.gps = GpsState::default();
+        self.diagnosed.clear();
         // A new source: its first position must not be joined to the old source's last one.
         self.track.break_segment();
         match self.factory.open_gps(&self.gps_source, self.route.waypoints(), outputs) {
@@ -414,6 +418,7 @@ impl Station {
             }));
         }
         self.vest = VestState::default();
+        self.diagnosed.clear();
         match self.factory.open_vest(&self.vest_source, outputs) {
             Ok(handle) => {
                 let handle = Arc::new(handle);
@@ -649,9 +654,38 @@ impl Station {
         }
     }
 
+    /// When a serial port fails, says once what on this machine is in the way and how to fix it (the
+    /// same findings as `vestnav doctor`: group membership, Bluetooth binding, the device node).
+    fn diagnose_port(&mut self, subject: Subject, port: &str) {
+        if self.diagnosed.iter().any(|p| p == port) {
+            return;
+        }
+        self.diagnosed.push(port.to_owned());
+        let env = vestnav_device::doctor::Environment::system();
+        for f in vestnav_device::doctor::port_findings(&env, port) {
+            use vestnav_device::doctor::Verdict;
+            let severity = match f.verdict {
+                Verdict::Problem => Severity::Alarm,
+                Verdict::Warning => Severity::Warning,
+                Verdict::Ok | Verdict::Info => continue,
+            };
+            let fix = f.fix.map_or_else(String::new, |x| format!(" Fix: {x}"));
+            self.notices.raise(severity, subject, format!("{}: {}.{fix}", f.check, f.detail.trim_end_matches('.')));
+        }
+    }
+
     fn gps_event(&mut self, ev: &GpsEvent) {
         match ev {
-            GpsEvent::State(s) => self.gps.state = Some(s.clone()),
+            GpsEvent::State(s) => {
+                if let (SourceState::Lost { .. } | SourceState::Reconnecting { .. }, GpsSourceConfig::Serial { port, .. }) =
+                    (s, &self.gps_source)
+                    && self.gps.last_position.is_none()
+                {
+                    let port = port.clone();
+                    self.diagnose_port(Subject::Gps, &port);
+                }
+                self.gps.state = Some(s.clone());
+            }
             GpsEvent::Fix(f) => {
                 if f.has_position() {
                     self.gps.fixes += 1;
@@ -721,6 +755,12 @@ impl Station {
                 self.vest.status = Some((*st, now));
             }
             VestEvent::Transport(e) => {
+                if let VestSourceConfig::Serial { port } = &self.vest_source
+                    && self.vest.device.is_none()
+                {
+                    let port = port.clone();
+                    self.diagnose_port(Subject::Vest, &port);
+                }
                 self.vest.last_reply =
                     Some(VestReply { text: format!("transport: {e}"), refused: true, at: now });
             }

@@ -165,8 +165,8 @@ mod tests {
     fn stop_reaches_every_registered_vest_and_close_is_bounded() {
         let path = StopPath::default();
         assert!(!path.stop_and_close_all(Duration::from_millis(10)), "no vest: nothing acknowledged");
-        let a = VestHandle::spawn(VestConfig::Emulated(EngineConfig::default()), Vec::new()).unwrap();
-        let b = VestHandle::spawn(VestConfig::Emulated(EngineConfig::default()), Vec::new()).unwrap();
+        let a = VestHandle::spawn(VestConfig::Emulated(EngineConfig::default().into()), Vec::new()).unwrap();
+        let b = VestHandle::spawn(VestConfig::Emulated(EngineConfig::default().into()), Vec::new()).unwrap();
         path.register(1, a.stopper());
         path.register(2, b.stopper());
         path.register(2, b.stopper());
