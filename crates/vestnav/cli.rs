@@ -5,8 +5,8 @@
 use clap::{Parser, Subcommand};
 
 use crate::{
-    accuracy, analyze, completions, doctor, emulate_gps, emulate_vest, fieldtest, gps_configure, nav, nmea, ntrip,
-    route_plan, sim_tactor, sim_wave, station, tiles,
+    accuracy, analyze, completions, doctor, emulate_gps, emulate_vest, fieldtest, gps_configure, nav, nmea,
+    ntrip, route_plan, sim_tactor, sim_wave, station, tiles,
 };
 
 /// One line: `-h`, and the NAME of the man page.

@@ -17,8 +17,8 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use vestnav_core::vest::TactorMask;
-use vestnav_device::wtcu::emulator::{Pty, SERVE_POLL};
 use vestnav_device::wtcu::emulator::UnitConfig;
+use vestnav_device::wtcu::emulator::{Pty, SERVE_POLL};
 use vestnav_device::wtcu::engine::EngineEvent;
 use vestnav_device::wtcu::message::Faults;
 use vestnav_device::wtcu::{CommandKind, FrameCodec, Reply, WireCodec as _};
@@ -580,6 +580,76 @@ fn the_largest_route_keeps_stop_all_within_50_ms() {
         latencies.iter().map(|d| (ms(*d) * 10.0).round() / 10.0).collect::<Vec<_>>()
     );
     assert!(latencies.iter().all(|d| *d < Duration::from_millis(50)), "{latencies:?}");
+}
+
+/// A full disk under the session log, through the station's real threads: the operator is told what is
+/// not being recorded and where, nothing blocks, and recording resumes when space comes back. Needs a
+/// tmpfs (root, as on CI); skipped with a message where mounting is not allowed.
+#[test]
+fn a_full_disk_under_the_session_log_is_shown_and_recording_resumes() {
+    let dir = std::env::temp_dir().join(format!("vestnav-fulldisk-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mounted = std::process::Command::new("mount")
+        .args(["-t", "tmpfs", "-o", "size=64k", "tmpfs"])
+        .arg(&dir)
+        .stderr(std::process::Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success());
+    if !mounted {
+        eprintln!("a_full_disk_under_the_session_log_is_shown_and_recording_resumes: cannot mount a tmpfs, skipped");
+        let _ = std::fs::remove_dir(&dir);
+        return;
+    }
+    let umount = |d: &std::path::Path| {
+        let _ = std::process::Command::new("umount").arg(d).status();
+        let _ = std::fs::remove_dir_all(d);
+    };
+    // Fill it to ENOSPC.
+    let filler = dir.join("filler");
+    {
+        let mut f = std::fs::File::create(&filler).unwrap();
+        let block = [0u8; 4096];
+        while f.write_all(&block).is_ok() {}
+    }
+    let unit = Unit::spawn();
+    let gpsd = FakeGpsd::spawn(Hostile::Absurd, Duration::from_secs(30));
+    let mut c = station(gpsd.port, &unit.path, Some(dir.clone()));
+    let storage = |c: &Station| c.notices.latest(vestnav_station::Subject::Storage).map(|n| n.text.clone());
+    let failing = (|| {
+        let end = Instant::now() + Duration::from_secs(10);
+        while Instant::now() < end {
+            c.pump(|_| {});
+            if let Some(t) = storage(&c).filter(|t| t.contains("NOT recording")) {
+                return Some(t);
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        None
+    })();
+    let Some(text) = failing else {
+        umount(&dir);
+        panic!("no storage alarm: {:?}", storage(&c));
+    };
+    eprintln!("full disk: {text}");
+    assert!(c.log_failing());
+    assert!(text.contains(&dir.display().to_string()), "names where: {text}");
+    assert!(text.to_lowercase().contains("no space"), "names why: {text}");
+    // STOP ALL still reaches the unit at once while the log fails.
+    let lat = stop_latency(&mut c, &unit);
+    assert!(lat < Duration::from_millis(50), "{lat:?}");
+    std::fs::remove_file(&filler).unwrap();
+    let end = Instant::now() + Duration::from_secs(10);
+    while Instant::now() < end && c.log_failing() {
+        c.pump(|_| {});
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let recovered = storage(&c);
+    let log_path = c.log_path().map(std::path::Path::to_path_buf);
+    drop(c);
+    let written = log_path.map(|p| std::fs::read_to_string(p).unwrap_or_default()).unwrap_or_default();
+    umount(&dir);
+    assert!(recovered.as_deref().is_some_and(|t| t.contains("recording again")), "{recovered:?}");
+    assert!(written.contains("storage failure"), "the log itself says what was lost");
 }
 
 /// A unit that never acknowledges STOP ALL and keeps reporting tactors 13 and 14 on: the station keeps

@@ -203,7 +203,11 @@ impl Console {
                 liveness,
                 stop,
                 route: vestnav_station::RouteStart {
-                    file: devices.gps.as_ref().and_then(GpsSourceConfig::sim_route).map(std::path::Path::to_path_buf),
+                    file: devices
+                        .gps
+                        .as_ref()
+                        .and_then(GpsSourceConfig::sim_route)
+                        .map(std::path::Path::to_path_buf),
                     autosave: route_autosave,
                 },
             },

@@ -175,9 +175,22 @@ impl Exporter {
                 Err(format!("{} already exists: not replaced", path.display()))
             } else {
                 bytes().and_then(|data| {
-                    std::fs::write(&path, &data)
-                        .map(|()| format!("wrote {} ({} bytes)", path.display(), data.len()))
-                        .map_err(|e| format!("cannot write {}: {e}", path.display()))
+                    // Replacing: atomically (never half a file); new: never over a file that appeared
+                    // since the check.
+                    let written = if replace {
+                        vestnav_files::write_atomic(&path, &data)
+                    } else {
+                        vestnav_files::write_new(&path, &data)
+                    };
+                    written.map(|()| format!("wrote {} ({} bytes)", path.display(), data.len())).map_err(
+                        |e| {
+                            if e.kind() == std::io::ErrorKind::AlreadyExists {
+                                format!("{} already exists: not replaced", path.display())
+                            } else {
+                                format!("cannot write {}: {e}", path.display())
+                            }
+                        },
+                    )
                 })
             };
             let _ = tx.send(result);

@@ -566,7 +566,7 @@ mod tests {
     }
 
     /// A ring of points at a known radius about the truth: every error is the radius; the bias is zero;
-    /// sigma_e = sigma_n = R / sqrt(2) (the mean of sin^2 over a full turn is 1/2).
+    /// `sigma_e = sigma_n = R / sqrt(2)` (the mean of `sin^2` over a full turn is 1/2).
     #[test]
     fn a_ring_at_known_radius() {
         let r = 3.0;
@@ -591,7 +591,7 @@ mod tests {
 
     /// A circular Gaussian sample with per-axis sigma and a known bias: the measured radii about the mean
     /// match the Rayleigh closed forms (CEP50 = 1.1774 sigma, R95 = 2.4477 sigma), the Gaussian formulas
-    /// give the same, the bias is recovered, and DRMS^2 = |b|^2 + sigma_e^2 + sigma_n^2 exactly.
+    /// give the same, the bias is recovered, and `DRMS^2 = |b|^2 + sigma_e^2 + sigma_n^2` exactly.
     #[test]
     fn a_circular_gaussian_with_known_sigma() {
         let sigma = 1.5;

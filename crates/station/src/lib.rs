@@ -304,6 +304,11 @@ impl Station {
         self.log.as_ref().map(SessionLog::path)
     }
 
+    /// Whether the session log is failing to write now (its notice says why and what was lost).
+    pub fn log_failing(&self) -> bool {
+        self.log.as_ref().is_some_and(|l| l.health().is_failing())
+    }
+
     /// A sender into the session log (for a view's own records), if there is a log.
     pub fn log_sender(&self) -> Option<&LogSender> {
         self.log_tx.as_ref()
@@ -670,15 +675,21 @@ impl Station {
                 Verdict::Ok | Verdict::Info => continue,
             };
             let fix = f.fix.map_or_else(String::new, |x| format!(" Fix: {x}"));
-            self.notices.raise(severity, subject, format!("{}: {}.{fix}", f.check, f.detail.trim_end_matches('.')));
+            self.notices.raise(
+                severity,
+                subject,
+                format!("{}: {}.{fix}", f.check, f.detail.trim_end_matches('.')),
+            );
         }
     }
 
     fn gps_event(&mut self, ev: &GpsEvent) {
         match ev {
             GpsEvent::State(s) => {
-                if let (SourceState::Lost { .. } | SourceState::Reconnecting { .. }, GpsSourceConfig::Serial { port, .. }) =
-                    (s, &self.gps_source)
+                if let (
+                    SourceState::Lost { .. } | SourceState::Reconnecting { .. },
+                    GpsSourceConfig::Serial { port, .. },
+                ) = (s, &self.gps_source)
                     && self.gps.last_position.is_none()
                 {
                     let port = port.clone();

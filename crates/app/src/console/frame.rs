@@ -151,7 +151,15 @@ impl Console {
                 ui.label(RichText::new(status).small());
                 if let Some(p) = self.log_path() {
                     ui.with_layout(egui::Layout::right_to_left(egui::Align::Center), |ui| {
-                        ui.label(RichText::new(format!("log: {}", p.display())).small().weak());
+                        if self.station.log_failing() {
+                            ui.label(
+                                RichText::new(format!("log: {} — NOT recording", p.display()))
+                                    .small()
+                                    .color(ui.visuals().error_fg_color),
+                            );
+                        } else {
+                            ui.label(RichText::new(format!("log: {}", p.display())).small().weak());
+                        }
                     });
                 }
             });

@@ -82,7 +82,8 @@ mod tests {
         let plain_bytes = frames.concat();
         let (plain, _) = crate::gps::decode_reader(plain_bytes.as_slice()).unwrap();
         assert!(plain.len() > 10);
-        let rtcm = crate::rtcm3::encode_frame(&[0x3E, 0xD0, 0x24, 0x42, 0xB5, 0x62, b'$', 0xBA, 0xCE]).unwrap();
+        let rtcm =
+            crate::rtcm3::encode_frame(&[0x3E, 0xD0, 0x24, 0x42, 0xB5, 0x62, b'$', 0xBA, 0xCE]).unwrap();
         let mut broken = rtcm.clone();
         broken[5] ^= 0x40;
         let gga = b"$GPGGA,110518.000,5709.8067,N,00207.2822,W,1,08,1.0,59.3,M,48.2,M,,0000*77\r\n";
