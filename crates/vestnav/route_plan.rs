@@ -209,14 +209,11 @@ pub fn run_plan(args: &PlanArgs) -> anyhow::Result<()> {
 #[allow(clippy::print_stdout)]
 pub fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
     let (extract, _) = load(&args.osm)?;
-    let center = match args.center {
-        Some(c) => c,
-        None => {
-            let Some((sw, ne)) = extract.map.bounds() else {
-                bail!("{}: nothing to draw", args.osm.display())
-            };
-            LatLon::new(f64::midpoint(sw.lat_deg, ne.lat_deg), f64::midpoint(sw.lon_deg, ne.lon_deg))
-        }
+    let center = if let Some(c) = args.center {
+        c
+    } else {
+        let Some((sw, ne)) = extract.map.bounds() else { bail!("{}: nothing to draw", args.osm.display()) };
+        LatLon::new(f64::midpoint(sw.lat_deg, ne.lat_deg), f64::midpoint(sw.lon_deg, ne.lon_deg))
     };
     let route = match &args.route {
         Some(p) => crate::nav::load_route(p)?.into_iter().map(|w| w.pos).collect(),

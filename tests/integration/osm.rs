@@ -1,5 +1,5 @@
 //! The offline OpenStreetMap through the binary: `route plan` on the Helsinki extract (© OpenStreetMap
-//! contributors, ODbL; tests/data/osm) writes a GPX that `nav simulate` walks to the end in every run;
+//! contributors, `ODbL`; tests/data/osm) writes a GPX that `nav simulate` walks to the end in every run;
 //! `nav simulate --osm` plans the legs itself; `map render` draws a PNG; bad input is refused by name.
 
 use std::path::PathBuf;
