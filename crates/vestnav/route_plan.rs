@@ -36,7 +36,7 @@ impl From<ProfileArg> for Profile {
 }
 
 fn parse_point(s: &str) -> Result<LatLon, String> {
-    vestnav_app::map_tools::parse_position(s)
+    vestnav_core::coords::parse_position(s)
 }
 
 /// `vestnav route plan`.

@@ -596,7 +596,9 @@ fn a_full_disk_under_the_session_log_is_shown_and_recording_resumes() {
         .status()
         .is_ok_and(|s| s.success());
     if !mounted {
-        eprintln!("a_full_disk_under_the_session_log_is_shown_and_recording_resumes: cannot mount a tmpfs, skipped");
+        eprintln!(
+            "a_full_disk_under_the_session_log_is_shown_and_recording_resumes: cannot mount a tmpfs, skipped"
+        );
         let _ = std::fs::remove_dir(&dir);
         return;
     }

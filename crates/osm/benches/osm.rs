@@ -20,7 +20,7 @@ fn load(c: &mut Criterion) {
     let mut g = c.benchmark_group("extract");
     g.sample_size(10);
     g.bench_function("read + index Helsinki (685 kB)", |b| {
-        b.iter(|| Extract::read(black_box(&path)).unwrap())
+        b.iter(|| Extract::read(black_box(&path)).unwrap());
     });
     g.finish();
 }
@@ -29,10 +29,10 @@ fn plan(c: &mut Criterion) {
     let e = Extract::read(&helsinki()).unwrap();
     let (from, to) = (LatLon::new(60.1700, 24.9400), LatLon::new(60.1660, 24.9500));
     c.bench_function("plan ~1 km walk, shortest", |b| {
-        b.iter(|| e.graph.plan(black_box(from), black_box(to), Profile::Shortest).unwrap())
+        b.iter(|| e.graph.plan(black_box(from), black_box(to), Profile::Shortest).unwrap());
     });
     c.bench_function("plan ~1 km walk, prefer footways", |b| {
-        b.iter(|| e.graph.plan(black_box(from), black_box(to), Profile::PreferFootways).unwrap())
+        b.iter(|| e.graph.plan(black_box(from), black_box(to), Profile::PreferFootways).unwrap());
     });
 }
 
@@ -42,7 +42,7 @@ fn tile(c: &mut Criterion) {
     for z in [15, 17, 19] {
         let id = TileId::containing(centre, z).unwrap();
         c.bench_function(&format!("render one tile, zoom {z} (city centre)"), |b| {
-            b.iter(|| render_tile(black_box(&e.map), id))
+            b.iter(|| render_tile(black_box(&e.map), id));
         });
     }
 }
