@@ -447,7 +447,9 @@ pub fn show(station: &mut Station, cfg: &mut Config, gps_ui: &mut GpsUi, ui: &mu
 
 /// Pause/resume, the seek bar and elapsed/total time of a replay source.
 fn replay_ui(station: &Station, ui: &mut egui::Ui) {
-    let Some(ctl) = station.gps_worker().and_then(|w| w.replay_control()) else { return };
+    let Some(ctl) = station.gps_worker().and_then(vestnav_station::devices::GpsWorker::replay_control) else {
+        return;
+    };
     let progress = ctl.progress();
     ui.horizontal(|ui| {
         let paused = ctl.is_paused();

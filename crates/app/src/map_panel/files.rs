@@ -1,5 +1,5 @@
 //! The map's route file row: the typed path, Recent, Import (with the choice dialog when a file holds
-//! more than one route) and the GPX / GeoJSON exports.
+//! more than one route) and the GPX / `GeoJSON` exports.
 
 use std::path::{Path, PathBuf};
 
