@@ -18,7 +18,9 @@ use vestnav_device::heading::{Attitude, HeadingReference};
 use vestnav_device::wtcu::VestCommand;
 use vestnav_device::wtcu::message::Capabilities;
 
-use crate::console::Console;
+use vestnav_station::Station;
+
+use crate::config::{Config, VestSourceConfig};
 
 /// A heading reading older than this is stale: not shown as the wearer's heading, and not used by guidance.
 pub const STALE_AFTER: Duration = Duration::from_secs(1);
@@ -60,10 +62,10 @@ impl Wizard {
 }
 
 /// The unit's key in the settings' calibration table: the port it is on, or "emulated".
-pub fn unit_key(c: &Console) -> String {
-    match &c.cfg.vest {
-        crate::config::VestSourceConfig::Emulated => "emulated".to_owned(),
-        crate::config::VestSourceConfig::Serial { port } => port.clone(),
+pub fn unit_key(vest: &VestSourceConfig) -> String {
+    match vest {
+        VestSourceConfig::Emulated => "emulated".to_owned(),
+        VestSourceConfig::Serial { port } => port.clone(),
     }
 }
 
@@ -74,27 +76,28 @@ fn today() -> (i32, u8, u8) {
 }
 
 /// Whether the live unit has a compass.
-pub fn has_compass(c: &Console) -> bool {
-    c.station.vest.is_live()
-        && c.station.vest.device.is_some_and(|d| d.capabilities.contains(Capabilities::HEADING))
+pub fn has_compass(station: &Station) -> bool {
+    station.vest.is_live()
+        && station.vest.device.is_some_and(|d| d.capabilities.contains(Capabilities::HEADING))
 }
 
-/// Draws the Compass section of the Vest tab.
-pub fn show(c: &mut Console, ui: &mut egui::Ui) {
+/// Draws the Compass section of the Vest tab: the heading `station` reports, the calibration kept in `cfg`
+/// for this unit, and the calibration `wizard`.
+pub fn show(station: &mut Station, cfg: &mut Config, wizard: &mut Wizard, ui: &mut egui::Ui) {
     ui.label(RichText::new("Compass").strong());
-    if !c.station.vest.is_live() {
+    if !station.vest.is_live() {
         ui.label("vest not live: no heading");
         return;
     }
-    if !has_compass(c) {
-        let v = c.station.vest.device.map_or(0, |d| d.protocol_version);
+    if !has_compass(station) {
+        let v = station.vest.device.map_or(0, |d| d.protocol_version);
         ui.label(format!(
             "this unit has no compass (protocol v{v}; heading needs a v2 unit with a magnetometer)"
         ));
         return;
     }
     let now = Instant::now();
-    match c.station.vest.heading {
+    match station.vest.heading {
         None => {
             ui.label("no heading reading yet");
         }
@@ -109,7 +112,7 @@ pub fn show(c: &mut Console, ui: &mut egui::Ui) {
             // The declination guidance applies (WMM at the wearer's position, computed once there), so the
             // true heading shown is the one guidance steers by.
             if a.reference == HeadingReference::Magnetic
-                && let Some(dec) = c.station.guidance.as_ref().and_then(|g| g.declination_deg)
+                && let Some(dec) = station.guidance.as_ref().and_then(|g| g.declination_deg)
             {
                 let _ = write!(
                     text,
@@ -138,22 +141,22 @@ pub fn show(c: &mut Console, ui: &mut egui::Ui) {
             }
         }
     }
-    if c.cfg.compass_calibrations.contains_key(&unit_key(c)) {
-        ui.label(RichText::new(format!("calibration for {} loaded at connect", unit_key(c))).weak());
+    if cfg.compass_calibrations.contains_key(&unit_key(&cfg.vest)) {
+        ui.label(RichText::new(format!("calibration for {} loaded at connect", unit_key(&cfg.vest))).weak());
     }
-    wizard_ui(c, ui);
+    wizard_ui(station, cfg, wizard, ui);
 }
 
-fn wizard_ui(c: &mut Console, ui: &mut egui::Ui) {
+fn wizard_ui(station: &mut Station, cfg: &mut Config, wizard: &mut Wizard, ui: &mut egui::Ui) {
     let mut next = None;
     let mut accept = None;
-    match &c.compass_wizard {
+    match &*wizard {
         Wizard::Idle => {
             if ui.button("Calibrate compass…").clicked() {
                 next = Some(Wizard::Collecting { samples: Vec::new(), since: Instant::now() });
             }
         }
-        Wizard::Collecting { samples, since } => next = collecting_ui(c, ui, samples, *since),
+        Wizard::Collecting { samples, since } => next = collecting_ui(station, ui, samples, *since),
         Wizard::Fitted(r) => {
             let b = r.calibration.hard_iron_ut;
             ui.label(format!(
@@ -204,21 +207,26 @@ fn wizard_ui(c: &mut Console, ui: &mut egui::Ui) {
     if let Some(cal) = accept {
         next = Some(match cal.to_wire() {
             Ok(wire) => {
-                c.send_device(VestCommand::SetCalibration(wire));
-                let key = unit_key(c);
-                c.cfg.compass_calibrations.insert(key, cal);
+                // A refusal shows in the Vest panel's last reply.
+                let _ = station.send_device(VestCommand::SetCalibration(wire));
+                cfg.compass_calibrations.insert(unit_key(&cfg.vest), cal);
                 Wizard::Idle
             }
             Err(e) => Wizard::Failed(e.to_string()),
         });
     }
     if let Some(n) = next {
-        c.compass_wizard = n;
+        *wizard = n;
     }
 }
 
 /// The collecting step: coverage so far, **Fit** once the turn covers enough of the circle.
-fn collecting_ui(c: &Console, ui: &mut egui::Ui, samples: &[[f64; 3]], since: Instant) -> Option<Wizard> {
+fn collecting_ui(
+    station: &Station,
+    ui: &mut egui::Ui,
+    samples: &[[f64; 3]],
+    since: Instant,
+) -> Option<Wizard> {
     let mut next = None;
     ui.label("Have the wearer turn slowly on the spot through a full circle (30 s), or trace a figure-8.");
     // Coverage of the raw readings about their centroid: the hard iron shifts the circle, it does
@@ -239,8 +247,7 @@ fn collecting_ui(c: &Console, ui: &mut egui::Ui, samples: &[[f64; 3]], since: In
     ui.horizontal(|ui| {
         let ready = coverage >= MIN_COVERAGE;
         if ui.add_enabled(ready, egui::Button::new("Fit")).clicked() {
-            let reference = c
-                .station
+            let reference = station
                 .gps
                 .last_position
                 .as_ref()
@@ -265,15 +272,15 @@ fn collecting_ui(c: &Console, ui: &mut egui::Ui, samples: &[[f64; 3]], since: In
 }
 
 /// What the console does when a unit identifies itself: start its heading stream and load the
-/// calibration kept for it, if it has a compass.
-pub fn on_identified(c: &mut Console) {
-    if !c.station.vest.device.is_some_and(|d| d.capabilities.contains(Capabilities::HEADING)) {
+/// calibration kept for it in `cfg`, if it has a compass.
+pub fn on_identified(station: &mut Station, cfg: &Config) {
+    if !station.vest.device.is_some_and(|d| d.capabilities.contains(Capabilities::HEADING)) {
         return;
     }
-    c.send_device(VestCommand::HeadingStart { rate_hz: STREAM_RATE_HZ });
+    let _ = station.send_device(VestCommand::HeadingStart { rate_hz: STREAM_RATE_HZ });
     if let Some(wire) =
-        c.cfg.compass_calibrations.get(&unit_key(c)).and_then(|cal: &Calibration| cal.to_wire().ok())
+        cfg.compass_calibrations.get(&unit_key(&cfg.vest)).and_then(|cal: &Calibration| cal.to_wire().ok())
     {
-        c.send_device(VestCommand::SetCalibration(wire));
+        let _ = station.send_device(VestCommand::SetCalibration(wire));
     }
 }

@@ -18,10 +18,9 @@ use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use vestnav_core::guidance::StrategyKind;
-use vestnav_core::vest::{Cue, TactorMask};
 use vestnav_device::gps::{GpsEvent, SourceState};
 use vestnav_device::outbox::Waker;
-use vestnav_device::wtcu::{VestCommand, VestEvent};
+use vestnav_device::wtcu::VestEvent;
 use vestnav_station::devices::DeviceFactory;
 use vestnav_station::guidance::GuidanceSettings;
 use vestnav_station::stop::StopPath;
@@ -31,8 +30,10 @@ use vestnav_station::{
 
 use crate::config::{Config, GpsSourceConfig, VestSourceConfig};
 use crate::fieldtest_panel::FieldTestPanel;
+use crate::gps_panel::GpsUi;
 use crate::map_panel::MapView;
 use crate::sim_panel::SimPanel;
+use crate::vest_panel::VestUi;
 
 mod frame;
 
@@ -51,33 +52,6 @@ pub enum Tab {
     FieldTests,
     /// Session log viewer and replay.
     SessionLog,
-}
-
-/// The GPS panel's own widget state (what it shows comes from the station).
-#[derive(Debug, Default)]
-pub struct GpsUi {
-    /// Editor state of the source picker.
-    pub picker: crate::gps_panel::SourcePicker,
-    /// The raw sentence monitor (the last sentences received).
-    pub monitor: crate::gps_panel::RawMonitor,
-    /// The Record toggle: the source's sentences to a file (kept across reconnections).
-    pub recording: crate::gps_panel::RecordUi,
-    /// The Receiver section: the configuration to send and the last run's outcomes (kept across
-    /// reconnections).
-    pub receiver: crate::gps_receiver::ReceiverUi,
-}
-
-/// The Vest panel's own widget state.
-#[derive(Debug, Default)]
-pub struct VestUi {
-    /// Tactors selected for a multi-fire.
-    pub selected: TactorMask,
-    /// Multi-select mode: clicks select instead of firing.
-    pub select_mode: bool,
-    /// Name typed for a new user pattern.
-    pub new_pattern_name: String,
-    /// Vest port typed or picked.
-    pub port: String,
 }
 
 /// Devices named on the command line: they win over the saved settings for this run (and are not saved).
@@ -213,17 +187,8 @@ impl Console {
             },
         );
         let mut console = Self {
-            gps_ui: GpsUi {
-                picker: crate::gps_panel::SourcePicker::from_config(&cfg.gps),
-                ..GpsUi::default()
-            },
-            vest_ui: VestUi {
-                port: match &cfg.vest {
-                    VestSourceConfig::Serial { port } => port.clone(),
-                    VestSourceConfig::Emulated => String::new(),
-                },
-                ..VestUi::default()
-            },
+            gps_ui: GpsUi::from_config(&cfg.gps),
+            vest_ui: VestUi::from_config(&cfg.vest),
             map: MapView::new(cfg.follow),
             cfg_saved: cfg.clone(),
             cfg,
@@ -278,30 +243,12 @@ impl Console {
 
     /// (Re)connects the GPS to the configured source.
     pub fn connect_gps(&mut self) {
-        self.station.set_gps_source(self.cfg.gps.clone());
-        // The recording tap records whatever source runs; it outlives the connection like the picker.
-        let taps = vec![self.gps_ui.recording.tap.outbox()];
-        self.gps_ui.monitor = self.gps_ui.monitor.emptied();
-        self.station.connect_gps(taps);
-        if self.station.gps_connected()
-            && let GpsSourceConfig::Replay { path, .. } = &self.cfg.gps
-        {
-            // Relative replay paths are ignored by the list (it holds absolute paths only).
-            self.cfg.recent.push(crate::file_dialog::RecentKind::Nmea, path);
-        }
+        crate::gps_panel::connect(&mut self.station, &mut self.cfg, &mut self.gps_ui);
     }
 
     /// The pause/seek/progress controls of the running GPS source when it is a replay.
     pub fn gps_replay(&self) -> Option<std::sync::Arc<vestnav_device::gps::ReplayControl>> {
         self.station.gps_worker()?.replay_control()
-    }
-
-    /// Sends a receiver configuration through the running GPS source (a direct serial port only).
-    pub fn gps_configure(
-        &self,
-        config: vestnav_device::gps::receiver_config::ReceiverConfig,
-    ) -> Result<vestnav_device::gps::receiver_config::ConfigTicket, String> {
-        self.station.gps_worker().ok_or_else(|| "connect the GPS first".to_owned())?.configure(config)
     }
 
     /// Stops the GPS source (never waits long on its IO).
@@ -311,8 +258,7 @@ impl Console {
 
     /// (Re)connects the vest.
     pub fn connect_vest(&mut self) {
-        self.station.set_vest_source(self.cfg.vest.clone());
-        self.station.connect_vest();
+        crate::vest_panel::connect(&mut self.station, &self.cfg);
     }
 
     /// Stops every tactor and closes the vest link (waiting a bounded time for the acknowledgement).
@@ -323,18 +269,6 @@ impl Console {
     /// Stops the vest first (STOP ALL, acknowledged or timed out), then the GPS: the console's exit.
     pub fn shutdown(&mut self) {
         self.station.shutdown();
-    }
-
-    /// Sends a manual command to the vest (holding automatic guidance off) and logs it; `cue` names it when
-    /// it is one of the vocabulary's cues. A refusal shows in the Vest panel's last reply.
-    pub fn send_manual(&mut self, command: VestCommand, cue: Option<Cue>) {
-        let _ = self.station.send_manual(command, cue);
-    }
-
-    /// Sends a command as the operator's and logs it, without holding automatic guidance off (what
-    /// [`Self::send_manual`] adds): the heading stream and calibration commands go this way.
-    pub fn send_device(&mut self, command: VestCommand) {
-        let _ = self.station.send_device(command);
     }
 
     /// STOP ALL: every tactor off now, automatic guidance latched off until the operator resumes it.
@@ -394,7 +328,7 @@ impl Console {
             _ => {}
         });
         if identified {
-            crate::compass_panel::on_identified(self);
+            crate::compass_panel::on_identified(&mut self.station, &self.cfg);
         }
         self.sync_settings_from_station();
     }

@@ -12,9 +12,48 @@ use vestnav_device::gps::{Constellation, Fix, FixMode, RawLine, ReplayProgress, 
 use vestnav_device::heading::{Attitude, HeadingOrigin, HeadingReference};
 use vestnav_device::serial::{PortInfo, PortKind};
 
-use crate::config::{GpsSourceConfig, ReplaySpeed};
-use crate::console::{Console, GpsAlarm};
+use vestnav_station::{GpsAlarm, Station};
+
+use crate::config::{Config, GpsSourceConfig, ReplaySpeed};
 use crate::file_dialog::RecentKind;
+use crate::gps_receiver::ReceiverUi;
+
+/// The GPS panel's own widget state (what it shows comes from the station).
+#[derive(Debug, Default)]
+pub struct GpsUi {
+    /// Editor state of the source picker.
+    pub picker: SourcePicker,
+    /// The raw sentence monitor (the last sentences received).
+    pub monitor: RawMonitor,
+    /// The Record toggle: the source's sentences to a file (kept across reconnections).
+    pub recording: RecordUi,
+    /// The Receiver section: the configuration to send and the last run's outcomes (kept across
+    /// reconnections).
+    pub receiver: ReceiverUi,
+}
+
+impl GpsUi {
+    /// The state for the configured GPS `source` (the picker shows it).
+    pub fn from_config(source: &GpsSourceConfig) -> Self {
+        Self { picker: SourcePicker::from_config(source), ..Self::default() }
+    }
+}
+
+/// (Re)connects the GPS `station` runs to the source configured in `cfg`, with the panel's recording tap
+/// (it records whatever source runs and outlives the connection, like the picker) and an emptied monitor. A
+/// replay file that connects goes into the recent files.
+pub fn connect(station: &mut Station, cfg: &mut Config, gps_ui: &mut GpsUi) {
+    station.set_gps_source(cfg.gps.clone());
+    let taps = vec![gps_ui.recording.tap.outbox()];
+    gps_ui.monitor = gps_ui.monitor.emptied();
+    station.connect_gps(taps);
+    if station.gps_connected()
+        && let GpsSourceConfig::Replay { path, .. } = &cfg.gps
+    {
+        // Relative replay paths are ignored by the list (it holds absolute paths only).
+        cfg.recent.push(RecentKind::Nmea, path);
+    }
+}
 
 /// Baud rates offered (the BT-359 talks 4800 by default); `None` = automatic detection.
 pub const BAUDS: [Option<u32>; 7] =
@@ -309,19 +348,20 @@ pub fn freshness(fix: &Fix, source_running: bool, now: Instant, stale_after_s: f
     }
 }
 
-/// Draws the GPS section; `now` is the clock fix ages are measured on.
-pub fn show(c: &mut Console, ui: &mut egui::Ui, now: Instant) {
-    let base = c.cfg.recent.base();
-    picker_ui(c, ui, &base);
+/// Draws the GPS section: what `station` reports of the GPS and the commands to it, the settings in `cfg` it
+/// edits, and its own state `gps_ui`; `now` is the clock fix ages are measured on.
+pub fn show(station: &mut Station, cfg: &mut Config, gps_ui: &mut GpsUi, ui: &mut egui::Ui, now: Instant) {
+    let base = cfg.recent.base();
+    picker_ui(cfg, gps_ui, ui, &base);
     ui.horizontal_wrapped(|ui| {
-        let connected = c.gps_connected();
+        let connected = station.gps_connected();
         if ui.add_enabled(!connected, egui::Button::new("Connect GPS")).clicked() {
-            match c.gps_ui.picker.to_config(&c.cfg.recent.base()) {
+            match gps_ui.picker.to_config(&cfg.recent.base()) {
                 Ok(src) => {
-                    c.cfg.gps = src;
-                    c.connect_gps();
+                    cfg.gps = src;
+                    connect(station, cfg, gps_ui);
                 }
-                Err(e) => c.say(
+                Err(e) => station.notices.raise(
                     vestnav_station::Severity::Warning,
                     vestnav_station::Subject::Gps,
                     format!("GPS: {e}"),
@@ -329,39 +369,40 @@ pub fn show(c: &mut Console, ui: &mut egui::Ui, now: Instant) {
             }
         }
         if ui.add_enabled(connected, egui::Button::new("Disconnect GPS")).clicked() {
-            c.disconnect_gps();
+            station.disconnect_gps();
         }
-        ui.label(RichText::new(state_label(c.station.gps.state.as_ref())).strong());
+        ui.label(RichText::new(state_label(station.gps.state.as_ref())).strong());
         // Both on the connect row: closed, the monitor and the recording take no room above the vest grid.
-        record_toggle(c, ui);
-        ui.toggle_value(&mut c.gps_ui.monitor.open, "NMEA monitor");
-        ui.toggle_value(&mut c.gps_ui.receiver.open, "Receiver")
+        record_toggle(gps_ui, ui);
+        ui.toggle_value(&mut gps_ui.monitor.open, "NMEA monitor");
+        ui.toggle_value(&mut gps_ui.receiver.open, "Receiver")
             .on_hover_text("Configure the receiver: rate, constellations, dynamic model, static hold");
     });
-    if let Some(n) = &c.station.gps.notice {
+    if let Some(n) = &station.gps.notice {
         ui.label(RichText::new(n).small().weak());
     }
-    replay_ui(c, ui);
-    record_ui(c, ui);
-    monitor_ui(c, ui);
+    replay_ui(station, ui);
+    record_ui(gps_ui, ui);
+    monitor_ui(gps_ui, ui);
 
     // The alarm itself (state, what to do, "Silence alarm") is the banner strip's GPS line.
-    let alarm = c.gps_alarm(now);
+    let alarm = station.gps_alarm(now);
 
-    if let Some(a) = &c.station.gps.attitude {
-        let (text, stale) = attitude_line(a, now, c.cfg.stale_after_s);
+    if let Some(a) = &station.gps.attitude {
+        let (text, stale) = attitude_line(a, now, cfg.stale_after_s);
         // Stale like a stale fix: the same limit and the same orange.
         let color = if stale { Color32::from_rgb(220, 140, 0) } else { ui.visuals().text_color() };
         ui.label(RichText::new(text).color(color));
     }
 
-    let Some(fix) = c.station.gps.fix.clone() else {
+    let Some(fix) = station.gps.fix.clone() else {
         ui.label("no fix yet");
         return;
     };
-    let age = c.position_age(now).map(|a| a.as_secs_f64());
-    let running = c.gps_connected() && !matches!(c.station.gps.state, None | Some(SourceState::Lost { .. }));
-    let fresh = freshness(&fix, running, now, c.cfg.stale_after_s);
+    let age = station.position_age(now).map(|a| a.as_secs_f64());
+    let running =
+        station.gps_connected() && !matches!(station.gps.state, None | Some(SourceState::Lost { .. }));
+    let fresh = freshness(&fix, running, now, cfg.stale_after_s);
     if let Freshness::LastKnown { age_s } = fresh {
         let what = if matches!(alarm, Some(GpsAlarm::Lost { .. })) { "FIX LOST" } else { "NOT CURRENT" };
         ui.label(
@@ -373,8 +414,8 @@ pub fn show(c: &mut Console, ui: &mut egui::Ui, now: Instant) {
             .color(ui.visuals().warn_fg_color),
         );
     }
-    fix_grid(ui, &fix, age, c.station.gps.fixes, fresh);
-    if let Some(st) = &c.station.gps.stats {
+    fix_grid(ui, &fix, age, station.gps.fixes, fresh);
+    if let Some(st) = &station.gps.stats {
         ui.label(
             RichText::new(format!(
                 "{} sentences, {} epochs, {} rejected ({} bad checksums)",
@@ -400,13 +441,15 @@ pub fn show(c: &mut Console, ui: &mut egui::Ui, now: Instant) {
                     .weak(),
             );
         }
-        satellite_table(ui, &fix.satellites, fresh, &mut c.cfg.show_satellite_table);
+        satellite_table(ui, &fix.satellites, fresh, &mut cfg.show_satellite_table);
     }
 }
 
 /// Pause/resume, the seek bar and elapsed/total time of a replay source.
-fn replay_ui(c: &mut Console, ui: &mut egui::Ui) {
-    let Some(ctl) = c.gps_replay() else { return };
+fn replay_ui(station: &Station, ui: &mut egui::Ui) {
+    let Some(ctl) = station.gps_worker().and_then(vestnav_station::devices::GpsWorker::replay_control) else {
+        return;
+    };
     let progress = ctl.progress();
     ui.horizontal(|ui| {
         let paused = ctl.is_paused();
@@ -430,8 +473,8 @@ fn replay_ui(c: &mut Console, ui: &mut egui::Ui) {
 }
 
 /// The Record toggle.
-fn record_toggle(c: &mut Console, ui: &mut egui::Ui) {
-    let r = &mut c.gps_ui.recording;
+fn record_toggle(gps_ui: &mut GpsUi, ui: &mut egui::Ui) {
+    let r = &mut gps_ui.recording;
     let recording = r.tap.is_recording();
     let mut on = recording;
     if ui.toggle_value(&mut on, if recording { "Stop recording" } else { "Record NMEA" }).changed() {
@@ -444,9 +487,9 @@ fn record_toggle(c: &mut Console, ui: &mut egui::Ui) {
 }
 
 /// The recording's folder (with the monitor open), the file being written, sentences and bytes, the error.
-fn record_ui(c: &mut Console, ui: &mut egui::Ui) {
-    let open = c.gps_ui.monitor.open;
-    let r = &mut c.gps_ui.recording;
+fn record_ui(gps_ui: &mut GpsUi, ui: &mut egui::Ui) {
+    let open = gps_ui.monitor.open;
+    let r = &mut gps_ui.recording;
     let recording = r.tap.is_recording();
     if open {
         ui.horizontal(|ui| {
@@ -468,8 +511,8 @@ fn record_ui(c: &mut Console, ui: &mut egui::Ui) {
 }
 
 /// The raw sentence monitor: the last sentences with their arrival time, pausable, filtered.
-fn monitor_ui(c: &mut Console, ui: &mut egui::Ui) {
-    let m = &mut c.gps_ui.monitor;
+fn monitor_ui(gps_ui: &mut GpsUi, ui: &mut egui::Ui) {
+    let m = &mut gps_ui.monitor;
     if !m.open {
         return;
     }
@@ -564,8 +607,8 @@ fn satellite_table(ui: &mut egui::Ui, sats: &[Satellite], fresh: Freshness, open
     }
 }
 
-fn picker_ui(c: &mut Console, ui: &mut egui::Ui, base: &std::path::Path) {
-    let p = &mut c.gps_ui.picker;
+fn picker_ui(cfg: &Config, gps_ui: &mut GpsUi, ui: &mut egui::Ui, base: &std::path::Path) {
+    let p = &mut gps_ui.picker;
     let label = |k: SourceKind| match k {
         SourceKind::Simulator => "Simulator",
         SourceKind::Serial => "Serial / Bluetooth port",
@@ -626,7 +669,7 @@ fn picker_ui(c: &mut Console, ui: &mut egui::Ui, base: &std::path::Path) {
                     }
                 });
         }
-        SourceKind::Replay => replay_picker(p, &c.cfg.recent, ui, base),
+        SourceKind::Replay => replay_picker(p, &cfg.recent, ui, base),
         SourceKind::Gpsd => {
             ui.horizontal(|ui| {
                 ui.label("Host");

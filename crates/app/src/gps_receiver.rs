@@ -13,7 +13,7 @@ use vestnav_device::gps::receiver_config::{
 };
 
 use crate::config::GpsSourceConfig;
-use crate::console::Console;
+use vestnav_station::Station;
 
 /// What the operator set up, and the last run.
 #[derive(Debug)]
@@ -106,9 +106,13 @@ impl ReceiverUi {
         !finished
     }
 
-    /// Starts a run of `cfg` through the console's source.
-    fn send(&mut self, c: &Console, cfg: ReceiverConfig) {
-        match c.gps_configure(cfg) {
+    /// Starts a run of `cfg` through the station's running GPS source (a direct serial port only).
+    fn send(&mut self, station: &Station, cfg: ReceiverConfig) {
+        let ticket = station
+            .gps_worker()
+            .ok_or_else(|| "connect the GPS first".to_owned())
+            .and_then(|w| w.configure(cfg));
+        match ticket {
             Ok(t) => {
                 self.ticket = Some(t);
                 self.results.clear();
@@ -120,11 +124,12 @@ impl ReceiverUi {
 }
 
 /// Whether the running source can configure its receiver: only a direct serial port can; otherwise why.
-pub fn availability(c: &Console) -> Result<(), String> {
-    if !c.gps_connected() {
+/// `source` is the configured source the station runs.
+pub fn availability(station: &Station, source: &GpsSourceConfig) -> Result<(), String> {
+    if !station.gps_connected() {
         return Err("connect the GPS on its serial port first".into());
     }
-    match &c.cfg.gps {
+    match source {
         GpsSourceConfig::Serial { .. } => Ok(()),
         _ => Err(format!(
             "{} (the current source is not a serial port)",
@@ -135,9 +140,9 @@ pub fn availability(c: &Console) -> Result<(), String> {
 
 /// Draws the configuration window when open (the GPS panel's **Receiver** toggle opens it). Drawn by the
 /// frame, so it stays open when the GPS section is collapsed, and it takes no room above the vest grid.
-/// A run under way is followed whether or not the window is open.
-pub fn window(c: &mut Console, ctx: &egui::Context) {
-    let mut r = std::mem::take(&mut c.gps_ui.receiver);
+/// A run under way is followed whether or not the window is open. `r` is the window's own state; `station`
+/// runs the GPS source configured as `source`.
+pub fn window(station: &Station, source: &GpsSourceConfig, r: &mut ReceiverUi, ctx: &egui::Context) {
     if r.poll() {
         ctx.request_repaint_after(Duration::from_millis(100));
     }
@@ -145,13 +150,12 @@ pub fn window(c: &mut Console, ctx: &egui::Context) {
     egui::Window::new("GPS receiver configuration")
         .open(&mut open)
         .default_width(380.0)
-        .show(ctx, |ui| body(c, &mut r, ui));
+        .show(ctx, |ui| body(station, source, r, ui));
     r.open = open;
-    c.gps_ui.receiver = r;
 }
 
-fn body(c: &Console, r: &mut ReceiverUi, ui: &mut egui::Ui) {
-    let available = availability(c);
+fn body(station: &Station, source: &GpsSourceConfig, r: &mut ReceiverUi, ui: &mut egui::Ui) {
+    let available = availability(station, source);
     egui::ComboBox::from_label("Receiver family").selected_text(r.family.label()).show_ui(ui, |ui| {
         for f in Family::ALL {
             ui.selectable_value(&mut r.family, f, f.label());
@@ -169,7 +173,7 @@ fn body(c: &Console, r: &mut ReceiverUi, ui: &mut egui::Ui) {
             Ok(()) => b.on_hover_text("$PSRF100 to SiRF binary, MID 143 (disable), MID 129 back to NMEA"),
         };
         if b.clicked() {
-            r.send(c, ReceiverUi::sirf_static_nav_off());
+            r.send(station, ReceiverUi::sirf_static_nav_off());
         }
     } else {
         ui.add(egui::Slider::new(&mut r.rate_hz, 1..=10).text("Hz navigation rate"));
@@ -204,7 +208,7 @@ fn body(c: &Console, r: &mut ReceiverUi, ui: &mut egui::Ui) {
             Ok(()) => b,
         };
         if b.clicked() {
-            r.send(c, r.request());
+            r.send(station, r.request());
         }
         if let Err(why) = valid {
             ui.label(RichText::new(why).color(ui.visuals().warn_fg_color));

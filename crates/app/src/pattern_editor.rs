@@ -28,7 +28,9 @@ use vestnav_device::wtcu::VestCommand;
 use vestnav_device::wtcu::limits::Limits;
 use vestnav_device::wtcu::message::{Capabilities, DeviceInfo};
 
-use crate::console::Console;
+use vestnav_station::Station;
+
+use crate::config::Config;
 
 /// Largest pattern file read [bytes]: a valid pattern (at most a few dozen frames) is far smaller, and a
 /// file may be anything.
@@ -205,8 +207,13 @@ pub fn load_pattern(path: &Path) -> Result<Pattern, String> {
 }
 
 impl PatternEditor {
-    /// Draws the window when it is open.
-    pub fn window(&mut self, c: &mut Console, ctx: &egui::Context) {
+    /// Draws the window when it is open: the preview goes to the vest `station` runs, saved patterns into
+    /// `cfg`. Drawn by the frame, not inside the Vest section, so collapsing the section (or scrolling it
+    /// away) does not hide an open editor.
+    pub fn window(&mut self, station: &mut Station, cfg: &mut Config, ctx: &egui::Context) {
+        if !self.open {
+            return;
+        }
         let mut open = self.open;
         egui::Window::new("Pattern editor")
             .open(&mut open)
@@ -214,12 +221,12 @@ impl PatternEditor {
             .default_size([560.0, 720.0])
             .resizable(true)
             .vscroll(true)
-            .show(ctx, |ui| self.ui(c, ui));
+            .show(ctx, |ui| self.ui(station, cfg, ui));
         self.open = open;
     }
 
     /// The editor's contents.
-    pub fn ui(&mut self, c: &mut Console, ui: &mut egui::Ui) {
+    pub fn ui(&mut self, station: &mut Station, cfg: &mut Config, ui: &mut egui::Ui) {
         self.selected = self.selected.min(self.pattern.frames.len().saturating_sub(1));
         ui.horizontal(|ui| {
             ui.label("Name");
@@ -232,9 +239,9 @@ impl PatternEditor {
         ui.separator();
         self.grid_ui(ui);
         ui.separator();
-        self.intensity_ui(c, ui);
+        self.intensity_ui(station, ui);
         ui.separator();
-        let limits = limits_in_force(c.station.vest.device.as_ref());
+        let limits = limits_in_force(station.vest.device.as_ref());
         let refused = refusal(&self.pattern, &limits);
         match &refused {
             Some(reason) => {
@@ -253,8 +260,8 @@ impl PatternEditor {
                 ));
             }
         }
-        self.actions_ui(c, ui, refused.is_none());
-        self.file_ui(ui, refused.is_none(), &mut c.cfg.recent);
+        self.actions_ui(station, cfg, ui, refused.is_none());
+        self.file_ui(ui, refused.is_none(), &mut cfg.recent);
         if let Some((text, error)) = &self.message {
             let text = RichText::new(text);
             ui.label(if *error { text.color(Color32::from_rgb(230, 60, 40)).strong() } else { text });
@@ -388,11 +395,11 @@ impl PatternEditor {
         }
     }
 
-    fn intensity_ui(&mut self, c: &Console, ui: &mut egui::Ui) {
-        let capable = c.station.vest.device.is_some_and(|d| d.capabilities.contains(Capabilities::INTENSITY));
+    fn intensity_ui(&mut self, station: &Station, ui: &mut egui::Ui) {
+        let capable = station.vest.device.is_some_and(|d| d.capabilities.contains(Capabilities::INTENSITY));
         egui::CollapsingHeader::new("Intensity per tactor (sent before the preview)").show(ui, |ui| {
             if !capable {
-                let why = if c.station.vest.device.is_none() {
+                let why = if station.vest.device.is_none() {
                     "No unit has identified itself: connect the vest to set intensities."
                 } else {
                     "This unit does not report the intensity capability (no SET_INTENSITY): tactors run at \
@@ -425,9 +432,9 @@ impl PatternEditor {
         });
     }
 
-    fn actions_ui(&mut self, c: &mut Console, ui: &mut egui::Ui, valid: bool) {
-        let live = c.station.vest.is_live();
-        let capable = c.station.vest.device.is_some_and(|d| d.capabilities.contains(Capabilities::INTENSITY));
+    fn actions_ui(&mut self, station: &mut Station, cfg: &mut Config, ui: &mut egui::Ui, valid: bool) {
+        let live = station.vest.is_live();
+        let capable = station.vest.device.is_some_and(|d| d.capabilities.contains(Capabilities::INTENSITY));
         ui.horizontal_wrapped(|ui| {
             let why = if valid { "The vest is not live" } else { "The pattern is outside the limits" };
             if ui
@@ -438,17 +445,20 @@ impl PatternEditor {
             {
                 if capable {
                     for command in intensity_commands(&self.pattern, &self.levels) {
-                        c.send_manual(command, None);
+                        let _ = station.send_manual(command, None);
                     }
                 }
-                c.send_manual(VestCommand::Play(self.pattern.clone()), None);
+                let _ = station.send_manual(VestCommand::Play(self.pattern.clone()), None);
             }
             if ui
                 .add_enabled(live && capable, egui::Button::new("Reset unit to full"))
                 .on_hover_text("Every tactor of the unit back to level 255 (the levels stay on the unit)")
                 .clicked()
             {
-                c.send_manual(VestCommand::SetIntensity { mask: TactorMask::ALL, level: FULL_LEVEL }, None);
+                let _ = station.send_manual(
+                    VestCommand::SetIntensity { mask: TactorMask::ALL, level: FULL_LEVEL },
+                    None,
+                );
             }
             if !live {
                 ui.label(RichText::new("Vest not live: no preview").color(Color32::from_rgb(230, 60, 40)));
@@ -462,16 +472,16 @@ impl PatternEditor {
                 .on_disabled_hover_text("Needs a name and a pattern within the limits")
                 .clicked()
             {
-                if c.cfg.user_patterns.iter().any(|p| p.name == name) {
+                if cfg.user_patterns.iter().any(|p| p.name == name) {
                     self.confirm_replace = true;
                 } else {
-                    self.save_to_config(c, &name);
+                    self.save_to_config(cfg, &name);
                 }
             }
             if self.confirm_replace {
                 ui.label(RichText::new(format!("'{name}' exists in my patterns.")).strong());
                 if ui.add_enabled(ok, egui::Button::new("Replace it")).clicked() {
-                    self.save_to_config(c, &name);
+                    self.save_to_config(cfg, &name);
                 }
                 if ui.button("Keep it").clicked() {
                     self.confirm_replace = false;
@@ -480,12 +490,12 @@ impl PatternEditor {
         });
     }
 
-    fn save_to_config(&mut self, c: &mut Console, name: &str) {
+    fn save_to_config(&mut self, cfg: &mut Config, name: &str) {
         let mut p = self.pattern.clone();
         name.clone_into(&mut p.name);
-        match c.cfg.user_patterns.iter_mut().find(|q| q.name == name) {
+        match cfg.user_patterns.iter_mut().find(|q| q.name == name) {
             Some(q) => *q = p,
-            None => c.cfg.user_patterns.push(p),
+            None => cfg.user_patterns.push(p),
         }
         self.confirm_replace = false;
         self.message = Some((format!("'{name}' saved to my patterns"), false));

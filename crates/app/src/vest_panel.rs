@@ -8,45 +8,94 @@
 use egui::{Color32, RichText, vec2};
 use vestnav_core::vest::{Cue, Frame, GRID, Pattern, TactorMask};
 
-use crate::config::VestSourceConfig;
-use crate::console::Console;
 use vestnav_device::wtcu::VestCommand;
+use vestnav_station::Station;
 
-/// Draws the Vest section.
-pub fn show(c: &mut Console, ui: &mut egui::Ui) {
-    connection_ui(c, ui);
+use crate::compass_panel::Wizard;
+use crate::config::{Config, VestSourceConfig};
+
+/// The Vest panel's own widget state.
+#[derive(Debug, Default)]
+pub struct VestUi {
+    /// Tactors selected for a multi-fire.
+    pub selected: TactorMask,
+    /// Multi-select mode: clicks select instead of firing.
+    pub select_mode: bool,
+    /// Name typed for a new user pattern.
+    pub new_pattern_name: String,
+    /// Vest port typed or picked.
+    pub port: String,
+}
+
+impl VestUi {
+    /// The state for the configured vest `source` (its port typed in).
+    pub fn from_config(source: &VestSourceConfig) -> Self {
+        Self {
+            port: match source {
+                VestSourceConfig::Serial { port } => port.clone(),
+                VestSourceConfig::Emulated => String::new(),
+            },
+            ..Self::default()
+        }
+    }
+}
+
+/// (Re)connects the vest `station` runs to the source configured in `cfg`.
+pub fn connect(station: &mut Station, cfg: &Config) {
+    station.set_vest_source(cfg.vest.clone());
+    station.connect_vest();
+}
+
+/// Sends a manual command (holding automatic guidance off; the station logs it). A refusal shows in the
+/// panel's last reply, so the result is not shown twice.
+fn send_manual(station: &mut Station, command: VestCommand, cue: Option<Cue>) {
+    let _ = station.send_manual(command, cue);
+}
+
+/// Draws the Vest section: what `station` reports of the vest and the commands to it, the settings in `cfg`
+/// it edits (on-time, port, patterns), its own state `vest_ui`, the compass `wizard` and whether the
+/// pattern editor is open (`editor_open`).
+pub fn show(
+    station: &mut Station,
+    cfg: &mut Config,
+    vest_ui: &mut VestUi,
+    wizard: &mut Wizard,
+    editor_open: &mut bool,
+    ui: &mut egui::Ui,
+) {
+    connection_ui(station, cfg, vest_ui, ui);
     ui.separator();
-    ui.add(egui::Slider::new(&mut c.cfg.on_ms, 50..=2000).suffix(" ms").text("On-time"));
+    ui.add(egui::Slider::new(&mut cfg.on_ms, 50..=2000).suffix(" ms").text("On-time"));
     ui.horizontal(|ui| {
-        ui.checkbox(&mut c.vest_ui.select_mode, "Multi-select");
-        let n = c.vest_ui.selected.count();
+        ui.checkbox(&mut vest_ui.select_mode, "Multi-select");
+        let n = vest_ui.selected.count();
         if ui
-            .add_enabled(n > 0 && c.station.vest.is_live(), egui::Button::new(format!("Fire selected ({n})")))
+            .add_enabled(n > 0 && station.vest.is_live(), egui::Button::new(format!("Fire selected ({n})")))
             .clicked()
         {
-            c.send_manual(VestCommand::Fire { mask: c.vest_ui.selected, duration_ms: c.cfg.on_ms }, None);
+            send_manual(station, VestCommand::Fire { mask: vest_ui.selected, duration_ms: cfg.on_ms }, None);
         }
         if ui.add_enabled(n > 0, egui::Button::new("Clear")).clicked() {
-            c.vest_ui.selected = TactorMask::NONE;
+            vest_ui.selected = TactorMask::NONE;
         }
     });
-    if !c.station.vest.is_live() {
+    if !station.vest.is_live() {
         ui.label(
-            RichText::new(format!("Vest not live ({}): tactors cannot be fired", c.station.vest.label()))
+            RichText::new(format!("Vest not live ({}): tactors cannot be fired", station.vest.label()))
                 .color(Color32::from_rgb(230, 60, 40))
                 .strong(),
         );
     }
-    grid_ui(c, ui);
+    grid_ui(station, cfg, vest_ui, ui);
     ui.label(format!(
         "on now (as the unit reports): {}",
-        match c.station.vest.tactors_on {
+        match station.vest.tactors_on {
             None => "unknown".to_owned(),
             Some(m) if m.is_empty() => "none".to_owned(),
             Some(m) => m.indices().map(|i| i.to_string()).collect::<Vec<_>>().join(", "),
         }
     ));
-    if let Some(r) = &c.station.vest.last_reply {
+    if let Some(r) = &station.vest.last_reply {
         let age = r.at.elapsed().as_secs_f64();
         let text = format!("{} ({age:.0} s ago)", r.text);
         if r.refused {
@@ -56,26 +105,26 @@ pub fn show(c: &mut Console, ui: &mut egui::Ui) {
         }
     }
     ui.separator();
-    patterns_ui(c, ui);
+    patterns_ui(station, cfg, vest_ui, editor_open, ui);
     ui.separator();
-    crate::compass_panel::show(c, ui);
+    crate::compass_panel::show(station, cfg, wizard, ui);
 }
 
-fn connection_ui(c: &mut Console, ui: &mut egui::Ui) {
-    let emulated = matches!(c.cfg.vest, VestSourceConfig::Emulated);
+fn connection_ui(station: &mut Station, cfg: &mut Config, vest_ui: &mut VestUi, ui: &mut egui::Ui) {
+    let emulated = matches!(cfg.vest, VestSourceConfig::Emulated);
     ui.horizontal(|ui| {
         let mut choice = emulated;
         ui.radio_value(&mut choice, true, "Emulated vest");
         ui.radio_value(&mut choice, false, "WTCU port");
         if choice != emulated {
-            c.cfg.vest = if choice {
+            cfg.vest = if choice {
                 VestSourceConfig::Emulated
             } else {
-                VestSourceConfig::Serial { port: c.vest_ui.port.clone() }
+                VestSourceConfig::Serial { port: vest_ui.port.clone() }
             };
         }
     });
-    if let VestSourceConfig::Serial { port } = &mut c.cfg.vest {
+    if let VestSourceConfig::Serial { port } = &mut cfg.vest {
         ui.horizontal(|ui| {
             ui.label("Port");
             egui::ComboBox::from_id_salt("vest-port")
@@ -93,30 +142,30 @@ fn connection_ui(c: &mut Console, ui: &mut egui::Ui) {
                 });
             ui.text_edit_singleline(port);
         });
-        c.vest_ui.port.clone_from(port);
+        vest_ui.port.clone_from(port);
     }
     ui.horizontal(|ui| {
-        let connected = c.vest_connected();
+        let connected = station.vest_connected();
         if ui.add_enabled(!connected, egui::Button::new("Connect vest")).clicked() {
-            c.connect_vest();
+            connect(station, cfg);
         }
         if ui.add_enabled(connected, egui::Button::new("Disconnect vest")).clicked() {
-            c.disconnect_vest();
+            station.disconnect_vest();
         }
-        ui.label(RichText::new(c.station.vest.label()).strong());
+        ui.label(RichText::new(station.vest.label()).strong());
     });
     // Shown only while the unit is live: what it said on a link that is gone is not its state now.
-    if c.station.vest.is_live() {
-        let battery = c.station.vest.status.as_ref().map_or_else(
+    if station.vest.is_live() {
+        let battery = station.vest.status.as_ref().map_or_else(
             || "—".to_owned(),
             |(s, at)| format!("{} % ({:.0} s ago)", s.battery_pct, at.elapsed().as_secs_f64()),
         );
-        let fw = c.station.vest.device.as_ref().map_or_else(|| "—".to_owned(), |d| d.firmware.to_string());
+        let fw = station.vest.device.as_ref().map_or_else(|| "—".to_owned(), |d| d.firmware.to_string());
         ui.label(format!("battery {battery} · firmware {fw}"));
     }
 }
 
-fn grid_ui(c: &mut Console, ui: &mut egui::Ui) {
+fn grid_ui(station: &mut Station, cfg: &Config, vest_ui: &mut VestUi, ui: &mut egui::Ui) {
     ui.label(RichText::new("back view (as seen behind the wearer)").small().weak());
     ui.horizontal(|ui| {
         ui.label(RichText::new("wearer's left").small());
@@ -128,8 +177,8 @@ fn grid_ui(c: &mut Console, ui: &mut egui::Ui) {
         for row in 0..GRID {
             for col in 0..GRID {
                 let i = row * GRID + col;
-                let on = c.station.vest.tactors_on.is_some_and(|m| m.contains(i));
-                let selected = c.vest_ui.selected.contains(i);
+                let on = station.vest.tactors_on.is_some_and(|m| m.contains(i));
+                let selected = vest_ui.selected.contains(i);
                 let fill = if on {
                     Color32::from_rgb(250, 170, 20)
                 } else if selected {
@@ -144,14 +193,14 @@ fn grid_ui(c: &mut Console, ui: &mut egui::Ui) {
                 });
                 let b = egui::Button::new(text).fill(fill).min_size(vec2(52.0, 40.0));
                 // Firing needs a live unit; selecting does not.
-                let live = c.station.vest.is_live() || c.vest_ui.select_mode || ctrl;
+                let live = station.vest.is_live() || vest_ui.select_mode || ctrl;
                 let resp =
                     ui.add_enabled(live, b).on_hover_text(format!("tactor {i}: row {row}, column {col}"));
                 if resp.clicked() {
-                    if c.vest_ui.select_mode || ctrl {
-                        c.vest_ui.selected = TactorMask(c.vest_ui.selected.0 ^ (1 << i));
+                    if vest_ui.select_mode || ctrl {
+                        vest_ui.selected = TactorMask(vest_ui.selected.0 ^ (1 << i));
                     } else if let Some(mask) = TactorMask::single(i) {
-                        c.send_manual(VestCommand::Fire { mask, duration_ms: c.cfg.on_ms }, None);
+                        send_manual(station, VestCommand::Fire { mask, duration_ms: cfg.on_ms }, None);
                     }
                 }
             }
@@ -159,30 +208,36 @@ fn grid_ui(c: &mut Console, ui: &mut egui::Ui) {
         }
     });
     // The live state comes from acks; keep repainting while something is on.
-    if c.station.vest.tactors_on.is_some_and(|m| !m.is_empty()) {
+    if station.vest.tactors_on.is_some_and(|m| !m.is_empty()) {
         ui.ctx().request_repaint_after(std::time::Duration::from_millis(50));
     }
 }
 
-fn patterns_ui(c: &mut Console, ui: &mut egui::Ui) {
+fn patterns_ui(
+    station: &mut Station,
+    cfg: &mut Config,
+    vest_ui: &mut VestUi,
+    editor_open: &mut bool,
+    ui: &mut egui::Ui,
+) {
     ui.label("Patterns");
     ui.horizontal_wrapped(|ui| {
         for cue in Cue::ALL {
             if ui
-                .add_enabled(c.station.vest.is_live(), egui::Button::new(cue.name()))
-                .on_hover_text(describe(&cue.pattern(c.cfg.on_ms)))
+                .add_enabled(station.vest.is_live(), egui::Button::new(cue.name()))
+                .on_hover_text(describe(&cue.pattern(cfg.on_ms)))
                 .clicked()
             {
-                c.send_manual(VestCommand::Play(cue.pattern(c.cfg.on_ms)), Some(cue));
+                send_manual(station, VestCommand::Play(cue.pattern(cfg.on_ms)), Some(cue));
             }
         }
     });
     let mut remove = None;
     let mut play = None;
-    for (k, p) in c.cfg.user_patterns.iter().enumerate() {
+    for (k, p) in cfg.user_patterns.iter().enumerate() {
         ui.horizontal(|ui| {
             if ui
-                .add_enabled(c.station.vest.is_live(), egui::Button::new(format!("Play {}", p.name)))
+                .add_enabled(station.vest.is_live(), egui::Button::new(format!("Play {}", p.name)))
                 .on_hover_text(describe(p))
                 .clicked()
             {
@@ -194,49 +249,39 @@ fn patterns_ui(c: &mut Console, ui: &mut egui::Ui) {
         });
     }
     if let Some(p) = play {
-        c.send_manual(VestCommand::Play(p), None);
+        send_manual(station, VestCommand::Play(p), None);
     }
     if let Some(k) = remove {
-        c.cfg.user_patterns.remove(k);
+        cfg.user_patterns.remove(k);
     }
     ui.horizontal(|ui| {
         ui.add(
-            egui::TextEdit::singleline(&mut c.vest_ui.new_pattern_name).hint_text("name").desired_width(90.0),
+            egui::TextEdit::singleline(&mut vest_ui.new_pattern_name).hint_text("name").desired_width(90.0),
         );
-        let ok = !c.vest_ui.selected.is_empty() && !c.vest_ui.new_pattern_name.trim().is_empty();
+        let ok = !vest_ui.selected.is_empty() && !vest_ui.new_pattern_name.trim().is_empty();
         if ui
             .add_enabled(ok, egui::Button::new("Save selection as pattern"))
             .on_hover_text("The selected tactors, on for the on-time, then off for as long, three times")
             .clicked()
         {
-            c.cfg.user_patterns.push(Pattern {
-                name: c.vest_ui.new_pattern_name.trim().to_owned(),
+            cfg.user_patterns.push(Pattern {
+                name: vest_ui.new_pattern_name.trim().to_owned(),
                 frames: vec![
-                    Frame { mask: c.vest_ui.selected, duration_ms: c.cfg.on_ms },
-                    Frame { mask: TactorMask::NONE, duration_ms: c.cfg.on_ms },
+                    Frame { mask: vest_ui.selected, duration_ms: cfg.on_ms },
+                    Frame { mask: TactorMask::NONE, duration_ms: cfg.on_ms },
                 ],
                 repeats: 3,
             });
-            c.vest_ui.new_pattern_name.clear();
+            vest_ui.new_pattern_name.clear();
         }
     });
-    let label = if c.pattern_editor.open { "Close pattern editor" } else { "Pattern editor..." };
+    let label = if *editor_open { "Close pattern editor" } else { "Pattern editor..." };
     if ui
         .button(label)
         .on_hover_text("Frames on a timeline, painted on the grid, intensities, preview, files")
         .clicked()
     {
-        c.pattern_editor.open = !c.pattern_editor.open;
-    }
-}
-
-/// The pattern editor's window, when open. Drawn by the frame, not inside the Vest section, so collapsing
-/// the section (or scrolling it away) does not hide an open editor.
-pub fn pattern_editor_window(c: &mut Console, ctx: &egui::Context) {
-    if c.pattern_editor.open {
-        let mut editor = std::mem::take(&mut c.pattern_editor);
-        editor.window(c, ctx);
-        c.pattern_editor = editor;
+        *editor_open = !*editor_open;
     }
 }
 

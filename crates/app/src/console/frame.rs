@@ -167,18 +167,25 @@ impl Console {
         egui::Panel::left("vestnav-side").default_size(360.0).min_size(300.0).show(ui, |ui| {
             egui::ScrollArea::vertical().show(ui, |ui| {
                 egui::CollapsingHeader::new("GPS").default_open(true).show(ui, |ui| {
-                    crate::gps_panel::show(self, ui, now);
+                    crate::gps_panel::show(&mut self.station, &mut self.cfg, &mut self.gps_ui, ui, now);
                 });
                 egui::CollapsingHeader::new("Vest").default_open(true).show(ui, |ui| {
-                    crate::vest_panel::show(self, ui);
+                    crate::vest_panel::show(
+                        &mut self.station,
+                        &mut self.cfg,
+                        &mut self.vest_ui,
+                        &mut self.compass_wizard,
+                        &mut self.pattern_editor.open,
+                        ui,
+                    );
                 });
                 egui::CollapsingHeader::new("Guidance").default_open(true).show(ui, |ui| {
                     self.guidance_ui(ui);
                 });
             });
         });
-        crate::vest_panel::pattern_editor_window(self, ui.ctx());
-        crate::gps_receiver::window(self, ui.ctx());
+        self.pattern_editor.window(&mut self.station, &mut self.cfg, ui.ctx());
+        crate::gps_receiver::window(&self.station, &self.cfg.gps, &mut self.gps_ui.receiver, ui.ctx());
         egui::CentralPanel::default().show(ui, |ui| match self.tab {
             Tab::Map => {
                 let fix = self.station.gps.last_position.clone();

@@ -1,6 +1,8 @@
 //! A small device factory for console UI tests: GPS events injected by the test, the emulated vest unit.
 #![allow(dead_code, clippy::unwrap_used)]
 
+pub mod console;
+
 use std::sync::atomic::AtomicBool;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
