@@ -641,11 +641,15 @@ fn a_full_disk_under_the_session_log_is_shown_and_recording_resumes() {
     assert!(lat < Duration::from_millis(50), "{lat:?}");
     std::fs::remove_file(&filler).unwrap();
     let end = Instant::now() + Duration::from_secs(10);
-    while Instant::now() < end && c.log_failing() {
+    loop {
         c.pump(|_| {});
+        if Instant::now() > end || storage(&c).is_some_and(|t| t.contains("recording again")) {
+            break;
+        }
         std::thread::sleep(Duration::from_millis(20));
     }
     let recovered = storage(&c);
+    assert!(!c.log_failing());
     let log_path = c.log_path().map(std::path::Path::to_path_buf);
     drop(c);
     let written = log_path.map(|p| std::fs::read_to_string(p).unwrap_or_default()).unwrap_or_default();
