@@ -243,6 +243,7 @@ impl Config {
             ));
         }
         let text = serde_json::to_string_pretty(self).map_err(std::io::Error::other)?;
+        vestnav_files::ensure_parent(path)?;
         vestnav_files::write_atomic(path, text.as_bytes())
     }
 

@@ -179,6 +179,8 @@ pub fn save_pattern(pattern: &Pattern, path: &Path, overwrite: bool) -> Result<(
     let fail =
         |p: &Path, e: &dyn std::fmt::Display| SaveError::Io(format!("cannot write {}: {e}", p.display()));
     let text = serde_json::to_string_pretty(pattern).map_err(|e| fail(path, &e))?;
+    // The patterns folder is made when it is the first pattern saved there.
+    vestnav_files::ensure_parent(path).map_err(|e| fail(path, &e))?;
     let written = if overwrite {
         vestnav_files::write_atomic(path, text.as_bytes())
     } else {

@@ -28,7 +28,9 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Replaces `path` with `bytes` atomically: a unique temporary file beside it (so two writers never share
 /// one), written, `fsync`ed, renamed over `path`, and the folder synced where the platform allows. The
-/// folder is created when missing. On error the temporary file is removed and `path` is untouched.
+/// folder must exist: a path the user typed into a missing folder is an error naming it, never a folder
+/// made silently ([`ensure_parent`] for the program's own folders). On error the temporary file is removed
+/// and `path` is untouched.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> io::Result<()> {
     write_atomic_with(path, |f| f.write_all(bytes))
 }
@@ -40,7 +42,6 @@ pub fn write_atomic_with(path: &Path, fill: impl FnOnce(&mut File) -> io::Result
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => PathBuf::from("."),
     };
-    std::fs::create_dir_all(&dir)?;
     let tmp = temp_name(path);
     let result = (|| {
         let mut f = std::fs::OpenOptions::new().write(true).create_new(true).open(&tmp)?;
@@ -72,7 +73,6 @@ pub fn write_new(path: &Path, bytes: &[u8]) -> io::Result<()> {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => PathBuf::from("."),
     };
-    std::fs::create_dir_all(&dir)?;
     let tmp = temp_name(path);
     let written = (|| {
         let mut f = std::fs::OpenOptions::new().write(true).create_new(true).open(&tmp)?;
@@ -106,6 +106,15 @@ fn temp_name(path: &Path) -> PathBuf {
     let n = COUNTER.fetch_add(1, Ordering::Relaxed);
     let name = path.file_name().map_or_else(|| "file".into(), |n| n.to_string_lossy().into_owned());
     path.with_file_name(format!(".{name}.{}.{n}.tmp", std::process::id()))
+}
+
+/// Creates the folder `path` goes in, when missing: for the program's own files (settings, autosave, tile
+/// cache), never for a path the user typed.
+pub fn ensure_parent(path: &Path) -> io::Result<()> {
+    match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => std::fs::create_dir_all(d),
+        _ => Ok(()),
+    }
 }
 
 /// Opens `path` for reading only when it is a regular file (following symbolic links). A FIFO, socket,

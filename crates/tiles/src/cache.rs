@@ -48,6 +48,7 @@ pub fn touch(path: &Path) {
 /// Writes a tile atomically ([`vestnav_files::write_atomic`]: a unique temporary file, synced, then
 /// renamed), so a killed prefetch never leaves half a tile and two writers never share a temporary.
 pub fn store(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    vestnav_files::ensure_parent(path)?;
     vestnav_files::write_atomic(path, bytes)
 }
 

@@ -139,23 +139,19 @@ pub fn to_geojson(name: &str, waypoints: &[Waypoint], segments: &[&[TrackPoint]]
         .map_err(|e| format!("cannot encode GeoJSON: {e}"))
 }
 
-/// Writes `text` to a new file at `path`: an existing file is never replaced (the error names it). The
-/// check and the creation are one step (`create_new`), so no other writer can slip in between.
+/// Writes `text` to a new file at `path` ([`vestnav_files::write_new`]: all of it or nothing): an existing
+/// file is never replaced (the error names it), even one that appears while it is written.
 pub fn write_new(path: &Path, text: &str) -> Result<(), String> {
-    use std::io::Write as _;
-    let mut f = match std::fs::OpenOptions::new().write(true).create_new(true).open(path) {
-        Ok(f) => f,
-        Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
-            return Err(format!(
+    vestnav_files::write_new(path, text.as_bytes()).map_err(|e| {
+        if e.kind() == std::io::ErrorKind::AlreadyExists {
+            format!(
                 "{} already exists: not overwritten (type another name, or delete the file first)",
                 path.display()
-            ));
+            )
+        } else {
+            format!("cannot write {}: {e}", path.display())
         }
-        Err(e) => return Err(format!("cannot write {}: {e}", path.display())),
-    };
-    f.write_all(text.as_bytes())
-        .and_then(|()| f.sync_all())
-        .map_err(|e| format!("cannot write {}: {e}", path.display()))
+    })
 }
 
 /// Writes `text` to `path`: atomically over an existing file when `replace`, else only as a new file
@@ -327,7 +323,10 @@ impl Autosave {
         }
         self.last_attempt = Some(now);
         let state = RouteState { name: name.to_owned(), waypoints: waypoints.to_vec(), next };
-        match write_atomically(&self.path, &autosave_gpx(&state)) {
+        let written = vestnav_files::ensure_parent(&self.path)
+            .map_err(|e| format!("cannot create the folder of {}: {e}", self.path.display()))
+            .and_then(|()| write_atomically(&self.path, &autosave_gpx(&state)));
+        match written {
             Ok(()) => {
                 self.saved = state;
                 self.last_error = None;
