@@ -587,6 +587,8 @@ fn the_largest_route_keeps_stop_all_within_50_ms() {
 /// tmpfs (root, as on CI); skipped with a message where mounting is not allowed.
 #[test]
 fn a_full_disk_under_the_session_log_is_shown_and_recording_resumes() {
+    // It measures STOP ALL's latency too: not beside another timing test or the window test.
+    let _exclusive = crate::timing_exclusive();
     let dir = std::env::temp_dir().join(format!("vestnav-fulldisk-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let mounted = std::process::Command::new("mount")
