@@ -109,7 +109,7 @@ pub fn load_route(path: &Path) -> anyhow::Result<Vec<Waypoint>> {
         anyhow::bail!("{}: no route points or waypoints", path.display());
     };
     // Each waypoint's own arrival radius (a vestnav GPX extension) is kept.
-    Ok(route.waypoints.iter().map(vestnav_device::route_file::Waypoint::to_guidance).collect())
+    Ok(route.waypoints.clone())
 }
 
 fn strategies(arg: StrategyArg) -> Vec<StrategyKind> {

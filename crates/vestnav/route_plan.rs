@@ -125,7 +125,7 @@ pub fn follow_paths(
         let [a, b] = pair else { continue };
         let leg = extract
             .graph
-            .plan(a.pos, b.pos, profile)
+            .plan(a.pos(), b.pos(), profile)
             .with_context(|| format!("{}: leg {} ({} to {})", osm.display(), i + 1, a.name, b.name))?;
         let n = leg.points.len();
         for (k, p) in leg.points.iter().enumerate().skip(usize::from(!out.is_empty())) {
@@ -136,7 +136,7 @@ pub fn follow_paths(
             } else {
                 format!("{}·{k}", a.name)
             };
-            out.push(vestnav_core::guidance::Waypoint::new(name, *p));
+            out.push(vestnav_core::guidance::Waypoint::at(name, *p));
         }
     }
     if out.is_empty() {
@@ -216,7 +216,7 @@ pub fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
         LatLon::new(f64::midpoint(sw.lat_deg, ne.lat_deg), f64::midpoint(sw.lon_deg, ne.lon_deg))
     };
     let route = match &args.route {
-        Some(p) => crate::nav::load_route(p)?.into_iter().map(|w| w.pos).collect(),
+        Some(p) => crate::nav::load_route(p)?.into_iter().map(|w| w.pos()).collect(),
         None => Vec::new(),
     };
     let renderer = Renderer::new(Arc::new(extract.map));

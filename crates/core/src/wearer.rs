@@ -36,8 +36,8 @@
 //! use vestnav_core::guidance::{StrategyKind, Waypoint};
 //! use vestnav_core::wearer::{SimConfig, simulate};
 //! let wps = vec![
-//!     Waypoint::new("a", LatLon::new(42.3562, -71.1000)),
-//!     Waypoint::new("b", LatLon::new(42.3572, -71.1000)),
+//!     Waypoint::at("a", LatLon::new(42.3562, -71.1000)),
+//!     Waypoint::at("b", LatLon::new(42.3572, -71.1000)),
 //! ];
 //! let r = simulate(&wps, &SimConfig::new(StrategyKind::Pursuit), 1).unwrap();
 //! assert!(r.finished && r.cross_track_rmse_m < 10.0);
@@ -375,14 +375,14 @@ fn normal(rng: &mut StdRng) -> f64 {
 #[allow(clippy::too_many_lines)]
 pub fn simulate(waypoints: &[Waypoint], config: &SimConfig, seed: u64) -> Result<SimResult, RouteError> {
     let route = Route::new(waypoints.to_vec(), config.route)?;
-    let frame = LocalFrame::new(waypoints[0].pos, config.guidance.earth);
-    let wps_en: Vec<DVec2> = waypoints.iter().map(|w| frame.enu_from_wgs84(w.pos)).collect();
+    let frame = LocalFrame::new(waypoints[0].pos(), config.guidance.earth);
+    let wps_en: Vec<DVec2> = waypoints.iter().map(|w| frame.enu_from_wgs84(w.pos())).collect();
     let hs = config.heading;
     let mut guidance_config = config.guidance;
     let mut compass = match &hs {
         Some(h) => {
             let c =
-                CompassSensor::new(h, waypoints[0].pos, &wps_en, seed.wrapping_add(0x00C0_4A55)).map_err(
+                CompassSensor::new(h, waypoints[0].pos(), &wps_en, seed.wrapping_add(0x00C0_4A55)).map_err(
                     |source| RouteError::BadWaypoint { index: 0, name: waypoints[0].name.clone(), source },
                 )?;
             guidance_config.heading_mode = h.mode;
@@ -707,7 +707,7 @@ mod tests {
         let a = e.direct(o, 0.0, 100.0);
         let b = e.direct(a, 90.0, 100.0);
         let c = e.direct(b, 180.0, 100.0);
-        vec![Waypoint::new("o", o), Waypoint::new("a", a), Waypoint::new("b", b), Waypoint::new("c", c)]
+        vec![Waypoint::at("o", o), Waypoint::at("a", a), Waypoint::at("b", b), Waypoint::at("c", c)]
     }
 
     fn brief(r: &SimResult) -> String {
@@ -773,11 +773,11 @@ mod tests {
     fn a_long_route_of_short_legs_is_walked() {
         // A 2000-point, 6 km route of 3 m legs (a recorded track used as a route).
         let o = LatLon::new(42.3575, -71.1010);
-        let mut wps = vec![Waypoint::new("0", o)];
+        let mut wps = vec![Waypoint::at("0", o)];
         for i in 1..2000 {
             let h = 45.0 + 60.0 * (f64::from(i) / 150.0).sin();
-            let last = wps[wps.len() - 1].pos;
-            wps.push(Waypoint::new(format!("{i}"), Earth::Wgs84.direct(last, h, 3.0)));
+            let last = wps[wps.len() - 1].pos();
+            wps.push(Waypoint::at(format!("{i}"), Earth::Wgs84.direct(last, h, 3.0)));
         }
         let mut cfg = SimConfig::new(StrategyKind::Pursuit);
         cfg.gnss = GnssErrorModel::perfect();

@@ -14,7 +14,7 @@ fn route(n: usize) -> Vec<Waypoint> {
     let mut pos = LatLon::new(42.3562, -71.1);
     (0..n)
         .map(|i| {
-            let w = Waypoint::new(format!("P{i}"), pos);
+            let w = Waypoint::at(format!("P{i}"), pos);
             let h = 45.0 + 60.0 * (i as f64 / 150.0).sin();
             pos = Earth::Wgs84.direct(pos, h, 3.0);
             w

@@ -38,37 +38,9 @@ pub const MAX_ROUTE_POINTS: usize = 10_000;
 /// Most track points (`<trkpt>`) a GPX file may hold (a day's walk at 1 Hz is ~36,000).
 pub const MAX_TRACK_POINTS: usize = 500_000;
 
-/// A named point the wearer should reach.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Waypoint {
-    /// Name shown on the map.
-    pub name: String,
-    /// Latitude [deg].
-    pub lat_deg: f64,
-    /// Longitude [deg].
-    pub lon_deg: f64,
-    /// Its own arrival radius [m] (`None`: guidance's global one). Kept in GPX as a vestnav extension
-    /// (see [`VESTNAV_GPX_NS`]).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub arrival_radius_m: Option<f64>,
-}
-
-impl Waypoint {
-    /// A waypoint without its own arrival radius.
-    pub fn new(name: impl Into<String>, lat_deg: f64, lon_deg: f64) -> Self {
-        Self { name: name.into(), lat_deg, lon_deg, arrival_radius_m: None }
-    }
-
-    /// The same waypoint as guidance takes it, its own arrival radius kept: the one conversion from a
-    /// file's waypoint to guidance's (the station's guidance worker and `nav simulate` both use it).
-    pub fn to_guidance(&self) -> vestnav_core::guidance::Waypoint {
-        vestnav_core::guidance::Waypoint::new(
-            self.name.clone(),
-            vestnav_core::geo::LatLon::new(self.lat_deg, self.lon_deg),
-        )
-        .with_arrival_radius_m(self.arrival_radius_m)
-    }
-}
+/// A named point the wearer should reach: guidance's own waypoint type (one type from the file to the
+/// guidance engine), its arrival radius kept in GPX as a vestnav extension (see [`VESTNAV_GPX_NS`]).
+pub use vestnav_core::guidance::Waypoint;
 
 /// The XML namespace of vestnav's GPX extensions: `<extensions><vestnav:arrival_radius_m>` on a `wpt` or
 /// `rtept` holds that waypoint's arrival radius in metres. Other readers skip it, as GPX 1.1 intends.

@@ -21,7 +21,7 @@ use chrono::Datelike as _;
 use vestnav_core::geo::LatLon;
 use vestnav_core::guidance::{
     CompassReading, Decision, Guidance, GuidanceConfig, HeadingMode, HeadingSource, NavInput, NavState,
-    Route, RouteConfig, StrategyKind, Waypoint as CoreWaypoint,
+    Route, RouteConfig, StrategyKind,
 };
 use vestnav_core::vest::Cue;
 use vestnav_device::gps::{Fix, GpsEvent};
@@ -313,7 +313,7 @@ impl GuidanceWorker {
     /// Builds the engine for the current waypoints, heading for waypoint `next`.
     fn rebuild(&mut self, next: usize) {
         let (gcfg, rcfg) = engine_config(&self.settings);
-        let wps: Vec<CoreWaypoint> = self.waypoints.iter().map(Waypoint::to_guidance).collect();
+        let wps: Vec<Waypoint> = self.waypoints.clone();
         let halted = self.engine.as_ref().is_some_and(Guidance::is_halted);
         self.engine = match Route::new(wps, rcfg) {
             Ok(route) => {

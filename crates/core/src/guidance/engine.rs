@@ -298,10 +298,10 @@ impl Guidance {
         let choice = heading::choose(&self.config, input, compass, self.disagreement.disturbed());
         let heading = choice.heading_deg;
         let earth = self.config.earth;
-        let target = self.route.active().pos;
+        let target = self.route.active().pos();
         let distance_m = earth.distance_m(pos, target);
         let cross_track_m =
-            self.route.previous().map(|w| leg_offset(earth, w.pos, target, pos).cross_track_m);
+            self.route.previous().map(|w| leg_offset(earth, w.pos(), target, pos).cross_track_m);
 
         let mut d = self.blank(NavState::Guiding, String::new());
         d.event = event;
@@ -326,7 +326,7 @@ impl Guidance {
         let frame = LocalFrame::new(pos, earth);
         let leg = LegGeometry {
             target_en_m: frame.enu_from_wgs84(target),
-            from_en_m: self.route.previous().map(|w| frame.enu_from_wgs84(w.pos)),
+            from_en_m: self.route.previous().map(|w| frame.enu_from_wgs84(w.pos())),
         };
         let aim = self.strategy.aim_en_m(&leg);
         let bearing = bearing_of_enu_deg(aim);

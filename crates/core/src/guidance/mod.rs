@@ -28,7 +28,7 @@
 //! use vestnav_core::geo::LatLon;
 //! use vestnav_core::guidance::{Guidance, GuidanceConfig, NavInput, Route, RouteConfig, StrategyKind, Waypoint};
 //! use vestnav_core::vest::Cue;
-//! let route = Route::new(vec![Waypoint::new("gate", LatLon::new(42.3570, -71.1010))], RouteConfig::default())
+//! let route = Route::new(vec![Waypoint::at("gate", LatLon::new(42.3570, -71.1010))], RouteConfig::default())
 //!     .unwrap();
 //! let mut g = Guidance::new(route, GuidanceConfig::default(), StrategyKind::BearingOnly);
 //! // Walking due east, 1.4 m/s, 50 m south of the waypoint: it is to the left (bearing ~ 0 deg).

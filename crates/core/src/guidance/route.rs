@@ -25,22 +25,36 @@ pub enum RouteError {
     BadConfig(&'static str),
 }
 
-/// A named waypoint.
+/// A named waypoint: the one waypoint type from a GPX file through the route model and the remote
+/// protocol to guidance.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Waypoint {
     /// Name shown to the operator.
     pub name: String,
-    /// Position.
-    pub pos: LatLon,
+    /// Latitude [deg].
+    pub lat_deg: f64,
+    /// Longitude [deg].
+    pub lon_deg: f64,
     /// This waypoint's own arrival radius [m]; `None` uses the route's [`RouteConfig::arrival_radius_m`].
-    #[serde(default)]
+    /// Files keep it (vestnav's GPX extension); guidance honours it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub arrival_radius_m: Option<f64>,
 }
 
 impl Waypoint {
+    /// A waypoint named `name` at `lat_deg`, `lon_deg`, arrived at within the route's radius.
+    pub fn new(name: impl Into<String>, lat_deg: f64, lon_deg: f64) -> Self {
+        Self { name: name.into(), lat_deg, lon_deg, arrival_radius_m: None }
+    }
+
     /// A waypoint named `name` at `pos`, arrived at within the route's radius.
-    pub fn new(name: impl Into<String>, pos: LatLon) -> Self {
-        Self { name: name.into(), pos, arrival_radius_m: None }
+    pub fn at(name: impl Into<String>, pos: LatLon) -> Self {
+        Self::new(name, pos.lat_deg, pos.lon_deg)
+    }
+
+    /// Its position.
+    pub fn pos(&self) -> LatLon {
+        LatLon::new(self.lat_deg, self.lon_deg)
     }
 
     /// The same waypoint with its own arrival radius [m] (`None`: the route's).
@@ -112,7 +126,7 @@ impl Route {
             return Err(RouteError::Empty);
         }
         for (index, w) in waypoints.iter().enumerate() {
-            w.pos.validated().map_err(|source| RouteError::BadWaypoint {
+            w.pos().validated().map_err(|source| RouteError::BadWaypoint {
                 index,
                 name: w.name.clone(),
                 source,
@@ -249,7 +263,7 @@ impl Route {
             return None;
         }
         let index = self.active;
-        let target = self.active().pos;
+        let target = self.active().pos();
         let d = earth.distance_m(pos, target);
         let (arrival_m, rearm_m, pass_m) = self.active_radii_m();
         if !self.armed {
@@ -266,7 +280,7 @@ impl Route {
             return None;
         }
         self.inside_count = 0;
-        if let Some(prev) = self.previous().map(|w| w.pos) {
+        if let Some(prev) = self.previous().map(Waypoint::pos) {
             let off = leg_offset(earth, prev, target, pos);
             if off.leg_length_m > 0.0 && off.along_track_m > off.leg_length_m && d <= pass_m {
                 return Some(self.advance().map_or(RouteEvent::Passed(index), |_| RouteEvent::Finished));

@@ -7,7 +7,7 @@ const O: LatLon = LatLon::new(42.3575, -71.1010);
 
 fn route_line(n: usize, spacing_m: f64, bearing_deg: f64, config: RouteConfig) -> Route {
     let wps = (0..n)
-        .map(|i| Waypoint::new(format!("w{i}"), Earth::Wgs84.direct(O, bearing_deg, spacing_m * i as f64)))
+        .map(|i| Waypoint::at(format!("w{i}"), Earth::Wgs84.direct(O, bearing_deg, spacing_m * i as f64)))
         .collect();
     Route::new(wps, config).unwrap()
 }
@@ -210,8 +210,8 @@ fn a_waypoints_own_radius_decides_its_arrival() {
     // re-arm radius scales with it (12 m x 30/8 = 45 m). Waypoint 1 keeps the route's 8 m.
     let cfg = RouteConfig { confirm_fixes: 1, ..RouteConfig::default() };
     let wps = vec![
-        Waypoint::new("wide", O).with_arrival_radius_m(Some(30.0)),
-        Waypoint::new("plain", Earth::Wgs84.direct(O, 90.0, 200.0)),
+        Waypoint::at("wide", O).with_arrival_radius_m(Some(30.0)),
+        Waypoint::at("plain", Earth::Wgs84.direct(O, 90.0, 200.0)),
     ];
     let mut route = Route::new(wps, cfg).unwrap();
     assert_eq!(route.active_radii_m(), (30.0, 45.0, 60.0));
@@ -219,7 +219,7 @@ fn a_waypoints_own_radius_decides_its_arrival() {
     assert_eq!(route.active_radii_m(), (8.0, 12.0, 16.0));
     let near1 = Earth::Wgs84.direct(O, 90.0, 180.0); // 20 m before waypoint 1
     assert_eq!(route.observe(Earth::Wgs84, near1), None);
-    let bad = vec![Waypoint::new("w", O).with_arrival_radius_m(Some(-1.0))];
+    let bad = vec![Waypoint::at("w", O).with_arrival_radius_m(Some(-1.0))];
     assert!(Route::new(bad, cfg).is_err());
 }
 

@@ -14,7 +14,7 @@ fn at(bearing_deg: f64, distance_m: f64) -> LatLon {
 
 /// One waypoint 200 m due north of `O` (the wearer stands or walks at `O`, so the aim is at 0°).
 fn guidance(mode: HeadingMode) -> Guidance {
-    let route = Route::new(vec![Waypoint::new("N", at(0.0, 200.0))], RouteConfig::default()).unwrap();
+    let route = Route::new(vec![Waypoint::at("N", at(0.0, 200.0))], RouteConfig::default()).unwrap();
     let cfg = GuidanceConfig { heading_mode: mode, declination_deg: Some(DECL), ..GuidanceConfig::default() };
     Guidance::new(route, cfg, StrategyKind::BearingOnly)
 }
@@ -217,7 +217,7 @@ fn turning_in_place_is_not_interrupted_by_a_smaller_turn_the_same_way() {
 fn standing_on_the_waypoint_gives_no_turn_toward_gps_noise() {
     // Route: the wearer stands 3 m from the first of two waypoints (inside the 8 m arrival radius).
     let route = Route::new(
-        vec![Waypoint::new("A", at(90.0, 3.0)), Waypoint::new("B", at(0.0, 100.0))],
+        vec![Waypoint::at("A", at(90.0, 3.0)), Waypoint::at("B", at(0.0, 100.0))],
         RouteConfig::default(),
     )
     .unwrap();
