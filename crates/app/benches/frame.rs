@@ -93,28 +93,9 @@ fn memory_24h() {
     frame(&ctx, &mut c, 0.0);
     let before = rss_kib().unwrap_or(0);
     let Some(outs) = tap.0.lock().ok().map(|g| g.clone()) else { return };
-    let cancel = AtomicBool::new(false);
     let start = std::time::Instant::now();
     let n = 86_400;
-    let mut k = 0;
-    while k < n {
-        for _ in 0..500 {
-            if k >= n {
-                break;
-            }
-            for out in &outs {
-                out.send(GpsEvent::Fix(Box::new(fix(k))), &cancel);
-            }
-            k += 1;
-        }
-        // Let the guidance worker and the log writer keep up, then take the batch in as a frame would.
-        std::thread::sleep(std::time::Duration::from_millis(2));
-        c.pump();
-    }
-    for _ in 0..50 {
-        std::thread::sleep(std::time::Duration::from_millis(5));
-        c.pump();
-    }
+    feed(&mut c, &tap, n);
     frame(&ctx, &mut c, n as f64);
     let after = rss_kib().unwrap_or(0);
     eprintln!(
