@@ -177,6 +177,12 @@ pub struct Station {
     log_health: vestnav_device::session_log::LogHealth,
     /// Ports whose set-up findings were shown since they were connected (each said once).
     diagnosed: Vec<String>,
+    /// Set-up findings of a failed port, from the thread that looked (it reads files and runs programs,
+    /// which the view's thread never waits for).
+    port_findings: (
+        std::sync::mpsc::Sender<(Subject, Vec<vestnav_device::doctor::Finding>)>,
+        std::sync::mpsc::Receiver<(Subject, Vec<vestnav_device::doctor::Finding>)>,
+    ),
 }
 
 impl Station {
@@ -246,6 +252,7 @@ impl Station {
             stop_alarm_was: false,
             log_health: vestnav_device::session_log::LogHealth::Ok,
             diagnosed: Vec::new(),
+            port_findings: std::sync::mpsc::channel(),
         }
     }
 
@@ -591,6 +598,7 @@ impl Station {
             self.vest_event(ev);
             view(StationEvent::Vest(ev));
         }
+        self.take_port_findings();
         let mut latest = None;
         drain_within(&self.guidance_rx, DRAIN_BUDGET, |st| latest = Some(st));
         if let Some(st) = latest {
@@ -666,20 +674,33 @@ impl Station {
             return;
         }
         self.diagnosed.push(port.to_owned());
-        let env = vestnav_device::doctor::Environment::system();
-        for f in vestnav_device::doctor::port_findings(&env, port) {
-            use vestnav_device::doctor::Verdict;
-            let severity = match f.verdict {
-                Verdict::Problem => Severity::Alarm,
-                Verdict::Warning => Severity::Warning,
-                Verdict::Ok | Verdict::Info => continue,
-            };
-            let fix = f.fix.map_or_else(String::new, |x| format!(" Fix: {x}"));
-            self.notices.raise(
-                severity,
-                subject,
-                format!("{}: {}.{fix}", f.check, f.detail.trim_end_matches('.')),
-            );
+        let (tx, port) = (self.port_findings.0.clone(), port.to_owned());
+        let looked = std::thread::Builder::new().name("vestnav-port-doctor".into()).spawn(move || {
+            let env = vestnav_device::doctor::Environment::system();
+            let _ = tx.send((subject, vestnav_device::doctor::port_findings(&env, &port)));
+        });
+        if let Err(e) = looked {
+            tracing::warn!("port check not started: {e}");
+        }
+    }
+
+    /// Shows the findings of port checks that have finished.
+    fn take_port_findings(&mut self) {
+        use vestnav_device::doctor::Verdict;
+        while let Ok((subject, findings)) = self.port_findings.1.try_recv() {
+            for f in findings {
+                let severity = match f.verdict {
+                    Verdict::Problem => Severity::Alarm,
+                    Verdict::Warning => Severity::Warning,
+                    Verdict::Ok | Verdict::Info => continue,
+                };
+                let fix = f.fix.map_or_else(String::new, |x| format!(" Fix: {x}"));
+                self.notices.raise(
+                    severity,
+                    subject,
+                    format!("{}: {}.{fix}", f.check, f.detail.trim_end_matches('.')),
+                );
+            }
         }
     }
 
