@@ -350,6 +350,14 @@ impl NmeaDecoder {
         }
     }
 
+    /// Closes the open epoch now, stamped `now`: for a producer that writes whole epochs and knows where
+    /// one ends (the simulator), instead of waiting for the quiet gap.
+    pub fn end_epoch(&mut self, now: Instant) {
+        self.now = Some(now);
+        self.close_epoch();
+        self.finish_binary(now);
+    }
+
     /// Ends the stream: emits the last epoch (and a final sentence without line end).
     pub fn finish(&mut self, now: Instant) {
         self.now = Some(now);

@@ -49,8 +49,12 @@ pub(super) fn run_sim(w: &Worker, p: &SimParams<'_>) {
                 pace_m_s: t.speed_m_s,
             });
         }
-        d.handle_bytes(text.as_bytes(), Instant::now());
-        d.handle_timeout(Instant::now() + Duration::from_hours(1));
+        // One instant for the epoch's bytes and its end: the fix is stamped when it was made, never later
+        // (a quiet-gap timeout in the future stamped the first fixes an hour ahead, and the decoder, once
+        // it learnt the epoch's last sentence, stamped the next ones now: times went backwards).
+        let now = Instant::now();
+        d.handle_bytes(text.as_bytes(), now);
+        d.end_epoch(now);
         if !w.drain(&mut d) {
             return;
         }

@@ -71,6 +71,38 @@ fn simulator_emits_fixes_and_stops() {
     h.stop();
 }
 
+/// Issue 23 item 2: every simulated fix is stamped when it was made (never in the future), and both its
+/// arrival instant and its receiver time go forwards from one fix to the next — the first fixes used to be
+/// stamped an hour ahead, so the field tests refused every later one as out of order.
+#[test]
+fn simulator_fixes_arrive_in_order_and_never_from_the_future() {
+    let (mut h, rx) = spawn(SourceConfig::Simulator {
+        route: super::super::sim::demo_route().unwrap(),
+        pace_m_s: 1.4,
+        model: GnssErrorModel::sirf3_open_sky(),
+        seed: 5,
+        period: Duration::from_millis(20),
+        looped: false,
+        truth: None,
+    });
+    let ev = collect(
+        &rx,
+        |e| e.iter().filter(|x| matches!(x, GpsEvent::Fix(_))).count() >= 8,
+        Duration::from_secs(10),
+    );
+    let seen = Instant::now();
+    let fixes: Vec<&Fix> =
+        ev.iter().filter_map(|e| if let GpsEvent::Fix(f) = e { Some(&**f) } else { None }).collect();
+    assert!(fixes.len() >= 8);
+    for pair in fixes.windows(2) {
+        let (a, b) = (pair[0].received_at.unwrap(), pair[1].received_at.unwrap());
+        assert!(b >= a, "arrival went backwards");
+        assert!(pair[1].time.unwrap() > pair[0].time.unwrap(), "receiver time did not advance");
+    }
+    assert!(fixes.iter().all(|f| f.received_at.unwrap() <= seen), "a fix stamped in the future");
+    h.stop();
+}
+
 #[test]
 fn gpsd_refused_reports_lost_then_reconnecting() {
     let (mut h, rx) = spawn(SourceConfig::Gpsd { host: "127.0.0.1".into(), port: 1 });
