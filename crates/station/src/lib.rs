@@ -23,6 +23,7 @@ use std::sync::Arc;
 use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
 use std::time::{Duration, Instant};
 
+use vestnav_core::fieldtest_live::FieldTests;
 use vestnav_core::vest::Cue;
 use vestnav_device::gps::{GpsEvent, SourceState};
 use vestnav_device::outbox::{Outbox, Overflow, Waker, drain_within};
@@ -31,6 +32,7 @@ use vestnav_device::wtcu::worker::{Heartbeat, Watched};
 use vestnav_device::wtcu::{CommandKind, CommandOrigin, LinkState, VestCommand, VestEvent, VestHandle};
 
 pub mod devices;
+pub mod fieldtests;
 pub mod guidance;
 pub mod hardware;
 pub mod route;
@@ -177,6 +179,10 @@ pub struct Station {
     log_health: vestnav_device::session_log::LogHealth,
     /// Ports whose set-up findings were shown since they were connected (each said once).
     diagnosed: Vec<String>,
+    /// The drift and cone tests, fed with every fix of whatever source runs.
+    pub field_tests: FieldTests,
+    /// The origin of the field tests' arrival times.
+    epoch: Instant,
 }
 
 impl Station {
@@ -246,6 +252,8 @@ impl Station {
             stop_alarm_was: false,
             log_health: vestnav_device::session_log::LogHealth::Ok,
             diagnosed: Vec::new(),
+            field_tests: FieldTests::new(),
+            epoch: Instant::now(),
         }
     }
 
@@ -377,6 +385,8 @@ impl Station {
         outputs.extend(taps);
         self.gps = GpsState::default();
         self.diagnosed.clear();
+        // A new source: its clock and arrival times start afresh for the field tests too.
+        self.field_tests.source_changed();
         // A new source: its first position must not be joined to the old source's last one.
         self.track.break_segment();
         match self.factory.open_gps(&self.gps_source, self.route.waypoints(), outputs) {
@@ -533,6 +543,14 @@ impl Station {
             }
         }
         result
+    }
+
+    /// Marks the next cone of the running cone test at the latest fix and logs the mark; returns its label
+    /// (`None`: no cone test runs or no fix yet).
+    pub fn mark_cone(&mut self) -> Option<String> {
+        let label = self.field_tests.mark_cone()?;
+        self.mark(&label);
+        Some(label)
     }
 
     /// Logs an operator mark at the wearer's position.
@@ -695,10 +713,14 @@ impl Station {
                     let port = port.clone();
                     self.diagnose_port(Subject::Gps, &port);
                 }
+                if *s == SourceState::Finished {
+                    self.field_tests.source_ended();
+                }
                 self.gps.state = Some(s.clone());
             }
             GpsEvent::Fix(f) => {
                 if f.has_position() {
+                    fieldtests::feed(&mut self.field_tests, self.epoch, f);
                     self.gps.fixes += 1;
                     self.gps.alarm_silenced = false;
                     self.track.push(f);
@@ -714,8 +736,10 @@ impl Station {
             GpsEvent::Attitude(a) => self.gps.attitude = Some(*a),
             GpsEvent::Raw(_) => {}
             GpsEvent::Discontinuity(n) => {
-                // A replay seek: the next position must not be joined to the last one.
+                // A replay seek or loop: the next position must not be joined to the last one, and the
+                // receiver's clock jumps with it.
                 self.track.break_segment();
+                self.field_tests.source_jumped();
                 self.gps.notice = Some(n.clone());
             }
         }

@@ -51,6 +51,26 @@ fn replay_paces_by_utc_time() {
     h.stop();
 }
 
+/// Issue 23 item 6: a looped replay starts again at the end of its file (saying so, as a discontinuity)
+/// instead of finishing; un-looped, the same replay finishes.
+#[test]
+fn looped_replay_starts_again_and_unlooped_finishes() {
+    let (mut h, rx) =
+        spawn(SourceConfig::Replay { path: logs().join("mr-350p.log"), speed: ReplaySpeed::Times(26.0) });
+    let ctl = h.replay_control().unwrap();
+    ctl.set_looped(true);
+    let looped = |e: &GpsEvent| matches!(e, GpsEvent::Discontinuity(n) if n.contains("looped"));
+    let ev = collect(&rx, |e| e.iter().filter(|x| looped(x)).count() >= 2, Duration::from_secs(10));
+    assert_eq!(ev.iter().filter(|x| looped(x)).count(), 2);
+    assert!(!ev.contains(&GpsEvent::State(SourceState::Finished)));
+    let fixes = ev.iter().filter(|e| matches!(e, GpsEvent::Fix(f) if f.has_position())).count();
+    assert!(fixes >= 2 * 13, "two whole passes: {fixes}");
+    ctl.set_looped(false);
+    let ev = collect(&rx, |e| e.contains(&GpsEvent::State(SourceState::Finished)), Duration::from_secs(10));
+    assert!(ev.contains(&GpsEvent::State(SourceState::Finished)));
+    h.stop();
+}
+
 #[test]
 fn simulator_emits_fixes_and_stops() {
     let (mut h, rx) = spawn(SourceConfig::Simulator {
