@@ -386,6 +386,7 @@ pub fn show(station: &mut Station, cfg: &mut Config, gps_ui: &mut GpsUi, ui: &mu
     if let Some(n) = &station.gps.notice {
         ui.label(RichText::new(n).small().weak());
     }
+    pinned_ui(station, cfg, gps_ui, ui, now);
     replay_ui(station, cfg, gps_ui, ui);
     record_ui(gps_ui, ui);
     monitor_ui(gps_ui, ui);
@@ -447,6 +448,26 @@ pub fn show(station: &mut Station, cfg: &mut Config, gps_ui: &mut GpsUi, ui: &mu
             );
         }
         satellite_table(ui, &fix.satellites, fresh, &mut cfg.show_satellite_table);
+    }
+}
+
+/// The pinned-receiver diagnosis (cause named from the stream's family) with its one-click fix through
+/// the receiver configuration path; the outcome shows in the Receiver window's log.
+fn pinned_ui(station: &Station, cfg: &Config, gps_ui: &mut GpsUi, ui: &mut egui::Ui, now: Instant) {
+    let Some(p) = station.pinned(now) else { return };
+    ui.label(RichText::new(p.text()).strong().color(ui.visuals().warn_fg_color));
+    let Some(remedy) = p.remedy() else { return };
+    let label = if remedy.sirf_static_nav.is_some() { "Static navigation off" } else { "Static hold off" };
+    let available = crate::gps_receiver::availability(station, &cfg.gps);
+    let busy = gps_ui.receiver.ticket.is_some();
+    let b = ui.add_enabled(available.is_ok() && !busy, egui::Button::new(label));
+    let b = match &available {
+        Err(why) => b.on_disabled_hover_text(why),
+        Ok(()) => b,
+    };
+    if b.clicked() {
+        gps_ui.receiver.send(station, remedy);
+        gps_ui.receiver.open = true;
     }
 }
 

@@ -16,7 +16,8 @@
 //! - [`gnss_sim`]: a GNSS error model (noise, wandering bias, static-navigation pinning) and a route walker;
 //! - [`wearer`]: the closed-loop simulated wearer used to compare strategies;
 //! - [`fieldtest`]: GPS drift and cone-test statistics (§5); [`fieldtest_live`]: the tests run live on a
-//!   stream of fixes (time base, walking, pinning, source ended);
+//!   stream of fixes (time base, walking, pinning, source ended); [`pinned`]: a receiver holding its
+//!   position while the wearer walks;
 //! - [`accuracy`]: GPS accuracy against a reference (CEP, DRMS, bias, vertical), receivers side by side;
 //! - [`coords`]: typed positions (decimal, DMS, UTM/UPS, MGRS) read and written.
 //!
@@ -33,6 +34,7 @@ pub mod compass;
 pub mod coords;
 pub mod fieldtest;
 pub mod fieldtest_live;
+pub mod pinned;
 pub mod fit;
 pub mod geo;
 pub mod gnss_sim;

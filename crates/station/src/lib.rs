@@ -24,6 +24,7 @@ use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
 use std::time::{Duration, Instant};
 
 use vestnav_core::fieldtest_live::FieldTests;
+use vestnav_core::pinned::PinDetector;
 use vestnav_core::vest::Cue;
 use vestnav_device::gps::{GpsEvent, SourceState};
 use vestnav_device::outbox::{Outbox, Overflow, Waker, drain_within};
@@ -33,6 +34,7 @@ use vestnav_device::wtcu::{CommandKind, CommandOrigin, LinkState, VestCommand, V
 
 pub mod devices;
 pub mod fieldtests;
+pub mod pinned;
 pub mod guidance;
 pub mod hardware;
 pub mod route;
@@ -181,8 +183,10 @@ pub struct Station {
     diagnosed: Vec<String>,
     /// The drift and cone tests, fed with every fix of whatever source runs.
     pub field_tests: FieldTests,
-    /// The origin of the field tests' arrival times.
+    /// The origin of the field tests' and the pin detector's times.
     epoch: Instant,
+    /// Watches for a receiver holding its position (see [`pinned`]).
+    pin: PinDetector,
 }
 
 impl Station {
@@ -254,6 +258,7 @@ impl Station {
             diagnosed: Vec::new(),
             field_tests: FieldTests::new(),
             epoch: Instant::now(),
+            pin: PinDetector::default(),
         }
     }
 
@@ -387,6 +392,7 @@ impl Station {
         self.diagnosed.clear();
         // A new source: its clock and arrival times start afresh for the field tests too.
         self.field_tests.source_changed();
+        self.pin.clear();
         // A new source: its first position must not be joined to the old source's last one.
         self.track.break_segment();
         match self.factory.open_gps(&self.gps_source, self.route.waypoints(), outputs) {
@@ -585,6 +591,17 @@ impl Station {
         )
     }
 
+    /// The receiver family the GPS stream shows, if it shows one.
+    pub fn gps_family(&self) -> Option<vestnav_device::gps::receiver_config::Family> {
+        self.gps.stats.as_ref().and_then(vestnav_device::gps::receiver_config::Family::detect)
+    }
+
+    /// The pinned-receiver diagnosis at `now`: the receiver holds one position (see [`pinned`]).
+    pub fn pinned(&self, now: Instant) -> Option<pinned::Pinned> {
+        let now_s = now.saturating_duration_since(self.epoch).as_secs_f64();
+        pinned::Pinned::diagnose(&self.pin, now_s, self.gps_family())
+    }
+
     /// The stop alarm at `now`: the latest STOP ALL not confirmed by the unit.
     pub fn stop_alarm(&self, now: Instant) -> Option<StopAlarm> {
         self.vest.stop_alarm(now)
@@ -721,6 +738,10 @@ impl Station {
             GpsEvent::Fix(f) => {
                 if f.has_position() {
                     fieldtests::feed(&mut self.field_tests, self.epoch, f);
+                    if let (Some(lat), Some(lon), Some(at)) = (f.lat_deg, f.lon_deg, f.received_at) {
+                        let t_s = at.saturating_duration_since(self.epoch).as_secs_f64();
+                        self.pin.push_fix(t_s, vestnav_core::geo::LatLon::new(lat, lon), f.speed_m_s);
+                    }
                     self.gps.fixes += 1;
                     self.gps.alarm_silenced = false;
                     self.track.push(f);
@@ -809,7 +830,12 @@ impl Station {
                 self.vest.halted = Some(reason.clone());
             }
             VestEvent::Resumed => self.vest.halted = None,
-            VestEvent::Heading(a) => self.vest.heading = Some(*a),
+            VestEvent::Heading(a) => {
+                if let Some(p) = a.pitch_deg {
+                    self.pin.push_pitch(a.received_at.saturating_duration_since(self.epoch).as_secs_f64(), p);
+                }
+                self.vest.heading = Some(*a);
+            }
         }
     }
 }

@@ -439,6 +439,9 @@ impl Console {
             "no vest. The wearer gets no cues until the vest link is back.".to_owned()
         } else if self.gps_alarm(now).is_some() || self.station.gps.last_position.is_none() {
             "no fix. No directional cues without a current position.".to_owned()
+        } else if let Some(p) = self.station.pinned(now) {
+            // Not "the wearer stands still": the receiver holds its position (cause from its stream).
+            p.text()
         } else if let Some(h) = st.and_then(|s| s.hold.as_ref()) {
             format!("{h}.")
         } else if st.is_some_and(|s| s.heading_source == HeadingSource::None && !s.finished) {

@@ -443,6 +443,13 @@ impl NmeaDecoder {
         {
             self.events.push_back(GpsEvent::Raw(super::RawLine { text: line.to_owned(), received_at: now }));
         }
+        // The receiver family shows in its proprietary sentences (receiver_config::Family::detect).
+        let body = line.trim_start_matches('$');
+        if body.starts_with("PSRF") {
+            stats.sirf_sentences += 1;
+        } else if body.starts_with("PUBX") || (body.get(2..5) == Some("TXT") && body.contains("u-blox")) {
+            stats.ublox_sentences += 1;
+        }
         let parsed = match sentence::parse(line) {
             Ok(p) => p,
             Err(Unused::Unsupported) => {
