@@ -591,6 +591,22 @@ impl Station {
         )
     }
 
+    /// Asks the simulated wearer to turn on the spot at `rate_deg_s` (`None`: walk on), as an operator
+    /// asks a real wearer during a compass calibration; the emulated vest's compass measures the turn and
+    /// the built-in simulator holds its walker meanwhile. False when the vest is not the emulated one (a
+    /// real wearer is asked in words).
+    pub fn turn_simulated_wearer(&self, rate_deg_s: Option<f64>) -> bool {
+        if self.vest_source != VestSourceConfig::Emulated {
+            return false;
+        }
+        let Some(truth) = self.factory.simulated_wearer() else { return false };
+        match rate_deg_s {
+            Some(rate) => truth.start_turn(rate),
+            None => truth.end_turn(),
+        }
+        true
+    }
+
     /// The receiver family the GPS stream shows, if it shows one.
     pub fn gps_family(&self) -> Option<vestnav_device::gps::receiver_config::Family> {
         self.gps.stats.as_ref().and_then(vestnav_device::gps::receiver_config::Family::detect)
