@@ -244,7 +244,9 @@ fn collecting_ui(
             360.0 / SIMULATED_TURN_DEG_S
         ));
     } else {
-        ui.label("Have the wearer turn slowly on the spot through a full circle (30 s), or trace a figure-8.");
+        ui.label(
+            "Have the wearer turn slowly on the spot through a full circle (30 s), or trace a figure-8.",
+        );
     }
     // Coverage of the raw readings about their centroid: the hard iron shifts the circle, it does
     // not change how much of it the turn has swept.

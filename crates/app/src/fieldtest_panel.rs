@@ -179,8 +179,7 @@ impl FieldTestPanel {
                     }
                 }
                 Phase::Idle | Phase::Done | Phase::Ended(_) => {
-                    let label =
-                        if t.drift.phase == Phase::Idle { "Start drift test" } else { "Start again" };
+                    let label = if t.drift.phase == Phase::Idle { "Start drift test" } else { "Start again" };
                     if ui.add_enabled(t.latest().is_some(), egui::Button::new(label)).clicked() {
                         t.start_drift();
                     }
@@ -260,10 +259,7 @@ impl FieldTestPanel {
                 ui.checkbox(&mut t.cones.use_bearing, "line bearing (true)");
                 ui.add_enabled(
                     t.cones.use_bearing,
-                    egui::DragValue::new(&mut t.cones.bearing_deg)
-                        .range(0.0..=360.0)
-                        .speed(0.5)
-                        .suffix("°"),
+                    egui::DragValue::new(&mut t.cones.bearing_deg).range(0.0..=360.0).speed(0.5).suffix("°"),
                 );
                 if !t.cones.use_bearing {
                     ui.weak("(else: first to last mark)");
@@ -332,12 +328,9 @@ impl FieldTestPanel {
         if self.plots.as_ref().is_none_or(|(k, _)| *k != key) {
             let figure = match self.procedure {
                 Procedure::Drift => t.drift.stats.as_ref().map_or_else(Figure::new, drift_figure),
-                Procedure::Cones => cones_figure(
-                    t.cones.stats.as_ref(),
-                    &t.cones.marks,
-                    t.cones.recording().fixes(),
-                    t.earth,
-                ),
+                Procedure::Cones => {
+                    cones_figure(t.cones.stats.as_ref(), &t.cones.marks, t.cones.recording().fixes(), t.earth)
+                }
             };
             self.plots = Some((key, figure));
         }

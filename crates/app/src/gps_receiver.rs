@@ -165,9 +165,10 @@ fn body(station: &Station, source: &GpsSourceConfig, r: &mut ReceiverUi, ui: &mu
     {
         r.family = f;
     }
-    let picked = egui::ComboBox::from_label("Receiver family").selected_text(r.family.label()).show_ui(ui, |ui| {
-        Family::ALL.iter().any(|&f| ui.selectable_value(&mut r.family, f, f.label()).clicked())
-    });
+    let picked =
+        egui::ComboBox::from_label("Receiver family").selected_text(r.family.label()).show_ui(ui, |ui| {
+            Family::ALL.iter().any(|&f| ui.selectable_value(&mut r.family, f, f.label()).clicked())
+        });
     if picked.inner == Some(true) {
         r.family_picked = true;
     }

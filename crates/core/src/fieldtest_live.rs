@@ -345,13 +345,7 @@ impl Default for FieldTests {
 impl FieldTests {
     /// Idle tests: WGS-84 distances, thesis defaults (3 min; 10 cones, 10 m).
     pub fn new() -> Self {
-        Self {
-            earth: Earth::Wgs84,
-            latest: None,
-            rejected: 0,
-            drift: DriftRun::new(),
-            cones: ConeRun::new(),
-        }
+        Self { earth: Earth::Wgs84, latest: None, rejected: 0, drift: DriftRun::new(), cones: ConeRun::new() }
     }
 
     /// The latest fix given.
@@ -363,7 +357,14 @@ impl FieldTests {
     /// WGS-84 latitude/longitude [deg], speed over ground [m/s] if known. Fixes with non-finite or
     /// out-of-range coordinates, an arrival time earlier than the previous fix's, or a time earlier than the
     /// previous fix's on a running test's clock, are counted in [`Self::rejected`] and ignored.
-    pub fn push(&mut self, arrival_s: f64, tod_s: Option<f64>, lat_deg: f64, lon_deg: f64, speed: Option<f64>) {
+    pub fn push(
+        &mut self,
+        arrival_s: f64,
+        tod_s: Option<f64>,
+        lat_deg: f64,
+        lon_deg: f64,
+        speed: Option<f64>,
+    ) {
         let Ok(pos) = LatLon::new(lat_deg, lon_deg).validated() else {
             self.rejected += 1;
             return;

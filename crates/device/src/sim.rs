@@ -45,7 +45,8 @@ pub struct TurnInPlace {
 impl TurnInPlace {
     /// The true heading at `at` \[deg\].
     pub fn heading_at(&self, at: Instant) -> f64 {
-        (self.from_deg + self.rate_deg_s * at.saturating_duration_since(self.since).as_secs_f64()).rem_euclid(360.0)
+        (self.from_deg + self.rate_deg_s * at.saturating_duration_since(self.since).as_secs_f64())
+            .rem_euclid(360.0)
     }
 }
 

@@ -34,9 +34,9 @@ use vestnav_device::wtcu::{CommandKind, CommandOrigin, LinkState, VestCommand, V
 
 pub mod devices;
 pub mod fieldtests;
-pub mod pinned;
 pub mod guidance;
 pub mod hardware;
+pub mod pinned;
 pub mod route;
 pub mod sources;
 pub mod state;
@@ -749,7 +749,13 @@ impl Station {
                 if *s == SourceState::Finished {
                     self.field_tests.source_ended();
                 }
-                self.gps.state = Some(s.clone());
+                // A worker's last word is Stopped; after "finished" or "lost" that says less than what it
+                // follows (a replay at its end stays finished, not an alarm about an ageing fix).
+                let says_less = *s == SourceState::Stopped
+                    && matches!(self.gps.state, Some(SourceState::Finished | SourceState::Lost { .. }));
+                if !says_less {
+                    self.gps.state = Some(s.clone());
+                }
             }
             GpsEvent::Fix(f) => {
                 if f.has_position() {
@@ -757,6 +763,13 @@ impl Station {
                     if let (Some(lat), Some(lon), Some(at)) = (f.lat_deg, f.lon_deg, f.received_at) {
                         let t_s = at.saturating_duration_since(self.epoch).as_secs_f64();
                         self.pin.push_fix(t_s, vestnav_core::geo::LatLon::new(lat, lon), f.speed_m_s);
+                        // The built-in simulator knows whether its walker moves.
+                        if matches!(self.gps_source, GpsSourceConfig::Simulator { .. })
+                            && let Some(body) = self.factory.simulated_wearer().and_then(|w| w.get())
+                            && body.pace_m_s > vestnav_core::pinned::MOVING_SPEED_M_S
+                        {
+                            self.pin.simulator_moving(t_s);
+                        }
                     }
                     self.gps.fixes += 1;
                     self.gps.alarm_silenced = false;

@@ -52,7 +52,9 @@ impl Pinned {
     /// The configuration that removes the cause, when the family is known.
     pub fn remedy(&self) -> Option<ReceiverConfig> {
         match self.family? {
-            Family::Sirf => Some(ReceiverConfig { sirf_static_nav: Some(false), ..ReceiverConfig::new(Family::Sirf) }),
+            Family::Sirf => {
+                Some(ReceiverConfig { sirf_static_nav: Some(false), ..ReceiverConfig::new(Family::Sirf) })
+            }
             f @ (Family::Ublox | Family::Ublox9) => {
                 Some(ReceiverConfig { static_hold_m_s: Some(0.0), ..ReceiverConfig::new(f) })
             }

@@ -210,7 +210,9 @@ impl Console {
             }
             Tab::FieldTests => {
                 self.field_panel.base = self.cfg.recent.base();
-                if let Some(FieldTestAction::Mark { label }) = self.field_panel.ui(&mut self.station.field_tests, ui) {
+                if let Some(FieldTestAction::Mark { label }) =
+                    self.field_panel.ui(&mut self.station.field_tests, ui)
+                {
                     self.mark(&label);
                 }
             }
@@ -391,9 +393,11 @@ impl Console {
                         "GPS NOT CONNECTED: {reason}. Guidance has no position. Pick another source in the GPS \
                          panel, or fix this one and connect again."
                     ),
-                    _ => "GPS DISCONNECTED: no GPS source. Guidance has no position. Pick a source in the GPS \
+                    _ => {
+                        "GPS DISCONNECTED: no GPS source. Guidance has no position. Pick a source in the GPS \
                           panel and connect it."
-                        .to_owned(),
+                            .to_owned()
+                    }
                 },
             ),
             // A replay at the end of its file: its own state, not a lost fix (no alarm, no bell).

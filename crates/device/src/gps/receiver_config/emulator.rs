@@ -116,8 +116,12 @@ impl EmulatedReceiver {
     /// naming the maker. This is how the console tells the family from the stream.
     pub fn banner(&self) -> Vec<u8> {
         let lines: &[&str] = match self.family {
-            EmulatedFamily::Sirf3 => &["PSRFTXT,Version GSW3.2.4 (vestnav emulated SiRF III)", "PSRFTXT,Baud rate: 4800"],
-            EmulatedFamily::Ublox8 | EmulatedFamily::Ublox9 => &["GNTXT,01,01,02,u-blox AG - www.u-blox.com (vestnav emulated)"],
+            EmulatedFamily::Sirf3 => {
+                &["PSRFTXT,Version GSW3.2.4 (vestnav emulated SiRF III)", "PSRFTXT,Baud rate: 4800"]
+            }
+            EmulatedFamily::Ublox8 | EmulatedFamily::Ublox9 => {
+                &["GNTXT,01,01,02,u-blox AG - www.u-blox.com (vestnav emulated)"]
+            }
         };
         lines.iter().map(|l| crate::gps::framing::with_checksum(l)).collect::<String>().into_bytes()
     }

@@ -341,7 +341,8 @@ mod tests {
         let spec: GpsSourceSpec = "replay:/nonexistent/walk.nmea".parse().unwrap();
         let e = spec.check_files().unwrap_err();
         assert!(e.contains("/nonexistent/walk.nmea"), "{e}");
-        let here: GpsSourceSpec = format!("replay:{}/Cargo.toml", env!("CARGO_MANIFEST_DIR")).parse().unwrap();
+        let here: GpsSourceSpec =
+            format!("replay:{}/Cargo.toml", env!("CARGO_MANIFEST_DIR")).parse().unwrap();
         assert_eq!(here.check_files(), Ok(()));
         let dir: GpsSourceSpec = format!("replay:{}", env!("CARGO_MANIFEST_DIR")).parse().unwrap();
         assert!(dir.check_files().is_err(), "a folder is not a log");
