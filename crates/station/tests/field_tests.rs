@@ -66,5 +66,5 @@ fn drift_tests_run_on_the_simulator_then_on_a_replay() {
     // Still none when the last fix has grown old.
     std::thread::sleep(Duration::from_millis(200));
     station.pump(|_| {});
-    assert_eq!(station.gps_alarm(Instant::now() + Duration::from_secs(60)), None);
+    assert_eq!(station.gps_alarm(Instant::now() + Duration::from_mins(1)), None);
 }

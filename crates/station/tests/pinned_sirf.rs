@@ -1,6 +1,6 @@
 //! Issue 23 item 3: the thesis's `SiRF` problem, diagnosed. The emulated `SiRF` III (static navigation on,
 //! as shipped) walks the demo route at 0.8 m/s — below its 1.2 m/s threshold — behind a real PTY; the
-//! station reads it as a serial receiver. It must name the cause from the stream ("SiRF static navigation
+//! station reads it as a serial receiver. It must name the cause from the stream ("`SiRF` static navigation
 //! is pinning the position"), and its one-click remedy, sent through the receiver configuration path,
 //! must free the position.
 #![cfg(unix)]
@@ -39,7 +39,7 @@ fn start_sirf3(stop: Arc<AtomicBool>) -> (String, std::thread::JoinHandle<()>) {
         while !stop.load(Ordering::Relaxed) {
             let epoch = rx.next_epoch(1.0);
             if emu.settings().protocol == Protocol::Nmea {
-                if k % (2 * EPOCHS_PER_S) == 0 {
+                if k.is_multiple_of(2 * EPOCHS_PER_S) {
                     let _ = pty.write_all(&emu.banner());
                 }
                 let _ = pty.write_all(epoch.as_bytes());
