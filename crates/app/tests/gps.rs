@@ -283,3 +283,28 @@ fn a_finished_replay_is_its_own_state_with_restart() {
     }
     assert!(h.state().station.gps.fixes >= 10, "replayed again");
 }
+
+/// Issue 23 item 3: a receiver repeating one position with a `SiRF` stream is named as `SiRF` static
+/// navigation on the GPS panel, with its one-click remedy (greyed with the reason on a source that cannot
+/// be configured), instead of "the wearer stands still".
+#[test]
+fn a_pinned_sirf_receiver_is_named_with_its_remedy() {
+    let fake = Fake::default();
+    let mut h = harness(&fake);
+    let stats = vestnav_device::gps::DecodeStats { sirf_sentences: 2, ..Default::default() };
+    fake.gps(&GpsEvent::Stats(stats));
+    // One held fix a second for 6 s, as they arrive (the station times them by their arrival).
+    for k in 1..=7 {
+        if k > 1 {
+            std::thread::sleep(Duration::from_secs(1));
+        }
+        let f = Fix { speed_m_s: Some(0.0), ..fix(42.3562, -71.1, Duration::ZERO) };
+        fake.gps(&GpsEvent::Fix(Box::new(f)));
+        settle(&mut h, |c| c.station.gps.fixes == k);
+    }
+    h.run_steps(1);
+    assert!(h.query_by_label_contains("SiRF static navigation is pinning the position").is_some());
+    assert!(h.query_by_label("Static navigation off").is_some());
+    assert!(h.query_by_label_contains("guidance sees the wearer stand still").is_some());
+    assert!(h.query_by_label_contains("ask them to walk a few steps").is_none());
+}
