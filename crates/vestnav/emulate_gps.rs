@@ -199,6 +199,9 @@ impl Link {
     }
 }
 
+/// How often the emulated receiver repeats its power-on banner.
+const BANNER_EVERY: std::time::Duration = std::time::Duration::from_secs(30);
+
 fn apply(rx: &mut SimulatedReceiver, s: &EmulatedSettings) {
     rx.set_static_hold(s.static_hold_m_s, s.static_hold_max_dist_m);
 }
@@ -210,6 +213,9 @@ fn simulate(args: &GpsArgs, route: &[(f64, f64)]) -> anyhow::Result<()> {
     let model = GnssErrorModel::sirf3_no_static_nav();
     let mut emu = EmulatedReceiver::new(args.receiver, !args.no_static_nav);
     let mut buf = [0u8; 1024];
+    // The power-on banner ($PSRFTXT on a SiRF III), repeated every BANNER_EVERY so a console that opens the
+    // port later still learns the family from the stream (a real receiver sends it at power-on only).
+    let mut banner_due = Instant::now();
     loop {
         let mut rx = SimulatedReceiver::new(route, args.pace_m_s, model, args.seed, whole_second_now())?;
         apply(&mut rx, emu.settings());
@@ -220,6 +226,10 @@ fn simulate(args: &GpsArgs, route: &[(f64, f64)]) -> anyhow::Result<()> {
                 let epoch = rx.next_epoch(period.as_secs_f64());
                 // In SiRF binary the receiver keeps navigating but sends no NMEA.
                 if emu.settings().protocol == Protocol::Nmea {
+                    if Instant::now() >= banner_due {
+                        link.send(&emu.banner()).context("writing the banner")?;
+                        banner_due = Instant::now() + BANNER_EVERY;
+                    }
                     link.send(epoch.as_bytes()).context("writing NMEA")?;
                 }
                 due += period;

@@ -82,8 +82,33 @@ fn quiet_on_broken_pipe() {
     }));
 }
 
+/// The files `--gps` and `--tiles` name, checked before the console's window opens: a missing replay, a
+/// bad route, a tile file that is not PMTiles/MBTiles or a missing tile folder end the program with a
+/// clear error (and a non-zero exit) instead of a window that says less.
+fn check_console_files(
+    gps: Option<&vestnav_device::gps::GpsSourceSpec>,
+    tiles: Option<&vestnav_tiles::TileSourceConfig>,
+) -> anyhow::Result<()> {
+    if let Some(spec) = gps {
+        spec.check_files().map_err(|e| anyhow::anyhow!("--gps {spec}: {e}"))?;
+    }
+    if let Some(
+        t @ (vestnav_tiles::TileSourceConfig::PmTiles(_)
+        | vestnav_tiles::TileSourceConfig::MbTiles(_)
+        | vestnav_tiles::TileSourceConfig::Folder(_)),
+    ) = tiles
+    {
+        // Local stores need no cache folder.
+        vestnav_tiles::store::open(t, &std::env::temp_dir())
+            .map(drop)
+            .map_err(|e| anyhow::anyhow!("--tiles: {e}"))?;
+    }
+    Ok(())
+}
+
 fn run(cli: Cli) -> anyhow::Result<()> {
     let Some(command) = cli.command else {
+        check_console_files(cli.gps.as_ref(), cli.tiles.as_ref())?;
         let screenshot = cli.screenshot.map(|path| vestnav_app::Screenshot {
             path,
             after: std::time::Duration::from_secs_f64(cli.screenshot_after_s),

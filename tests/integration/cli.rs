@@ -135,3 +135,42 @@ fn lock_parser_skips_our_own_crates() {
     let found = locked_registry_packages(lock);
     assert_eq!(found.into_iter().collect::<Vec<_>>(), [("a".to_owned(), "1.2.3".to_owned())]);
 }
+
+/// Runs the console with `args` and no display, for at most 20 s; returns (success, stderr).
+fn console_refusal(args: &[&str]) -> (bool, String) {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_vestnav"))
+        .args(args)
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("run vestnav");
+    let end = std::time::Instant::now() + std::time::Duration::from_secs(20);
+    loop {
+        if let Some(status) = child.try_wait().expect("wait") {
+            let mut err = String::new();
+            std::io::Read::read_to_string(&mut child.stderr.take().unwrap(), &mut err).unwrap();
+            return (status.success(), err);
+        }
+        assert!(std::time::Instant::now() < end, "vestnav {args:?} did not end");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+}
+
+/// Issue 23 item 6: `--gps replay:MISSING` and a `--tiles` file that is not a tile store are refused
+/// before the window opens, naming the file, with a non-zero exit.
+#[test]
+fn console_files_are_checked_before_the_window_opens() {
+    let (ok, err) = console_refusal(&["--gps", "replay:/nonexistent/walk.nmea"]);
+    assert!(!ok);
+    assert!(err.contains("--gps") && err.contains("/nonexistent/walk.nmea"), "{err}");
+    let dir = std::env::temp_dir().join(format!("vestnav-cli-tiles-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let bad = dir.join("area.pmtiles");
+    std::fs::write(&bad, b"this is not a PMTiles archive, only some text that is long enough").unwrap();
+    let (ok, err) = console_refusal(&["--tiles", bad.to_str().unwrap()]);
+    assert!(!ok);
+    assert!(err.contains("--tiles") && err.contains("area.pmtiles"), "{err}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

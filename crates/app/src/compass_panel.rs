@@ -30,6 +30,9 @@ pub const STREAM_RATE_HZ: u8 = 5;
 pub const MAX_SAMPLES: usize = 600;
 /// Coverage of the heading circle below which the wizard asks the wearer to keep turning.
 pub const MIN_COVERAGE: f64 = 0.8;
+/// Turn rate the emulated vest's simulated wearer turns at while the wizard collects [deg/s] (a full turn
+/// in 30 s, as the wizard asks of a real wearer).
+pub const SIMULATED_TURN_DEG_S: f64 = 12.0;
 
 /// The calibration wizard's state.
 #[derive(Debug, Default)]
@@ -154,6 +157,9 @@ fn wizard_ui(station: &mut Station, cfg: &mut Config, wizard: &mut Wizard, ui: &
         Wizard::Idle => {
             if ui.button("Calibrate compass…").clicked() {
                 next = Some(Wizard::Collecting { samples: Vec::new(), since: Instant::now() });
+                // The emulated vest's simulated wearer does what a real one is asked: stop and turn on the
+                // spot (walking, its gait tilt and few headings would spoil the level fit).
+                station.turn_simulated_wearer(Some(SIMULATED_TURN_DEG_S));
             }
         }
         Wizard::Collecting { samples, since } => next = collecting_ui(station, ui, samples, *since),
@@ -216,6 +222,9 @@ fn wizard_ui(station: &mut Station, cfg: &mut Config, wizard: &mut Wizard, ui: &
         });
     }
     if let Some(n) = next {
+        if !matches!(n, Wizard::Collecting { .. }) {
+            station.turn_simulated_wearer(None);
+        }
         *wizard = n;
     }
 }
@@ -228,7 +237,17 @@ fn collecting_ui(
     since: Instant,
 ) -> Option<Wizard> {
     let mut next = None;
-    ui.label("Have the wearer turn slowly on the spot through a full circle (30 s), or trace a figure-8.");
+    if station.vest_source() == &vestnav_station::sources::VestSourceConfig::Emulated {
+        ui.label(format!(
+            "The simulated wearer stands and turns on the spot at {SIMULATED_TURN_DEG_S:.0}°/s (a full circle in \
+             {:.0} s); they walk on after Fit or Cancel.",
+            360.0 / SIMULATED_TURN_DEG_S
+        ));
+    } else {
+        ui.label(
+            "Have the wearer turn slowly on the spot through a full circle (30 s), or trace a figure-8.",
+        );
+    }
     // Coverage of the raw readings about their centroid: the hard iron shifts the circle, it does
     // not change how much of it the turn has swept.
     let n = samples.len();

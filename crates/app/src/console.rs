@@ -86,7 +86,6 @@ pub struct Console {
     pub vest_ui: VestUi,
     /// The map's view state (centre, zoom, tiles, editor, tools).
     pub map: MapView,
-    epoch: Instant,
     /// The compass calibration wizard.
     pub compass_wizard: crate::compass_panel::Wizard,
     /// The pattern editor (Vest panel), kept while its window is closed.
@@ -198,7 +197,6 @@ impl Console {
             overrides: devices,
             station,
             tab: Tab::Map,
-            epoch: Instant::now(),
             compass_wizard: crate::compass_panel::Wizard::default(),
             pattern_editor: crate::pattern_editor::PatternEditor::default(),
             sim_panel: SimPanel::new(),
@@ -311,18 +309,12 @@ impl Console {
     }
 
     /// Pumps the station (its events into its state, within its budget) and hands the view-only consumers
-    /// what they need: the raw monitor, the field tests, the compass wizard.
+    /// what they need: the raw monitor and the compass wizard (the station feeds the field tests itself).
     pub fn pump(&mut self) {
-        let epoch = self.epoch;
-        let (monitor, field, wizard) =
-            (&mut self.gps_ui.monitor, &mut self.field_panel, &mut self.compass_wizard);
+        let (monitor, wizard) = (&mut self.gps_ui.monitor, &mut self.compass_wizard);
         let mut identified = false;
         self.station.pump(|ev| match ev {
             StationEvent::Gps(GpsEvent::Raw(line)) => monitor.push(line.clone(), Instant::now()),
-            StationEvent::Gps(GpsEvent::Fix(f)) if f.has_position() => {
-                let t_s = f.received_at.map_or(0.0, |t| t.saturating_duration_since(epoch).as_secs_f64());
-                field.push_fix(t_s, f);
-            }
             StationEvent::Vest(VestEvent::Heading(a)) => wizard.push(a),
             StationEvent::Vest(VestEvent::Identified(_)) => identified = true,
             _ => {}

@@ -30,6 +30,8 @@ pub struct GpsUi {
     /// The Receiver section: the configuration to send and the last run's outcomes (kept across
     /// reconnections).
     pub receiver: ReceiverUi,
+    /// A replay starts again at the end of its file (kept across reconnections).
+    pub loop_replay: bool,
 }
 
 impl GpsUi {
@@ -47,6 +49,9 @@ pub fn connect(station: &mut Station, cfg: &mut Config, gps_ui: &mut GpsUi) {
     let taps = vec![gps_ui.recording.tap.outbox()];
     gps_ui.monitor = gps_ui.monitor.emptied();
     station.connect_gps(taps);
+    if let Some(ctl) = station.gps_worker().and_then(vestnav_station::devices::GpsWorker::replay_control) {
+        ctl.set_looped(gps_ui.loop_replay);
+    }
     if station.gps_connected()
         && let GpsSourceConfig::Replay { path, .. } = &cfg.gps
     {
@@ -381,7 +386,8 @@ pub fn show(station: &mut Station, cfg: &mut Config, gps_ui: &mut GpsUi, ui: &mu
     if let Some(n) = &station.gps.notice {
         ui.label(RichText::new(n).small().weak());
     }
-    replay_ui(station, ui);
+    pinned_ui(station, cfg, gps_ui, ui, now);
+    replay_ui(station, cfg, gps_ui, ui);
     record_ui(gps_ui, ui);
     monitor_ui(gps_ui, ui);
 
@@ -445,13 +451,53 @@ pub fn show(station: &mut Station, cfg: &mut Config, gps_ui: &mut GpsUi, ui: &mu
     }
 }
 
-/// Pause/resume, the seek bar and elapsed/total time of a replay source.
-fn replay_ui(station: &Station, ui: &mut egui::Ui) {
+/// The pinned-receiver diagnosis (cause named from the stream's family) with its one-click fix through
+/// the receiver configuration path; the outcome shows in the Receiver window's log.
+fn pinned_ui(station: &Station, cfg: &Config, gps_ui: &mut GpsUi, ui: &mut egui::Ui, now: Instant) {
+    let Some(p) = station.pinned(now) else { return };
+    ui.label(RichText::new(p.text()).strong().color(ui.visuals().warn_fg_color));
+    let Some(remedy) = p.remedy() else { return };
+    let label = if remedy.sirf_static_nav.is_some() { "Static navigation off" } else { "Static hold off" };
+    let available = crate::gps_receiver::availability(station, &cfg.gps);
+    let busy = gps_ui.receiver.ticket.is_some();
+    let b = ui.add_enabled(available.is_ok() && !busy, egui::Button::new(label));
+    let b = match &available {
+        Err(why) => b.on_disabled_hover_text(why),
+        Ok(()) => b,
+    };
+    if b.clicked() {
+        gps_ui.receiver.send(station, remedy);
+        gps_ui.receiver.open = true;
+    }
+}
+
+/// Pause/resume, Loop, the seek bar and elapsed/total time of a replay source; at the end of the file
+/// "Replay finished" with **Restart** (its own state: no stale or lost-fix alarm).
+fn replay_ui(station: &mut Station, cfg: &mut Config, gps_ui: &mut GpsUi, ui: &mut egui::Ui) {
     let Some(ctl) = station.gps_worker().and_then(vestnav_station::devices::GpsWorker::replay_control) else {
         return;
     };
     let progress = ctl.progress();
+    if station.gps.state == Some(SourceState::Finished) {
+        let mut restart = false;
+        ui.horizontal(|ui| {
+            let name = match &cfg.gps {
+                GpsSourceConfig::Replay { path, .. } => path.display().to_string(),
+                _ => "the file".to_owned(),
+            };
+            ui.label(RichText::new(format!("Replay finished: the end of {name}")).strong());
+            restart = ui.button("Restart").clicked();
+            ui.checkbox(&mut gps_ui.loop_replay, "Loop");
+        });
+        if restart {
+            connect(station, cfg, gps_ui);
+        }
+        return;
+    }
     ui.horizontal(|ui| {
+        if ui.checkbox(&mut gps_ui.loop_replay, "Loop").changed() {
+            ctl.set_looped(gps_ui.loop_replay);
+        }
         let paused = ctl.is_paused();
         if ui.button(if paused { "Resume replay" } else { "Pause replay" }).clicked() {
             ctl.set_paused(!paused);

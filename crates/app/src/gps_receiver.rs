@@ -22,6 +22,8 @@ pub struct ReceiverUi {
     pub open: bool,
     /// The receiver family.
     pub family: Family,
+    /// The operator picked the family (else it follows the family the stream shows).
+    pub family_picked: bool,
     /// Navigation rate [Hz] (u-blox).
     pub rate_hz: u8,
     /// Constellations (u-blox).
@@ -46,6 +48,7 @@ impl Default for ReceiverUi {
         Self {
             open: false,
             family: Family::Ublox,
+            family_picked: false,
             rate_hz: 1,
             constellations: Constellations::default(),
             dynamic_model: DynamicModel::Pedestrian,
@@ -107,7 +110,7 @@ impl ReceiverUi {
     }
 
     /// Starts a run of `cfg` through the station's running GPS source (a direct serial port only).
-    fn send(&mut self, station: &Station, cfg: ReceiverConfig) {
+    pub fn send(&mut self, station: &Station, cfg: ReceiverConfig) {
         let ticket = station
             .gps_worker()
             .ok_or_else(|| "connect the GPS first".to_owned())
@@ -156,11 +159,22 @@ pub fn window(station: &Station, source: &GpsSourceConfig, r: &mut ReceiverUi, c
 
 fn body(station: &Station, source: &GpsSourceConfig, r: &mut ReceiverUi, ui: &mut egui::Ui) {
     let available = availability(station, source);
-    egui::ComboBox::from_label("Receiver family").selected_text(r.family.label()).show_ui(ui, |ui| {
-        for f in Family::ALL {
-            ui.selectable_value(&mut r.family, f, f.label());
-        }
-    });
+    let detected = station.gps_family();
+    if !r.family_picked
+        && let Some(f) = detected
+    {
+        r.family = f;
+    }
+    let picked =
+        egui::ComboBox::from_label("Receiver family").selected_text(r.family.label()).show_ui(ui, |ui| {
+            Family::ALL.iter().any(|&f| ui.selectable_value(&mut r.family, f, f.label()).clicked())
+        });
+    if picked.inner == Some(true) {
+        r.family_picked = true;
+    }
+    if let Some(f) = detected {
+        ui.label(RichText::new(format!("the stream shows a {}", f.label())).small().weak());
+    }
     let busy = r.ticket.is_some();
     if r.family == Family::Sirf {
         ui.label(

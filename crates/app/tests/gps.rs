@@ -245,3 +245,66 @@ fn the_error_estimate_names_its_source() {
     h.run_steps(2);
     assert!(h.query_by_label_contains("7.5 m · HDOP x 5 m").is_some());
 }
+
+/// Issue 23 item 6: a replay at the end of its file is "Replay finished" (a notice, no STALE or FIX LOST
+/// alarm however old its last fix grows), with **Restart** that replays it again.
+#[test]
+fn a_finished_replay_is_its_own_state_with_restart() {
+    let mut h = real_harness(None);
+    settle(&mut h, |c| c.station.gps.fix.is_some());
+    h.get_by_label("Disconnect GPS").click();
+    h.run_steps(2);
+    let file = concat!(env!("CARGO_MANIFEST_DIR"), "/../../tests/data/gpsd-logs/mr-350p.log");
+    {
+        let c = h.state_mut();
+        c.gps_ui.picker.kind = vestnav_app::gps_panel::SourceKind::Replay;
+        c.gps_ui.picker.replay_path = file.to_owned();
+        c.gps_ui.picker.replay_speed = 50.0;
+    }
+    // The picker's replay rows appear first (the button moves down).
+    h.run_steps(2);
+    h.get_by_label("Connect GPS").click();
+    for _ in 0..10 {
+        settle(&mut h, |c| c.station.gps.state == Some(vestnav_device::gps::SourceState::Finished));
+    }
+    assert_eq!(h.state().station.gps.state, Some(vestnav_device::gps::SourceState::Finished));
+    let fixes = h.state().station.gps.fixes;
+    assert!(fixes >= 10, "{fixes}");
+    h.run_steps(2);
+    assert!(h.query_by_label_contains("Replay finished: the end of").is_some());
+    assert!(h.query_by_label_contains("SOURCE FINISHED").is_some());
+    assert!(h.query_by_label_contains("GPS FIX LOST").is_none());
+    assert!(h.query_by_label_contains("GPS STALE").is_none());
+    assert_eq!(h.state().gps_alarm(Instant::now() + Duration::from_mins(1)), None);
+    h.get_by_label("Restart").click();
+    h.run_steps(1);
+    for _ in 0..10 {
+        settle(&mut h, |c| c.station.gps.fixes >= 10 && c.station.gps.state.is_some());
+    }
+    assert!(h.state().station.gps.fixes >= 10, "replayed again");
+}
+
+/// Issue 23 item 3: a receiver repeating one position with a `SiRF` stream is named as `SiRF` static
+/// navigation on the GPS panel, with its one-click remedy (greyed with the reason on a source that cannot
+/// be configured), instead of "the wearer stands still".
+#[test]
+fn a_pinned_sirf_receiver_is_named_with_its_remedy() {
+    let fake = Fake::default();
+    let mut h = harness(&fake);
+    let stats = vestnav_device::gps::DecodeStats { sirf_sentences: 2, ..Default::default() };
+    fake.gps(&GpsEvent::Stats(stats));
+    // One held fix a second for 6 s, as they arrive (the station times them by their arrival).
+    for k in 1..=7 {
+        if k > 1 {
+            std::thread::sleep(Duration::from_secs(1));
+        }
+        let f = Fix { speed_m_s: Some(0.0), ..fix(42.3562, -71.1, Duration::ZERO) };
+        fake.gps(&GpsEvent::Fix(Box::new(f)));
+        settle(&mut h, |c| c.station.gps.fixes == k);
+    }
+    h.run_steps(1);
+    assert!(h.query_by_label_contains("SiRF static navigation is pinning the position").is_some());
+    assert!(h.query_by_label("Static navigation off").is_some());
+    assert!(h.query_by_label_contains("guidance sees the wearer stand still").is_some());
+    assert!(h.query_by_label_contains("ask them to walk a few steps").is_none());
+}

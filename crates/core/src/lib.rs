@@ -15,7 +15,9 @@
 //! - [`guidance`]: route, heading source, cue selection, rate limiting, manual overrides, strategies;
 //! - [`gnss_sim`]: a GNSS error model (noise, wandering bias, static-navigation pinning) and a route walker;
 //! - [`wearer`]: the closed-loop simulated wearer used to compare strategies;
-//! - [`fieldtest`]: GPS drift and cone-test statistics (§5);
+//! - [`fieldtest`]: GPS drift and cone-test statistics (§5); [`fieldtest_live`]: the tests run live on a
+//!   stream of fixes (time base, walking, pinning, source ended); [`pinned`]: a receiver holding its
+//!   position while the wearer walks;
 //! - [`accuracy`]: GPS accuracy against a reference (CEP, DRMS, bias, vertical), receivers side by side;
 //! - [`coords`]: typed positions (decimal, DMS, UTM/UPS, MGRS) read and written.
 //!
@@ -31,10 +33,12 @@ pub mod analysis;
 pub mod compass;
 pub mod coords;
 pub mod fieldtest;
+pub mod fieldtest_live;
 pub mod fit;
 pub mod geo;
 pub mod gnss_sim;
 pub mod guidance;
+pub mod pinned;
 pub mod sweep;
 pub mod tactor;
 pub mod twopoint;

@@ -30,20 +30,69 @@ pub struct BodyTruth {
     pub pace_m_s: f64,
 }
 
+/// The simulated wearer turning on the spot, as an operator asks a wearer to for a compass calibration:
+/// facing `from_deg` (true) at `since`, turning at `rate_deg_s` (clockwise positive), standing level.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TurnInPlace {
+    /// True heading when the turn began \[deg\].
+    pub from_deg: f64,
+    /// Turn rate \[deg/s\].
+    pub rate_deg_s: f64,
+    /// When the turn began.
+    pub since: Instant,
+}
+
+impl TurnInPlace {
+    /// The true heading at `at` \[deg\].
+    pub fn heading_at(&self, at: Instant) -> f64 {
+        (self.from_deg + self.rate_deg_s * at.saturating_duration_since(self.since).as_secs_f64())
+            .rem_euclid(360.0)
+    }
+}
+
+#[derive(Debug, Default)]
+struct Shared {
+    body: Option<BodyTruth>,
+    turn: Option<TurnInPlace>,
+}
+
 /// A [`BodyTruth`] shared between threads: the GPS simulator writes it every epoch, the emulated unit's
-/// compass reads it. Empty until the simulator's first epoch.
+/// compass reads it. Empty until the simulator's first epoch. It also carries a request to turn on the
+/// spot ([`Self::start_turn`]): the simulated wearer then stops walking (the simulator holds its walker) and
+/// turns level where it stands, which the compass measures — what a calibration needs.
 #[derive(Debug, Clone, Default)]
-pub struct SharedTruth(Arc<Mutex<Option<BodyTruth>>>);
+pub struct SharedTruth(Arc<Mutex<Shared>>);
 
 impl SharedTruth {
+    fn lock(&self) -> std::sync::MutexGuard<'_, Shared> {
+        self.0.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+
     /// Records where the wearer is now.
     pub fn set(&self, truth: BodyTruth) {
-        *self.0.lock().unwrap_or_else(PoisonError::into_inner) = Some(truth);
+        self.lock().body = Some(truth);
     }
 
     /// Where the wearer is now, if anyone has said.
     pub fn get(&self) -> Option<BodyTruth> {
-        *self.0.lock().unwrap_or_else(PoisonError::into_inner)
+        self.lock().body
+    }
+
+    /// The wearer stops and turns on the spot at `rate_deg_s`, from the heading they face now.
+    pub fn start_turn(&self, rate_deg_s: f64) {
+        let mut g = self.lock();
+        let from_deg = g.body.map_or(0.0, |b| b.heading_true_deg);
+        g.turn = Some(TurnInPlace { from_deg, rate_deg_s, since: Instant::now() });
+    }
+
+    /// The wearer walks on (from where they stood).
+    pub fn end_turn(&self) {
+        self.lock().turn = None;
+    }
+
+    /// The turn under way, if any.
+    pub fn turn(&self) -> Option<TurnInPlace> {
+        self.lock().turn
     }
 }
 
@@ -75,6 +124,24 @@ pub enum WearerMotion {
 }
 
 impl WearerMotion {
+    /// The wearer's pose at `at`, `t_s` seconds on the unit's clock: [`Self::pose`], except that a
+    /// followed wearer turning on the spot ([`SharedTruth::start_turn`]) stands where they are, turning.
+    pub fn pose_at(&self, t_s: f64, at: Instant) -> SensorPose {
+        if let Self::Follow(cell) = self
+            && let Some(turn) = cell.turn()
+        {
+            let b = cell.get();
+            return SensorPose {
+                t_s,
+                heading_true_deg: turn.heading_at(at),
+                east_m: b.map_or(0.0, |b| b.east_m),
+                north_m: b.map_or(0.0, |b| b.north_m),
+                pace_m_s: 0.0,
+            };
+        }
+        self.pose(t_s)
+    }
+
     /// The wearer's pose after `t_s` seconds on the unit's clock.
     pub fn pose(&self, t_s: f64) -> SensorPose {
         let standing =
@@ -151,6 +218,12 @@ impl SimulatedCompass {
         Self { sim, motion: setup.motion.clone(), start: None }
     }
 
+    /// The Earth field the emulated sensor measures, north/east/down \[µT\] (the truth a calibration
+    /// is checked against).
+    pub fn field_ned_ut(&self) -> [f64; 3] {
+        self.sim.field_ned_ut()
+    }
+
     /// Declination of the emulated place's field, east positive \[deg\].
     pub fn declination_deg(&self) -> f64 {
         self.sim.declination_deg()
@@ -161,7 +234,57 @@ impl HeadingSensor for SimulatedCompass {
     fn sample(&mut self, at: Instant) -> ([f64; 3], [f64; 3]) {
         let start = *self.start.get_or_insert(at);
         let t_s = at.saturating_duration_since(start).as_secs_f64();
-        let s = self.sim.sample(&self.motion.pose(t_s));
+        let s = self.sim.sample(&self.motion.pose_at(t_s, at));
         (s.raw_mag_body_ut, s.accel_body_m_s2)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::time::Duration;
+    use vestnav_core::compass::{FieldReference, FitKind, fit_calibration, heading_coverage};
+
+    /// Issue 23 item 10: a compass calibration against the emulated vest converges. Asked to turn on the
+    /// spot (as the console's wizard asks), the simulated wearer stands level and turns a full circle in
+    /// 30 s while the unit's sensor is read at 5 Hz (the console's stream rate); the wizard's coverage
+    /// reaches its 80 %, and the level fit gives back the offset a level turn sees, `b + S e_z Z - Z e_z`
+    /// (docs/heading.md), from the emulator's known hard iron `b`, soft iron `S` and the WMM field's
+    /// vertical `Z` — within 1 µT — and a quality near 100 once applied. Walking the demo route instead
+    /// (gait tilt, a handful of headings) covered 31 % of the circle in the wizard's 2 minutes.
+    #[test]
+    fn calibration_converges_on_the_emulated_vest() {
+        let truth = SharedTruth::default();
+        truth.set(BodyTruth { heading_true_deg: 40.0, east_m: 0.0, north_m: 0.0, pace_m_s: 1.4 });
+        let mut compass = SimulatedCompass::new(&CompassSetup {
+            motion: WearerMotion::Follow(truth.clone()),
+            ..CompassSetup::default()
+        });
+        let t0 = Instant::now();
+        compass.sample(t0);
+        truth.start_turn(12.0);
+        let since = truth.turn().unwrap().since;
+        let samples: Vec<[f64; 3]> =
+            (1..=150).map(|k| compass.sample(since + Duration::from_millis(200 * k)).0).collect();
+        // The wizard's coverage: about the readings' centroid.
+        let n = samples.len() as f64;
+        let mean = [0, 1, 2].map(|i| samples.iter().map(|s| s[i]).sum::<f64>() / n);
+        let centred: Vec<[f64; 3]> = samples.iter().map(|s| [0, 1, 2].map(|i| s[i] - mean[i])).collect();
+        assert!(heading_coverage(&centred) >= 0.8, "coverage {}", heading_coverage(&centred));
+        let field = compass.field_ned_ut();
+        let fit = fit_calibration(&samples, FieldReference::from_ned(field)).unwrap();
+        assert_eq!(fit.kind, FitKind::Ellipse2d);
+        // The emulator's truth: typical_vest's b and S, the field's vertical Z.
+        let model = vestnav_core::compass::MagnetometerModel::typical_vest();
+        let (b, s, z) = (model.hard_iron_ut, model.soft_iron, field[2]);
+        let want = [b[0] + s[0][2] * z, b[1] + s[1][2] * z, b[2] + s[2][2] * z - z];
+        for (got, want) in fit.calibration.hard_iron_ut.iter().zip(want) {
+            assert!((got - want).abs() < 1.0, "hard iron {:?} vs {want:?}", fit.calibration.hard_iron_ut);
+        }
+        // Applied to a standing reading, the quality the unit reports is near 100 (it was 0 uncalibrated).
+        truth.end_turn();
+        let raw = compass.sample(since + Duration::from_secs(40)).0;
+        let q = fit.calibration.quality_pct(fit.calibration.apply(raw));
+        assert!(q >= 90, "quality {q}");
     }
 }

@@ -57,6 +57,13 @@ pub trait DeviceFactory {
         outputs: Vec<Outbox<GpsEvent>>,
     ) -> Result<Box<dyn GpsWorker>, String>;
 
+    /// The simulated wearer the simulated devices share, when this factory has one (the real one: the
+    /// built-in GPS simulator and the emulated vest's compass), so a calibration can ask it to turn on the
+    /// spot.
+    fn simulated_wearer(&self) -> Option<vestnav_device::sim::SharedTruth> {
+        None
+    }
+
     /// Starts the vest worker for `source`, delivering every event to every outbox.
     fn open_vest(
         &self,

@@ -69,6 +69,10 @@ impl DeviceFactory for Hardware {
         Ok(Box::new(handle))
     }
 
+    fn simulated_wearer(&self) -> Option<SharedTruth> {
+        Some(self.truth.clone())
+    }
+
     fn open_vest(
         &self,
         source: &VestSourceConfig,

@@ -23,6 +23,8 @@ use std::sync::Arc;
 use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
 use std::time::{Duration, Instant};
 
+use vestnav_core::fieldtest_live::FieldTests;
+use vestnav_core::pinned::PinDetector;
 use vestnav_core::vest::Cue;
 use vestnav_device::gps::{GpsEvent, SourceState};
 use vestnav_device::outbox::{Outbox, Overflow, Waker, drain_within};
@@ -31,8 +33,10 @@ use vestnav_device::wtcu::worker::{Heartbeat, Watched};
 use vestnav_device::wtcu::{CommandKind, CommandOrigin, LinkState, VestCommand, VestEvent, VestHandle};
 
 pub mod devices;
+pub mod fieldtests;
 pub mod guidance;
 pub mod hardware;
+pub mod pinned;
 pub mod route;
 pub mod sources;
 pub mod state;
@@ -183,6 +187,12 @@ pub struct Station {
         std::sync::mpsc::Sender<(Subject, Vec<vestnav_device::doctor::Finding>)>,
         std::sync::mpsc::Receiver<(Subject, Vec<vestnav_device::doctor::Finding>)>,
     ),
+    /// The drift and cone tests, fed with every fix of whatever source runs.
+    pub field_tests: FieldTests,
+    /// The origin of the field tests' and the pin detector's times.
+    epoch: Instant,
+    /// Watches for a receiver holding its position (see [`pinned`]).
+    pin: PinDetector,
 }
 
 impl Station {
@@ -253,6 +263,9 @@ impl Station {
             log_health: vestnav_device::session_log::LogHealth::Ok,
             diagnosed: Vec::new(),
             port_findings: std::sync::mpsc::channel(),
+            field_tests: FieldTests::new(),
+            epoch: Instant::now(),
+            pin: PinDetector::default(),
         }
     }
 
@@ -384,6 +397,9 @@ impl Station {
         outputs.extend(taps);
         self.gps = GpsState::default();
         self.diagnosed.clear();
+        // A new source: its clock and arrival times start afresh for the field tests too.
+        self.field_tests.source_changed();
+        self.pin.clear();
         // A new source: its first position must not be joined to the old source's last one.
         self.track.break_segment();
         match self.factory.open_gps(&self.gps_source, self.route.waypoints(), outputs) {
@@ -542,6 +558,14 @@ impl Station {
         result
     }
 
+    /// Marks the next cone of the running cone test at the latest fix and logs the mark; returns its label
+    /// (`None`: no cone test runs or no fix yet).
+    pub fn mark_cone(&mut self) -> Option<String> {
+        let label = self.field_tests.mark_cone()?;
+        self.mark(&label);
+        Some(label)
+    }
+
     /// Logs an operator mark at the wearer's position.
     pub fn mark(&mut self, label: &str) {
         let pos = self.gps.last_position.as_ref().and_then(|f| f.lat_deg.zip(f.lon_deg));
@@ -572,6 +596,33 @@ impl Station {
             self.settings.guidance.stale_after_s,
             self.settings.lost_after_s,
         )
+    }
+
+    /// Asks the simulated wearer to turn on the spot at `rate_deg_s` (`None`: walk on), as an operator
+    /// asks a real wearer during a compass calibration; the emulated vest's compass measures the turn and
+    /// the built-in simulator holds its walker meanwhile. False when the vest is not the emulated one (a
+    /// real wearer is asked in words).
+    pub fn turn_simulated_wearer(&self, rate_deg_s: Option<f64>) -> bool {
+        if self.vest_source != VestSourceConfig::Emulated {
+            return false;
+        }
+        let Some(truth) = self.factory.simulated_wearer() else { return false };
+        match rate_deg_s {
+            Some(rate) => truth.start_turn(rate),
+            None => truth.end_turn(),
+        }
+        true
+    }
+
+    /// The receiver family the GPS stream shows, if it shows one.
+    pub fn gps_family(&self) -> Option<vestnav_device::gps::receiver_config::Family> {
+        self.gps.stats.as_ref().and_then(vestnav_device::gps::receiver_config::Family::detect)
+    }
+
+    /// The pinned-receiver diagnosis at `now`: the receiver holds one position (see [`pinned`]).
+    pub fn pinned(&self, now: Instant) -> Option<pinned::Pinned> {
+        let now_s = now.saturating_duration_since(self.epoch).as_secs_f64();
+        pinned::Pinned::diagnose(&self.pin, now_s, self.gps_family())
     }
 
     /// The stop alarm at `now`: the latest STOP ALL not confirmed by the unit.
@@ -716,10 +767,31 @@ impl Station {
                     let port = port.clone();
                     self.diagnose_port(Subject::Gps, &port);
                 }
-                self.gps.state = Some(s.clone());
+                if *s == SourceState::Finished {
+                    self.field_tests.source_ended();
+                }
+                // A worker's last word is Stopped; after "finished" or "lost" that says less than what it
+                // follows (a replay at its end stays finished, not an alarm about an ageing fix).
+                let says_less = *s == SourceState::Stopped
+                    && matches!(self.gps.state, Some(SourceState::Finished | SourceState::Lost { .. }));
+                if !says_less {
+                    self.gps.state = Some(s.clone());
+                }
             }
             GpsEvent::Fix(f) => {
                 if f.has_position() {
+                    fieldtests::feed(&mut self.field_tests, self.epoch, f);
+                    if let (Some(lat), Some(lon), Some(at)) = (f.lat_deg, f.lon_deg, f.received_at) {
+                        let t_s = at.saturating_duration_since(self.epoch).as_secs_f64();
+                        self.pin.push_fix(t_s, vestnav_core::geo::LatLon::new(lat, lon), f.speed_m_s);
+                        // The built-in simulator knows whether its walker moves.
+                        if matches!(self.gps_source, GpsSourceConfig::Simulator { .. })
+                            && let Some(body) = self.factory.simulated_wearer().and_then(|w| w.get())
+                            && body.pace_m_s > vestnav_core::pinned::MOVING_SPEED_M_S
+                        {
+                            self.pin.simulator_moving(t_s);
+                        }
+                    }
                     self.gps.fixes += 1;
                     self.gps.alarm_silenced = false;
                     self.track.push(f);
@@ -735,8 +807,10 @@ impl Station {
             GpsEvent::Attitude(a) => self.gps.attitude = Some(*a),
             GpsEvent::Raw(_) => {}
             GpsEvent::Discontinuity(n) => {
-                // A replay seek: the next position must not be joined to the last one.
+                // A replay seek or loop: the next position must not be joined to the last one, and the
+                // receiver's clock jumps with it.
                 self.track.break_segment();
+                self.field_tests.source_jumped();
                 self.gps.notice = Some(n.clone());
             }
         }
@@ -806,7 +880,12 @@ impl Station {
                 self.vest.halted = Some(reason.clone());
             }
             VestEvent::Resumed => self.vest.halted = None,
-            VestEvent::Heading(a) => self.vest.heading = Some(*a),
+            VestEvent::Heading(a) => {
+                if let Some(p) = a.pitch_deg {
+                    self.pin.push_pitch(a.received_at.saturating_duration_since(self.epoch).as_secs_f64(), p);
+                }
+                self.vest.heading = Some(*a);
+            }
         }
     }
 }

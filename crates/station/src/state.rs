@@ -58,6 +58,11 @@ pub fn gps_alarm(
     if !running {
         return None;
     }
+    // A source that reached its end (a replay's file) is its own state, not a lost fix: the view says
+    // "replay finished" with Restart and Loop, without the alarm.
+    if *state == SourceState::Finished {
+        return None;
+    }
     if let SourceState::Lost { reason } = state {
         return Some(GpsAlarm::Lost { reason: reason.clone() });
     }

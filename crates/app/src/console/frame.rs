@@ -22,7 +22,7 @@ use vestnav_station::{Severity as NoticeSeverity, Subject};
 
 use super::{Console, GpsAlarm, Tab};
 use crate::config::Config;
-use crate::fieldtest_panel::FieldTestAction;
+use crate::fieldtest_panel::{FieldTestAction, FieldTestPanel};
 
 /// Text size of the banner lines [pt] (large-text option: [`BANNER_PT_LARGE`]): readable outdoors.
 pub const BANNER_PT: f32 = 18.0;
@@ -191,7 +191,7 @@ impl Console {
                 let fix = self.station.gps.last_position.clone();
                 let guidance = self.station.guidance.clone();
                 let walking = self.cfg.walking_speed_m_s;
-                self.map.tools.field = self.field_panel.map_overlay();
+                self.map.tools.field = FieldTestPanel::map_overlay(&self.station.field_tests);
                 let (route, track, notices) = self.station.route_view();
                 self.map.ui(
                     ui,
@@ -210,7 +210,9 @@ impl Console {
             }
             Tab::FieldTests => {
                 self.field_panel.base = self.cfg.recent.base();
-                if let Some(FieldTestAction::Mark { label }) = self.field_panel.ui(ui) {
+                if let Some(FieldTestAction::Mark { label }) =
+                    self.field_panel.ui(&mut self.station.field_tests, ui)
+                {
                     self.mark(&label);
                 }
             }
@@ -385,8 +387,24 @@ impl Console {
             ),
             None if !self.gps_connected() || self.station.gps.state.is_none() => line(
                 Severity::Alarm,
-                "GPS DISCONNECTED: no GPS source. Guidance has no position. Pick a source in the GPS panel \
-                 and connect it."
+                match &self.station.gps.state {
+                    // The source could not start (a missing replay file, a port that is not there): say which.
+                    Some(SourceState::Lost { reason }) => format!(
+                        "GPS NOT CONNECTED: {reason}. Guidance has no position. Pick another source in the GPS \
+                         panel, or fix this one and connect again."
+                    ),
+                    _ => {
+                        "GPS DISCONNECTED: no GPS source. Guidance has no position. Pick a source in the GPS \
+                          panel and connect it."
+                            .to_owned()
+                    }
+                },
+            ),
+            // A replay at the end of its file: its own state, not a lost fix (no alarm, no bell).
+            None if self.station.gps.state == Some(SourceState::Finished) => line(
+                Severity::Notice,
+                "SOURCE FINISHED: the GPS source reached its end; guidance has no new position. Restart it \
+                 (or tick Loop) in the GPS panel, or pick another source."
                     .to_owned(),
             ),
             None if self.station.gps.last_position.is_none()
@@ -425,6 +443,9 @@ impl Console {
             "no vest. The wearer gets no cues until the vest link is back.".to_owned()
         } else if self.gps_alarm(now).is_some() || self.station.gps.last_position.is_none() {
             "no fix. No directional cues without a current position.".to_owned()
+        } else if let Some(p) = self.station.pinned(now) {
+            // Not "the wearer stands still": the receiver holds its position (cause from its stream).
+            p.text()
         } else if let Some(h) = st.and_then(|s| s.hold.as_ref()) {
             format!("{h}.")
         } else if st.is_some_and(|s| s.heading_source == HeadingSource::None && !s.finished) {

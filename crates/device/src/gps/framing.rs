@@ -120,6 +120,14 @@ pub struct DecodeStats {
     /// CASIC binary frames with a correct checksum (decoded or ignored).
     #[serde(default)]
     pub casic_frames: u64,
+    /// `SiRF` proprietary NMEA sentences (`$PSRF…`, e.g. the power-on `$PSRFTXT` banner) with a correct
+    /// checksum: the stream is a `SiRF` receiver's.
+    #[serde(default)]
+    pub sirf_sentences: u64,
+    /// u-blox proprietary or identifying NMEA sentences (`$PUBX`, a `TXT` naming u-blox) with a correct
+    /// checksum: the stream is a u-blox receiver's.
+    #[serde(default)]
+    pub ublox_sentences: u64,
     /// RTCM 3 frames with a correct CRC-24Q (corrections, skipped whole: not an error).
     #[serde(default)]
     pub rtcm3_frames: u64,
@@ -219,6 +227,8 @@ impl DecodeStats {
         self.ubx_frames += o.ubx_frames;
         self.sirf_frames += o.sirf_frames;
         self.casic_frames += o.casic_frames;
+        self.sirf_sentences += o.sirf_sentences;
+        self.ublox_sentences += o.ublox_sentences;
         self.rtcm3_frames += o.rtcm3_frames;
         self.implausible_dates += o.implausible_dates;
         self.undecoded_protocol = self.undecoded_protocol.or(o.undecoded_protocol);

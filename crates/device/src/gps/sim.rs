@@ -46,6 +46,8 @@ pub struct SimulatedReceiver {
     error: GnssErrorState,
     start: DateTime<Utc>,
     t_s: f64,
+    /// Time spent standing ([`Self::next_epoch_standing`]): the walker's own time is `t_s - stood_s`.
+    stood_s: f64,
     sigma_m: f64,
 }
 
@@ -61,12 +63,12 @@ impl SimulatedReceiver {
         let walker = RouteWalker::new(route, pace_m_s)
             .map_err(|e| GpsError::Route { path: "(route)".into(), reason: e.to_string() })?;
         let sigma_m = (model.noise_sigma_m.powi(2) + model.bias_sigma_m.powi(2)).sqrt();
-        Ok(Self { walker, error: GnssErrorState::new(model, seed), start, t_s: 0.0, sigma_m })
+        Ok(Self { walker, error: GnssErrorState::new(model, seed), start, t_s: 0.0, stood_s: 0.0, sigma_m })
     }
 
     /// The walker's true state at the last epoch (position, course, speed): the simulation's truth.
     pub fn truth(&self) -> vestnav_core::gnss_sim::WalkerSample {
-        self.walker.sample(self.t_s)
+        self.walker.sample(self.t_s - self.stood_s)
     }
 
     /// Reconfigures static navigation (`SiRF`) / static hold (u-blox) while running: below `threshold_m_s`
@@ -78,7 +80,7 @@ impl SimulatedReceiver {
 
     /// True once the walker has reached the end of the route.
     pub fn finished(&self) -> bool {
-        self.walker.sample(self.t_s).finished
+        self.truth().finished
     }
 
     /// UTC time of the last epoch returned (the start time before the first).
@@ -89,8 +91,24 @@ impl SimulatedReceiver {
     /// Advances by `dt_s` and returns that epoch's NMEA sentences (GGA, GSA, GSV, RMC, GST). While static
     /// navigation holds the position, RMC's speed reads 0 (what the thesis's BT-359 reported).
     pub fn next_epoch(&mut self, dt_s: f64) -> String {
+        self.epoch(dt_s, false)
+    }
+
+    /// Advances the clock by `dt_s` with the walker standing where it is (turning on the spot for a
+    /// compass calibration) and returns that epoch's sentences: the receiver sees a standing wearer.
+    pub fn next_epoch_standing(&mut self, dt_s: f64) -> String {
+        self.epoch(dt_s, true)
+    }
+
+    fn epoch(&mut self, dt_s: f64, standing: bool) -> String {
         self.t_s += dt_s;
-        let truth = self.walker.sample(self.t_s);
+        if standing {
+            self.stood_s += dt_s;
+        }
+        let mut truth = self.truth();
+        if standing {
+            truth.speed_m_s = 0.0;
+        }
         let en = self.error.apply(dt_s, truth.en_m, truth.speed_m_s);
         let vestnav_core::geo::LatLon { lat_deg: lat, lon_deg: lon } = self.walker.frame().wgs84_from_enu(en);
         let time = self.time();

@@ -350,6 +350,14 @@ impl NmeaDecoder {
         }
     }
 
+    /// Closes the open epoch now, stamped `now`: for a producer that writes whole epochs and knows where
+    /// one ends (the simulator), instead of waiting for the quiet gap.
+    pub fn end_epoch(&mut self, now: Instant) {
+        self.now = Some(now);
+        self.close_epoch();
+        self.finish_binary(now);
+    }
+
     /// Ends the stream: emits the last epoch (and a final sentence without line end).
     pub fn finish(&mut self, now: Instant) {
         self.now = Some(now);
@@ -434,6 +442,13 @@ impl NmeaDecoder {
             && let Some(now) = self.now
         {
             self.events.push_back(GpsEvent::Raw(super::RawLine { text: line.to_owned(), received_at: now }));
+        }
+        // The receiver family shows in its proprietary sentences (receiver_config::Family::detect).
+        let body = line.trim_start_matches('$');
+        if body.starts_with("PSRF") {
+            stats.sirf_sentences += 1;
+        } else if body.starts_with("PUBX") || (body.get(2..5) == Some("TXT") && body.contains("u-blox")) {
+            stats.ublox_sentences += 1;
         }
         let parsed = match sentence::parse(line) {
             Ok(p) => p,

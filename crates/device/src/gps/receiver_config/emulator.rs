@@ -111,6 +111,21 @@ impl EmulatedReceiver {
         }
     }
 
+    /// What the receiver sends when it starts, before its first epoch: a `SiRF` III's `$PSRFTXT` lines
+    /// (software version, as the `GlobalSat` receivers of the gpsd logs print them), a u-blox's `$GNTXT`
+    /// naming the maker. This is how the console tells the family from the stream.
+    pub fn banner(&self) -> Vec<u8> {
+        let lines: &[&str] = match self.family {
+            EmulatedFamily::Sirf3 => {
+                &["PSRFTXT,Version GSW3.2.4 (vestnav emulated SiRF III)", "PSRFTXT,Baud rate: 4800"]
+            }
+            EmulatedFamily::Ublox8 | EmulatedFamily::Ublox9 => {
+                &["GNTXT,01,01,02,u-blox AG - www.u-blox.com (vestnav emulated)"]
+            }
+        };
+        lines.iter().map(|l| crate::gps::framing::with_checksum(l)).collect::<String>().into_bytes()
+    }
+
     /// The current settings.
     pub fn settings(&self) -> &EmulatedSettings {
         &self.settings

@@ -93,6 +93,20 @@ impl Family {
         }
     }
 
+    /// The family a stream comes from, as far as it shows (`None`: nothing identifying seen yet): `SiRF`
+    /// binary frames or `$PSRF…` sentences (the power-on `$PSRFTXT` banner) say `SiRF`; UBX frames, `$PUBX`
+    /// or a `TXT` naming u-blox say u-blox (generation 6–8: the stream does not tell 9 apart, the operator
+    /// picks M9/F9 in the Receiver window).
+    pub fn detect(stats: &crate::gps::DecodeStats) -> Option<Self> {
+        if stats.sirf_frames + stats.sirf_sentences > 0 {
+            Some(Self::Sirf)
+        } else if stats.ubx_frames + stats.ublox_sentences > 0 {
+            Some(Self::Ublox)
+        } else {
+            None
+        }
+    }
+
     /// A longer label for the operator.
     pub fn label(self) -> &'static str {
         match self {

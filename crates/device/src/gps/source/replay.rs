@@ -19,6 +19,8 @@ const NO_SEEK: u64 = u64::MAX;
 #[derive(Debug)]
 pub struct ReplayControl {
     paused: AtomicBool,
+    /// At the end of the file, start again from its beginning.
+    looped: AtomicBool,
     /// A pending seek: the bits of a fraction of the time span in `[0, 1]`, or [`NO_SEEK`].
     seek: AtomicU64,
     position_bytes: AtomicU64,
@@ -31,6 +33,7 @@ impl Default for ReplayControl {
     fn default() -> Self {
         Self {
             paused: AtomicBool::new(false),
+            looped: AtomicBool::new(false),
             seek: AtomicU64::new(NO_SEEK),
             position_bytes: AtomicU64::new(0),
             total_bytes: AtomicU64::new(0),
@@ -71,6 +74,17 @@ impl ReplayControl {
     /// Pauses (`true`) or resumes the replay.
     pub fn set_paused(&self, paused: bool) {
         self.paused.store(paused, Ordering::Relaxed);
+    }
+
+    /// Loops (`true`: at the end of the file the replay starts again from its beginning, with a
+    /// [`GpsEvent::Discontinuity`]) or stops at the end ([`SourceState::Finished`]).
+    pub fn set_looped(&self, looped: bool) {
+        self.looped.store(looped, Ordering::Relaxed);
+    }
+
+    /// True while looping.
+    pub fn is_looped(&self) -> bool {
+        self.looped.load(Ordering::Relaxed)
     }
 
     /// True while paused.
@@ -279,28 +293,40 @@ pub(super) fn run_replay(w: &Worker, path: &std::path::Path, speed: ReplaySpeed,
         return;
     }
     let new_decoder = || NmeaDecoder::new(DecoderConfig::live()).with_raw_lines();
-    let mut d = new_decoder();
-    let completed = replay_controlled(&data, speed, &w.stop, ctl, |item| match item {
-        ReplayItem::Line(line) => {
-            d.handle_bytes(line, Instant::now());
-            w.drain(&mut d)
+    loop {
+        let mut d = new_decoder();
+        let completed = replay_controlled(&data, speed, &w.stop, ctl, |item| match item {
+            ReplayItem::Line(line) => {
+                d.handle_bytes(line, Instant::now());
+                w.drain(&mut d)
+            }
+            ReplayItem::Seek { from_ms, to_ms } => {
+                // The half-assembled epoch belongs to the old place in the file: drop it with the decoder.
+                d = new_decoder();
+                let dir = if to_ms < from_ms { "back" } else { "forward" };
+                w.send(GpsEvent::Discontinuity(format!(
+                    "replay sought {dir} from {} to {}: the track restarts here",
+                    clock_text(from_ms),
+                    clock_text(to_ms)
+                )))
+            }
+        });
+        if !completed {
+            return;
         }
-        ReplayItem::Seek { from_ms, to_ms } => {
-            // The half-assembled epoch belongs to the old place in the file: drop it with the decoder.
-            d = new_decoder();
-            let dir = if to_ms < from_ms { "back" } else { "forward" };
-            w.send(GpsEvent::Discontinuity(format!(
-                "replay sought {dir} from {} to {}: the track restarts here",
-                clock_text(from_ms),
-                clock_text(to_ms)
-            )))
+        d.finish(Instant::now());
+        if !w.drain(&mut d) {
+            return;
         }
-    });
-    if !completed {
-        return;
-    }
-    d.finish(Instant::now());
-    if w.drain(&mut d) {
-        w.state(SourceState::Finished);
+        if !ctl.is_looped() {
+            w.state(SourceState::Finished);
+            return;
+        }
+        if !w.send(GpsEvent::Discontinuity(format!(
+            "replay looped: {} starts again from the beginning",
+            path.display()
+        ))) {
+            return;
+        }
     }
 }

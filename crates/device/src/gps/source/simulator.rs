@@ -39,18 +39,28 @@ pub(super) fn run_sim(w: &Worker, p: &SimParams<'_>) {
     let mut k: u32 = 0;
     let mut lap: u64 = 0;
     loop {
-        let text = rx.next_epoch(p.period.as_secs_f64());
+        // A wearer asked to turn on the spot (a compass calibration) stands while turning.
+        let turning = p.truth.as_ref().and_then(SharedTruth::turn);
+        let text = if turning.is_some() {
+            rx.next_epoch_standing(p.period.as_secs_f64())
+        } else {
+            rx.next_epoch(p.period.as_secs_f64())
+        };
         if let Some(cell) = &p.truth {
             let t = rx.truth();
             cell.set(BodyTruth {
-                heading_true_deg: t.course_deg,
+                heading_true_deg: turning.map_or(t.course_deg, |turn| turn.heading_at(Instant::now())),
                 east_m: t.en_m.x,
                 north_m: t.en_m.y,
-                pace_m_s: t.speed_m_s,
+                pace_m_s: if turning.is_some() { 0.0 } else { t.speed_m_s },
             });
         }
-        d.handle_bytes(text.as_bytes(), Instant::now());
-        d.handle_timeout(Instant::now() + Duration::from_hours(1));
+        // One instant for the epoch's bytes and its end: the fix is stamped when it was made, never later
+        // (a quiet-gap timeout in the future stamped the first fixes an hour ahead, and the decoder, once
+        // it learnt the epoch's last sentence, stamped the next ones now: times went backwards).
+        let now = Instant::now();
+        d.handle_bytes(text.as_bytes(), now);
+        d.end_epoch(now);
         if !w.drain(&mut d) {
             return;
         }

@@ -164,6 +164,21 @@ impl GpsSourceSpec {
             _ => None,
         }
     }
+
+    /// Checks the files the spec names before anything starts (the console checks `--gps` before its window
+    /// opens): a replay's log must be a regular file that can be opened, a simulator's route a GPX the one
+    /// reader accepts. The error names the file and why.
+    pub fn check_files(&self) -> Result<(), String> {
+        match self {
+            Self::Replay { path, .. } => vestnav_files::open_regular(path)
+                .map(drop)
+                .map_err(|e| format!("cannot replay {}: {e}", path.display())),
+            Self::Simulator { route: Some(path) } => {
+                crate::gps::sim::load_route_gpx(path).map(drop).map_err(|e| e.to_string())
+            }
+            _ => Ok(()),
+        }
+    }
 }
 
 /// Why a GPS source spec was refused; the text names the spec and the forms expected.
@@ -318,6 +333,20 @@ mod tests {
 
     fn p(s: &str) -> Result<GpsSourceSpec, SpecError> {
         s.parse()
+    }
+
+    /// Issue 23 item 6: a missing replay file is found before anything starts, and named.
+    #[test]
+    fn check_files_names_a_missing_replay() {
+        let spec: GpsSourceSpec = "replay:/nonexistent/walk.nmea".parse().unwrap();
+        let e = spec.check_files().unwrap_err();
+        assert!(e.contains("/nonexistent/walk.nmea"), "{e}");
+        let here: GpsSourceSpec =
+            format!("replay:{}/Cargo.toml", env!("CARGO_MANIFEST_DIR")).parse().unwrap();
+        assert_eq!(here.check_files(), Ok(()));
+        let dir: GpsSourceSpec = format!("replay:{}", env!("CARGO_MANIFEST_DIR")).parse().unwrap();
+        assert!(dir.check_files().is_err(), "a folder is not a log");
+        assert_eq!("sim".parse::<GpsSourceSpec>().unwrap().check_files(), Ok(()));
     }
 
     #[test]

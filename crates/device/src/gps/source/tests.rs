@@ -51,6 +51,26 @@ fn replay_paces_by_utc_time() {
     h.stop();
 }
 
+/// Issue 23 item 6: a looped replay starts again at the end of its file (saying so, as a discontinuity)
+/// instead of finishing; un-looped, the same replay finishes.
+#[test]
+fn looped_replay_starts_again_and_unlooped_finishes() {
+    let (mut h, rx) =
+        spawn(SourceConfig::Replay { path: logs().join("mr-350p.log"), speed: ReplaySpeed::Times(26.0) });
+    let ctl = h.replay_control().unwrap();
+    ctl.set_looped(true);
+    let looped = |e: &GpsEvent| matches!(e, GpsEvent::Discontinuity(n) if n.contains("looped"));
+    let ev = collect(&rx, |e| e.iter().filter(|x| looped(x)).count() >= 2, Duration::from_secs(10));
+    assert_eq!(ev.iter().filter(|x| looped(x)).count(), 2);
+    assert!(!ev.contains(&GpsEvent::State(SourceState::Finished)));
+    let fixes = ev.iter().filter(|e| matches!(e, GpsEvent::Fix(f) if f.has_position())).count();
+    assert!(fixes >= 2 * 13, "two whole passes: {fixes}");
+    ctl.set_looped(false);
+    let ev = collect(&rx, |e| e.contains(&GpsEvent::State(SourceState::Finished)), Duration::from_secs(10));
+    assert!(ev.contains(&GpsEvent::State(SourceState::Finished)));
+    h.stop();
+}
+
 #[test]
 fn simulator_emits_fixes_and_stops() {
     let (mut h, rx) = spawn(SourceConfig::Simulator {
@@ -68,6 +88,38 @@ fn simulator_emits_fixes_and_stops() {
         Duration::from_secs(10),
     );
     assert!(ev.iter().filter(|x| matches!(x, GpsEvent::Fix(f) if f.has_position())).count() >= 5);
+    h.stop();
+}
+
+/// Issue 23 item 2: every simulated fix is stamped when it was made (never in the future), and both its
+/// arrival instant and its receiver time go forwards from one fix to the next — the first fixes used to be
+/// stamped an hour ahead, so the field tests refused every later one as out of order.
+#[test]
+fn simulator_fixes_arrive_in_order_and_never_from_the_future() {
+    let (mut h, rx) = spawn(SourceConfig::Simulator {
+        route: super::super::sim::demo_route().unwrap(),
+        pace_m_s: 1.4,
+        model: GnssErrorModel::sirf3_open_sky(),
+        seed: 5,
+        period: Duration::from_millis(20),
+        looped: false,
+        truth: None,
+    });
+    let ev = collect(
+        &rx,
+        |e| e.iter().filter(|x| matches!(x, GpsEvent::Fix(_))).count() >= 8,
+        Duration::from_secs(10),
+    );
+    let seen = Instant::now();
+    let fixes: Vec<&Fix> =
+        ev.iter().filter_map(|e| if let GpsEvent::Fix(f) = e { Some(&**f) } else { None }).collect();
+    assert!(fixes.len() >= 8);
+    for pair in fixes.windows(2) {
+        let (a, b) = (pair[0].received_at.unwrap(), pair[1].received_at.unwrap());
+        assert!(b >= a, "arrival went backwards");
+        assert!(pair[1].time.unwrap() > pair[0].time.unwrap(), "receiver time did not advance");
+    }
+    assert!(fixes.iter().all(|f| f.received_at.unwrap() <= seen), "a fix stamped in the future");
     h.stop();
 }
 
