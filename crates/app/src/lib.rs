@@ -168,7 +168,11 @@ impl eframe::App for App {
         if let Some(s) = &mut self.screenshot {
             s.poll(ctx);
         }
-        ctx.request_repaint_after(std::time::Duration::from_millis(250));
+        // No fixed frame rate: the devices wake the window on a change, and it turns on its own only as
+        // often as its ages, alarms and the vest's liveness check need (`console/layout.rs`).
+        if let Some(d) = self.console.next_turn(std::time::Instant::now()) {
+            ctx.request_repaint_after(d);
+        }
     }
 
     fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {

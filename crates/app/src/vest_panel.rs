@@ -207,10 +207,7 @@ fn grid_ui(station: &mut Station, cfg: &Config, vest_ui: &mut VestUi, ui: &mut e
             ui.end_row();
         }
     });
-    // The live state comes from acks; keep repainting while something is on.
-    if station.vest.tactors_on.is_some_and(|m| !m.is_empty()) {
-        ui.ctx().request_repaint_after(std::time::Duration::from_millis(50));
-    }
+    // The live state comes from the unit's reports: each change wakes the window (the station's waker).
 }
 
 fn patterns_ui(

@@ -25,7 +25,7 @@ use std::time::{Duration, Instant};
 
 use vestnav_core::vest::Cue;
 use vestnav_device::gps::{GpsEvent, SourceState};
-use vestnav_device::outbox::{Outbox, Overflow, Waker, drain_within};
+use vestnav_device::outbox::{Outbox, Waker, drain_within};
 use vestnav_device::session_log::{LogEntry, LogSender, SessionLog};
 use vestnav_device::wtcu::worker::{Heartbeat, Watched};
 use vestnav_device::wtcu::{CommandKind, CommandOrigin, LinkState, VestCommand, VestEvent, VestHandle};
@@ -37,6 +37,7 @@ pub mod route;
 pub mod sources;
 pub mod state;
 pub mod stop;
+pub mod view_wake;
 
 use devices::{DeviceFactory, GpsWorker};
 use guidance::{GuidanceInput, GuidanceSettings, GuidanceStatus};
@@ -117,7 +118,8 @@ pub struct StationOptions {
     pub vest: Option<VestSourceConfig>,
     /// Directory for the session log (`None`: no log).
     pub log_dir: Option<PathBuf>,
-    /// Wakes the view when events arrive (`None`: the view polls).
+    /// Wakes the view when an event changes what it shows at once (see [`view_wake`]; `None`: the view
+    /// polls).
     pub waker: Option<Waker>,
     /// Liveness bounds; `None` turns the checks off (tests that step at their own pace).
     pub liveness: Option<Liveness>,
@@ -169,6 +171,8 @@ pub struct Station {
     pub vest: VestState,
     /// Latest guidance status.
     pub guidance: Option<GuidanceStatus>,
+    /// The latest cues guidance handed to the vest, newest last.
+    pub cues: state::SentCues,
     /// Notices for the operator.
     pub notices: Notices,
     /// Whether the stop alarm was on at the last pump (its rising edge is logged once).
@@ -202,7 +206,7 @@ impl Station {
             }
         });
         let log_tx = log.as_ref().and_then(SessionLog::sender);
-        let (guidance_ui, guidance_rx) = Outbox::channel(EVENT_CHANNEL, Overflow::DropNewest, waker.clone());
+        let (guidance_ui, guidance_rx) = view_wake::guidance_outbox(EVENT_CHANNEL, waker.clone());
         let (guidance_tx, guidance_in_rx) = sync_channel(GUIDANCE_CHANNEL);
         if let Err(e) = guidance::spawn(guidance_in_rx, settings.guidance, guidance_ui, log_tx.clone()) {
             notices.raise(
@@ -213,8 +217,8 @@ impl Station {
                 ),
             );
         }
-        let (gps_out, gps_rx) = Outbox::channel(EVENT_CHANNEL, Overflow::DropNewest, waker.clone());
-        let (vest_out, vest_rx) = Outbox::channel(EVENT_CHANNEL, Overflow::DropNewest, waker);
+        let (gps_out, gps_rx) = view_wake::outbox(EVENT_CHANNEL, waker.clone(), view_wake::gps_wakes);
+        let (vest_out, vest_rx) = view_wake::outbox(EVENT_CHANNEL, waker, view_wake::vest_wakes);
         let (route, autosave) = load_route(&route_start, &mut notices);
         Self {
             settings,
@@ -242,6 +246,7 @@ impl Station {
             gps: GpsState::default(),
             vest: VestState::default(),
             guidance: None,
+            cues: state::SentCues::default(),
             notices,
             stop_alarm_was: false,
             log_health: vestnav_device::session_log::LogHealth::Ok,
@@ -592,7 +597,15 @@ impl Station {
             view(StationEvent::Vest(ev));
         }
         let mut latest = None;
-        drain_within(&self.guidance_rx, DRAIN_BUDGET, |st| latest = Some(st));
+        let cues = &mut self.cues;
+        drain_within(&self.guidance_rx, DRAIN_BUDGET, |st: GuidanceStatus| {
+            if st.sent
+                && let Some(cue) = st.cue
+            {
+                cues.push(cue, Instant::now());
+            }
+            latest = Some(st);
+        });
         if let Some(st) = latest {
             if st.route_revision == self.route.revision() && st.next != self.route.next() {
                 // Guidance moved on (an arrival) on the route it has: the route's next follows, and
