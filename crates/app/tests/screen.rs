@@ -73,7 +73,7 @@ fn the_layout_holds_still_as_banners_come_and_go() {
     let mut h = harness_with(&fake, guiding());
     fake.gps(&vestnav_device::gps::GpsEvent::Fix(Box::new(walking_fix())));
     step(&mut h, 5);
-    let probes = ["STOP ALL", "Now", "Follow wearer", "GPS", "Vest"];
+    let probes = ["STOP ALL", "<< Hide", "Follow wearer", "GPS", "Vest", "T15"];
     let rects = |h: &Harness<'static, Console>| -> Vec<egui::Rect> {
         probes.iter().map(|l| h.get_all_by_label(l).next().unwrap().rect()).collect()
     };

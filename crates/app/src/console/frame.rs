@@ -177,14 +177,6 @@ impl Console {
             let wide = ctx.content_rect().width() >= layout::WIDE_WINDOW;
             let side_w = if wide { layout::SIDE_W.1 } else { layout::SIDE_W.0 };
             egui::Panel::left("vestnav-side").exact_size(side_w).resizable(false).show(ui, |ui| {
-                ui.horizontal(|ui| {
-                    ui.label(RichText::new("Now").strong());
-                    ui.with_layout(egui::Layout::right_to_left(egui::Align::Center), |ui| {
-                        if ui.small_button("<< Hide").on_hover_text("Collapse the side panel").clicked() {
-                            self.side_open = false;
-                        }
-                    });
-                });
                 self.now_ui(ui, now);
                 ui.separator();
                 egui::ScrollArea::vertical().auto_shrink([false, false]).show(ui, |ui| {

@@ -4,9 +4,9 @@
 //! a panel of fixed height and is drawn in a layer above every window, pop-up and modal dialog
 //! ([`egui::Order::Tooltip`]), so nothing covers STOP ALL and a click on it acts on the first press whatever
 //! is open (a modal's backdrop does not take the click first). Windows are kept below the bar. The side
-//! panel has a fixed width (text that grows does not widen it; it can be collapsed to a strip); its top
-//! is the "now" display — the tactors the unit reports on, the last cue and the few before it, guidance's
-//! state and Resume — which never scrolls away. The banner strip has a fixed height inside the central
+//! panel has a fixed width (text that grows does not widen it; it can be collapsed to a strip showing the
+//! tactors on); its top is the "now" display — the last cue and the few before it, guidance's state and
+//! Resume — which never scrolls away, with the Vest section's grid right below the GPS section. The banner strip has a fixed height inside the central
 //! area, so banners coming and going move nothing.
 //!
 //! Turns: the window draws when a device reports a change the operator must see (the station's wakers,
@@ -28,7 +28,7 @@ pub const SIDE_W: (f32, f32) = (300.0, 360.0);
 /// A window at least this wide [pt] gets the wider side panel.
 pub const WIDE_WINDOW: f32 = 1300.0;
 /// Height of the "now" display at the top of the side panel [pt].
-pub const NOW_H: f32 = 112.0;
+pub const NOW_H: f32 = 72.0;
 /// Text size of the current cue [pt].
 pub const CUE_PT: f32 = 26.0;
 /// While a vest is connected the window turns at least this often: the vest worker stops every tactor
@@ -89,35 +89,37 @@ impl Console {
         next
     }
 
-    /// The "now" display: the tactors on (as the unit reports), the last cue in large type with its age,
-    /// guidance's state (and Resume when halted), and the cues before it. Fixed height.
+    /// The "now" display: the last cue in large type with its age, guidance's state (Resume instead when
+    /// halted) and the cues before it, right above the Vest section's grid; the side panel's collapse
+    /// button. Fixed height.
     pub(super) fn now_ui(&mut self, ui: &mut egui::Ui, now: Instant) {
         let width = ui.available_width();
         ui.allocate_ui_with_layout(vec2(width, NOW_H), egui::Layout::top_down(egui::Align::Min), |ui| {
             ui.set_min_size(vec2(width, NOW_H));
+            let last = self.station.cues.newest_first().next().copied();
             ui.horizontal(|ui| {
-                crate::vest_panel::mini_grid(ui, self.station.vest.tactors_on, 40.0);
-                ui.vertical(|ui| {
-                    let last = self.station.cues.newest_first().next().copied();
-                    let (big, color) = match last {
-                        Some((cue, _)) => (cue_words(cue), ui.visuals().strong_text_color()),
-                        None => ("NO CUE YET".to_owned(), ui.visuals().weak_text_color()),
-                    };
-                    ui.add(
-                        egui::Label::new(RichText::new(big).size(CUE_PT).strong().color(color)).truncate(),
-                    )
+                let (big, color) = match last {
+                    Some((cue, _)) => (cue_words(cue), ui.visuals().strong_text_color()),
+                    None => ("NO CUE YET".to_owned(), ui.visuals().weak_text_color()),
+                };
+                ui.add(egui::Label::new(RichText::new(big).size(CUE_PT).strong().color(color)).truncate())
                     .on_hover_text("The last cue automatic guidance sent to the vest");
-                    let state = self.guidance_words(last.map(|(_, at)| now.saturating_duration_since(at)));
-                    ui.add(egui::Label::new(RichText::new(state).small()).truncate());
-                    if self.station.vest.halted.is_some() {
-                        let resume = egui::Button::new(RichText::new("Resume automatic cues").strong())
-                            .fill(Color32::from_rgb(40, 120, 60));
-                        if ui.add(resume).on_hover_text("Automatic cues on again (after STOP ALL)").clicked() {
-                            self.resume_guidance();
-                        }
+                ui.with_layout(egui::Layout::right_to_left(egui::Align::Min), |ui| {
+                    if ui.small_button("<< Hide").on_hover_text("Collapse the side panel").clicked() {
+                        self.side_open = false;
                     }
                 });
             });
+            if self.station.vest.halted.is_some() {
+                let resume = egui::Button::new(RichText::new("Resume automatic cues").strong().color(Color32::WHITE))
+                    .fill(Color32::from_rgb(40, 120, 60));
+                if ui.add(resume).on_hover_text("Automatic cues on again (after STOP ALL)").clicked() {
+                    self.resume_guidance();
+                }
+            } else {
+                let state = self.guidance_words(last.map(|(_, at)| now.saturating_duration_since(at)));
+                ui.add(egui::Label::new(RichText::new(state).small()).truncate());
+            }
             let before: Vec<String> = self
                 .station
                 .cues
