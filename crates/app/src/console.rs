@@ -287,7 +287,11 @@ impl Console {
         self.station.resume_guidance();
         self.sync_settings_from_station();
         // The status line shows the newest notice: it must not still speak of the stop.
-        self.say(NoticeSeverity::Info, Subject::Guidance, "automatic cues resumed: guidance steers the wearer again");
+        self.say(
+            NoticeSeverity::Info,
+            Subject::Guidance,
+            "automatic cues resumed: guidance steers the wearer again",
+        );
     }
 
     /// Automatic cues latched off by the station (STOP ALL, a stalled thread) show as off in the settings

@@ -49,7 +49,10 @@ fn stop_all_acts_on_the_first_click_with_every_window_and_modal_open() {
     let bar_bottom = stop_rect(&h).bottom();
     for title in ["GPS receiver configuration", "Tiles"] {
         let top = h.get_all_by_label(title).map(|n| n.rect().top()).fold(f32::INFINITY, f32::min);
-        assert!(top >= bar_bottom, "window {title} starts at y = {top}, above the top bar's bottom {bar_bottom}");
+        assert!(
+            top >= bar_bottom,
+            "window {title} starts at y = {top}, above the top bar's bottom {bar_bottom}"
+        );
     }
     assert!(h.state().station.vest.halted.is_none());
     fake.sent.lock().unwrap().clear();
@@ -150,7 +153,9 @@ fn import_while_guiding_asks_first_and_a_broken_file_is_a_banner() {
     step(&mut h, 3);
     let banners = h.state().banners(Instant::now());
     assert!(
-        banners.iter().any(|b| matches!(b.subject, BannerSubject::Notice(_)) && b.text.contains("broken.gpx")),
+        banners
+            .iter()
+            .any(|b| matches!(b.subject, BannerSubject::Notice(_)) && b.text.contains("broken.gpx")),
         "{banners:?}"
     );
 }
@@ -184,7 +189,9 @@ fn the_current_cue_is_in_view_at_both_sizes() {
         let fake = Fake::default();
         let mut h = harness_sized(&fake, guiding(), size);
         set_route(&mut h, three_waypoints(), 0);
-        walk_until(&mut h, &fake, Duration::from_secs(10), |c| c.station.cues.newest_first().next().is_some());
+        walk_until(&mut h, &fake, Duration::from_secs(10), |c| {
+            c.station.cues.newest_first().next().is_some()
+        });
         step(&mut h, 3);
         let (cue, _) = *h.state().station.cues.newest_first().next().expect("guidance sent a cue");
         let words = cue.name().replace('_', " ").to_uppercase();

@@ -34,7 +34,16 @@ pub fn vest_wakes(ev: &VestEvent) -> bool {
 type Decision = (Option<Cue>, bool, Option<String>, usize, u64, NavState, bool, bool);
 
 fn decision(st: &GuidanceStatus) -> Decision {
-    (st.cue, st.sent, st.hold.clone(), st.next, st.route_revision, st.state, st.finished, st.compass_disturbed)
+    (
+        st.cue,
+        st.sent,
+        st.hold.clone(),
+        st.next,
+        st.route_revision,
+        st.state,
+        st.finished,
+        st.compass_disturbed,
+    )
 }
 
 /// A bounded channel to the view that never waits (a full channel drops the new event, as the view only
@@ -59,12 +68,15 @@ pub fn outbox<T: Send + 'static>(
 }
 
 /// The guidance worker's channel to the view: wakes it when the decision changes (see [`Decision`]).
-pub fn guidance_outbox(capacity: usize, waker: Option<Waker>) -> (Outbox<GuidanceStatus>, Receiver<GuidanceStatus>) {
+pub fn guidance_outbox(
+    capacity: usize,
+    waker: Option<Waker>,
+) -> (Outbox<GuidanceStatus>, Receiver<GuidanceStatus>) {
     let (tx, rx) = sync_channel(capacity.max(1));
     let last: Mutex<Option<Decision>> = Mutex::new(None);
     let out = Outbox::sink(move |st: GuidanceStatus| {
         let d = decision(&st);
-        let changed = last.lock().map(|mut l| l.replace(d.clone()).as_ref() != Some(&d)).unwrap_or(true);
+        let changed = last.lock().map_or(true, |mut l| l.replace(d.clone()).as_ref() != Some(&d));
         if let Err(TrySendError::Disconnected(_)) = tx.try_send(st) {
             return false;
         }
@@ -85,9 +97,12 @@ mod tests {
     fn counter() -> (Arc<AtomicUsize>, Waker) {
         let n = Arc::new(AtomicUsize::new(0));
         let m = n.clone();
-        (n, Arc::new(move || {
-            m.fetch_add(1, Ordering::Relaxed);
-        }))
+        (
+            n,
+            Arc::new(move || {
+                m.fetch_add(1, Ordering::Relaxed);
+            }),
+        )
     }
 
     #[test]
@@ -96,7 +111,12 @@ mod tests {
         let (out, rx) = outbox(8, Some(waker), vest_wakes);
         let cancel = std::sync::atomic::AtomicBool::new(false);
         for seq in 0..5 {
-            assert!(out.send(VestEvent::Acked { seq, kind: vestnav_device::wtcu::CommandKind::Heartbeat }, &cancel));
+            assert!(
+                out.send(
+                    VestEvent::Acked { seq, kind: vestnav_device::wtcu::CommandKind::Heartbeat },
+                    &cancel
+                )
+            );
         }
         assert_eq!(n.load(Ordering::Relaxed), 0);
         assert!(out.send(VestEvent::TactorsOn(None), &cancel));

@@ -225,14 +225,14 @@ impl Console {
             .fixed_pos(bar.min)
             .constrain(false)
             .show(&ctx, |ui| {
-                egui::Frame::new().fill(ui.visuals().panel_fill).inner_margin(egui::Margin::symmetric(8, 5)).show(
-                    ui,
-                    |ui| {
+                egui::Frame::new()
+                    .fill(ui.visuals().panel_fill)
+                    .inner_margin(egui::Margin::symmetric(8, 5))
+                    .show(ui, |ui| {
                         ui.set_min_size(vec2(bar.width() - 16.0, bar.height() - 10.0));
                         ui.set_max_width(bar.width() - 16.0);
                         self.top_bar(ui, now);
-                    },
-                );
+                    });
             });
 
         // Every settings change of the frame reaches the station here, once (ticking automatic cues back
@@ -495,9 +495,11 @@ impl Console {
         ui.add_space(2.0);
         if banners.is_empty() {
             ui.label(
-                RichText::new("No alarms: the vest, the GPS and guidance report nothing the operator must act on.")
-                    .size(pt * 0.8)
-                    .weak(),
+                RichText::new(
+                    "No alarms: the vest, the GPS and guidance report nothing the operator must act on.",
+                )
+                .size(pt * 0.8)
+                .weak(),
             );
         }
         let mut dismiss = None;

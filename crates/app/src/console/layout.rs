@@ -81,8 +81,8 @@ impl Console {
         if let Some(age) = self.position_age(now) {
             for limit_s in [self.cfg.stale_after_s, self.cfg.lost_after_s] {
                 let limit = Duration::from_secs_f64(limit_s.max(0.0));
-                if age < limit {
-                    at_most(limit - age + Duration::from_millis(10));
+                if let Some(left) = limit.checked_sub(age).filter(|d| !d.is_zero()) {
+                    at_most(left + Duration::from_millis(10));
                 }
             }
         }
@@ -111,8 +111,9 @@ impl Console {
                 });
             });
             if self.station.vest.halted.is_some() {
-                let resume = egui::Button::new(RichText::new("Resume automatic cues").strong().color(Color32::WHITE))
-                    .fill(Color32::from_rgb(40, 120, 60));
+                let resume =
+                    egui::Button::new(RichText::new("Resume automatic cues").strong().color(Color32::WHITE))
+                        .fill(Color32::from_rgb(40, 120, 60));
                 if ui.add(resume).on_hover_text("Automatic cues on again (after STOP ALL)").clicked() {
                     self.resume_guidance();
                 }
@@ -125,10 +126,19 @@ impl Console {
                 .cues
                 .newest_first()
                 .skip(1)
-                .map(|(c, at)| format!("{} {} ago", cue_words(*c).to_lowercase(), short_age(now - *at)))
+                .map(|(c, at)| {
+                    format!(
+                        "{} {} ago",
+                        cue_words(*c).to_lowercase(),
+                        short_age(now.saturating_duration_since(*at))
+                    )
+                })
                 .collect();
-            let history =
-                if before.is_empty() { "before: —".to_owned() } else { format!("before: {}", before.join(" · ")) };
+            let history = if before.is_empty() {
+                "before: —".to_owned()
+            } else {
+                format!("before: {}", before.join(" · "))
+            };
             ui.add(egui::Label::new(RichText::new(history).small().weak()).truncate());
         });
     }
