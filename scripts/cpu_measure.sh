@@ -5,8 +5,9 @@
 #
 #   scripts/cpu_measure.sh [BIN] [SECONDS]     # BIN: default target/release/vestnav; SECONDS: default 60
 #
-# Two cases, one after the other, each with a 10 s warm-up not counted:
-#   idle     the console open, no device connected (nothing arrives, nothing changes)
+# Three cases, one after the other, each with a 10 s warm-up not counted:
+#   alone    the console open, no device connected (the GPS DISCONNECTED alarm blinks until silenced)
+#   idle     the demo's devices connected (the simulator walks, the emulated vest is live), automatic cues off
 #   guiding  the demo: the built-in GPS simulator walks the demo route, the emulated vest, automatic cues on
 # CPU % = (utime + stime of the process, from /proc/PID/stat, at the end minus at the start) / CLK_TCK /
 # SECONDS x 100; RSS = VmRSS from /proc/PID/status at the end. Needs: Xvfb, Mesa (LIBGL_ALWAYS_SOFTWARE=1).
@@ -53,5 +54,6 @@ run() {
 }
 
 echo "cpu_measure: $bin, ${secs} s each, Xvfb 1400x900, LIBGL_ALWAYS_SOFTWARE=1, $(nproc) cores"
-run idle '{"map_tiles": false, "auto_connect": false}'
+run alone '{"map_tiles": false, "auto_connect": false}'
+run idle '{"map_tiles": false, "auto_connect": true, "guidance_auto": false}'
 run guiding '{"map_tiles": false, "auto_connect": true, "guidance_auto": true}'

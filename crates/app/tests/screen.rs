@@ -86,10 +86,19 @@ fn the_layout_holds_still_as_banners_come_and_go() {
     step(&mut h, 4);
     assert!(h.state().banners(Instant::now()).len() >= 2, "{:?}", h.state().banners(Instant::now()));
     assert_eq!(rects(&h), calm, "banners moved {probes:?}");
-    h.state_mut().resume_guidance();
-    let k = h.state().station.notices.all().len() - 1;
-    h.state_mut().station.notices.dismiss(k);
+    // A fix 20 s old: FIX LOST, and the GPS panel's rows say "last known, N s ago" — the side panel keeps
+    // its width, the map and the top bar stay.
+    fake.gps(&vestnav_device::gps::GpsEvent::Fix(Box::new(fix(42.3562, -71.1, Duration::from_secs(20)))));
     step(&mut h, 4);
+    assert!(banner_of(h.state(), BannerSubject::Gps).is_some());
+    // (The GPS section itself may grow by a line when the fix is lost, moving the sections below it.)
+    assert_eq!(rects(&h)[..4], calm[..4], "a lost fix moved {:?}", &probes[..4]);
+    fake.gps(&vestnav_device::gps::GpsEvent::Fix(Box::new(walking_fix())));
+    h.state_mut().resume_guidance();
+    let k = h.state().station.notices.all().iter().position(|n| n.text == "a warning").unwrap();
+    h.state_mut().station.notices.dismiss(k);
+    settle(&mut h, |c| c.banners(Instant::now()).is_empty());
+    assert!(h.state().banners(Instant::now()).is_empty(), "{:?}", h.state().banners(Instant::now()));
     assert_eq!(rects(&h), calm, "banners going moved {probes:?}");
 }
 
