@@ -181,7 +181,7 @@ fn normalize(path: &Path) -> PathBuf {
 /// The "Uses: /absolute/path" line under a path field (or what to type when it is empty).
 pub fn uses_label(ui: &mut egui::Ui, resolved: Option<&Path>) {
     let text = resolved.map_or_else(
-        || "Type a file name or Browse… (relative names are taken in the folder of the last file)".to_owned(),
+        || format!("Type a file name or Browse… (relative names are taken in {})", files_dir().display()),
         |p| format!("Uses: {}", p.display()),
     );
     ui.label(RichText::new(text).small().weak());

@@ -56,8 +56,9 @@ const GUIDANCE_CHANNEL: usize = 256;
 /// Liveness bounds of the threads the vest worker watches (see `vestnav_device::wtcu::worker`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Liveness {
-    /// The view must turn at least this often (the console's window turns at least every 750 ms while a vest is connected); `None` for a
-    /// headless station, whose operator path is its signals and its network, not a frame.
+    /// The view must turn at least this often (the console's window turns at least every 750 ms while a
+    /// vest is connected); `None` for a headless station, whose operator path is its signals and its
+    /// network, not a frame.
     pub view: Option<Duration>,
     /// The guidance worker must turn at least this often (it ticks every 250 ms).
     pub guidance: Duration,

@@ -157,7 +157,7 @@ impl Console {
         egui::Panel::bottom("vestnav-status").show(ui, |ui| {
             ui.horizontal(|ui| {
                 let status = self.latest_notice().map_or_else(String::new, |n| n.text.clone());
-                ui.add(egui::Label::new(RichText::new(status).small()).truncate());
+                ui.label(RichText::new(status).small());
                 if let Some(p) = self.log_path() {
                     ui.with_layout(egui::Layout::right_to_left(egui::Align::Center), |ui| {
                         if self.station.log_failing() {
@@ -180,7 +180,10 @@ impl Console {
                 self.now_ui(ui, now);
                 ui.separator();
                 egui::ScrollArea::vertical().auto_shrink([false, false]).show(ui, |ui| {
-                    egui::CollapsingHeader::new("GPS").default_open(true).show(ui, |ui| {
+                    // On a short screen the GPS section starts closed (its state is in the top bar and the
+                    // banners), so the vest grid is in view.
+                    let tall = ctx.content_rect().height() >= 800.0;
+                    egui::CollapsingHeader::new("GPS").default_open(tall).show(ui, |ui| {
                         crate::gps_panel::show(&mut self.station, &mut self.cfg, &mut self.gps_ui, ui, now);
                     });
                     egui::CollapsingHeader::new("Vest").default_open(true).show(ui, |ui| {

@@ -6,8 +6,8 @@
 //! is open (a modal's backdrop does not take the click first). Windows are kept below the bar. The side
 //! panel has a fixed width (text that grows does not widen it; it can be collapsed to a strip showing the
 //! tactors on); its top is the "now" display — the last cue and the few before it, guidance's state and
-//! Resume — which never scrolls away, with the Vest section's grid right below the GPS section. The banner strip has a fixed height inside the central
-//! area, so banners coming and going move nothing.
+//! Resume — which never scrolls away; the Vest section's grid comes first in its section. The banner strip
+//! has a fixed height inside the central area, so banners coming and going move nothing.
 //!
 //! Turns: the window draws when a device reports a change the operator must see (the station's wakers,
 //! `vestnav_station::view_wake`) and otherwise only as often as what it shows needs ([`Console::next_turn`]):
