@@ -14,18 +14,22 @@ fi
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 
-# shot NAME SECONDS CONFIG_JSON [console options...]
+# shot NAME SECONDS CONFIG_JSON [console options...]   (SCREEN=WxH for another screen and window size)
 shot() {
-    local name=$1 after=$2 config=$3
+    local name=$1 after=$2 config=$3 screen=${SCREEN:-1400x900}
     shift 3
     local home="$work/$name"
     mkdir -p "$home/config/vestnav" "$home/data" "$home/cache"
     printf '%s\n' "$config" >"$home/config/vestnav/console.json"
     XDG_CONFIG_HOME="$home/config" XDG_DATA_HOME="$home/data" XDG_CACHE_HOME="$home/cache" \
-        xvfb-run -a -s "-screen 0 1400x900x24" \
-        "$bin" --screenshot "docs/$name.png" --screenshot-after "$after" "$@"
+        xvfb-run -a -s "-screen 0 ${screen}x24" \
+        "$bin" --screenshot "docs/$name.png" --screenshot-after "$after" --screenshot-size "$screen" "$@"
 }
 
+# The default console guiding the demo (simulated GPS, emulated vest), at 1400x900 and on a small laptop
+# screen, 1024x680.
+shot screenshot 12 '{"map_tiles": false}'
+SCREEN=1024x680 shot screenshot-1024x680 12 '{"map_tiles": false}'
 # The default console in the light, high-contrast theme for sunlight (simulated GPS, emulated vest).
 shot screenshot-light 8 '{"light_theme": true, "map_tiles": false}'
 # Guidance on hold: the vest's port does not exist, so the hold banner says what is missing and what to do.

@@ -64,6 +64,9 @@ pub struct Cli {
     /// Console only: how long the console runs before --screenshot is taken [s].
     #[arg(long = "screenshot-after", value_name = "SECONDS", default_value_t = 5.0, value_parser = parse_screenshot_after)]
     pub screenshot_after_s: f64,
+    /// Console only: the window's size in points for --screenshot, width x height such as 1024x680 (default 1400x880).
+    #[arg(long = "screenshot-size", value_name = "WxH", value_parser = parse_window_size)]
+    pub screenshot_size: Option<[f32; 2]>,
     /// What to run; none opens the console.
     #[command(subcommand)]
     pub command: Option<Command>,
@@ -78,6 +81,16 @@ fn parse_screenshot_after(s: &str) -> Result<f64, String> {
         .ok()
         .filter(|v| v.is_finite() && (0.0..=3600.0).contains(v))
         .ok_or_else(|| format!("{s:?}: seconds from 0 to 3600"))
+}
+
+fn parse_window_size(s: &str) -> Result<[f32; 2], String> {
+    let bad = || format!("{s:?}: WIDTHxHEIGHT in points, from 900x600 to 7680x4320 (e.g. 1024x680)");
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
+    let (w, h) = (w.trim().parse::<u16>().map_err(|_| bad())?, h.trim().parse::<u16>().map_err(|_| bad())?);
+    if !(900..=7680).contains(&w) || !(600..=4320).contains(&h) {
+        return Err(bad());
+    }
+    Ok([f32::from(w), f32::from(h)])
 }
 
 fn parse_tiles(s: &str) -> Result<vestnav_tiles::TileSourceConfig, String> {

@@ -112,6 +112,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         let screenshot = cli.screenshot.map(|path| vestnav_app::Screenshot {
             path,
             after: std::time::Duration::from_secs_f64(cli.screenshot_after_s),
+            size: cli.screenshot_size,
         });
         return vestnav_app::run(
             vestnav_app::console::DeviceOverrides { gps: cli.gps, vest: cli.vest, tiles: cli.tiles },

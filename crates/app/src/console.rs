@@ -36,8 +36,10 @@ use crate::sim_panel::SimPanel;
 use crate::vest_panel::VestUi;
 
 mod frame;
+mod layout;
 
 pub use frame::{Banner, BannerSubject, Severity};
+pub use layout::{AGE_STEP, LIVENESS_TURN};
 pub use vestnav_station::stop::EXIT_STOP_WAIT;
 pub use vestnav_station::{GpsAlarm, Liveness, VestReply};
 
@@ -102,6 +104,8 @@ pub struct Console {
     /// own — STOP ALL, a stalled thread — is taken into the settings, an edit of the operator's is not
     /// overwritten).
     synced_auto: bool,
+    /// The side panel is shown (collapsed to a strip otherwise).
+    pub side_open: bool,
 }
 
 /// Options for [`Console::new`].
@@ -205,6 +209,7 @@ impl Console {
             alarm: frame::AudibleAlarm::default(),
             ticked: false,
             synced_auto: false,
+            side_open: true,
         };
         console.synced_auto = console.station.settings().guidance.auto;
         if connect_now {
@@ -279,6 +284,12 @@ impl Console {
     pub fn resume_guidance(&mut self) {
         self.station.resume_guidance();
         self.sync_settings_from_station();
+        // The status line shows the newest notice: it must not still speak of the stop.
+        self.say(
+            NoticeSeverity::Info,
+            Subject::Guidance,
+            "automatic cues resumed: guidance steers the wearer again",
+        );
     }
 
     /// Automatic cues latched off by the station (STOP ALL, a stalled thread) show as off in the settings

@@ -19,8 +19,8 @@
 //! was missed or marked twice is judged only when the test is finished.
 //!
 //! **Exports.** The drift and cone tests each have their own export path (`vestnav-drift.*`,
-//! `vestnav-cones.*`), a relative one taken in the folder of the last file used (else the documents
-//! folder) and shown as the absolute path it uses, **Browse…** for the desktop's save dialog; an export
+//! `vestnav-cones.*`), a relative one taken in the console's files folder (`~/Documents/vestnav`) and
+//! shown as the absolute path it uses, **Browse…** for the desktop's save dialog; an export
 //! never replaces an existing file silently: the panel asks "Replace X?" first (**Replace** / **Cancel**).
 //! The sheets shown and exported and the JSON reports come from `vestnav_report::fieldtest`, the same as
 //! `vestnav fieldtest drift|cones --png/--json` write for the same fixes.

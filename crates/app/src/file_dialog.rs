@@ -2,9 +2,10 @@
 //! one "Replace X?" confirmation before a save replaces a file.
 //!
 //! **Typed paths.** A console started from a desktop menu often runs in `/`, so a relative typed path never
-//! resolves against the working directory: [`resolve`] takes it in a base folder — the folder of the last
-//! file used ([`RecentFiles::last_dir`]), else the user's documents folder ([`documents_dir`]) — and expands a
-//! leading `~`. Every path field shows the absolute path it will use ("Uses: /home/me/Documents/walk.gpx").
+//! resolves against the working directory: [`resolve`] takes it in the console's files folder
+//! ([`files_dir`], `~/Documents/vestnav`: the default home of every export) — never the folder of the last
+//! file used, so an export does not land next to a replayed log — and expands a leading `~`. Every path
+//! field shows the absolute path it will use ("Uses: /home/me/Documents/vestnav/walk.gpx").
 //!
 //! **Native dialogs.** "Browse…" opens the platform's dialog through `rfd` (on Linux the XDG desktop portal
 //! over D-Bus, `libdbus` opened at run time: no GTK, no C build; `rfd` falls back to `zenity` when no portal
@@ -40,8 +41,7 @@ pub enum RecentKind {
     Nmea,
 }
 
-/// The last files used, per kind, newest first, plus the folder of the very last file used (the base of
-/// relative typed paths).
+/// The last files used, per kind, newest first, plus the folder of the very last file used.
 #[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct RecentFiles {
@@ -77,8 +77,8 @@ impl RecentFiles {
         }
     }
 
-    /// Puts `path` first in the list of `kind` (once; the oldest beyond [`RECENT_MAX`] dropped) and makes
-    /// its folder the base of relative paths. Relative paths are ignored: the list holds what was used.
+    /// Puts `path` first in the list of `kind` (once; the oldest beyond [`RECENT_MAX`] dropped) and
+    /// remembers its folder. Relative paths are ignored: the list holds what was used.
     pub fn push(&mut self, kind: RecentKind, path: &Path) {
         if !path.is_absolute() {
             return;
@@ -90,17 +90,18 @@ impl RecentFiles {
         list.truncate(RECENT_MAX);
     }
 
-    /// Notes that `path` was used (an export that is not in any list): its folder becomes the base.
+    /// Notes that `path` was used (an export that is not in any list): its folder is remembered.
     pub fn used(&mut self, path: &Path) {
         if let Some(dir) = path.parent().filter(|d| d.is_absolute()) {
             self.last_dir = Some(dir.to_path_buf());
         }
     }
 
-    /// The folder relative typed paths are taken in: the last file's folder while it exists, else the
-    /// user's documents folder.
+    /// The folder relative typed paths are taken in: always the console's files folder
+    /// ([`files_dir`]), never the folder of whatever file was used last (a replayed log's folder is no
+    /// place for an export).
     pub fn base(&self) -> PathBuf {
-        self.last_dir.clone().filter(|d| d.is_dir()).unwrap_or_else(documents_dir)
+        files_dir()
     }
 
     /// Drops what a hand-edited config could hold beyond the limits (relative paths, long lists).
@@ -114,6 +115,19 @@ impl RecentFiles {
         self.last_dir = self.last_dir.filter(|d| d.is_absolute());
         self
     }
+}
+
+/// The console's files folder: where exports go and relative typed paths are taken —
+/// `<documents>/vestnav` (on Linux `$XDG_DOCUMENTS_DIR/vestnav`, usually `~/Documents/vestnav`). The
+/// program's own folder: made on first use (once per run; a failure shows when a file is written there).
+pub fn files_dir() -> PathBuf {
+    static DIR: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
+    DIR.get_or_init(|| {
+        let dir = documents_dir().join("vestnav");
+        let _ = std::fs::create_dir_all(&dir);
+        dir
+    })
+    .clone()
 }
 
 /// The user's documents folder (`directories::UserDirs`), else the home folder, else the console's data
@@ -167,7 +181,7 @@ fn normalize(path: &Path) -> PathBuf {
 /// The "Uses: /absolute/path" line under a path field (or what to type when it is empty).
 pub fn uses_label(ui: &mut egui::Ui, resolved: Option<&Path>) {
     let text = resolved.map_or_else(
-        || "Type a file name or Browse… (relative names are taken in the folder of the last file)".to_owned(),
+        || format!("Type a file name or Browse… (relative names are taken in {})", files_dir().display()),
         |p| format!("Uses: {}", p.display()),
     );
     ui.label(RichText::new(text).small().weak());
@@ -445,11 +459,11 @@ mod tests {
     }
 
     #[test]
-    fn the_base_falls_back_to_documents_when_the_last_folder_is_gone() {
-        let r = RecentFiles { last_dir: Some("/no/such/vestnav/dir".into()), ..RecentFiles::default() };
-        assert_eq!(r.base(), documents_dir());
+    fn the_base_is_the_files_folder_whatever_file_was_used_last() {
         let tmp = std::env::temp_dir();
-        let r = RecentFiles { last_dir: Some(tmp.clone()), ..RecentFiles::default() };
-        assert_eq!(r.base(), tmp);
+        let mut r = RecentFiles::default();
+        r.push(RecentKind::Nmea, &tmp.join("replayed.nmea"));
+        assert_eq!(r.base(), documents_dir().join("vestnav"));
+        assert!(r.base().is_dir(), "the console's own folder is made on first use");
     }
 }

@@ -61,7 +61,7 @@ pub fn run(devices: DeviceOverrides, screenshot: Option<Screenshot>) -> anyhow::
             .with_title("vestnav console")
             // Wayland docks match the window to vestnav.desktop by this id (X11: StartupWMClass).
             .with_app_id("vestnav")
-            .with_inner_size([1400.0, 880.0])
+            .with_inner_size(screenshot.as_ref().and_then(|s| s.size).unwrap_or([1400.0, 880.0]))
             .with_min_inner_size([900.0, 600.0]),
         ..eframe::NativeOptions::default()
     };
@@ -109,6 +109,8 @@ pub struct Screenshot {
     pub path: std::path::PathBuf,
     /// How long the console runs first (devices connect, the simulator walks).
     pub after: std::time::Duration,
+    /// The window's inner size [points] (`None`: the console's default).
+    pub size: Option<[f32; 2]>,
 }
 
 /// Where a requested screenshot stands.
@@ -168,7 +170,11 @@ impl eframe::App for App {
         if let Some(s) = &mut self.screenshot {
             s.poll(ctx);
         }
-        ctx.request_repaint_after(std::time::Duration::from_millis(250));
+        // No fixed frame rate: the devices wake the window on a change, and it turns on its own only as
+        // often as its ages, alarms and the vest's liveness check need (`console/layout.rs`).
+        if let Some(d) = self.console.next_turn(std::time::Instant::now()) {
+            ctx.request_repaint_after(d);
+        }
     }
 
     fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {

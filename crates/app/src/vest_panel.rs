@@ -64,7 +64,15 @@ pub fn show(
     ui: &mut egui::Ui,
 ) {
     connection_ui(station, cfg, vest_ui, ui);
-    ui.separator();
+    if !station.vest.is_live() {
+        ui.label(
+            RichText::new(format!("Vest not live ({}): tactors cannot be fired", station.vest.label()))
+                .color(Color32::from_rgb(230, 60, 40))
+                .strong(),
+        );
+    }
+    // The grid first, high in the panel: in view without scrolling.
+    grid_ui(station, cfg, vest_ui, ui);
     ui.add(egui::Slider::new(&mut cfg.on_ms, 50..=2000).suffix(" ms").text("On-time"));
     ui.horizontal(|ui| {
         ui.checkbox(&mut vest_ui.select_mode, "Multi-select");
@@ -79,14 +87,6 @@ pub fn show(
             vest_ui.selected = TactorMask::NONE;
         }
     });
-    if !station.vest.is_live() {
-        ui.label(
-            RichText::new(format!("Vest not live ({}): tactors cannot be fired", station.vest.label()))
-                .color(Color32::from_rgb(230, 60, 40))
-                .strong(),
-        );
-    }
-    grid_ui(station, cfg, vest_ui, ui);
     ui.label(format!(
         "on now (as the unit reports): {}",
         match station.vest.tactors_on {
@@ -166,10 +166,9 @@ fn connection_ui(station: &mut Station, cfg: &mut Config, vest_ui: &mut VestUi, 
 }
 
 fn grid_ui(station: &mut Station, cfg: &Config, vest_ui: &mut VestUi, ui: &mut egui::Ui) {
-    ui.label(RichText::new("back view (as seen behind the wearer)").small().weak());
     ui.horizontal(|ui| {
         ui.label(RichText::new("wearer's left").small());
-        ui.add_space(110.0);
+        ui.label(RichText::new("· back view, as seen behind the wearer ·").small().weak());
         ui.label(RichText::new("right").small());
     });
     let ctrl = ui.input(|i| i.modifiers.command);
@@ -207,10 +206,7 @@ fn grid_ui(station: &mut Station, cfg: &Config, vest_ui: &mut VestUi, ui: &mut e
             ui.end_row();
         }
     });
-    // The live state comes from acks; keep repainting while something is on.
-    if station.vest.tactors_on.is_some_and(|m| !m.is_empty()) {
-        ui.ctx().request_repaint_after(std::time::Duration::from_millis(50));
-    }
+    // The live state comes from the unit's reports: each change wakes the window (the station's waker).
 }
 
 fn patterns_ui(

@@ -20,23 +20,29 @@ fn test_dir(name: &str) -> PathBuf {
     dir
 }
 
-/// A relative typed path is taken in the folder of the last file used (not the working directory), and
-/// the field shows the absolute path it will use; the export writes exactly there.
+/// A relative typed path is taken in the console's files folder (`~/Documents/vestnav`), not in the folder
+/// of the last file used (a replayed log's) nor the working directory; the field shows the absolute path it
+/// will use, and the export writes exactly there.
 #[test]
-fn a_typed_relative_path_resolves_against_the_base_and_is_shown_absolute() {
-    let dir = test_dir("relative");
+fn a_typed_relative_path_resolves_in_the_files_folder_and_is_shown_absolute() {
+    let elsewhere = test_dir("relative");
     let devices = common::Devices::default();
     let mut h = common::console(&devices);
-    h.state_mut().cfg.recent.last_dir = Some(dir.clone());
-    h.state_mut().map.gpx_path = "walk.gpx".into();
+    h.state_mut().cfg.recent.last_dir = Some(elsewhere.clone());
+    let name = format!("walk-test-{}.gpx", std::process::id());
+    h.state_mut().map.gpx_path = name.clone();
     h.run_steps(2);
-    let abs = dir.join("walk.gpx");
+    let home = directories::UserDirs::new().unwrap();
+    let folder = home.document_dir().unwrap_or_else(|| home.home_dir()).join("vestnav");
+    let abs = folder.join(&name);
     assert!(h.query_by_label(&format!("Uses: {}", abs.display())).is_some(), "the absolute path is shown");
     h.get_by_label("Export GPX").click();
     h.run_steps(2);
     assert!(abs.exists(), "{}", h.state().latest_notice().map(|n| n.text.clone()).unwrap_or_default());
-    assert!(!PathBuf::from("walk.gpx").exists(), "nothing in the working directory");
-    std::fs::remove_dir_all(&dir).unwrap();
+    assert!(!elsewhere.join(&name).exists(), "nothing in the last file's folder");
+    assert!(!PathBuf::from(&name).exists(), "nothing in the working directory");
+    std::fs::remove_file(&abs).unwrap();
+    std::fs::remove_dir_all(&elsewhere).unwrap();
 }
 
 /// Saving over an existing file asks "Replace X?"; Cancel leaves it, Replace writes it.

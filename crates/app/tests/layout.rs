@@ -181,13 +181,9 @@ fn every_tab_fits_a_1024_by_680_window() {
                 );
             }
         }
-        // The side panel's splitter: the tall one of the panels' resize handles.
-        let side = h
-            .query_all_by_label("Resize panel")
-            .map(|n| n.rect())
-            .find(|r| r.height() > r.width())
-            .expect("the side panel's splitter");
-        assert!(side.left() <= 400.0, "{what}: the side panel takes {} of 1024 points", side.left());
+        // The side panel has a fixed width: its collapse button sits at its right edge.
+        let side = h.get_by_label("<< Hide").rect();
+        assert!(side.right() <= 320.0, "{what}: the side panel takes {} of 1024 points", side.right());
         let stop = h.get_by_label_contains("STOP ALL").rect();
         assert!(stop.bottom() <= 680.0 && stop.right() <= 1024.0, "{what}: STOP ALL at {stop:?}");
     };

@@ -27,7 +27,7 @@ use vestnav_core::fieldtest_live::FieldTests;
 use vestnav_core::pinned::PinDetector;
 use vestnav_core::vest::Cue;
 use vestnav_device::gps::{GpsEvent, SourceState};
-use vestnav_device::outbox::{Outbox, Overflow, Waker, drain_within};
+use vestnav_device::outbox::{Outbox, Waker, drain_within};
 use vestnav_device::session_log::{LogEntry, LogSender, SessionLog};
 use vestnav_device::wtcu::worker::{Heartbeat, Watched};
 use vestnav_device::wtcu::{CommandKind, CommandOrigin, LinkState, VestCommand, VestEvent, VestHandle};
@@ -41,6 +41,7 @@ pub mod route;
 pub mod sources;
 pub mod state;
 pub mod stop;
+pub mod view_wake;
 
 use devices::{DeviceFactory, GpsWorker};
 use guidance::{GuidanceInput, GuidanceSettings, GuidanceStatus};
@@ -59,8 +60,9 @@ const GUIDANCE_CHANNEL: usize = 256;
 /// Liveness bounds of the threads the vest worker watches (see `vestnav_device::wtcu::worker`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Liveness {
-    /// The view must turn at least this often (the console's window turns every 250 ms); `None` for a
-    /// headless station, whose operator path is its signals and its network, not a frame.
+    /// The view must turn at least this often (the console's window turns at least every 750 ms while a
+    /// vest is connected); `None` for a headless station, whose operator path is its signals and its
+    /// network, not a frame.
     pub view: Option<Duration>,
     /// The guidance worker must turn at least this often (it ticks every 250 ms).
     pub guidance: Duration,
@@ -121,7 +123,8 @@ pub struct StationOptions {
     pub vest: Option<VestSourceConfig>,
     /// Directory for the session log (`None`: no log).
     pub log_dir: Option<PathBuf>,
-    /// Wakes the view when events arrive (`None`: the view polls).
+    /// Wakes the view when an event changes what it shows at once (see [`view_wake`]; `None`: the view
+    /// polls).
     pub waker: Option<Waker>,
     /// Liveness bounds; `None` turns the checks off (tests that step at their own pace).
     pub liveness: Option<Liveness>,
@@ -173,6 +176,8 @@ pub struct Station {
     pub vest: VestState,
     /// Latest guidance status.
     pub guidance: Option<GuidanceStatus>,
+    /// The latest cues guidance handed to the vest, newest last.
+    pub cues: state::SentCues,
     /// Notices for the operator.
     pub notices: Notices,
     /// Whether the stop alarm was on at the last pump (its rising edge is logged once).
@@ -218,7 +223,7 @@ impl Station {
             }
         });
         let log_tx = log.as_ref().and_then(SessionLog::sender);
-        let (guidance_ui, guidance_rx) = Outbox::channel(EVENT_CHANNEL, Overflow::DropNewest, waker.clone());
+        let (guidance_ui, guidance_rx) = view_wake::guidance_outbox(EVENT_CHANNEL, waker.clone());
         let (guidance_tx, guidance_in_rx) = sync_channel(GUIDANCE_CHANNEL);
         if let Err(e) = guidance::spawn(guidance_in_rx, settings.guidance, guidance_ui, log_tx.clone()) {
             notices.raise(
@@ -229,8 +234,8 @@ impl Station {
                 ),
             );
         }
-        let (gps_out, gps_rx) = Outbox::channel(EVENT_CHANNEL, Overflow::DropNewest, waker.clone());
-        let (vest_out, vest_rx) = Outbox::channel(EVENT_CHANNEL, Overflow::DropNewest, waker);
+        let (gps_out, gps_rx) = view_wake::outbox(EVENT_CHANNEL, waker.clone(), view_wake::gps_wakes);
+        let (vest_out, vest_rx) = view_wake::outbox(EVENT_CHANNEL, waker, view_wake::vest_wakes);
         let (route, autosave) = load_route(&route_start, &mut notices);
         Self {
             settings,
@@ -258,6 +263,7 @@ impl Station {
             gps: GpsState::default(),
             vest: VestState::default(),
             guidance: None,
+            cues: state::SentCues::default(),
             notices,
             stop_alarm_was: false,
             log_health: vestnav_device::session_log::LogHealth::Ok,
@@ -651,7 +657,15 @@ impl Station {
         }
         self.take_port_findings();
         let mut latest = None;
-        drain_within(&self.guidance_rx, DRAIN_BUDGET, |st| latest = Some(st));
+        let cues = &mut self.cues;
+        drain_within(&self.guidance_rx, DRAIN_BUDGET, |st: GuidanceStatus| {
+            if st.sent
+                && let Some(cue) = st.cue
+            {
+                cues.push(cue, Instant::now());
+            }
+            latest = Some(st);
+        });
         if let Some(st) = latest {
             if st.route_revision == self.route.revision() && st.next != self.route.next() {
                 // Guidance moved on (an arrival) on the route it has: the route's next follows, and

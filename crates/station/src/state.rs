@@ -300,6 +300,29 @@ impl Notices {
     }
 }
 
+/// The latest cues automatic guidance handed to the vest and when (at most [`SentCues::KEPT`], newest
+/// last): the operator's short history of what the wearer felt.
+#[derive(Debug, Clone, Default)]
+pub struct SentCues(std::collections::VecDeque<(vestnav_core::vest::Cue, Instant)>);
+
+impl SentCues {
+    /// How many are kept.
+    pub const KEPT: usize = 6;
+
+    /// Records `cue` handed over at `at`.
+    pub fn push(&mut self, cue: vestnav_core::vest::Cue, at: Instant) {
+        if self.0.len() == Self::KEPT {
+            self.0.pop_front();
+        }
+        self.0.push_back((cue, at));
+    }
+
+    /// The kept cues, newest first.
+    pub fn newest_first(&self) -> impl Iterator<Item = &(vestnav_core::vest::Cue, Instant)> {
+        self.0.iter().rev()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

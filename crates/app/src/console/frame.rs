@@ -13,14 +13,14 @@
 
 use std::time::{Duration, Instant};
 
-use egui::{Color32, RichText};
+use egui::{Color32, RichText, vec2};
 use vestnav_core::guidance::{HeadingSource, NavState, StrategyKind};
 use vestnav_core::vest::Cue;
 use vestnav_device::gps::SourceState;
 use vestnav_device::wtcu::LinkState;
 use vestnav_station::{Severity as NoticeSeverity, Subject};
 
-use super::{Console, GpsAlarm, Tab};
+use super::{Console, GpsAlarm, Tab, layout};
 use crate::config::Config;
 use crate::fieldtest_panel::{FieldTestAction, FieldTestPanel};
 
@@ -138,13 +138,22 @@ impl Console {
         let anim_s = ui.input(|i| i.time);
         self.handle_keys(ui);
 
-        egui::Panel::top("vestnav-top").show(ui, |ui| self.top_bar(ui, now));
+        let ctx = ui.ctx().clone();
+        // The top bar's place is reserved here; the bar itself is drawn last, in a layer above every
+        // window and modal (`console/layout.rs`).
+        let bar_h = if self.cfg.large_text { layout::TOP_BAR_H.1 } else { layout::TOP_BAR_H.0 };
+        let bar = egui::Panel::top("vestnav-top")
+            .exact_size(bar_h)
+            .resizable(false)
+            .show(ui, |ui| {
+                ui.allocate_space(ui.available_size());
+            })
+            .response
+            .rect;
+        layout::keep_windows_below(&ctx, bar.bottom());
         let banners = self.banners(now);
         let lost = self.lost_states(now);
         self.alarm.update(lost, self.cfg.audible_alarm);
-        if !banners.is_empty() {
-            egui::Panel::top("vestnav-banners").show(ui, |ui| self.banner_strip(ui, &banners, anim_s));
-        }
         egui::Panel::bottom("vestnav-status").show(ui, |ui| {
             ui.horizontal(|ui| {
                 let status = self.latest_notice().map_or_else(String::new, |n| n.text.clone());
@@ -164,29 +173,82 @@ impl Console {
                 }
             });
         });
-        egui::Panel::left("vestnav-side").default_size(360.0).min_size(300.0).show(ui, |ui| {
-            egui::ScrollArea::vertical().show(ui, |ui| {
-                egui::CollapsingHeader::new("GPS").default_open(true).show(ui, |ui| {
-                    crate::gps_panel::show(&mut self.station, &mut self.cfg, &mut self.gps_ui, ui, now);
-                });
-                egui::CollapsingHeader::new("Vest").default_open(true).show(ui, |ui| {
-                    crate::vest_panel::show(
-                        &mut self.station,
-                        &mut self.cfg,
-                        &mut self.vest_ui,
-                        &mut self.compass_wizard,
-                        &mut self.pattern_editor.open,
-                        ui,
-                    );
-                });
-                egui::CollapsingHeader::new("Guidance").default_open(true).show(ui, |ui| {
-                    self.guidance_ui(ui);
+        if self.side_open {
+            let wide = ctx.content_rect().width() >= layout::WIDE_WINDOW;
+            let side_w = if wide { layout::SIDE_W.1 } else { layout::SIDE_W.0 };
+            egui::Panel::left("vestnav-side").exact_size(side_w).resizable(false).show(ui, |ui| {
+                self.now_ui(ui, now);
+                ui.separator();
+                egui::ScrollArea::vertical().auto_shrink([false, false]).show(ui, |ui| {
+                    // On a short screen the GPS section starts closed (its state is in the top bar and the
+                    // banners), so the vest grid is in view.
+                    let tall = ctx.content_rect().height() >= 800.0;
+                    egui::CollapsingHeader::new("GPS").default_open(tall).show(ui, |ui| {
+                        crate::gps_panel::show(&mut self.station, &mut self.cfg, &mut self.gps_ui, ui, now);
+                    });
+                    egui::CollapsingHeader::new("Vest").default_open(true).show(ui, |ui| {
+                        crate::vest_panel::show(
+                            &mut self.station,
+                            &mut self.cfg,
+                            &mut self.vest_ui,
+                            &mut self.compass_wizard,
+                            &mut self.pattern_editor.open,
+                            ui,
+                        );
+                    });
+                    egui::CollapsingHeader::new("Guidance").default_open(true).show(ui, |ui| {
+                        self.guidance_ui(ui);
+                    });
                 });
             });
-        });
+        } else {
+            egui::Panel::left("vestnav-side-collapsed").exact_size(34.0).resizable(false).show(ui, |ui| {
+                if ui.button(">>").on_hover_text("Show the side panel (GPS, Vest, Guidance)").clicked() {
+                    self.side_open = true;
+                }
+                crate::vest_panel::mini_grid(ui, self.station.vest.tactors_on, 24.0);
+            });
+        }
         self.pattern_editor.window(&mut self.station, &mut self.cfg, ui.ctx());
         crate::gps_receiver::window(&self.station, &self.cfg.gps, &mut self.gps_ui.receiver, ui.ctx());
-        egui::CentralPanel::default().show(ui, |ui| match self.tab {
+        let pt = if self.cfg.large_text { BANNER_PT_LARGE } else { BANNER_PT };
+        // Two lines of banner text and their margins, whether there are banners or not: nothing below
+        // moves when they come and go (more scroll inside the strip).
+        let strip_h = 2.0 * (pt * 1.35 + 12.0) + 6.0;
+        egui::CentralPanel::default().show(ui, |ui| {
+            egui::Panel::top("vestnav-banners").exact_size(strip_h).resizable(false).show(ui, |ui| {
+                egui::ScrollArea::vertical().auto_shrink([false, false]).show(ui, |ui| {
+                    self.banner_strip(ui, &banners, anim_s);
+                });
+            });
+            self.central_ui(ui);
+        });
+        egui::Area::new(egui::Id::unique("vestnav-top-bar"))
+            .order(egui::Order::Tooltip)
+            .fixed_pos(bar.min)
+            .constrain(false)
+            .show(&ctx, |ui| {
+                egui::Frame::new()
+                    .fill(ui.visuals().panel_fill)
+                    .inner_margin(egui::Margin::symmetric(8, 5))
+                    .show(ui, |ui| {
+                        ui.set_min_size(vec2(bar.width() - 16.0, bar.height() - 10.0));
+                        ui.set_max_width(bar.width() - 16.0);
+                        self.top_bar(ui, now);
+                    });
+            });
+
+        // Every settings change of the frame reaches the station here, once (ticking automatic cues back
+        // on is the operator's deliberate resume).
+        self.settings_changed();
+        if let Some(d) = self.next_turn(Instant::now()) {
+            ui.ctx().request_repaint_after(d);
+        }
+    }
+
+    /// The active tab.
+    fn central_ui(&mut self, ui: &mut egui::Ui) {
+        match self.tab {
             Tab::Map => {
                 let fix = self.station.gps.last_position.clone();
                 let guidance = self.station.guidance.clone();
@@ -221,14 +283,7 @@ impl Console {
                 let current = self.log_path().map(std::path::Path::to_path_buf);
                 self.log_viewer.ui(ui, &dir, current.as_deref(), &mut self.map, &mut self.cfg.recent);
             }
-        });
-
-        // Every settings change of the frame reaches the station here, once (ticking automatic cues back
-        // on is the operator's deliberate resume).
-        self.settings_changed();
-        // Fix ages and alarms change with time even when no event arrives; the frame is also the UI's
-        // heartbeat.
-        ui.ctx().request_repaint_after(Duration::from_millis(250));
+        }
     }
 
     fn handle_keys(&mut self, ui: &egui::Ui) {
@@ -425,8 +480,7 @@ impl Console {
             return line(
                 Severity::Alarm,
                 format!(
-                    "GUIDANCE HALTED: {why}. No automatic cues. Press Resume automatic cues in the Guidance \
-                     panel when it is safe."
+                    "GUIDANCE HALTED: {why}. No automatic cues. Press Resume automatic cues when it is safe."
                 ),
             );
         }
@@ -463,7 +517,17 @@ impl Console {
     fn banner_strip(&mut self, ui: &mut egui::Ui, banners: &[Banner], anim_s: f64) {
         let pt = if self.cfg.large_text { BANNER_PT_LARGE } else { BANNER_PT };
         ui.add_space(2.0);
+        if banners.is_empty() {
+            ui.label(
+                RichText::new(
+                    "No alarms: the vest, the GPS and guidance report nothing the operator must act on.",
+                )
+                .size(pt * 0.8)
+                .weak(),
+            );
+        }
         let mut dismiss = None;
+        let mut resume = false;
         for b in banners {
             let (fill, text) = match b.severity {
                 Severity::Alarm => (Color32::from_rgb(190, 20, 20), Color32::WHITE),
@@ -492,6 +556,12 @@ impl Console {
                         {
                             dismiss = Some(k);
                         }
+                        if b.subject == BannerSubject::Guidance
+                            && self.station.vest.halted.is_some()
+                            && ui.button(RichText::new("Resume automatic cues").size(pt * 0.8)).clicked()
+                        {
+                            resume = true;
+                        }
                         if stop {
                             crate::vest_panel::mini_grid(ui, self.station.vest.tactors_on, pt);
                         }
@@ -502,6 +572,9 @@ impl Console {
         }
         if let Some(k) = dismiss {
             self.station.notices.dismiss(k);
+        }
+        if resume {
+            self.resume_guidance();
         }
         let blinking = banners.iter().any(|b| b.subject == BannerSubject::Stop)
             || (banners.iter().any(|b| b.subject == BannerSubject::Gps) && !self.station.gps.alarm_silenced);

@@ -207,13 +207,61 @@ impl MapView {
     }
 
     /// Replaces the route with an imported choice (one undo step); a route beyond the limit is refused and
-    /// said.
+    /// said. While guidance is steering the wearer the operator is asked first (guidance restarts at the
+    /// new route's first waypoint).
     pub fn import_choice(&mut self, route: &mut RouteModel, c: ImportChoice, notices: &mut Notices) {
+        self.import = None;
+        if self.guiding {
+            self.pending_import = Some(c);
+            return;
+        }
+        Self::replace_route(route, c, notices);
+    }
+
+    fn replace_route(route: &mut RouteModel, c: ImportChoice, notices: &mut Notices) {
         match route.replace(c.name, c.waypoints) {
             Ok(()) => notices.raise(Severity::Info, Subject::Route, format!("imported {}", c.label)),
             Err(e) => notices.raise(Severity::Alarm, Subject::Route, format!("not imported: {e}")),
         }
-        self.import = None;
+    }
+
+    /// "Replace the route being guided?" for an import that waits for the answer.
+    pub(super) fn confirm_import(&mut self, ui: &egui::Ui, route: &mut RouteModel, notices: &mut Notices) {
+        let Some(c) = &self.pending_import else { return };
+        let next = route.waypoints().get(route.next()).map_or_else(String::new, |w| w.name.clone());
+        let mut answer = None;
+        let modal = egui::Modal::new(egui::Id::unique("vestnav-confirm-import")).show(ui.ctx(), |ui| {
+            ui.label(RichText::new("Replace the route being guided?").strong());
+            ui.label(format!(
+                "Guidance heads for {next} now. Importing {} replaces the route and restarts guidance at its \
+                 first waypoint (Undo brings the old route back).",
+                c.label
+            ));
+            ui.horizontal(|ui| {
+                if ui.button("Replace route").clicked() {
+                    answer = Some(true);
+                }
+                if ui.button("Keep the current route").clicked() {
+                    answer = Some(false);
+                }
+            });
+        });
+        if answer.is_none() && modal.should_close() {
+            answer = Some(false);
+        }
+        match answer {
+            Some(true) => {
+                if let Some(c) = self.pending_import.take() {
+                    Self::replace_route(route, c, notices);
+                }
+            }
+            Some(false) => {
+                if let Some(c) = self.pending_import.take() {
+                    notices.raise(Severity::Info, Subject::Route, format!("{} not imported", c.label));
+                }
+            }
+            None => {}
+        }
     }
 
     /// The import dialog (when open): one button per thing the file holds; returns whether the route

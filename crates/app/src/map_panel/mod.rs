@@ -157,6 +157,12 @@ pub struct MapView {
     pub tools: MapTools,
     /// The import dialog, when a GPX file offered more than one thing to import.
     pub import: Option<ImportDialog>,
+    /// An import waiting for the operator's answer to "Replace the route being guided?".
+    pub pending_import: Option<crate::route_import::ImportChoice>,
+    /// Whether guidance is steering the wearer along the route (an import then asks first).
+    guiding: bool,
+    /// The waypoint picked in the list (a click selects; "Guide to" makes it the next one).
+    pub selected: Option<usize>,
 }
 
 /// What a route export writes.
@@ -229,6 +235,9 @@ impl MapView {
             gpx_browse: crate::file_dialog::Browse::default(),
             export_browse: crate::file_dialog::Browse::default(),
             pending_replace: None,
+            pending_import: None,
+            guiding: false,
+            selected: None,
             right_click_at: None,
             menu_wp: None,
             editor: None,
@@ -287,9 +296,11 @@ impl MapView {
                 route.undo();
             }
         }
+        self.guiding = cfg.guidance_auto && !route.waypoints().is_empty();
         self.toolbar(ui, route, track, cfg, notices);
         self.file_row(ui, route, track, cfg, notices);
         self.import_dialog(ui, route, notices);
+        self.confirm_import(ui, route, notices);
         if let Some(e) = &self.tools.goto_error {
             ui.label(RichText::new(format!("Go to: {e}")).color(ui.visuals().error_fg_color));
         }
@@ -461,16 +472,20 @@ impl MapView {
                 route.clear();
             }
         });
-        if let Some(n) = route.undo_notice().map(str::to_owned) {
-            ui.horizontal_wrapped(|ui| {
-                ui.label(RichText::new(n).strong());
-                if ui.small_button("Undo delete").clicked() {
-                    route.undo();
-                }
-            });
-        }
-        self.editor_ui(ui, route);
+        // Below the list, so neither an undo notice nor the editor moves the rows under the cursor.
         let mut action: Option<(usize, WaypointAction)> = None;
+        egui::Panel::bottom("waypoint-actions").resizable(false).show(ui, |ui| {
+            self.selection_ui(ui, route, &mut action);
+            if let Some(n) = route.undo_notice().map(str::to_owned) {
+                ui.horizontal_wrapped(|ui| {
+                    ui.label(RichText::new(n).strong());
+                    if ui.small_button("Undo delete").clicked() {
+                        route.undo();
+                    }
+                });
+            }
+            self.editor_ui(ui, route);
+        });
         let next = route.next();
         let waypoints = route.waypoints();
         egui::ScrollArea::vertical().show_rows(ui, 22.0, waypoints.len(), |ui, range| {
@@ -478,8 +493,15 @@ impl MapView {
                 let Some(w) = waypoints.get(i) else { continue };
                 ui.horizontal(|ui| {
                     let marker = if i == next { "> " } else { "" };
-                    if ui.selectable_label(i == next, format!("{marker}{} {}", i + 1, w.name)).clicked() {
-                        action = Some((i, WaypointAction::Select));
+                    let name = ui
+                        .selectable_label(self.selected == Some(i), format!("{marker}{} {}", i + 1, w.name))
+                        .on_hover_text(if i == next {
+                            "the next waypoint guidance heads for"
+                        } else {
+                            "select (Guide to below makes it the next waypoint)"
+                        });
+                    if name.clicked() {
+                        self.selected = Some(i);
                     }
                     if ui.small_button("Edit").on_hover_text("Rename, type coordinates").clicked() {
                         action = Some((i, WaypointAction::Edit));
@@ -499,6 +521,32 @@ impl MapView {
         if let Some((i, a)) = action {
             self.apply_waypoint_action(route, i, a, notices);
         }
+    }
+
+    /// The selected waypoint and the deliberate step of guiding to it (a click on a name only selects).
+    fn selection_ui(
+        &mut self,
+        ui: &mut egui::Ui,
+        route: &RouteModel,
+        action: &mut Option<(usize, WaypointAction)>,
+    ) {
+        let Some(i) = self.selected.filter(|&i| i < route.waypoints().len()) else {
+            self.selected = None;
+            return;
+        };
+        let name = &route.waypoints()[i].name;
+        ui.horizontal_wrapped(|ui| {
+            ui.label(RichText::new(format!("Selected: {} {name}", i + 1)).strong());
+            if i == route.next() {
+                ui.label("(the next waypoint)");
+            } else if ui
+                .button(format!("Guide to {name}"))
+                .on_hover_text("Make it the next waypoint: guidance re-targets at once")
+                .clicked()
+            {
+                *action = Some((i, WaypointAction::Select));
+            }
+        });
     }
 
     /// The waypoint editor (when open): name, latitude and longitude; Apply (or Enter) checks and applies

@@ -175,7 +175,7 @@ impl TactorView {
 
 /// The summary numbers of every run side by side.
 fn summary_table(ui: &mut egui::Ui, runs: &TactorRuns) {
-    egui::CollapsingHeader::new("Summary (window = last half of the run)").default_open(true).show(
+    egui::CollapsingHeader::new("Summary (window = last half of the run)").default_open(false).show(
         ui,
         |ui| {
             egui::Grid::new("sim-tactor-summary").striped(true).show(ui, |ui| {
