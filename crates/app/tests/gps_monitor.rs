@@ -156,3 +156,37 @@ fn a_replay_can_be_paused_and_shows_its_span() {
     h.state_mut().disconnect_gps();
     let _ = std::fs::remove_file(&file);
 }
+
+/// The monitor shows a long sentence on one line at body size (issue 23, item 11: it was small and
+/// wrapped into fragments), scrolling sideways instead.
+#[test]
+fn a_long_sentence_is_one_legible_line() {
+    let devices = common::Devices::default();
+    let mut h = common::console(&devices);
+    if !h.state().gps_connected() {
+        h.get_by_label("Connect GPS").click();
+        h.run_steps(2);
+    }
+    devices.gps(&raw(GGA));
+    assert!(common::settle(&mut h, |c| c.gps_ui.monitor.lines.len() == 1), "the monitor got the line");
+    h.get_by_label_contains("NMEA monitor").click();
+    h.run_steps(3);
+    let line = h.get_by_label_contains(GGA).rect();
+    let body = h.ctx.style().text_styles[&egui::TextStyle::Body].size;
+    assert!(line.height() < body * 1.8, "one line, not wrapped: {line:?}");
+    assert!(line.height() >= body * 0.9, "body size, not small: {line:?}");
+}
+
+/// Esc closes an open drop-down (issue 23, item 11).
+#[test]
+fn escape_closes_a_drop_down() {
+    let devices = common::Devices::default();
+    let mut h = common::console(&devices);
+    h.run_steps(2);
+    h.get_by_label("Strategy").click();
+    h.run_steps(2);
+    assert!(egui::Popup::is_any_open(&h.ctx), "the Strategy drop-down opened");
+    h.key_press(egui::Key::Escape);
+    h.run_steps(2);
+    assert!(!egui::Popup::is_any_open(&h.ctx), "Esc closed it");
+}

@@ -105,6 +105,7 @@ pub(crate) fn layout(chart: &Chart, width: f32, height: f32) -> Layout {
             hi: xr.1,
             px_lo: f64::from(area.left),
             px_hi: f64::from(area.right),
+            integer: chart.x_integer,
         };
         let y_axis = Axis {
             scale: chart.y_scale,
@@ -112,6 +113,7 @@ pub(crate) fn layout(chart: &Chart, width: f32, height: f32) -> Layout {
             hi: yr.1,
             px_lo: f64::from(area.bottom),
             px_hi: f64::from(area.top),
+            integer: false,
         };
         let y_ticks = fitting_y_ticks(&y_axis, area.height());
         let x_ticks = fitting_x_ticks(&x_axis, area.width());

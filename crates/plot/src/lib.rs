@@ -41,6 +41,7 @@ pub use decimate::decimate_minmax;
 pub use figure::{Figure, Panel};
 pub use heatmap::Heatmap;
 pub use style::Color;
+pub use ticks::{Ticks, axis_ticks};
 pub use text::{draw_label, label_width};
 /// The RGBA image type returned by [`Figure::render_pixmap`].
 pub use tiny_skia::Pixmap;
