@@ -350,8 +350,7 @@ pub fn finish_drift(
         );
     }
     if let Some(path) = png {
-        both.figure(DriftReport::figure, "Against the reference")
-            .save_png(path)?;
+        both.figure(DriftReport::figure, "Against the reference").save_png(path)?;
     }
     Ok(())
 }
@@ -420,8 +419,7 @@ pub fn finish_cones(
         );
     }
     if let Some(path) = png {
-        both.figure(ConesReport::figure, "Marks against their cones")
-            .save_png(path)?;
+        both.figure(ConesReport::figure, "Marks against their cones").save_png(path)?;
     }
     Ok(())
 }

@@ -2,7 +2,6 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::Context as _;
 use clap::{Args, ValueEnum};
 use vestnav_core::gnss_sim::GnssErrorModel;
 use vestnav_core::guidance::{HeadingMode, StrategyKind, Waypoint};
@@ -222,8 +221,7 @@ pub fn run_simulate(args: &SimulateArgs) -> anyhow::Result<()> {
         }
     }
     if let Some(path) = &args.png {
-        nav_figure(&all, args.arrival_radius_m)
-            .save_png(path)?;
+        nav_figure(&all, args.arrival_radius_m).save_png(path)?;
         if !args.json {
             println!("figure: {}", path.display());
         }

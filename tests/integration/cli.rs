@@ -169,7 +169,8 @@ fn decoding_a_non_nmea_file_fails_and_says_why() {
     assert_eq!(err.lines().count(), 1, "{err}");
     // A real log still decodes with exit 0.
     let log = root().join("tests/data/gpsd-logs/firefly-II.log");
-    let out = Command::new(env!("CARGO_BIN_EXE_vestnav")).args(["nmea", "decode"]).arg(&log).output().unwrap();
+    let out =
+        Command::new(env!("CARGO_BIN_EXE_vestnav")).args(["nmea", "decode"]).arg(&log).output().unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
 }
 

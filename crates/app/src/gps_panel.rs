@@ -813,7 +813,8 @@ fn fix_grid(ui: &mut egui::Ui, f: &Fix, age_s: Option<f64>, fixes: u64, fresh: F
             None => opt(None, "m", 1),
         };
         ui.horizontal(|ui| {
-            ui.label(live(error)).on_hover_text("Estimated horizontal position error, and where it comes from");
+            ui.label(live(error))
+                .on_hover_text("Estimated horizontal position error, and where it comes from");
             ui.label(live(format!("HDOP {} · PDOP {}", opt(f.hdop, "", 1), opt(f.pdop, "", 1))))
                 .on_hover_text("Dilution of precision: satellite geometry, no unit (lower is better)");
         });

@@ -30,5 +30,8 @@ fn a_closed_port_is_refused_not_offline() {
 fn an_unresolvable_name_is_offline() {
     let c = cause("http://tiles.vestnav-test.invalid/0/0/0.png");
     assert!(matches!(c, NetworkCause::Offline { .. }), "{c:?}");
-    assert_eq!(c.to_string(), "offline: tiles.vestnav-test.invalid cannot be resolved (no network or no DNS)");
+    assert_eq!(
+        c.to_string(),
+        "offline: tiles.vestnav-test.invalid cannot be resolved (no network or no DNS)"
+    );
 }

@@ -579,7 +579,6 @@ impl MapView {
     }
 }
 
-/// An age in words: "12 s ago", "5 min ago", or "age unknown".
 /// A latitude or longitude for the waypoint editor: 7 decimals (1e-7° is 1.1 cm of latitude, finer than any
 /// GPS fix), trailing zeros dropped but one decimal kept, so 42.3581 shows as `42.3581`, never as
 /// `42.358100000000004`.
@@ -589,6 +588,7 @@ pub fn coordinate_text(deg: f64) -> String {
     if s.ends_with('.') { format!("{s}0") } else { s.to_owned() }
 }
 
+/// An age in words: "12 s ago", "5 min ago", or "age unknown".
 pub fn age_text(age_s: Option<f64>) -> String {
     match age_s.filter(|a| a.is_finite()) {
         None => "age unknown".to_owned(),

@@ -64,7 +64,8 @@ fn halo_text(
     let galley = painter.layout_no_wrap(text.to_string(), font, color);
     let rect = anchor.anchor_size(pos, galley.size());
     let halo = halo_color(color);
-    for (dx, dy) in [(-1.5, 0.0), (1.5, 0.0), (0.0, -1.5), (0.0, 1.5), (-1.0, -1.0), (1.0, -1.0), (-1.0, 1.0), (1.0, 1.0)]
+    for (dx, dy) in
+        [(-1.5, 0.0), (1.5, 0.0), (0.0, -1.5), (0.0, 1.5), (-1.0, -1.0), (1.0, -1.0), (-1.0, 1.0), (1.0, 1.0)]
     {
         painter.galley_with_override_text_color(rect.min + vec2(dx, dy), galley.clone(), halo);
     }

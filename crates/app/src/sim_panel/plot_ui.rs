@@ -121,7 +121,11 @@ impl ScreenAxis {
                 } else {
                     let k0 = (b0 / fine).ceil();
                     let k1 = (b1 / fine).floor();
-                    if k1 - k0 > 500.0 { Vec::new() } else { (k0 as i64..=k1 as i64).map(|k| k as f64 * fine).collect() }
+                    if k1 - k0 > 500.0 {
+                        Vec::new()
+                    } else {
+                        (k0 as i64..=k1 as i64).map(|k| k as f64 * fine).collect()
+                    }
                 }
             }
         };
@@ -406,9 +410,9 @@ mod tests {
     #[test]
     fn screen_axis_labels_follow_the_figure_rule() {
         let axis = ScreenAxis::new(Scale::Linear, false, Y_LABEL_PITCH);
-        let marks = axis.marks(&egui_plot::GridInput { bounds: (0.0, 2.5), base_step_size: 2.5 / 220.0 * 8.0 });
-        let labelled: Vec<String> =
-            marks.iter().map(|m| axis.label(*m)).filter(|l| !l.is_empty()).collect();
+        let marks =
+            axis.marks(&egui_plot::GridInput { bounds: (0.0, 2.5), base_step_size: 2.5 / 220.0 * 8.0 });
+        let labelled: Vec<String> = marks.iter().map(|m| axis.label(*m)).filter(|l| !l.is_empty()).collect();
         assert_eq!(labelled, ["0.0", "0.5", "1.0", "1.5", "2.0", "2.5"]);
         let minor = marks.iter().filter(|m| axis.label(**m).is_empty()).count();
         // Fifths of 0.5 between 0 and 2.5: 26 values, 6 of them labelled.
@@ -423,13 +427,15 @@ mod tests {
     #[test]
     fn counting_and_log_axes() {
         let pairs = ScreenAxis::new(Scale::Linear, true, X_LABEL_PITCH);
-        let marks = pairs.marks(&egui_plot::GridInput { bounds: (0.6, 9.4), base_step_size: 8.8 / 900.0 * 8.0 });
+        let marks =
+            pairs.marks(&egui_plot::GridInput { bounds: (0.6, 9.4), base_step_size: 8.8 / 900.0 * 8.0 });
         let labelled: Vec<String> = marks.iter().map(|m| pairs.label(*m)).filter(|l| !l.is_empty()).collect();
         assert_eq!(labelled, ["1", "2", "3", "4", "5", "6", "7", "8", "9"]);
         assert!(marks.iter().all(|m| (m.value - m.value.round()).abs() < 1e-9), "{marks:?}");
         // Six decades on a log axis (drawn in decades): labelled 0.001 … 100.
         let log = ScreenAxis::new(Scale::Log10, false, X_LABEL_PITCH);
-        let marks = log.marks(&egui_plot::GridInput { bounds: (-3.0, 2.0), base_step_size: 5.0 / 600.0 * 8.0 });
+        let marks =
+            log.marks(&egui_plot::GridInput { bounds: (-3.0, 2.0), base_step_size: 5.0 / 600.0 * 8.0 });
         let labelled: Vec<String> = marks.iter().map(|m| log.label(*m)).filter(|l| !l.is_empty()).collect();
         assert_eq!(labelled, ["0.001", "0.01", "0.1", "1", "10", "100"]);
     }

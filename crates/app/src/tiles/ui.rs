@@ -553,8 +553,8 @@ impl MapTiles {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
     use super::super::local::FrameCounts;
+    use super::*;
 
     /// "has none here" only when the source said so; a network failure is shown with its cause.
     #[test]
@@ -573,7 +573,10 @@ mod tests {
         assert!(note.contains("offline: tile.openstreetmap.org cannot be resolved"), "{note}");
         assert!(!note.contains("has none here"), "{note}");
         let loading = FrameCounts { loading: 6, ..FrameCounts::default() };
-        assert_eq!(no_tiles_note(None, None, loading, "OpenStreetMap"), "no tiles yet: metric grid (loading…)");
+        assert_eq!(
+            no_tiles_note(None, None, loading, "OpenStreetMap"),
+            "no tiles yet: metric grid (loading…)"
+        );
         let broken = no_tiles_note(Some(Err("x.mbtiles: vector".into())), None, missing, "x");
         assert_eq!(broken, "no tiles: metric grid (x.mbtiles: vector)");
     }

@@ -220,9 +220,9 @@ fn greis(b: &[u8]) -> Probe {
     if header[..2] == *b"RE" || header[..2] == *b"ER" {
         return Probe::No;
     }
-    let len = header[2..]
-        .iter()
-        .fold(0usize, |n, &x| n * 16 + usize::from(if x.is_ascii_digit() { x - b'0' } else { x - b'A' + 10 }));
+    let len = header[2..].iter().fold(0usize, |n, &x| {
+        n * 16 + usize::from(if x.is_ascii_digit() { x - b'0' } else { x - b'A' + 10 })
+    });
     if len < 2 || 5 + len > MAX_FRAME {
         return Probe::No;
     }
