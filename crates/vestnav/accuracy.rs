@@ -240,7 +240,7 @@ pub fn run_accuracy(args: &AccuracyArgs) -> anyhow::Result<()> {
         }
     }
     if let Some(path) = &args.png {
-        report.figure().save_png(path).with_context(|| format!("writing {}", path.display()))?;
+        report.figure().save_png(path)?;
     }
     Ok(())
 }
@@ -316,7 +316,7 @@ pub fn run_compare(args: &CompareArgs) -> anyhow::Result<()> {
         }
     }
     if let Some(path) = &args.png {
-        report.figure().save_png(path).with_context(|| format!("writing {}", path.display()))?;
+        report.figure().save_png(path)?;
     }
     Ok(())
 }
@@ -350,9 +350,7 @@ pub fn finish_drift(
         );
     }
     if let Some(path) = png {
-        both.figure(DriftReport::figure, "Against the reference")
-            .save_png(path)
-            .with_context(|| format!("writing {}", path.display()))?;
+        both.figure(DriftReport::figure, "Against the reference").save_png(path)?;
     }
     Ok(())
 }
@@ -421,9 +419,7 @@ pub fn finish_cones(
         );
     }
     if let Some(path) = png {
-        both.figure(ConesReport::figure, "Marks against their cones")
-            .save_png(path)
-            .with_context(|| format!("writing {}", path.display()))?;
+        both.figure(ConesReport::figure, "Marks against their cones").save_png(path)?;
     }
     Ok(())
 }

@@ -309,7 +309,7 @@ pub fn run_drift(args: &DriftArgs) -> anyhow::Result<()> {
         }
     }
     if let Some(path) = &args.png {
-        report.figure().save_png(path).with_context(|| format!("writing {}", path.display()))?;
+        report.figure().save_png(path)?;
     }
     Ok(())
 }
@@ -419,7 +419,7 @@ pub fn run_cones(args: &ConesArgs) -> anyhow::Result<()> {
         }
     }
     if let Some(path) = &args.png {
-        report.figure().save_png(path).with_context(|| format!("writing {}", path.display()))?;
+        report.figure().save_png(path)?;
     }
     Ok(())
 }

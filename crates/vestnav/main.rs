@@ -35,10 +35,28 @@ fn main() -> std::process::ExitCode {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(err) if is_broken_pipe(&err) => std::process::ExitCode::from(EXIT_BROKEN_PIPE),
         Err(err) => {
-            eprintln!("vestnav: {err:#}");
+            eprintln!("vestnav: {}", error_text(&err));
             std::process::ExitCode::FAILURE
         }
     }
+}
+
+/// The error and its causes on one line, each said once: a cause whose text the line already holds (an
+/// error type that prints its source and also returns it as its cause, such as "cannot write X: os error"
+/// then "os error") is left out.
+fn error_text(err: &anyhow::Error) -> String {
+    let mut line = String::new();
+    for cause in err.chain() {
+        let text = cause.to_string();
+        if line.contains(&text) {
+            continue;
+        }
+        if !line.is_empty() {
+            line.push_str(": ");
+        }
+        line.push_str(&text);
+    }
+    line
 }
 
 /// Diagnostics (serial, gpsd, vest transport and map tile failures) go to stderr, filtered by `RUST_LOG`

@@ -2,7 +2,6 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::Context as _;
 use clap::{Args, ValueEnum};
 use vestnav_core::gnss_sim::GnssErrorModel;
 use vestnav_core::guidance::{HeadingMode, StrategyKind, Waypoint};
@@ -103,8 +102,8 @@ pub struct SimulateArgs {
 /// Reads the waypoints of a GPX route file: its first route with points, else its waypoints, else its first
 /// track.
 pub fn load_route(path: &Path) -> anyhow::Result<Vec<Waypoint>> {
-    let file =
-        vestnav_device::route_file::read_gpx(path).with_context(|| format!("reading {}", path.display()))?;
+    // The reader's error names the file already.
+    let file = vestnav_device::route_file::read_gpx(path)?;
     let Some(route) = file.default_route().filter(|r| !r.waypoints.is_empty()) else {
         anyhow::bail!("{}: no route points or waypoints", path.display());
     };
@@ -222,9 +221,7 @@ pub fn run_simulate(args: &SimulateArgs) -> anyhow::Result<()> {
         }
     }
     if let Some(path) = &args.png {
-        nav_figure(&all, args.arrival_radius_m)
-            .save_png(path)
-            .with_context(|| format!("writing {}", path.display()))?;
+        nav_figure(&all, args.arrival_radius_m).save_png(path)?;
         if !args.json {
             println!("figure: {}", path.display());
         }

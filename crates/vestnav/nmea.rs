@@ -6,7 +6,7 @@ use std::io::{Read, Write};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
-use anyhow::Context as _;
+use anyhow::{Context as _, bail};
 use clap::Args;
 use vestnav_device::gps::record::{Recorder, unix_ms_now};
 use vestnav_device::gps::source::detect_baud;
@@ -211,6 +211,16 @@ pub fn run_decode(args: &DecodeArgs) -> anyhow::Result<()> {
         }
         .with_context(|| format!("decoding {}", path.display()))?;
         out.flush()?;
+        if let Some(p) = stats.undecoded_protocol {
+            bail!("{}: {}", path.display(), p.advice());
+        }
+        if stats.recognised() == 0 {
+            bail!(
+                "{}: not an NMEA log: no NMEA sentence or GPS binary frame in its {} bytes",
+                path.display(),
+                stats.bytes
+            );
+        }
         eprintln!("{}: {stats}", path.display());
         total.merge(&stats);
     }

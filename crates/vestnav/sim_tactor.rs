@@ -212,8 +212,9 @@ fn write_csv(path: &Path, tr: &Traces) -> anyhow::Result<()> {
     w.flush().map_err(io)
 }
 
+/// Writes the figure; the error names the file (no context added: it would name it twice).
 fn save(fig: &Figure, path: &Path) -> anyhow::Result<()> {
-    fig.save_png(path).with_context(|| format!("cannot write figure {}", path.display()))
+    Ok(fig.save_png(path)?)
 }
 
 /// Runs `sim tactor`.

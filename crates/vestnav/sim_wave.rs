@@ -21,16 +21,16 @@ use vestnav_report::{Figure, to_json};
 #[derive(Debug, Args)]
 pub struct TwoPointArgs {
     /// Distance(s) between the two tactors [mm], comma-separated (one pair of panels each in the figure).
-    #[arg(long, value_delimiter = ',', default_value = "11")]
+    #[arg(long, value_delimiter = ',', default_value = "11", allow_negative_numbers = true)]
     pub distance_mm: Vec<f64>,
     /// Sweep the RMSE over distances 0..=max-mm in 1 mm steps instead (prints a JSON array with --json).
     #[arg(long)]
     pub sweep: bool,
     /// Largest distance of the sweep [mm].
-    #[arg(long, default_value_t = 100.0)]
+    #[arg(long, default_value_t = 100.0, allow_negative_numbers = true)]
     pub max_mm: f64,
     /// Detection level of the two-point threshold: RMSE as a fraction of one tactor's amplitude.
-    #[arg(long, default_value_t = twopoint::DEFAULT_RELATIVE_RMSE)]
+    #[arg(long, default_value_t = twopoint::DEFAULT_RELATIVE_RMSE, allow_negative_numbers = true)]
     pub relative_rmse: f64,
     /// Print as JSON: keys `amplitude`, `center_mm`, `width_mm`, `rmse` (plus `distance_mm`, `sse`,
     /// `points`).
@@ -96,8 +96,9 @@ pub struct WaveArgs {
     pub png: Option<PathBuf>,
 }
 
+/// Writes the figure; the error names the file (no context added: it would name it twice).
 fn save(figure: &Figure, path: &Path) -> anyhow::Result<()> {
-    figure.save_png(path).with_context(|| format!("writing figure {}", path.display()))
+    Ok(figure.save_png(path)?)
 }
 
 // -----------------------------------------------------------------------------------------------------------
@@ -110,7 +111,7 @@ pub fn run_two_point(args: &TwoPointArgs) -> anyhow::Result<()> {
         return run_sweep(args, &setup);
     }
     if args.distance_mm.is_empty() || args.distance_mm.iter().any(|d| !d.is_finite() || d.abs() > 1000.0) {
-        bail!("--distance-mm must be finite and within ±1000 mm");
+        bail!("--distance-mm must be finite and within ±1000 mm (got {:?})", args.distance_mm);
     }
     let results = fits(&setup, &args.distance_mm).context("fitting the sum of the two tactors")?;
     if args.json {

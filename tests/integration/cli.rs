@@ -174,3 +174,52 @@ fn console_files_are_checked_before_the_window_opens() {
     assert!(err.contains("--tiles") && err.contains("area.pmtiles"), "{err}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// Runs the binary expecting failure; returns its standard error.
+fn vestnav_fails(args: &[&str]) -> String {
+    let out = Command::new(env!("CARGO_BIN_EXE_vestnav")).args(args).output().expect("run vestnav");
+    assert!(!out.status.success(), "vestnav {args:?} should fail: {}", String::from_utf8_lossy(&out.stdout));
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+/// Errors are said once (issue 23, item 11): the file named once, the OS error once.
+#[test]
+fn errors_name_the_file_and_the_cause_once() {
+    let readme = root().join("README.md");
+    let readme = readme.to_str().unwrap();
+    let err = vestnav_fails(&["nav", "simulate", "--route", readme, "--runs", "1"]);
+    assert_eq!(err.matches("README.md").count(), 1, "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+
+    let png = format!("/no/such/dir-{}/x.png", std::process::id());
+    let err = vestnav_fails(&["sim", "tactor", "--png", &png]);
+    // The OS's own words, as `std::io::Error` prints them for ENOENT.
+    let os = std::io::Error::from_raw_os_error(2).to_string();
+    assert_eq!(err.matches(&os).count(), 1, "{err}");
+    assert_eq!(err.matches(&png).count(), 1, "{err}");
+}
+
+/// A file that is no GPS log is reported as such, with a non-zero exit (issue 23, item 11).
+#[test]
+fn decoding_a_non_nmea_file_fails_and_says_why() {
+    let readme = root().join("README.md");
+    let err = vestnav_fails(&["nmea", "decode", readme.to_str().unwrap()]);
+    assert!(err.contains("README.md: not an NMEA log"), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    // A real log still decodes with exit 0.
+    let log = root().join("tests/data/gpsd-logs/firefly-II.log");
+    let out =
+        Command::new(env!("CARGO_BIN_EXE_vestnav")).args(["nmea", "decode"]).arg(&log).output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+}
+
+/// A negative number is parsed as a value and then validated, not refused as an unknown option.
+#[test]
+fn negative_values_are_parsed_then_validated() {
+    let err = vestnav_fails(&["sim", "two-point", "--distance-mm", "-5000"]);
+    assert!(err.contains("--distance-mm must be finite and within ±1000 mm"), "{err}");
+    assert!(!err.contains("unexpected argument"), "{err}");
+    let out = vestnav(&["sim", "two-point", "--distance-mm", "-5", "--json"]);
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert!(v.to_string().contains("-5"), "{out}");
+}

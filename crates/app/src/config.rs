@@ -118,20 +118,12 @@ impl Default for Config {
     }
 }
 
-/// The platform directories of vestnav, if the OS has a home directory.
-fn project_dirs() -> Option<directories::ProjectDirs> {
-    directories::ProjectDirs::from("org", "vestnav", "vestnav")
-}
-
 /// The config file's path (see the module doc), if the platform has a config directory.
 pub fn default_path() -> Option<PathBuf> {
-    project_dirs().map(|d| d.config_dir().join("console.json"))
+    crate::dirs::project_dirs().map(|d| d.config_dir().join("console.json"))
 }
 
-/// Directory for session logs and the tile cache when the config names none.
-pub fn data_dir() -> PathBuf {
-    project_dirs().map_or_else(|| std::env::temp_dir().join("vestnav"), |d| d.data_dir().to_path_buf())
-}
+pub use crate::dirs::data_dir;
 
 /// Where the console autosaves the route being edited and restores it from at start-up.
 pub fn route_autosave_path() -> PathBuf {

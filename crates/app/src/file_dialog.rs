@@ -133,7 +133,7 @@ pub fn files_dir() -> PathBuf {
 /// The user's documents folder (`directories::UserDirs`), else the home folder, else the console's data
 /// folder.
 pub fn documents_dir() -> PathBuf {
-    directories::UserDirs::new().map_or_else(crate::config::data_dir, |u| {
+    directories::UserDirs::new().map_or_else(crate::dirs::data_dir, |u| {
         u.document_dir().unwrap_or_else(|| u.home_dir()).to_path_buf()
     })
 }
@@ -194,6 +194,8 @@ pub enum Mode {
     Open,
     /// Name a file to write (the dialog may ask about replacing; the console asks again in any case).
     Save,
+    /// Pick an existing folder (the filter is not used).
+    Folder,
 }
 
 /// What a dialog is for: its mode, title and file-type filter.
@@ -261,6 +263,7 @@ impl Browse {
             }
             let handle = match spec.mode {
                 Mode::Open => block_on(dialog.pick_file()),
+                Mode::Folder => block_on(dialog.pick_folder()),
                 Mode::Save => {
                     if let Some(name) = &file_name {
                         dialog = dialog.set_file_name(name);

@@ -578,16 +578,19 @@ fn monitor_ui(gps_ui: &mut GpsUi, ui: &mut egui::Ui) {
                 ui.label(RichText::new(format!("{} not shown (paused)", m.missed)).small().weak());
             }
         });
-        egui::ScrollArea::vertical()
-            .max_height(180.0)
+        // Body-size monospace, one sentence a line: a long sentence scrolls sideways instead of wrapping
+        // into a column of fragments.
+        egui::ScrollArea::both()
+            .max_height(220.0)
             .stick_to_bottom(!m.paused)
             .auto_shrink([false, true])
             .show(ui, |ui| {
                 for l in m.visible() {
-                    ui.label(
-                        RichText::new(format!("{}  {}", l.at.format("%H:%M:%S%.3f"), l.text))
-                            .monospace()
-                            .small(),
+                    ui.add(
+                        egui::Label::new(
+                            RichText::new(format!("{}  {}", l.at.format("%H:%M:%S%.3f"), l.text)).monospace(),
+                        )
+                        .wrap_mode(egui::TextWrapMode::Extend),
                     );
                 }
             });
@@ -848,15 +851,18 @@ fn fix_grid(ui: &mut egui::Ui, f: &Fix, age_s: Option<f64>, fixes: u64, fresh: F
             ui.label(live(format!("{} used / {} in view", n(f.sats_used), n(f.sats_visible))));
         });
         ui.end_row();
-        ui.label("Error · HDOP / PDOP");
-        // The figure guidance uses, and whose it is: the receiver's own estimate when it sends one.
+        ui.label("Position error · DOP");
+        // The figure guidance uses, and whose it is: the receiver's own estimate when it sends one. Each
+        // number carries its name, so "3.0 m" and the DOPs cannot be read as one "GST 1.0 / 1.8".
         let error = match f.error {
-            Some(e) => format!("{} · {}", opt(Some(e.horizontal_m), "m", 1), e.source.describe()),
+            Some(e) => format!("±{} (from {})", opt(Some(e.horizontal_m), "m", 1), e.source.describe()),
             None => opt(None, "m", 1),
         };
         ui.horizontal(|ui| {
-            ui.label(live(error));
-            ui.label(live(format!("{} / {}", opt(f.hdop, "", 1), opt(f.pdop, "", 1))));
+            ui.label(live(error))
+                .on_hover_text("Estimated horizontal position error, and where it comes from");
+            ui.label(live(format!("HDOP {} · PDOP {}", opt(f.hdop, "", 1), opt(f.pdop, "", 1))))
+                .on_hover_text("Dilution of precision: satellite geometry, no unit (lower is better)");
         });
         ui.end_row();
         ui.label("Altitude");

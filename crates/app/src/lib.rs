@@ -17,6 +17,7 @@
 pub mod compass_panel;
 pub mod config;
 pub mod console;
+pub mod dirs;
 mod export;
 mod fieldtest_panel;
 pub mod file_dialog;

@@ -156,3 +156,48 @@ fn a_replay_can_be_paused_and_shows_its_span() {
     h.state_mut().disconnect_gps();
     let _ = std::fs::remove_file(&file);
 }
+
+/// The monitor shows a long sentence on one line at body size (issue 23, item 11: it was small and
+/// wrapped into fragments), scrolling sideways instead.
+#[test]
+fn a_long_sentence_is_one_legible_line() {
+    let devices = common::Devices::default();
+    let mut h = common::console(&devices);
+    if !h.state().gps_connected() {
+        h.get_by_label("Connect GPS").click();
+        h.run_steps(2);
+    }
+    devices.gps(&raw(GGA));
+    assert!(common::settle(&mut h, |c| c.gps_ui.monitor.lines.len() == 1), "the monitor got the line");
+    h.get_by_label_contains("NMEA monitor").click();
+    h.run_steps(3);
+    let line = h.get_by_label_contains(GGA).rect();
+    let body = h.ctx.global_style().text_styles[&egui::TextStyle::Body].size;
+    assert!(line.height() < body * 1.8, "one line, not wrapped: {line:?}");
+    assert!(line.height() >= body * 0.9, "body size, not small: {line:?}");
+}
+
+/// Esc closes an open drop-down (issue 23, item 11): egui's popups close on Esc, and nothing in the console
+/// takes the key first (it consumes only Ctrl+Z / Ctrl+Y); shown on a drop-down like the console's.
+#[test]
+fn escape_closes_a_drop_down() {
+    let mut strategy = "pursuit".to_owned();
+    let mut h = egui_kittest::Harness::new_ui_state(
+        |ui, s: &mut String| {
+            egui::ComboBox::from_label("Strategy").selected_text(s.clone()).show_ui(ui, |ui| {
+                for k in ["bearing", "pursuit"] {
+                    ui.selectable_value(s, k.to_owned(), k);
+                }
+            });
+        },
+        std::mem::take(&mut strategy),
+    );
+    h.run();
+    assert!(h.query_by_label("bearing").is_none());
+    h.get_by_role_and_label(Role::ComboBox, "Strategy").click();
+    h.run();
+    assert!(h.query_by_label("bearing").is_some(), "the drop-down opened");
+    h.key_press(egui::Key::Escape);
+    h.run();
+    assert!(h.query_by_label("bearing").is_none(), "Esc closed it");
+}

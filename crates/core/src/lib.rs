@@ -28,6 +28,11 @@
 //! assert!((p.steady_state().omega_rad_s - 834.22).abs() < 0.01);
 //! ```
 
+/// Called by a producer when it has news for its consumer (the console passes egui's `request_repaint`):
+/// the one waker type of the device workers' outboxes and the tile loaders alike, so one closure serves
+/// both. A plain callback type — core itself never calls one and starts no thread.
+pub type Waker = std::sync::Arc<dyn Fn() + Send + Sync>;
+
 pub mod accuracy;
 pub mod analysis;
 pub mod compass;

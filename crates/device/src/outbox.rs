@@ -26,7 +26,7 @@ use std::sync::mpsc::{Receiver, SyncSender, TrySendError, sync_channel};
 use std::time::{Duration, Instant};
 
 /// Called after a message was handed over (for example egui's `Context::request_repaint`).
-pub type Waker = Arc<dyn Fn() + Send + Sync>;
+pub use vestnav_core::Waker;
 
 /// What a producer does when the consumer's channel is full.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -37,6 +37,8 @@ pub(crate) struct Axis {
     pub(crate) px_lo: f64,
     /// Pixel position of `hi`.
     pub(crate) px_hi: f64,
+    /// Ticks only at whole numbers (an axis that counts things).
+    pub(crate) integer: bool,
 }
 
 impl Axis {
@@ -60,7 +62,7 @@ impl Axis {
 
     /// Ticks for this axis with at most about `max_ticks` labels.
     pub(crate) fn ticks(&self, max_ticks: usize) -> Ticks {
-        ticks::ticks(self.scale, self.lo, self.hi, max_ticks)
+        ticks::axis_ticks(self.scale, self.lo, self.hi, max_ticks, self.integer)
     }
 }
 
@@ -528,7 +530,7 @@ mod tests {
     use approx::assert_relative_eq;
 
     fn axis(lo: f64, hi: f64, px_lo: f64, px_hi: f64) -> Axis {
-        Axis { scale: Scale::Linear, lo, hi, px_lo, px_hi }
+        Axis { scale: Scale::Linear, lo, hi, px_lo, px_hi, integer: false }
     }
 
     #[test]

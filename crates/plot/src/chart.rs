@@ -153,6 +153,8 @@ pub struct Chart {
     pub y_range: Option<(f64, f64)>,
     /// One x unit as long as one y unit.
     pub equal_aspect: bool,
+    /// X ticks only at whole numbers (the x axis counts things: cone pairs, trials).
+    pub x_integer: bool,
     /// Data series, drawn in order.
     pub series: Vec<Series>,
     /// Horizontal reference lines.
@@ -177,6 +179,7 @@ impl Chart {
             x_range: None,
             y_range: None,
             equal_aspect: false,
+            x_integer: false,
             series: Vec::new(),
             hlines: Vec::new(),
             vlines: Vec::new(),
@@ -231,6 +234,13 @@ impl Chart {
     #[must_use]
     pub fn equal_aspect(mut self) -> Self {
         self.equal_aspect = true;
+        self
+    }
+
+    /// Number the x axis with whole numbers only (1, 2, 3 …, never 1.2, 1.4): for axes that count things.
+    #[must_use]
+    pub fn x_integer(mut self) -> Self {
+        self.x_integer = true;
         self
     }
 

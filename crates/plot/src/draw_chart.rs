@@ -73,6 +73,11 @@ fn equalize(x: (f64, f64), y: (f64, f64), width_px: f64, height_px: f64) -> ((f6
 
 /// Decide the plot area, axis ranges and ticks for a `width` x `height` panel.
 pub(crate) fn layout(chart: &Chart, width: f32, height: f32) -> Layout {
+    layout_with_band(chart, width, height, 0.0)
+}
+
+/// [`layout`] with `band_px` kept free at the panel's bottom (for a legend below the plot).
+fn layout_with_band(chart: &Chart, width: f32, height: f32, band_px: f32) -> Layout {
     let (x_data, y_data) = data_extents(chart);
     let any_scatter = chart.series.iter().any(|s| s.kind == SeriesKind::Scatter);
     let x_pad = if any_scatter || chart.equal_aspect || chart.series.is_empty() { PAD_FRACTION } else { 0.0 };
@@ -81,7 +86,7 @@ pub(crate) fn layout(chart: &Chart, width: f32, height: f32) -> Layout {
 
     let top = if chart.title.is_empty() { 14.0 } else { 10.0 + TITLE_PX + 14.0 };
     let x_label_h = if chart.x_label.is_empty() { 0.0 } else { 8.0 + LABEL_PX + 4.0 };
-    let bottom_margin = TICK_LEN + 4.0 + TICK_PX + x_label_h + 12.0;
+    let bottom_margin = TICK_LEN + 4.0 + TICK_PX + x_label_h + 12.0 + band_px;
     let y_label_w = if chart.y_label.is_empty() { 0.0 } else { LABEL_PX + 10.0 };
     let mut left = 60.0_f32;
     let mut right_margin = 20.0_f32;
@@ -105,6 +110,7 @@ pub(crate) fn layout(chart: &Chart, width: f32, height: f32) -> Layout {
             hi: xr.1,
             px_lo: f64::from(area.left),
             px_hi: f64::from(area.right),
+            integer: chart.x_integer,
         };
         let y_axis = Axis {
             scale: chart.y_scale,
@@ -112,6 +118,7 @@ pub(crate) fn layout(chart: &Chart, width: f32, height: f32) -> Layout {
             hi: yr.1,
             px_lo: f64::from(area.bottom),
             px_hi: f64::from(area.top),
+            integer: false,
         };
         let y_ticks = fitting_y_ticks(&y_axis, area.height());
         let x_ticks = fitting_x_ticks(&x_axis, area.width());
@@ -131,16 +138,71 @@ pub(crate) fn layout(chart: &Chart, width: f32, height: f32) -> Layout {
     result.unwrap_or_else(|| unreachable!())
 }
 
+/// The legend's entries: every series with a label, in order.
+fn legend_entries(chart: &Chart) -> Vec<LegendEntry> {
+    chart
+        .series
+        .iter()
+        .enumerate()
+        .filter(|(_, s)| !s.label.is_empty())
+        .map(|(index, s)| LegendEntry {
+            label: s.label.clone(),
+            color: s.color.unwrap_or_else(|| Color::palette(index)),
+            line: (s.kind == SeriesKind::Line).then_some((s.width_px, s.dashed)),
+            marker: s.marker,
+            width: s.width_px,
+        })
+        .collect()
+}
+
+/// Height of the legend band below the plot: the entries side by side, wrapped to `width`.
+fn legend_band_px(entries: &[LegendEntry], width: f32) -> f32 {
+    let row_h = LEGEND_PX + 7.0;
+    let mut rows = 1.0;
+    let mut x = 8.0;
+    for e in entries {
+        let w = BAND_SAMPLE_PX + 6.0 + text_width(&e.label, LEGEND_PX) + 16.0;
+        if x + w > width - 8.0 && x > 8.0 {
+            rows += 1.0;
+            x = 8.0;
+        }
+        x += w;
+    }
+    rows * row_h + 6.0
+}
+
+const BAND_SAMPLE_PX: f32 = 26.0;
+
+/// The layout, and where the legend goes: `None` for a corner of the plot area (the emptiest), or the
+/// height of a band below the plot when every corner would cover data — the legend never hides data.
+fn plan(chart: &Chart, width: f32, height: f32) -> (Layout, Option<f32>) {
+    let l = layout(chart, width, height);
+    let entries = legend_entries(chart);
+    if entries.is_empty() {
+        return (l, None);
+    }
+    let mut occupied = Occupancy::new(l.area);
+    for s in &chart.series {
+        occupied.mark(&pixel_points(&s.x, &s.y, &l.x_axis, &l.y_axis), s.kind == SeriesKind::Line);
+    }
+    let (box_w, box_h) = legend_box_size(l.area, &entries);
+    if legend_corner(l.area, box_w, box_h, &occupied).1 == 0 {
+        return (l, None);
+    }
+    let band = legend_band_px(&entries, width);
+    (layout_with_band(chart, width, height, band), Some(band))
+}
+
 /// Draw the chart onto a panel pixmap (already white).
 pub(crate) fn draw(chart: &Chart, pixmap: &mut Pixmap) {
     let (width, height) = (pixmap.width() as f32, pixmap.height() as f32);
-    let l = layout(chart, width, height);
+    let (l, band) = plan(chart, width, height);
     let area = l.area;
     draw_axes(pixmap, area, &l.x_axis, &l.y_axis, &l.x_ticks, &l.y_ticks);
     let mask = canvas::clip_mask(pixmap, area);
     let mask = mask.as_ref();
 
-    let mut legend = Vec::new();
+    let legend = legend_entries(chart);
     let mut occupied = Occupancy::new(area);
     for (index, s) in chart.series.iter().enumerate() {
         let color = s.color.unwrap_or_else(|| Color::palette(index));
@@ -150,16 +212,6 @@ pub(crate) fn draw(chart: &Chart, pixmap: &mut Pixmap) {
         }
         draw_markers(pixmap, points.iter().flatten().copied(), area, s.marker, color, s.width_px, mask);
         occupied.mark(&points, s.kind == SeriesKind::Line);
-        if !s.label.is_empty() {
-            let line = (s.kind == SeriesKind::Line).then_some((s.width_px, s.dashed));
-            legend.push(LegendEntry {
-                label: s.label.clone(),
-                color,
-                line,
-                marker: s.marker,
-                width: s.width_px,
-            });
-        }
     }
     draw_reference_lines(chart, pixmap, &l, mask, &mut occupied);
     draw_circles(chart, pixmap, &l, mask, &mut occupied);
@@ -173,7 +225,10 @@ pub(crate) fn draw(chart: &Chart, pixmap: &mut Pixmap) {
         }
     }
     draw_frame_and_labels(pixmap, area, &l.x_axis, &l.y_axis, &l.x_ticks, &l.y_ticks);
-    draw_legend(pixmap, area, &legend, &occupied);
+    match band {
+        Some(band) => draw_legend_band(pixmap, height - band, width, &legend),
+        None => draw_legend(pixmap, area, &legend, &occupied),
+    }
     draw_titles(pixmap, area, &chart.title, &chart.x_label, &chart.y_label, l.y_label_x, width);
 }
 
@@ -372,19 +427,26 @@ impl Occupancy {
     }
 }
 
-fn draw_legend(pixmap: &mut Pixmap, area: Area, entries: &[LegendEntry], occupied: &Occupancy) {
-    if entries.is_empty() {
-        return;
-    }
-    let row_h = LEGEND_PX + 7.0;
-    let sample_w = 30.0;
-    let pad = 8.0;
-    let max_text = area.width() * 0.6 - sample_w - 3.0 * pad;
-    let labels: Vec<String> =
-        entries.iter().map(|e| canvas::fit_text(&e.label, LEGEND_PX, max_text)).collect();
-    let text_w = labels.iter().map(|l| text_width(l, LEGEND_PX)).fold(0.0, f32::max);
-    let box_w = pad + sample_w + 6.0 + text_w + pad;
-    let box_h = pad * 0.75 * 2.0 + row_h * entries.len() as f32;
+const LEGEND_SAMPLE_PX: f32 = 30.0;
+const LEGEND_PAD_PX: f32 = 8.0;
+
+/// The legend labels as drawn in a corner box (long ones shortened to fit).
+fn legend_labels(area: Area, entries: &[LegendEntry]) -> Vec<String> {
+    let max_text = area.width() * 0.6 - LEGEND_SAMPLE_PX - 3.0 * LEGEND_PAD_PX;
+    entries.iter().map(|e| canvas::fit_text(&e.label, LEGEND_PX, max_text)).collect()
+}
+
+/// Width and height of the corner legend box.
+fn legend_box_size(area: Area, entries: &[LegendEntry]) -> (f32, f32) {
+    let text_w = legend_labels(area, entries).iter().map(|l| text_width(l, LEGEND_PX)).fold(0.0, f32::max);
+    let box_w = LEGEND_PAD_PX + LEGEND_SAMPLE_PX + 6.0 + text_w + LEGEND_PAD_PX;
+    let box_h = LEGEND_PAD_PX * 0.75 * 2.0 + (LEGEND_PX + 7.0) * entries.len() as f32;
+    (box_w, box_h)
+}
+
+/// The corner (left, top) of the plot area where a `box_w` x `box_h` legend covers the fewest occupied
+/// cells, and that count.
+fn legend_corner(area: Area, box_w: f32, box_h: f32, occupied: &Occupancy) -> ((f32, f32), u64) {
     let inset = 8.0;
     let candidates = [
         (area.right - inset - box_w, area.top + inset),
@@ -392,11 +454,46 @@ fn draw_legend(pixmap: &mut Pixmap, area: Area, entries: &[LegendEntry], occupie
         (area.right - inset - box_w, area.bottom - inset - box_h),
         (area.left + inset, area.bottom - inset - box_h),
     ];
-    let (l, t) = candidates
+    candidates
         .iter()
-        .copied()
-        .min_by_key(|(l, t)| occupied.count(*l, *t, l + box_w, t + box_h))
-        .unwrap_or(candidates[0]);
+        .map(|&(l, t)| ((l, t), occupied.count(l, t, l + box_w, t + box_h)))
+        .min_by_key(|(_, n)| *n)
+        .unwrap_or((candidates[0], 0))
+}
+
+/// The legend in a band below the plot (`top` its upper edge): the entries side by side, wrapped.
+fn draw_legend_band(pixmap: &mut Pixmap, top: f32, width: f32, entries: &[LegendEntry]) {
+    let row_h = LEGEND_PX + 7.0;
+    let style = TextStyle::new(LEGEND_PX).color(INK);
+    let (mut x, mut cy) = (8.0, top + 3.0 + row_h / 2.0);
+    for e in entries {
+        let w = BAND_SAMPLE_PX + 6.0 + text_width(&e.label, LEGEND_PX) + 16.0;
+        if x + w > width - 8.0 && x > 8.0 {
+            x = 8.0;
+            cy += row_h;
+        }
+        let (x0, x1) = (x, x + BAND_SAMPLE_PX);
+        if let Some((line_w, dashed)) = e.line {
+            draw_line(pixmap, (x0, cy), (x1, cy), e.color, &stroke(line_w.min(4.0), dashed));
+        }
+        if e.marker != Marker::None {
+            draw_marker(pixmap, e.marker, f32::midpoint(x0, x1), cy, e.color, e.width.min(3.0));
+        }
+        draw_text(pixmap, &e.label, x1 + 6.0, cy, HAlign::Left, VAlign::Middle, 0.0, style);
+        x += w;
+    }
+}
+
+fn draw_legend(pixmap: &mut Pixmap, area: Area, entries: &[LegendEntry], occupied: &Occupancy) {
+    if entries.is_empty() {
+        return;
+    }
+    let row_h = LEGEND_PX + 7.0;
+    let sample_w = LEGEND_SAMPLE_PX;
+    let pad = LEGEND_PAD_PX;
+    let labels = legend_labels(area, entries);
+    let (box_w, box_h) = legend_box_size(area, entries);
+    let ((l, t), _) = legend_corner(area, box_w, box_h, occupied);
     fill_rect(pixmap, l, t, l + box_w, t + box_h, Color::rgba(255, 255, 255, 225));
     canvas::stroke_rect(
         pixmap,
@@ -418,5 +515,31 @@ fn draw_legend(pixmap: &mut Pixmap, area: Area, entries: &[LegendEntry], occupie
             draw_marker(pixmap, entry.marker, f32::midpoint(x0, x1), cy, entry.color, entry.width.min(3.0));
         }
         draw_text(pixmap, label, x1 + 6.0, cy, HAlign::Left, VAlign::Middle, 0.0, style);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Series;
+
+    /// A legend never hides data: with every corner of the plot covered, it moves to a band below the
+    /// plot area (and the x label); with a free corner, it stays there.
+    #[test]
+    fn the_legend_goes_where_there_is_no_data() {
+        let grid: Vec<(f64, f64)> =
+            (0..=40).flat_map(|i| (0..=40).map(move |j| (f64::from(i), f64::from(j)))).collect();
+        let full = Chart::new("full").x_label("x [m]").series(Series::scatter(
+            "everywhere",
+            grid.iter().map(|p| p.0).collect(),
+            grid.iter().map(|p| p.1).collect(),
+        ));
+        let (l, band) = plan(&full, 600.0, 400.0);
+        let band = band.expect("every corner is covered: the legend goes below");
+        let x_label_bottom = l.area.bottom + TICK_LEN + 4.0 + TICK_PX + 8.0 + LABEL_PX + 4.0;
+        assert!(x_label_bottom <= 400.0 - band, "the band {band} px is below the x label ({x_label_bottom})");
+        let diagonal = Chart::new("sparse").series(Series::line("rising", vec![0.0, 1.0], vec![0.0, 1.0]));
+        let (_, band) = plan(&diagonal, 600.0, 400.0);
+        assert_eq!(band, None, "the upper left corner is free");
     }
 }

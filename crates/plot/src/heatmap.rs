@@ -174,6 +174,7 @@ impl Heatmap {
             hi: c_hi,
             px_lo: f64::from(b),
             px_hi: f64::from(t),
+            integer: false,
         };
         let bar_ticks = fitting_y_ticks(&bar_axis(top, bottom), bottom - top);
         let bar_label_w = if self.colorbar_label.is_empty() { 0.0 } else { LABEL_PX + 8.0 };
@@ -182,8 +183,22 @@ impl Heatmap {
 
         let mut left = 60.0_f32;
         let mut area = Area { left, top, right: width - right_column, bottom };
-        let mut x_axis = Axis { scale: Scale::Linear, lo: x_range.0, hi: x_range.1, px_lo: 0.0, px_hi: 1.0 };
-        let mut y_axis = Axis { scale: Scale::Linear, lo: y_range.0, hi: y_range.1, px_lo: 1.0, px_hi: 0.0 };
+        let mut x_axis = Axis {
+            scale: Scale::Linear,
+            lo: x_range.0,
+            hi: x_range.1,
+            px_lo: 0.0,
+            px_hi: 1.0,
+            integer: false,
+        };
+        let mut y_axis = Axis {
+            scale: Scale::Linear,
+            lo: y_range.0,
+            hi: y_range.1,
+            px_lo: 1.0,
+            px_hi: 0.0,
+            integer: false,
+        };
         let (mut x_ticks, mut y_ticks) = (Ticks::default(), Ticks::default());
         for _ in 0..2 {
             area = Area {

@@ -2,8 +2,9 @@
 //! heatmaps with a colorbar, laid out on a sheet and rasterised with tiny-skia.
 //!
 //! Every figure has a title, axis labels with units, "nice" 1-2-5 ticks (decades with minor ticks on log
-//! axes), a light grid, a frame and a legend placed in the emptiest corner. Text is drawn from glyph outlines
-//! of fonts embedded in the binary (egui's Ubuntu Light with Hack as fallback), so rendering needs no system
+//! axes), a light grid, a frame and a legend in the emptiest corner, or in a band below the plot when every
+//! corner holds data (a legend never hides data). Text is drawn from glyph outlines of fonts embedded in the
+//! binary (egui's Ubuntu Light with Hack as fallback), so rendering needs no system
 //! fonts. Any input is accepted: NaN/inf values break lines and are skipped, log axes skip non-positive values,
 //! empty or degenerate ranges get a visible default, and lines of millions of points are reduced per pixel
 //! column (first, min, max, last) so they draw fast with every peak kept.
@@ -42,6 +43,7 @@ pub use figure::{Figure, Panel};
 pub use heatmap::Heatmap;
 pub use style::Color;
 pub use text::{draw_label, label_width};
+pub use ticks::{Ticks, axis_ticks};
 /// The RGBA image type returned by [`Figure::render_pixmap`].
 pub use tiny_skia::Pixmap;
 

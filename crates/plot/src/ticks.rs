@@ -1,4 +1,5 @@
-//! Axis ranges, "nice" tick selection and compact tick labels.
+//! Axis ranges, "nice" tick selection and compact tick labels: the one tick rule of every figure, the PNG
+//! renderer's and the console's on-screen plots' alike ([`axis_ticks`]).
 
 use crate::Scale;
 
@@ -7,9 +8,11 @@ const MAX_LINEAR: f64 = 1e300;
 
 /// Ticks of one axis: labelled major ticks (value, label) and unlabelled minor ticks.
 #[derive(Debug, Clone, Default, PartialEq)]
-pub(crate) struct Ticks {
-    pub(crate) major: Vec<(f64, String)>,
-    pub(crate) minor: Vec<f64>,
+pub struct Ticks {
+    /// Labelled ticks, ascending: the value and its label.
+    pub major: Vec<(f64, String)>,
+    /// Unlabelled ticks between the labelled ones (log axes: 2..9 x 10^k).
+    pub minor: Vec<f64>,
 }
 
 /// Minimum and maximum of the finite values usable on `scale` (positive ones on a log axis).
@@ -83,12 +86,16 @@ pub(crate) fn resolve_range(
     }
 }
 
-/// The 1-2-5 step nearest above `span / max_ticks`: `m * 10^e` with `m` in {1, 2, 5}.
+/// The 1-2-5 step nearest above `span / max_ticks`: `m * 10^e` with `m` in {1, 2, 5}; at least 1 when
+/// `integer` (an axis that counts things, such as cone pairs, never gets a tick between two of them).
 /// Returns `(step, e)`.
-fn nice_step(span: f64, max_ticks: usize) -> Option<(f64, i32)> {
+fn nice_step(span: f64, max_ticks: usize, integer: bool) -> Option<(f64, i32)> {
     let raw = span / max_ticks.max(1) as f64;
     if !(raw.is_finite() && raw > 0.0) {
         return None;
+    }
+    if integer && raw <= 1.0 {
+        return Some((1.0, 0));
     }
     let e = raw.log10().floor() as i32;
     let magnitude = 10f64.powi(e);
@@ -102,10 +109,27 @@ fn nice_step(span: f64, max_ticks: usize) -> Option<(f64, i32)> {
 
 /// Linear ticks on `lo..=hi`: multiples of a 1-2-5 step, at most about `max_ticks` of them.
 ///
-/// Labels use as many decimals as the step needs (so 0.1 + 0.2 prints as 0.3); axes whose values reach
-/// 1e5 or stay below 1e-3 use compact scientific labels such as `2.5e-7`.
-pub(crate) fn linear_ticks(lo: f64, hi: f64, max_ticks: usize) -> Ticks {
-    let Some((step, e)) = nice_step(hi - lo, max_ticks) else {
+/// Labels all carry the decimals the step needs, no more and no fewer (a step of 0.5 labels
+/// `0.0, 0.5, 1.0`; 0.1 + 0.2 prints as 0.3; zero is never `-0`); axes whose values reach 1e5 or stay below
+/// 1e-3 use compact scientific labels such as `2.5e-7`.
+///
+/// A range that would get a single label at `max_ticks` (0.54e4..1.24e4 at two: only 10000) takes the next
+/// finer step, so every axis with room for two labels shows at least two.
+pub(crate) fn linear_ticks(lo: f64, hi: f64, max_ticks: usize, integer: bool) -> Ticks {
+    let mut ticks = linear_ticks_at(lo, hi, max_ticks, integer);
+    let mut n = max_ticks.max(1);
+    while ticks.major.len() < 2 && n < max_ticks.max(1) * 3 + 3 {
+        n += 1;
+        let finer = linear_ticks_at(lo, hi, n, integer);
+        if finer.major.len() > ticks.major.len() {
+            ticks = finer;
+        }
+    }
+    ticks
+}
+
+fn linear_ticks_at(lo: f64, hi: f64, max_ticks: usize, integer: bool) -> Ticks {
+    let Some((step, e)) = nice_step(hi - lo, max_ticks, integer) else {
         return Ticks {
             major: if lo.is_finite() { vec![(lo, format_general(lo))] } else { vec![] },
             minor: vec![],
@@ -124,7 +148,7 @@ pub(crate) fn linear_ticks(lo: f64, hi: f64, max_ticks: usize) -> Ticks {
         let v = k * step;
         // Snap values that are zero up to rounding (e.g. -1.3e-17) to exactly zero.
         let v = if v.abs() < step * 1e-9 { 0.0 } else { v };
-        let label = if v == 0.0 {
+        let label = if v == 0.0 && scientific {
             "0".to_string()
         } else if scientific {
             let digits = (v.abs().log10().floor() as i32 - e).clamp(0, 15) as usize;
@@ -233,17 +257,28 @@ pub(crate) fn log_ticks(lo: f64, hi: f64, max_ticks: usize) -> Ticks {
         }
     }
     if ticks.major.len() < 2 {
-        let linear = linear_ticks(lo, hi, max_ticks.clamp(2, 5));
+        let linear = linear_ticks(lo, hi, max_ticks.clamp(2, 5), false);
         ticks.major = linear.major.into_iter().filter(|(v, _)| *v > 0.0).collect();
         ticks.minor.clear();
     }
     ticks
 }
 
-/// Ticks for an axis of the given scale.
-pub(crate) fn ticks(scale: Scale, lo: f64, hi: f64, max_ticks: usize) -> Ticks {
+/// Ticks for an axis of `scale` showing `lo..=hi`, with at most about `max_ticks` labels.
+///
+/// Linear axes: multiples of the 1-2-5 step nearest above `(hi - lo) / max_ticks` (at least 1 when
+/// `integer`), each labelled with the decimals the step needs. Log axes: decades, or 1-2-5 x 10^k inside
+/// fewer than two decades. The PNG figures and the console's plots both take their ticks from here, so a
+/// figure on screen and its export are numbered alike.
+///
+/// ```
+/// let t = vestnav_plot::axis_ticks(vestnav_plot::Scale::Linear, 0.0, 2.5, 6, false);
+/// let labels: Vec<&str> = t.major.iter().map(|(_, l)| l.as_str()).collect();
+/// assert_eq!(labels, ["0.0", "0.5", "1.0", "1.5", "2.0", "2.5"]);
+/// ```
+pub fn axis_ticks(scale: Scale, lo: f64, hi: f64, max_ticks: usize, integer: bool) -> Ticks {
     match scale {
-        Scale::Linear => linear_ticks(lo, hi, max_ticks),
+        Scale::Linear => linear_ticks(lo, hi, max_ticks, integer),
         Scale::Log10 => log_ticks(lo, hi, max_ticks),
     }
 }
@@ -259,8 +294,8 @@ mod tests {
 
     #[test]
     fn unit_range_gets_fifths() {
-        let t = linear_ticks(0.0, 1.0, 6);
-        assert_eq!(labels(&t), ["0", "0.2", "0.4", "0.6", "0.8", "1.0"]);
+        let t = linear_ticks(0.0, 1.0, 6, false);
+        assert_eq!(labels(&t), ["0.0", "0.2", "0.4", "0.6", "0.8", "1.0"]);
         for ((v, _), expected) in t.major.iter().zip([0.0, 0.2, 0.4, 0.6, 0.8, 1.0]) {
             assert_relative_eq!(*v, expected, epsilon = 1e-12);
         }
@@ -268,23 +303,23 @@ mod tests {
 
     #[test]
     fn seven_point_three_gets_ones_or_twos() {
-        assert_eq!(labels(&linear_ticks(0.0, 7.3, 8)), ["0", "1", "2", "3", "4", "5", "6", "7"]);
-        assert_eq!(labels(&linear_ticks(0.0, 7.3, 5)), ["0", "2", "4", "6"]);
+        assert_eq!(labels(&linear_ticks(0.0, 7.3, 8, false)), ["0", "1", "2", "3", "4", "5", "6", "7"]);
+        assert_eq!(labels(&linear_ticks(0.0, 7.3, 5, false)), ["0", "2", "4", "6"]);
     }
 
     #[test]
     fn no_float_noise_in_labels() {
-        let t = linear_ticks(0.0, 0.35, 8);
-        assert_eq!(labels(&t), ["0", "0.05", "0.10", "0.15", "0.20", "0.25", "0.30", "0.35"]);
-        let t = linear_ticks(-0.3, 0.3, 6);
-        assert_eq!(labels(&t), ["-0.3", "-0.2", "-0.1", "0", "0.1", "0.2", "0.3"]);
+        let t = linear_ticks(0.0, 0.35, 8, false);
+        assert_eq!(labels(&t), ["0.00", "0.05", "0.10", "0.15", "0.20", "0.25", "0.30", "0.35"]);
+        let t = linear_ticks(-0.3, 0.3, 6, false);
+        assert_eq!(labels(&t), ["-0.3", "-0.2", "-0.1", "0.0", "0.1", "0.2", "0.3"]);
     }
 
     #[test]
     fn tiny_and_huge_values_use_scientific_labels() {
-        assert_eq!(labels(&linear_ticks(0.0, 3e-7, 4)), ["0", "1e-7", "2e-7", "3e-7"]);
-        assert_eq!(labels(&linear_ticks(0.0, 2.5e5, 5)), ["0", "5e4", "1e5", "1.5e5", "2e5", "2.5e5"]);
-        assert_eq!(labels(&linear_ticks(100.0, 300.0, 3)), ["100", "200", "300"]);
+        assert_eq!(labels(&linear_ticks(0.0, 3e-7, 4, false)), ["0", "1e-7", "2e-7", "3e-7"]);
+        assert_eq!(labels(&linear_ticks(0.0, 2.5e5, 5, false)), ["0", "5e4", "1e5", "1.5e5", "2e5", "2.5e5"]);
+        assert_eq!(labels(&linear_ticks(100.0, 300.0, 3, false)), ["100", "200", "300"]);
     }
 
     #[test]
@@ -310,6 +345,66 @@ mod tests {
         assert!(t.major.len() >= 2, "{t:?}");
     }
 
+    /// Closed form: 0..2.5 with room for six labels is stepped by 0.5 (2.5 / 6 = 0.417, the next 1-2-5 value
+    /// above is 0.5), so the ticks are k / 2 for k = 0..=5, all labelled with exactly one decimal.
+    #[test]
+    fn half_steps_carry_one_decimal() {
+        let t = axis_ticks(Scale::Linear, 0.0, 2.5, 6, false);
+        assert_eq!(labels(&t), ["0.0", "0.5", "1.0", "1.5", "2.0", "2.5"]);
+        for ((v, _), k) in t.major.iter().zip(0..) {
+            assert_relative_eq!(*v, f64::from(k) * 0.5, epsilon = 1e-12);
+        }
+        // The same about zero: -1.2..1.2 at six labels is stepped by 0.5, and zero is "0.0", never "-0.0".
+        assert_eq!(
+            labels(&axis_ticks(Scale::Linear, -1.2, 1.2, 6, false)),
+            ["-1.0", "-0.5", "0.0", "0.5", "1.0"]
+        );
+    }
+
+    #[test]
+    fn counting_axes_get_whole_numbers() {
+        // Nine cone pairs padded by 4 % each side: a step of 0.2 by the plain rule, 1 on a counting axis.
+        let t = axis_ticks(Scale::Linear, 0.68, 9.32, 12, true);
+        assert_eq!(labels(&t), ["1", "2", "3", "4", "5", "6", "7", "8", "9"]);
+        // Wider counting axes keep the 1-2-5 rule above 1.
+        assert_eq!(labels(&axis_ticks(Scale::Linear, 0.0, 40.0, 5, true)), ["0", "10", "20", "30", "40"]);
+    }
+
+    proptest::proptest! {
+        /// For any range: labelled values are consecutive multiples of one 1-2-5 step; every label reads back
+        /// as its value to within a thousandth of the step; all labels carry the same number of decimals; no
+        /// label is a negative zero.
+        #[test]
+        fn labels_follow_the_step(lo in -1e4f64..1e4, span in 1e-2f64..1e4, max_ticks in 2usize..12) {
+            let hi = lo + span;
+            let t = axis_ticks(Scale::Linear, lo, hi, max_ticks, false);
+            proptest::prop_assert!(t.major.len() >= 2, "{lo}..{hi}: {t:?}");
+            let step = t.major[1].0 - t.major[0].0;
+            let e = step.log10().floor();
+            let mantissa = step / 10f64.powf(e);
+            proptest::prop_assert!(
+                [1.0, 2.0, 5.0, 10.0].iter().any(|m| (mantissa - m).abs() < 1e-6),
+                "step {step}"
+            );
+            let decimals = |l: &str| l.split_once('.').map_or(0, |(_, d)| d.len());
+            let scientific = t.major.iter().any(|(_, l)| l.contains('e'));
+            for pair in t.major.windows(2) {
+                proptest::prop_assert!((pair[1].0 - pair[0].0 - step).abs() < step * 1e-6);
+            }
+            for (v, l) in &t.major {
+                proptest::prop_assert!(*v >= lo - step * 1e-6 && *v <= hi + step * 1e-6);
+                let parsed: f64 = l.parse().map_err(|_| proptest::test_runner::TestCaseError::fail(l.clone()))?;
+                proptest::prop_assert!((parsed - v).abs() <= step * 1e-3, "{l} for {v}");
+                proptest::prop_assert!(!(l.starts_with('-') && parsed == 0.0), "negative zero {l}");
+                if !scientific {
+                    proptest::prop_assert_eq!(decimals(l), decimals(&t.major[0].1), "{:?}", t.major);
+                    let needed = if e < 0.0 { (-e) as usize } else { 0 };
+                    proptest::prop_assert_eq!(decimals(l), needed, "{} for step {}", l, step);
+                }
+            }
+        }
+    }
+
     #[test]
     fn ranges_are_robust() {
         assert_eq!(resolve_range(None, None, Scale::Linear, 0.0), (0.0, 1.0));
@@ -322,7 +417,7 @@ mod tests {
         let (lo, hi) = resolve_range(None, Some((-f64::MAX, f64::MAX)), Scale::Linear, 0.05);
         assert!(lo.is_finite() && hi.is_finite() && hi > lo);
         assert_eq!(extent([f64::NAN, -1.0, 3.0, f64::INFINITY], Scale::Log10), Some((3.0, 3.0)));
-        assert!(linear_ticks(0.0, 0.0, 5).major.len() <= 1);
-        assert!(linear_ticks(f64::NAN, 1.0, 5).major.is_empty());
+        assert!(linear_ticks(0.0, 0.0, 5, false).major.len() <= 1);
+        assert!(linear_ticks(f64::NAN, 1.0, 5, false).major.is_empty());
     }
 }

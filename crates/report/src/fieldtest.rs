@@ -251,6 +251,7 @@ pub fn cones_figure(
             s.mean_m, s.rmse_m
         ))
         .x_label("cone pair")
+        .x_integer()
         .y_label("distance [m]")
         .series(
             Series::line("distance", idx.clone(), s.distances_m.clone()).marker(Marker::Circle).width(2.0),
@@ -260,6 +261,7 @@ pub fn cones_figure(
         .hline(s.rmse_m, format!("RMSE {:.2} m", s.rmse_m));
         let components = Chart::new("Along- and cross-line components")
             .x_label("cone pair")
+            .x_integer()
             .y_label("component [m]")
             .series(Series::scatter("along-line", idx.clone(), s.along_m.clone()).marker(Marker::Square))
             .series(Series::scatter("cross-line (right +)", idx, s.cross_m.clone()).marker(Marker::Cross))

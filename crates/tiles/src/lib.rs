@@ -45,10 +45,8 @@ use serde::{Deserialize, Serialize};
 
 pub use decode::{TileFormat, TileImage, check_tile_bytes, decode_tile, sniff};
 
-/// Called by a worker when it has something new for the UI (the console passes egui's
-/// `request_repaint`). The same shape as `vestnav_device::outbox::Waker` — the same type, so one
-/// closure serves both — spelled out here so that this crate needs no device layer.
-pub type Waker = std::sync::Arc<dyn Fn() + Send + Sync>;
+/// Called by a loader or prefetch thread when it has something new for the UI: core's one waker type.
+pub use vestnav_core::Waker;
 
 /// Largest tile accepted from a file or a server [bytes]: real 256/512 px raster tiles are 5–100 kB.
 pub const MAX_TILE_BYTES: usize = 1 << 20;
@@ -130,9 +128,8 @@ impl TileSourceConfig {
         match self {
             Self::Osm => Err("The public OpenStreetMap tile server's usage policy forbids bulk download \
                  (https://operations.osmfoundation.org/policies/tiles/). Use an XYZ source whose terms allow \
-                 offline use (a self-hosted tile server, or a provider that permits bulk download), or make \
-                 an MBTiles/PMTiles file of the area with a tool (e.g. tilemaker, planetiler, or `pmtiles \
-                 extract` of a raster archive) and open it as the tile source."
+                 offline use (a self-hosted tile server, or a provider that permits bulk download), or open a \
+                 raster source made offline (see the Tiles window)."
                 .into()),
             Self::Xyz { allows_bulk: false, .. } => Err("This XYZ source is not marked as allowing bulk \
                  download. Tick \"terms allow bulk download\" only if the provider's terms permit offline \
@@ -146,6 +143,21 @@ impl TileSourceConfig {
         }
     }
 }
+
+/// Where raster tiles that work offline come from, for the Tiles window and the CLI's help: every source
+/// named here is one the console draws (PNG, JPEG or WebP tiles).
+pub const OFFLINE_RASTER_SOURCES: &str = "Raster sources that work offline:\n\
+     • an MBTiles file of PNG/JPEG tiles: QGIS \"Generate XYZ tiles (MBTiles)\" from any layer, or \
+     `gdal_translate -of MBTILES` then `gdaladdo` from an orthophoto or a scanned map, or this window's \
+     prefetch from an XYZ source whose terms allow it;\n\
+     • a PMTiles file of raster tiles: `pmtiles convert` of such an MBTiles file;\n\
+     • a folder of {z}/{x}/{y}.png tiles: QGIS \"Generate XYZ tiles (Directory)\", or `gdal2tiles.py --xyz`.\n\
+     Vector tiles (tilemaker, planetiler, OpenMapTiles: .pbf/MVT) are refused: they hold map data, not \
+     pictures, and drawing them needs a style and a renderer the console does not have.";
+
+/// Why vector tiles are refused, said wherever one is met (an MBTiles `format` of `pbf`, a PMTiles of MVT).
+pub const VECTOR_TILES_REFUSED: &str = "vector tiles hold map data, not pictures: drawing them needs a \
+     style and a renderer the console does not have; use a raster archive (PNG, JPEG or WebP tiles)";
 
 /// Whether `url` points at the public OpenStreetMap tile server (`tile.openstreetmap.org` or one of its
 /// `a.`/`b.`/`c.` aliases), whatever the source is called: its policy forbids bulk download.
@@ -436,6 +448,14 @@ pub enum TileError {
         /// What went wrong.
         why: String,
     },
+    /// The server could not be reached at all: no answer was had, so nothing is known of the tile.
+    #[error("{what}: {cause}")]
+    Network {
+        /// The redacted URL.
+        what: String,
+        /// Why the server was not reached.
+        cause: NetworkCause,
+    },
     /// The server redirected to another host, or from https to http: not followed.
     #[error("{what}: redirected to {to}: not followed ({who} only downloads from the host you named)")]
     Redirected {
@@ -445,6 +465,40 @@ pub enum TileError {
         to: String,
         /// Who refused to follow: "prefetch" or "the map".
         who: &'static str,
+    },
+}
+
+/// Why a tile server was not reached, told apart so the operator reads the true reason ("offline" only
+/// when the name could not even be resolved, never "the server has no tile here").
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum NetworkCause {
+    /// The server's name did not resolve: this machine is offline or has no DNS.
+    #[error("offline: {host} cannot be resolved (no network or no DNS)")]
+    Offline {
+        /// The server's host name.
+        host: String,
+    },
+    /// The host answered that nothing listens there.
+    #[error("{host} refused the connection")]
+    Refused {
+        /// The server's host (and port).
+        host: String,
+    },
+    /// No route to the host, or no answer in time.
+    #[error("{host} is unreachable ({why})")]
+    Unreachable {
+        /// The server's host (and port).
+        host: String,
+        /// "no answer within 15 s", "no route to the network", …
+        why: String,
+    },
+    /// Any other transport failure (TLS, a reset connection): the client's words.
+    #[error("{host} could not be reached: {why}")]
+    Other {
+        /// The server's host (and port).
+        host: String,
+        /// The client's reason.
+        why: String,
     },
 }
 

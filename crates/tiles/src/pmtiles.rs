@@ -249,7 +249,7 @@ impl PmTilesReader {
         let header = parse_header(&head).map_err(&corrupt)?;
         match header.tile_type {
             2..=4 => {}
-            1 => return Err(corrupt("vector (MVT) tiles; the console draws raster tiles only".into())),
+            1 => return Err(corrupt(format!("vector (MVT) tiles: {}", crate::VECTOR_TILES_REFUSED))),
             t => return Err(corrupt(format!("tile type {t} is not PNG, JPEG or WebP"))),
         }
         if header.tile_compression > COMPRESSION_NONE {

@@ -191,6 +191,12 @@ impl MbTilesStore {
         };
         if let Some(f) = meta("format") {
             let f = f.to_ascii_lowercase();
+            if ["pbf", "mvt"].contains(&f.as_str()) {
+                return Err(TileError::Corrupt {
+                    what,
+                    why: format!("tile format '{f}': {}", super::VECTOR_TILES_REFUSED),
+                });
+            }
             if !["png", "jpg", "jpeg", "webp"].contains(&f.as_str()) {
                 return Err(TileError::Corrupt {
                     what,
@@ -290,6 +296,46 @@ fn origin_text(u: &reqwest::Url) -> String {
     }
 }
 
+/// Why `err` (a request that got no response) did not reach `host`: the OS error kinds in its source chain
+/// first (refused, no route), then a timeout, then a failed name resolution (reported by the resolver as
+/// "dns error" / "failed to lookup address"), else the client's own words.
+pub fn network_cause(err: &reqwest::Error, host: &str) -> crate::NetworkCause {
+    use crate::NetworkCause;
+    use std::error::Error as _;
+    let host = host.to_owned();
+    let mut texts = Vec::new();
+    let mut source: Option<&(dyn std::error::Error + 'static)> = err.source();
+    while let Some(e) = source {
+        if let Some(io) = e.downcast_ref::<std::io::Error>() {
+            match io.kind() {
+                std::io::ErrorKind::ConnectionRefused => return NetworkCause::Refused { host },
+                std::io::ErrorKind::NetworkUnreachable | std::io::ErrorKind::HostUnreachable => {
+                    return NetworkCause::Unreachable { host, why: "no route to it".into() };
+                }
+                std::io::ErrorKind::TimedOut => {
+                    return NetworkCause::Unreachable { host, why: "no answer in time".into() };
+                }
+                _ => {}
+            }
+        }
+        texts.push(e.to_string().to_ascii_lowercase());
+        source = e.source();
+    }
+    if err.is_timeout() {
+        return NetworkCause::Unreachable {
+            host,
+            why: format!("no answer within {} s", HTTP_TIMEOUT.as_secs()),
+        };
+    }
+    let all = texts.join(": ");
+    if all.contains("dns error") || all.contains("lookup address") || all.contains("name resolution") {
+        return NetworkCause::Offline { host };
+    }
+    // The source chain's words, not the error's own text: that names the URL, which may hold a key.
+    let why = if all.is_empty() { "transport error".to_owned() } else { all };
+    NetworkCause::Other { host, why }
+}
+
 impl TileClient {
     /// A client; `who` names the caller in a refused redirect's message ("prefetch", "the map").
     pub fn new(who: &'static str) -> Result<Self, TileError> {
@@ -318,8 +364,14 @@ impl TileClient {
     /// to [`MAX_TILE_BYTES`].
     pub fn download(&self, url: &str, what: &str) -> Result<Option<Vec<u8>>, TileError> {
         let http = |why: String| TileError::Http { what: what.to_owned(), why };
-        let resp =
-            self.client.get(url).send().map_err(|e| http(format!("request failed: {}", e.without_url())))?;
+        let resp = self.client.get(url).send().map_err(|e| {
+            let host = reqwest::Url::parse(url).ok().and_then(|u| {
+                let host = u.host_str()?.to_owned();
+                Some(u.port().map_or_else(|| host.clone(), |p| format!("{host}:{p}")))
+            });
+            let host = host.unwrap_or_else(|| "the server".to_owned());
+            TileError::Network { what: what.to_owned(), cause: network_cause(&e, &host) }
+        })?;
         let status = resp.status();
         if status == reqwest::StatusCode::NOT_FOUND || status == reqwest::StatusCode::NO_CONTENT {
             return Ok(None);

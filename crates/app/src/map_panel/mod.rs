@@ -252,8 +252,8 @@ impl MapView {
         self.editor = route.waypoints().get(i).map(|w| WaypointEditor {
             index: i,
             name: w.name.clone(),
-            lat: w.lat_deg.to_string(),
-            lon: w.lon_deg.to_string(),
+            lat: coordinate_text(w.lat_deg),
+            lon: coordinate_text(w.lon_deg),
             radius: w.arrival_radius_m.map_or_else(String::new, |r| r.to_string()),
             error: None,
         });
@@ -627,6 +627,15 @@ impl MapView {
     }
 }
 
+/// A latitude or longitude for the waypoint editor: 7 decimals (1e-7° is 1.1 cm of latitude, finer than any
+/// GPS fix), trailing zeros dropped but one decimal kept, so 42.3581 shows as `42.3581`, never as
+/// `42.358100000000004`.
+pub fn coordinate_text(deg: f64) -> String {
+    let s = format!("{deg:.7}");
+    let s = s.trim_end_matches('0');
+    if s.ends_with('.') { format!("{s}0") } else { s.to_owned() }
+}
+
 /// An age in words: "12 s ago", "5 min ago", or "age unknown".
 pub fn age_text(age_s: Option<f64>) -> String {
     match age_s.filter(|a| a.is_finite()) {
@@ -649,6 +658,15 @@ pub fn decimation_stride(n: usize, max_points: usize) -> usize {
 mod tests {
     use super::*;
     use approx::assert_relative_eq;
+
+    #[test]
+    fn coordinates_show_seven_decimals_at_most() {
+        assert_eq!(coordinate_text(42.358_100_000_000_004), "42.3581");
+        assert_eq!(coordinate_text(-71.093_612_345_678), "-71.0936123");
+        assert_eq!(coordinate_text(10.0), "10.0");
+        // 1e-7 degree of latitude is 6.4e6 m x 1e-7 x pi / 180 = 1.1 cm.
+        assert_eq!(coordinate_text(0.000_000_1), "0.0000001");
+    }
 
     #[test]
     fn nice_lengths() {

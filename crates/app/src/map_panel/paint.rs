@@ -43,6 +43,36 @@ impl Tiles for CountingTiles<'_> {
     }
 }
 
+/// The outline drawn around map text: dark behind light text, light behind dark text, so a label reads on
+/// light tiles (streets, fields) and dark ones (forest, satellite) alike.
+fn halo_color(text: Color32) -> Color32 {
+    // Rec. 601 luma of the text colour, 0..=255.
+    let luma = 0.299 * f32::from(text.r()) + 0.587 * f32::from(text.g()) + 0.114 * f32::from(text.b());
+    if luma > 127.5 { Color32::from_black_alpha(230) } else { Color32::from_white_alpha(235) }
+}
+
+/// Text on the map with a 1.5 px halo of [`halo_color`] (the galley is laid out once and painted nine
+/// times: eight offsets of the halo, then the text).
+fn halo_text(
+    painter: &egui::Painter,
+    pos: Pos2,
+    anchor: egui::Align2,
+    text: impl ToString,
+    font: egui::FontId,
+    color: Color32,
+) -> egui::Rect {
+    let galley = painter.layout_no_wrap(text.to_string(), font, color);
+    let rect = anchor.anchor_size(pos, galley.size());
+    let halo = halo_color(color);
+    for (dx, dy) in
+        [(-1.5, 0.0), (1.5, 0.0), (0.0, -1.5), (0.0, 1.5), (-1.0, -1.0), (1.0, -1.0), (-1.0, 1.0), (1.0, 1.0)]
+    {
+        painter.galley_with_override_text_color(rect.min + vec2(dx, dy), galley.clone(), halo);
+    }
+    painter.galley(rect.min, galley, color);
+    rect
+}
+
 fn to_pos2(v: egui::Vec2) -> Pos2 {
     Pos2::new(v.x, v.y)
 }
@@ -177,7 +207,8 @@ impl MapView {
                             font.clone(),
                             Color32::WHITE,
                         );
-                        painter.text(
+                        halo_text(
+                            &painter,
                             *p + vec2(12.0, -12.0),
                             egui::Align2::LEFT_BOTTOM,
                             &waypoints[i].name,
@@ -215,7 +246,8 @@ impl MapView {
                     *menu_wp = Some(i);
                 }
                 {
-                    painter.text(
+                    halo_text(
+                        &painter,
                         *p + vec2(12.0, -12.0),
                         egui::Align2::LEFT_BOTTOM,
                         &waypoints[i].name,
@@ -273,7 +305,8 @@ impl MapView {
                 }
                 painter.circle(c, 7.0, dot, Stroke::new(2.0, Color32::WHITE));
                 if !m.live {
-                    painter.text(
+                    halo_text(
+                        &painter,
                         c + vec2(12.0, 12.0),
                         egui::Align2::LEFT_TOP,
                         format!("last known, {}", age_text(m.age_s)),
@@ -297,7 +330,8 @@ impl MapView {
             }
             if let ([a, b], [_, pb]) = (measure_points.as_slice(), ends.as_slice()) {
                 let m = map_tools::measure(*a, *b);
-                painter.text(
+                halo_text(
+                    &painter,
                     *pb + vec2(10.0, 10.0),
                     egui::Align2::LEFT_TOP,
                     map_tools::measurement_text(&m),
@@ -320,7 +354,8 @@ impl MapView {
                 let c = to_pos2(projector.project(lat_lon(p.lat_deg, p.lon_deg)));
                 let tri = vec![c + vec2(0.0, -8.0), c + vec2(6.0, 5.0), c + vec2(-6.0, 5.0)];
                 painter.add(egui::Shape::convex_polygon(tri, cone_color, Stroke::new(1.0, Color32::WHITE)));
-                painter.text(
+                halo_text(
+                    &painter,
                     c + vec2(8.0, 4.0),
                     egui::Align2::LEFT_TOP,
                     label,
@@ -538,5 +573,35 @@ fn draw_grid(
         let s = if n.abs() < step_m / 2.0 { axis } else { minor };
         painter.line_segment([to_screen(e0, n), to_screen(e1, n)], s);
         n += step_m;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// WCAG contrast ratio of two opaque colours (relative luminance from sRGB, WCAG 2.x definition).
+    fn contrast(a: Color32, b: Color32) -> f32 {
+        let lum = |c: Color32| {
+            let lin = |v: u8| {
+                let v = f32::from(v) / 255.0;
+                if v <= 0.039_28 { v / 12.92 } else { ((v + 0.055) / 1.055).powf(2.4) }
+            };
+            0.2126 * lin(c.r()) + 0.7152 * lin(c.g()) + 0.0722 * lin(c.b())
+        };
+        let (x, y) = (lum(a), lum(b));
+        (x.max(y) + 0.05) / (x.min(y) + 0.05)
+    }
+
+    /// Whatever the theme's text colour, its halo contrasts with it by at least 4.5:1 (WCAG AA), so the
+    /// label reads on white and on black tiles alike.
+    #[test]
+    fn labels_have_a_contrasting_halo() {
+        for text in [Color32::WHITE, Color32::from_gray(220), Color32::from_gray(40), Color32::BLACK] {
+            let halo = halo_color(text);
+            let [r, g, b, _] = halo.to_srgba_unmultiplied();
+            let opaque = Color32::from_rgb(r, g, b);
+            assert!(contrast(text, opaque) >= 4.5, "{text:?} on {opaque:?}");
+        }
     }
 }

@@ -2,7 +2,7 @@
 //! export as PNG, so what the operator sees is what they save. Colours come from `vestnav_plot` (its series
 //! palette and its viridis colour map).
 
-use egui_plot::{Legend, Line, LineStyle, MarkerShape, Plot, PlotPoint, Points, Text, VLine};
+use egui_plot::{Line, LineStyle, MarkerShape, Plot, PlotPoint, Points, Text, VLine};
 use vestnav_plot::{Chart, Color, Figure, Heatmap, Marker, Panel, Scale, Series, SeriesKind, viridis};
 
 fn color32(c: Color) -> egui::Color32 {
@@ -57,29 +57,134 @@ fn markers(s: &Series, points: Vec<[f64; 2]>, color: egui::Color32) -> Points<'s
     Points::new(s.label.clone(), finite).shape(marker_shape(s.marker)).radius(2.5).color(color)
 }
 
-/// The smallest of 1, 2 or 5 times a power of ten that is at least `v` (`v` > 0 and finite).
-fn next_one_two_five(v: f64) -> f64 {
-    let decade = 10f64.powf(v.log10().floor());
-    [1.0, 2.0, 5.0, 10.0]
-        .into_iter()
-        .map(|m| m * decade)
-        .find(|&s| s >= v * (1.0 - 1e-12))
-        .unwrap_or(10.0 * decade)
+/// Least distance between two labelled x ticks, points: room for a label such as "-12.5" and a gap.
+const X_LABEL_PITCH: f64 = 70.0;
+/// Least distance between two labelled y ticks, points.
+const Y_LABEL_PITCH: f64 = 32.0;
+
+/// One on-screen axis numbered by the figures' own tick rule ([`vestnav_plot::axis_ticks`]), so a plot on
+/// screen and its PNG export carry the same ticks and labels.
+///
+/// `egui_plot` asks the grid spacer for the marks of a frame and then the formatter for each mark's label;
+/// the spacer keeps the labels it chose so the formatter labels exactly those (and leaves the finer grid
+/// marks unlabelled). Its default formatter takes decimals from `round(-log10(step))`, which labels a
+/// 0.5 step "0, 0, 1, 1, 2, 2", and hides x labels closer than 60 points, which with its 8-point grid
+/// left several x axes without numbers.
+#[derive(Clone)]
+struct ScreenAxis {
+    scale: Scale,
+    integer: bool,
+    label_pitch: f64,
+    labels: std::rc::Rc<std::cell::RefCell<Vec<(f64, String)>>>,
 }
 
-/// Grid steps of a linear axis in the 1-2-5 sequence: the finest at least egui's suggested step, and the
-/// next two of the sequence. `egui_plot`'s default steps go up by factors of ten, so a 220-point-high plot
-/// of 0..900 gets lines every 100 (too close to label) or every 1000 (only "0" in view): the rotor-speed
-/// plot at 3.3 V showed its "0" tick alone. With 1-2-5 steps it is labelled every 200.
-fn one_two_five_steps(input: &egui_plot::GridInput) -> [f64; 3] {
-    let base = input.base_step_size;
-    if !(base.is_finite() && base > 0.0) {
-        return [1.0, 2.0, 5.0];
+impl ScreenAxis {
+    fn new(scale: Scale, integer: bool, label_pitch: f64) -> Self {
+        Self { scale, integer, label_pitch, labels: std::rc::Rc::default() }
     }
-    let fine = next_one_two_five(base);
-    let mid = next_one_two_five(fine * 1.5);
-    let coarse = next_one_two_five(mid * 1.5);
-    [fine, mid, coarse]
+
+    /// The marks of the visible interval: labelled ticks (in axis coordinates, decades on a log axis) and
+    /// the minor grid between them.
+    fn marks(&self, input: &egui_plot::GridInput) -> Vec<egui_plot::GridMark> {
+        let (b0, b1) = input.bounds;
+        let span = b1 - b0;
+        let points = if input.base_step_size > 0.0 { span / input.base_step_size * 8.0 } else { 0.0 };
+        if !(span.is_finite() && span > 0.0 && points.is_finite()) {
+            self.labels.borrow_mut().clear();
+            return Vec::new();
+        }
+        let max_ticks = ((points / self.label_pitch) as usize).clamp(2, 12);
+        let ticks = match self.scale {
+            Scale::Linear => vestnav_plot::axis_ticks(Scale::Linear, b0, b1, max_ticks, self.integer),
+            Scale::Log10 => {
+                vestnav_plot::axis_ticks(Scale::Log10, 10f64.powf(b0), 10f64.powf(b1), max_ticks, false)
+            }
+        };
+        let major: Vec<(f64, String)> =
+            ticks.major.into_iter().map(|(v, l)| (on_axis(self.scale, v), l)).collect();
+        let step = major
+            .windows(2)
+            .map(|w| w[1].0 - w[0].0)
+            .fold(f64::INFINITY, f64::min)
+            .min(span)
+            .max(span * 1e-6);
+        let mut marks: Vec<egui_plot::GridMark> =
+            major.iter().map(|(v, _)| egui_plot::GridMark { value: *v, step_size: step }).collect();
+        let minor: Vec<f64> = match self.scale {
+            Scale::Log10 => ticks.minor.iter().map(|v| v.log10()).collect(),
+            Scale::Linear => {
+                // A 1-2-5 step divides into fifths (1, 5) or quarters (2), themselves 1-2-5 values.
+                let mantissa = step / 10f64.powf(step.log10().floor());
+                let fine = if (mantissa - 2.0).abs() < 1e-6 { step / 4.0 } else { step / 5.0 };
+                if self.integer && fine < 1.0 {
+                    Vec::new()
+                } else {
+                    let k0 = (b0 / fine).ceil();
+                    let k1 = (b1 / fine).floor();
+                    if k1 - k0 > 500.0 {
+                        Vec::new()
+                    } else {
+                        (k0 as i64..=k1 as i64).map(|k| k as f64 * fine).collect()
+                    }
+                }
+            }
+        };
+        let fine_step = minor.windows(2).map(|w| (w[1] - w[0]).abs()).fold(step / 5.0, f64::min);
+        for v in minor {
+            if major.iter().all(|(m, _)| (m - v).abs() > step * 1e-6) {
+                marks.push(egui_plot::GridMark { value: v, step_size: fine_step });
+            }
+        }
+        *self.labels.borrow_mut() = major;
+        marks
+    }
+
+    /// The label of a mark the spacer chose to label, else nothing.
+    fn label(&self, mark: egui_plot::GridMark) -> String {
+        let labels = self.labels.borrow();
+        labels
+            .iter()
+            .find(|(v, _)| (v - mark.value).abs() <= mark.step_size.abs() * 1e-6)
+            .map(|(_, l)| l.clone())
+            .unwrap_or_default()
+    }
+
+    /// The axis's hints: its title and the rule's labels, drawn at full strength (the spacer already keeps
+    /// them `label_pitch` apart).
+    fn hints<'a>(&self, axis: egui_plot::Axis, title: &str) -> egui_plot::AxisHints<'a> {
+        let me = self.clone();
+        let hints = match axis {
+            egui_plot::Axis::X => egui_plot::AxisHints::new_x(),
+            egui_plot::Axis::Y => egui_plot::AxisHints::new_y(),
+        };
+        hints.label(title.to_owned()).label_spacing(1.0..=2.0).formatter(move |mark, _| me.label(mark))
+    }
+}
+
+/// A legend row above the plot, outside the data: one swatch and name per labelled item.
+fn legend_row(ui: &mut egui::Ui, items: &[(egui::Color32, bool, String)]) {
+    if items.is_empty() {
+        return;
+    }
+    ui.horizontal_wrapped(|ui| {
+        for (color, dashed, label) in items {
+            let (rect, _) = ui.allocate_exact_size(egui::vec2(22.0, 10.0), egui::Sense::hover());
+            let y = rect.center().y;
+            let stroke = egui::Stroke::new(2.0, *color);
+            if *dashed {
+                ui.painter().add(egui::Shape::dashed_line(
+                    &[egui::pos2(rect.left(), y), egui::pos2(rect.right(), y)],
+                    stroke,
+                    4.0,
+                    3.0,
+                ));
+            } else {
+                ui.painter().line_segment([egui::pos2(rect.left(), y), egui::pos2(rect.right(), y)], stroke);
+            }
+            ui.label(egui::RichText::new(label).small());
+            ui.add_space(8.0);
+        }
+    });
 }
 
 /// Draws a chart (drag pans, Ctrl + wheel zooms, double-click resets; the plain wheel scrolls the page the
@@ -88,29 +193,39 @@ fn show_chart(ui: &mut egui::Ui, c: &Chart, id_salt: &str, height: f32) {
     let (xs, ys) = (c.x_scale, c.y_scale);
     let at = move |x: f64, y: f64| [on_axis(xs, x), on_axis(ys, y)];
     ui.label(egui::RichText::new(&c.title).strong());
+    let series_color = |idx: usize, s: &Series| color32(s.color.unwrap_or_else(|| Color::palette(idx)));
+    let line_color = |k: usize| color32(Color::palette(c.series.len() + k));
+    let mut legend: Vec<(egui::Color32, bool, String)> = c
+        .series
+        .iter()
+        .enumerate()
+        .filter(|(_, s)| !s.label.is_empty())
+        .map(|(idx, s)| (series_color(idx, s), s.dashed, s.label.clone()))
+        .collect();
+    legend.extend(
+        c.hlines
+            .iter()
+            .chain(&c.vlines)
+            .enumerate()
+            .filter(|(_, l)| !l.label.is_empty())
+            .map(|(k, l)| (line_color(k), true, l.label.clone())),
+    );
+    legend_row(ui, &legend);
+    let x_axis = ScreenAxis::new(xs, c.x_integer, X_LABEL_PITCH);
+    let y_axis = ScreenAxis::new(ys, false, Y_LABEL_PITCH);
+    let (x_spacer, y_spacer) = (x_axis.clone(), y_axis.clone());
     let mut plot = Plot::new(id_salt)
         .allow_scroll(false)
         .height(height)
-        .legend(Legend::default())
-        .x_axis_label(c.x_label.clone())
-        .y_axis_label(c.y_label.clone());
+        .custom_x_axes(vec![x_axis.hints(egui_plot::Axis::X, &c.x_label)])
+        .custom_y_axes(vec![y_axis.hints(egui_plot::Axis::Y, &c.y_label)])
+        .x_grid_spacer(move |input| x_spacer.marks(&input))
+        .y_grid_spacer(move |input| y_spacer.marks(&input));
     if c.equal_aspect {
         plot = plot.data_aspect(1.0);
     }
-    if xs == Scale::Linear {
-        plot = plot.x_grid_spacer(egui_plot::uniform_grid_spacer(|i| one_two_five_steps(&i)));
-    }
-    if ys == Scale::Linear {
-        plot = plot.y_grid_spacer(egui_plot::uniform_grid_spacer(|i| one_two_five_steps(&i)));
-    }
     if let Some((lo, hi)) = c.y_range {
         plot = plot.include_y(on_axis(ys, lo)).include_y(on_axis(ys, hi));
-    }
-    if xs == Scale::Log10 {
-        plot = plot.x_axis_formatter(|mark, _| format!("{:.0e}", 10f64.powf(mark.value)));
-    }
-    if ys == Scale::Log10 {
-        plot = plot.y_axis_formatter(|mark, _| format!("{:.0e}", 10f64.powf(mark.value)));
     }
     if xs == Scale::Log10 || ys == Scale::Log10 {
         plot = plot.label_formatter(move |pos| {
@@ -128,7 +243,7 @@ fn show_chart(ui: &mut egui::Ui, c: &Chart, id_salt: &str, height: f32) {
     }
     plot.show(ui, |plot_ui| {
         for (idx, s) in c.series.iter().enumerate() {
-            let color = color32(s.color.unwrap_or_else(|| Color::palette(idx)));
+            let color = series_color(idx, s);
             let points: Vec<[f64; 2]> = s.x.iter().zip(&s.y).map(|(&x, &y)| at(x, y)).collect();
             match s.kind {
                 SeriesKind::Line => {
@@ -147,13 +262,19 @@ fn show_chart(ui: &mut egui::Ui, c: &Chart, id_salt: &str, height: f32) {
                 SeriesKind::Scatter => plot_ui.points(markers(s, points, color)),
             }
         }
-        for l in &c.hlines {
+        for (k, l) in c.hlines.iter().enumerate() {
             plot_ui.hline(
-                egui_plot::HLine::new(l.label.clone(), on_axis(ys, l.value)).style(LineStyle::dashed_dense()),
+                egui_plot::HLine::new(l.label.clone(), on_axis(ys, l.value))
+                    .color(line_color(k))
+                    .style(LineStyle::dashed_dense()),
             );
         }
-        for l in &c.vlines {
-            plot_ui.vline(VLine::new(l.label.clone(), on_axis(xs, l.value)).style(LineStyle::dashed_dense()));
+        for (k, l) in c.vlines.iter().enumerate() {
+            plot_ui.vline(
+                VLine::new(l.label.clone(), on_axis(xs, l.value))
+                    .color(line_color(c.hlines.len() + k))
+                    .style(LineStyle::dashed_dense()),
+            );
         }
         for k in &c.circles {
             let ring: Vec<[f64; 2]> = (0..=128)
@@ -213,12 +334,17 @@ fn show_heatmap(ui: &mut egui::Ui, h: &Heatmap, id_salt: &str, height: f32) {
         }
     }
     let valid = h.nx > 0 && h.values.len() == h.nx * h.ny;
+    let x_axis = ScreenAxis::new(Scale::Linear, false, X_LABEL_PITCH);
+    let y_axis = ScreenAxis::new(Scale::Linear, false, Y_LABEL_PITCH);
+    let (x_spacer, y_spacer) = (x_axis.clone(), y_axis.clone());
     Plot::new(id_salt)
         .allow_scroll(false)
         .height(height)
         .data_aspect(1.0)
-        .x_axis_label(h.x_label.clone())
-        .y_axis_label(h.y_label.clone())
+        .custom_x_axes(vec![x_axis.hints(egui_plot::Axis::X, &h.x_label)])
+        .custom_y_axes(vec![y_axis.hints(egui_plot::Axis::Y, &h.y_label)])
+        .x_grid_spacer(move |input| x_spacer.marks(&input))
+        .y_grid_spacer(move |input| y_spacer.marks(&input))
         .show(ui, |plot_ui| {
             if valid && let Some((lo, hi)) = range {
                 let w = (h.x_extent.1 - h.x_extent.0) as f32;
@@ -278,20 +404,40 @@ mod tests {
         assert_eq!(runs, vec![vec![[0.0, 1.0]], vec![[2.0, 3.0], [3.0, 4.0]]]);
     }
 
+    /// A 220-point-high axis showing 0..2.5 (8 points of grid = 2.5 / 220 * 8): room for six labels at
+    /// 32 points, so the figures' rule steps by 0.5 and the formatter labels exactly 0.0, 0.5, … 2.5 with one
+    /// decimal, leaving the minor grid (every 0.1) unlabelled.
     #[test]
-    fn grid_steps_follow_one_two_five() {
-        let check = |base: f64, want: [f64; 3]| {
-            let got =
-                one_two_five_steps(&egui_plot::GridInput { bounds: (0.0, 900.0), base_step_size: base });
-            for (g, w) in got.iter().zip(want) {
-                assert!((g / w - 1.0).abs() < 1e-12, "base {base}: {got:?} != {want:?}");
-            }
-        };
-        check(13.0, [20.0, 50.0, 100.0]);
-        check(20.0, [20.0, 50.0, 100.0]);
-        check(0.3, [0.5, 1.0, 2.0]);
-        check(60.0, [100.0, 200.0, 500.0]);
-        check(f64::NAN, [1.0, 2.0, 5.0]);
+    fn screen_axis_labels_follow_the_figure_rule() {
+        let axis = ScreenAxis::new(Scale::Linear, false, Y_LABEL_PITCH);
+        let marks =
+            axis.marks(&egui_plot::GridInput { bounds: (0.0, 2.5), base_step_size: 2.5 / 220.0 * 8.0 });
+        let labelled: Vec<String> = marks.iter().map(|m| axis.label(*m)).filter(|l| !l.is_empty()).collect();
+        assert_eq!(labelled, ["0.0", "0.5", "1.0", "1.5", "2.0", "2.5"]);
+        let minor = marks.iter().filter(|m| axis.label(**m).is_empty()).count();
+        // Fifths of 0.5 between 0 and 2.5: 26 values, 6 of them labelled.
+        assert_eq!(minor, 20);
+        // A wide x axis about zero: -3..3 over 600 points, a label at least every 70 points; no "-0".
+        let x = ScreenAxis::new(Scale::Linear, false, X_LABEL_PITCH);
+        let marks = x.marks(&egui_plot::GridInput { bounds: (-3.0, 3.0), base_step_size: 6.0 / 600.0 * 8.0 });
+        let labelled: Vec<String> = marks.iter().map(|m| x.label(*m)).filter(|l| !l.is_empty()).collect();
+        assert_eq!(labelled, ["-3", "-2", "-1", "0", "1", "2", "3"]);
+    }
+
+    #[test]
+    fn counting_and_log_axes() {
+        let pairs = ScreenAxis::new(Scale::Linear, true, X_LABEL_PITCH);
+        let marks =
+            pairs.marks(&egui_plot::GridInput { bounds: (0.6, 9.4), base_step_size: 8.8 / 900.0 * 8.0 });
+        let labelled: Vec<String> = marks.iter().map(|m| pairs.label(*m)).filter(|l| !l.is_empty()).collect();
+        assert_eq!(labelled, ["1", "2", "3", "4", "5", "6", "7", "8", "9"]);
+        assert!(marks.iter().all(|m| (m.value - m.value.round()).abs() < 1e-9), "{marks:?}");
+        // Six decades on a log axis (drawn in decades): labelled 0.001 … 100.
+        let log = ScreenAxis::new(Scale::Log10, false, X_LABEL_PITCH);
+        let marks =
+            log.marks(&egui_plot::GridInput { bounds: (-3.0, 2.0), base_step_size: 5.0 / 600.0 * 8.0 });
+        let labelled: Vec<String> = marks.iter().map(|m| log.label(*m)).filter(|l| !l.is_empty()).collect();
+        assert_eq!(labelled, ["0.001", "0.01", "0.1", "1", "10", "100"]);
     }
 
     #[test]

@@ -11,6 +11,7 @@ use vestnav_tiles::{BBox, MAX_ZOOM, TileSourceConfig, cache, check_url_template,
 
 use super::SourceTiles;
 use crate::config::Config;
+use crate::file_dialog::{Browse, DialogSpec, Mode, path_field};
 use vestnav_station::route::Waypoint;
 
 /// The source picker's choice.
@@ -57,6 +58,10 @@ pub struct MapTiles {
     pub prefetch_mbtiles_path: String,
     /// The running or last prefetch.
     pub prefetch: Option<Prefetch>,
+    /// The source path field's Browse… dialog.
+    browse_source: Browse,
+    /// The prefetch MBTiles field's Browse… dialog.
+    browse_prefetch: Browse,
     /// The MBTiles file the last prefetch wrote, offered as the source once it has ended.
     prefetch_file: Option<PathBuf>,
     /// A message about the last prefetch or prune.
@@ -84,6 +89,8 @@ impl Default for MapTiles {
             prefetch_into: PrefetchInto::Cache,
             prefetch_mbtiles_path: String::new(),
             prefetch: None,
+            browse_source: Browse::default(),
+            browse_prefetch: Browse::default(),
             prefetch_file: None,
             message: None,
             pruned: false,
@@ -96,6 +103,34 @@ impl Default for MapTiles {
 /// The cache root the config names, or the platform's.
 pub fn cache_root(cfg: &Config) -> PathBuf {
     cfg.tile_cache_dir.clone().unwrap_or_else(cache::default_root)
+}
+
+const PMTILES_FILE: DialogSpec =
+    DialogSpec { mode: Mode::Open, title: "Raster PMTiles file", filter: ("PMTiles", &["pmtiles"]) };
+const MBTILES_FILE: DialogSpec =
+    DialogSpec { mode: Mode::Open, title: "Raster MBTiles file", filter: ("MBTiles", &["mbtiles"]) };
+const MBTILES_WRITE: DialogSpec =
+    DialogSpec { mode: Mode::Save, title: "MBTiles file to write", filter: ("MBTiles", &["mbtiles"]) };
+const TILE_FOLDER: DialogSpec =
+    DialogSpec { mode: Mode::Folder, title: "Folder of {z}/{x}/{y} tiles", filter: ("", &[]) };
+
+/// Why the map shows no tiles, true to the cause: the source that could not be opened, the latest
+/// refusal or failure while tiles are refused or failed (a network failure says offline, refused or
+/// unreachable — from the fetch error), "loading" while tiles load, and "SOURCE has none here" only when
+/// the source answered that it has no such tile.
+fn no_tiles_note(
+    open: Option<Result<vestnav_tiles::store::StoreInfo, String>>,
+    last_error: Option<String>,
+    c: super::local::FrameCounts,
+    source: &str,
+) -> String {
+    match (open, last_error) {
+        (Some(Err(e)), _) => format!("no tiles: metric grid ({e})"),
+        (_, Some(e)) if c.refused + c.failed > 0 => format!("no tiles: metric grid ({e})"),
+        _ if c.loading > 0 => "no tiles yet: metric grid (loading…)".into(),
+        _ if c.missing > 0 => format!("no tiles: metric grid ({source} has none here)"),
+        _ => "no tiles: metric grid".into(),
+    }
 }
 
 fn mb(bytes: u64) -> String {
@@ -128,20 +163,17 @@ impl MapTiles {
     }
 
     /// The note at the map's bottom right: the attribution with tiles, "no tiles: metric grid" (and why)
-    /// without: the source that could not be opened, the tiles refused or failed (the latest reason,
-    /// naming the tile and its file), or that the source has none here.
-    pub fn note(&self, cfg: &Config, offline: bool) -> String {
+    /// without: the source that could not be opened, the tiles refused or failed (the latest reason, naming
+    /// the tile and its file or server: offline, refused, unreachable, an HTTP error), tiles still loading,
+    /// or — only when the source itself said it has no such tile (a 404, a file without it) — that the
+    /// source has none here.
+    pub fn note(&self, cfg: &Config, no_tiles_shown: bool) -> String {
         if !cfg.map_tiles {
             return "no tiles: metric grid (tiles off)".into();
         }
         let Some(t) = &self.active else { return "no tiles: metric grid".into() };
-        if offline {
-            let c = t.counts();
-            return match (t.open_state(), t.last_error()) {
-                (Some(Err(e)), _) => format!("no tiles: metric grid ({e})"),
-                (_, Some(e)) if c.refused + c.failed > 0 => format!("no tiles: metric grid ({e})"),
-                _ => format!("no tiles: metric grid ({} has none here)", t.source().label()),
-            };
+        if no_tiles_shown {
+            return no_tiles_note(t.open_state(), t.last_error(), t.counts(), &t.source().label());
         }
         let a = t.attribution_text();
         if a.is_empty() { t.source().label() } else { a }
@@ -244,9 +276,10 @@ impl MapTiles {
 
     /// The source the picker's fields describe, or why they do not describe one.
     fn picked(&self) -> Result<TileSourceConfig, String> {
+        // The path the field's "Uses: …" line shows: a relative one is taken in the documents folder.
         let path = || {
-            let p = self.path.trim();
-            if p.is_empty() { Err("enter the file or folder path".to_owned()) } else { Ok(PathBuf::from(p)) }
+            crate::file_dialog::resolve(&self.path, &crate::file_dialog::documents_dir())
+                .ok_or_else(|| "enter the file or folder path".to_owned())
         };
         Ok(match self.kind {
             Kind::Osm => TileSourceConfig::Osm,
@@ -295,12 +328,14 @@ impl MapTiles {
                 ui.checkbox(&mut self.allows_bulk, "The provider's terms allow bulk/offline download");
             }
             Kind::PmTiles | Kind::MbTiles | Kind::Folder => {
-                let hint = match self.kind {
-                    Kind::PmTiles => "/path/area.pmtiles",
-                    Kind::MbTiles => "/path/area.mbtiles",
-                    _ => "/path/tiles (holding {z}/{x}/{y}.png)",
+                let (hint, spec) = match self.kind {
+                    Kind::PmTiles => ("/path/area.pmtiles", PMTILES_FILE),
+                    Kind::MbTiles => ("/path/area.mbtiles", MBTILES_FILE),
+                    _ => ("/path/tiles (holding {z}/{x}/{y}.png)", TILE_FOLDER),
                 };
-                ui.add(egui::TextEdit::singleline(&mut self.path).hint_text(hint).desired_width(420.0));
+                let base = crate::file_dialog::documents_dir();
+                path_field(ui, &mut self.path, &mut self.browse_source, spec, &base, hint);
+                ui.label(RichText::new(vestnav_tiles::OFFLINE_RASTER_SOURCES).small());
             }
         }
         ui.horizontal(|ui| {
@@ -376,6 +411,9 @@ impl MapTiles {
     fn prefetch_ui(&mut self, ui: &mut egui::Ui, cfg: &mut Config, waypoints: &[Waypoint]) {
         if let Err(why) = cfg.tiles.bulk_download_allowed() {
             ui.label(RichText::new(why).color(ui.visuals().warn_fg_color));
+            if cfg.tiles.url_template().is_some() {
+                ui.label(RichText::new(vestnav_tiles::OFFLINE_RASTER_SOURCES).small());
+            }
             return;
         }
         let running = self.prefetch.as_ref().is_some_and(|p| !p.snapshot().finished);
@@ -398,14 +436,18 @@ impl MapTiles {
                 ui.label("Into");
                 ui.radio_value(&mut self.prefetch_into, PrefetchInto::Cache, "cache folder");
                 ui.radio_value(&mut self.prefetch_into, PrefetchInto::MbTiles, "MBTiles file");
-                if self.prefetch_into == PrefetchInto::MbTiles {
-                    ui.add(
-                        egui::TextEdit::singleline(&mut self.prefetch_mbtiles_path)
-                            .hint_text("/path/area.mbtiles")
-                            .desired_width(260.0),
-                    );
-                }
             });
+            if self.prefetch_into == PrefetchInto::MbTiles {
+                let base = crate::file_dialog::documents_dir();
+                path_field(
+                    ui,
+                    &mut self.prefetch_mbtiles_path,
+                    &mut self.browse_prefetch,
+                    MBTILES_WRITE,
+                    &base,
+                    "/path/area.mbtiles",
+                );
+            }
         });
         let bbox = BBox::around(waypoints.iter().map(|w| (w.lat_deg, w.lon_deg)), self.margin_m);
         let Some(bbox) = bbox else {
@@ -476,8 +518,8 @@ impl MapTiles {
     /// Starts the prefetch the window's fields describe (the Download button).
     fn start_prefetch(&mut self, ctx: &egui::Context, cfg: &Config, bbox: BBox, (z0, z1): (u8, u8)) {
         let target = if self.prefetch_into == PrefetchInto::MbTiles {
-            let p = self.prefetch_mbtiles_path.trim();
-            if p.is_empty() { None } else { Some(PrefetchTarget::MbTiles(PathBuf::from(p))) }
+            crate::file_dialog::resolve(&self.prefetch_mbtiles_path, &crate::file_dialog::documents_dir())
+                .map(PrefetchTarget::MbTiles)
         } else {
             Some(PrefetchTarget::Cache(cache_root(cfg)))
         };
@@ -506,5 +548,36 @@ impl MapTiles {
         } else {
             self.message = Some("enter the MBTiles file to write".into());
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::local::FrameCounts;
+    use super::*;
+
+    /// "has none here" only when the source said so; a network failure is shown with its cause.
+    #[test]
+    fn the_note_says_the_true_cause() {
+        let missing = FrameCounts { missing: 6, ..FrameCounts::default() };
+        assert_eq!(
+            no_tiles_note(None, None, missing, "OpenStreetMap"),
+            "no tiles: metric grid (OpenStreetMap has none here)"
+        );
+        let offline = vestnav_tiles::TileError::Network {
+            what: "tile 15/1/2 of https://tile.openstreetmap.org/15/1/2.png".into(),
+            cause: vestnav_tiles::NetworkCause::Offline { host: "tile.openstreetmap.org".into() },
+        };
+        let failed = FrameCounts { failed: 6, ..FrameCounts::default() };
+        let note = no_tiles_note(None, Some(offline.to_string()), failed, "OpenStreetMap");
+        assert!(note.contains("offline: tile.openstreetmap.org cannot be resolved"), "{note}");
+        assert!(!note.contains("has none here"), "{note}");
+        let loading = FrameCounts { loading: 6, ..FrameCounts::default() };
+        assert_eq!(
+            no_tiles_note(None, None, loading, "OpenStreetMap"),
+            "no tiles yet: metric grid (loading…)"
+        );
+        let broken = no_tiles_note(Some(Err("x.mbtiles: vector".into())), None, missing, "x");
+        assert_eq!(broken, "no tiles: metric grid (x.mbtiles: vector)");
     }
 }

@@ -14,13 +14,18 @@
 //! | Motorola Oncore | `@@` two letters, data, checksum, `0D 0A` (Oncore user's guide) | XOR of the bytes after `@@` |
 //! | Garmin binary | `10 id size data cs 10 03`, `10` doubled inside (Garmin device interface specification) | two's complement checksum of id, size and data, size agrees |
 //! | Trimble TSIP | `10 id data 10 03`, `10` doubled inside (Trimble TSIP reference) | stuffing consistent, report id in 0x13..=0xBF, no Garmin checksum |
+//! | Javad GREIS | two id characters (codes 48..=126), three upper-case hex digits of the body length, body ending in its checksum; CR/LF may separate messages (GREIS reference guide, "standard messages", A.1.1) | 8-bit checksum: rotate left by 2 and XOR each byte of id, length and body, rotate once more |
+//! | `NavCom` binary | `02 99 66 id len16le data cs 03`, `len` counting from itself to the `03` (`NavCom` technical reference) | XOR of id, length and data |
+//! | Fastrax iTalk | `< ! src dst type seq nwords data16le[nwords] cs16le >` | iTalk's word checksum (`c ^= lo16(p) ^ hi16(p)` with `p = (c + 1) * (w_n + n)`), `nwords` ≥ 1 |
+//! | `GeoStar` binary | `P S G G id16le nwords16le data32le[nwords] cs32le` (`GeoStar` GeoS-1 protocol) | XOR of all 32-bit little-endian words of the frame, the checksum included, is 0 |
 //!
 //! The layouts are the vendors' published frame structures as commonly documented (gpsd implements the
 //! same ones); they were not re-checked against each vendor document or a real capture of each family
 //! here, and the tests build frames from these layouts. NMEA, UBX, `SiRF`, CASIC and RTCM 3 streams (every log of gpsd's suite we have) never confirm a family:
 //! a false frame in their binary payloads has to pass a checksum, and then be followed immediately by
-//! more of them. Not recognised yet (their layouts could not be confirmed from documentation here): Javad
-//! GREIS, `NavCom`, iTalk, Geostar.
+//! more of them. GREIS messages start with printable characters, so an NMEA line could begin a false
+//! GREIS frame: its 8-bit checksum has to agree, and two more such frames have to follow back to back,
+//! which no NMEA log of the suite ever gives.
 //!
 //! Memory and time are bounded: bytes are looked at once, and at most [`MAX_FRAME`] bytes are held back
 //! while a frame might still be completing.
@@ -52,6 +57,14 @@ pub enum Protocol {
     Zodiac,
     /// `NovAtel` `SuperStar` II binary.
     SuperStarII,
+    /// Javad GREIS (GNSS Receiver External Interface Specification) binary messages.
+    JavadGreis,
+    /// `NavCom` binary.
+    NavCom,
+    /// Fastrax iTalk (iTrax receivers).
+    ITalk,
+    /// `GeoStar` binary (`GeoS-1`).
+    Geostar,
 }
 
 impl Protocol {
@@ -64,6 +77,10 @@ impl Protocol {
             Self::SkyTraq => "SkyTraq binary",
             Self::Zodiac => "Zodiac binary",
             Self::SuperStarII => "SuperStar II binary",
+            Self::JavadGreis => "Javad GREIS",
+            Self::NavCom => "NavCom binary",
+            Self::ITalk => "iTalk (Fastrax)",
+            Self::Geostar => "GeoStar binary",
         }
     }
 
@@ -72,13 +89,17 @@ impl Protocol {
         format!("binary protocol {} detected, not decoded: switch the receiver to NMEA", self.name())
     }
 
-    const ALL: [Self; 6] = [
+    const ALL: [Self; 10] = [
         Self::TrimbleTsip,
         Self::MotorolaOncore,
         Self::GarminBinary,
         Self::SkyTraq,
         Self::Zodiac,
         Self::SuperStarII,
+        Self::JavadGreis,
+        Self::NavCom,
+        Self::ITalk,
+        Self::Geostar,
     ];
 
     fn index(self) -> usize {
@@ -105,7 +126,7 @@ pub struct Detector {
     /// Stream position of `pending[0]`.
     offset: u64,
     /// Per family: (stream position where its last frame ended, frames back to back).
-    chains: [(u64, u32); 6],
+    chains: [(u64, u32); 10],
     found: Option<Protocol>,
 }
 
@@ -135,6 +156,15 @@ impl Detector {
                     i += len;
                 }
                 Probe::NeedMore if rest.len() < MAX_FRAME => break,
+                Probe::No if matches!(rest.first(), Some(b'\r' | b'\n')) => {
+                    // GREIS allows any CR/LF between messages: they extend a GREIS chain, not break it.
+                    let at = self.offset + i as u64;
+                    let chain = &mut self.chains[Protocol::JavadGreis.index()];
+                    if chain.0 == at {
+                        chain.0 += 1;
+                    }
+                    i += 1;
+                }
                 Probe::NeedMore | Probe::No => i += 1,
             }
         }
@@ -144,17 +174,142 @@ impl Detector {
     }
 }
 
-/// What the bytes at the start of `b` are.
+/// What the bytes at the start of `b` are: a frame of the first family that has one there, else "need
+/// more" when any family could still have one, else not a frame.
 fn probe(b: &[u8]) -> Probe {
     let Some(&first) = b.first() else { return Probe::No };
-    match first {
+    let specific = match first {
         0xA0 => skytraq(b),
         0xFF => zodiac(b),
         0x01 => superstar(b),
+        0x02 => navcom(b),
         b'@' => oncore(b),
+        b'<' => italk(b),
+        b'P' => geostar(b),
         DLE => dle_framed(b),
         _ => Probe::No,
+    };
+    if matches!(specific, Probe::Frame(..)) {
+        return specific;
     }
+    match (specific, greis(b)) {
+        (_, frame @ Probe::Frame(..)) => frame,
+        (Probe::NeedMore, _) | (_, Probe::NeedMore) => Probe::NeedMore,
+        _ => Probe::No,
+    }
+}
+
+/// The GREIS 8-bit checksum of `bytes` (GREIS reference guide, A.1.1): starting from 0, each byte is
+/// XORed into the running value rotated left by two bits; the result is rotated once more.
+fn greis_checksum(bytes: &[u8]) -> u8 {
+    bytes.iter().fold(0u8, |cs, &x| cs.rotate_left(2) ^ x).rotate_left(2)
+}
+
+/// `id id hex hex hex body[len]`, the body's last byte the checksum of everything before it. The reply
+/// and error messages (`RE`, `ER`) carry no checksum and never confirm the family.
+fn greis(b: &[u8]) -> Probe {
+    let is_id = |x: u8| (48..=126).contains(&x);
+    let is_hex = |x: u8| x.is_ascii_digit() || (b'A'..=b'F').contains(&x);
+    for (k, &x) in b.iter().take(5).enumerate() {
+        let ok = if k < 2 { is_id(x) } else { is_hex(x) };
+        if !ok {
+            return Probe::No;
+        }
+    }
+    let Some(header) = b.get(..5) else { return Probe::NeedMore };
+    if header[..2] == *b"RE" || header[..2] == *b"ER" {
+        return Probe::No;
+    }
+    let len = header[2..].iter().fold(0usize, |n, &x| {
+        n * 16 + usize::from(if x.is_ascii_digit() { x - b'0' } else { x - b'A' + 10 })
+    });
+    if len < 2 || 5 + len > MAX_FRAME {
+        return Probe::No;
+    }
+    let Some(frame) = b.get(..5 + len) else { return Probe::NeedMore };
+    if greis_checksum(&frame[..4 + len]) == frame[4 + len] {
+        Probe::Frame(Protocol::JavadGreis, 5 + len)
+    } else {
+        Probe::No
+    }
+}
+
+/// `02 99 66 id len16le data cs 03`: `len` counts the bytes from itself to the closing `03`, the checksum
+/// is the XOR of the id, the length and the data.
+fn navcom(b: &[u8]) -> Probe {
+    for (k, want) in [(1, 0x99), (2, 0x66)] {
+        match byte(b, k) {
+            Some(x) if x != want => return Probe::No,
+            None => return Probe::NeedMore,
+            Some(_) => {}
+        }
+    }
+    let Some(header) = b.get(..6) else { return Probe::NeedMore };
+    let len = usize::from(u16::from_le_bytes([header[4], header[5]]));
+    if len < 4 || len + 4 > MAX_FRAME {
+        return Probe::No;
+    }
+    let Some(frame) = b.get(..len + 4) else { return Probe::NeedMore };
+    let cs = frame[3..len + 2].iter().fold(0u8, |a, x| a ^ x);
+    if frame[len + 2] == cs && frame[len + 3] == ETX {
+        Probe::Frame(Protocol::NavCom, len + 4)
+    } else {
+        Probe::No
+    }
+}
+
+/// iTalk's checksum of `n` little-endian payload words: for each word `w_k`, `p = (c + 1)(w_k + k)` on 32
+/// bits, then `c ^= low16(p) ^ high16(p)`.
+fn italk_checksum(payload: &[u8]) -> u16 {
+    words(payload).enumerate().fold(0u16, |c, (k, w)| {
+        let k = u32::try_from(k).unwrap_or(u32::MAX);
+        let p = (u32::from(c) + 1).wrapping_mul(u32::from(w).wrapping_add(k));
+        c ^ (p & 0xFFFF) as u16 ^ (p >> 16) as u16
+    })
+}
+
+/// `< ! src dst type seq nwords data16le[nwords] cs16le >`.
+fn italk(b: &[u8]) -> Probe {
+    match byte(b, 1) {
+        Some(b'!') => {}
+        Some(_) => return Probe::No,
+        None => return Probe::NeedMore,
+    }
+    let Some(&n) = b.get(6) else { return Probe::NeedMore };
+    let n = usize::from(n);
+    if n == 0 {
+        return Probe::No;
+    }
+    let total = 7 + 2 * n + 3;
+    let Some(frame) = b.get(..total) else { return Probe::NeedMore };
+    let payload = &frame[7..7 + 2 * n];
+    let cs = u16::from_le_bytes([frame[7 + 2 * n], frame[8 + 2 * n]]);
+    if frame[total - 1] == b'>' && italk_checksum(payload) == cs {
+        Probe::Frame(Protocol::ITalk, total)
+    } else {
+        Probe::No
+    }
+}
+
+/// `P S G G id16le nwords16le data32le[nwords] cs32le`: the XOR of every 32-bit little-endian word of the
+/// frame, checksum included, is 0.
+fn geostar(b: &[u8]) -> Probe {
+    for (k, want) in [(1, b'S'), (2, b'G'), (3, b'G')] {
+        match byte(b, k) {
+            Some(x) if x != want => return Probe::No,
+            None => return Probe::NeedMore,
+            Some(_) => {}
+        }
+    }
+    let Some(header) = b.get(..8) else { return Probe::NeedMore };
+    let n = usize::from(u16::from_le_bytes([header[6], header[7]]));
+    let total = 8 + 4 * n + 4;
+    if n == 0 || total > MAX_FRAME {
+        return Probe::No;
+    }
+    let Some(frame) = b.get(..total) else { return Probe::NeedMore };
+    let xor = frame.chunks_exact(4).fold(0u32, |a, w| a ^ u32::from_le_bytes([w[0], w[1], w[2], w[3]]));
+    if xor == 0 { Probe::Frame(Protocol::Geostar, total) } else { Probe::No }
 }
 
 fn byte(b: &[u8], i: usize) -> Option<u8> {
@@ -366,8 +521,77 @@ mod tests {
         dle_frame(id, &body)
     }
 
+    /// GREIS: id, length as three upper-case hex digits, body whose last byte is the checksum. The checksum
+    /// here is written from A.1.1's wording with shifts, independently of the detector's `rotate_left`.
+    fn greis_frame(id: [u8; 2], body: &[u8]) -> Vec<u8> {
+        let mut out = id.to_vec();
+        out.extend_from_slice(format!("{:03X}", body.len() + 1).as_bytes());
+        out.extend_from_slice(body);
+        let rot = |v: u8| (v << 2) | (v >> 6);
+        let mut cs = 0u8;
+        for &x in &out {
+            cs = rot(cs) ^ x;
+        }
+        out.push(rot(cs));
+        out
+    }
+
+    /// `NavCom`: 02 99 66, id, length (itself to the ETX) little-endian, data, XOR of id..data, 03.
+    fn navcom_frame(id: u8, data: &[u8]) -> Vec<u8> {
+        let len = (data.len() + 4) as u16;
+        let mut out = vec![0x02, 0x99, 0x66, id];
+        out.extend_from_slice(&len.to_le_bytes());
+        out.extend_from_slice(data);
+        let mut cs = 0u8;
+        for x in &out[3..] {
+            cs ^= x;
+        }
+        out.push(cs);
+        out.push(0x03);
+        out
+    }
+
+    /// iTalk: `<!`, source, destination, type, sequence, word count, words, checksum, `>`.
+    fn italk_frame(kind: u8, data: &[u16]) -> Vec<u8> {
+        let mut out = vec![b'<', b'!', 0x01, 0x02, kind, 0x00, data.len() as u8];
+        let mut c: u16 = 0;
+        for (k, &w) in data.iter().enumerate() {
+            out.extend_from_slice(&w.to_le_bytes());
+            let p: u64 = (u64::from(c) + 1) * (u64::from(w) + k as u64) % (1 << 32);
+            c ^= (p % 65536) as u16 ^ (p / 65536) as u16;
+        }
+        out.extend_from_slice(&c.to_le_bytes());
+        out.push(b'>');
+        out
+    }
+
+    /// `GeoStar`: `PSGG`, id, word count, words, and the word that makes the XOR of all words zero.
+    fn geostar_frame(id: u16, data: &[u32]) -> Vec<u8> {
+        let mut out = b"PSGG".to_vec();
+        out.extend_from_slice(&id.to_le_bytes());
+        out.extend_from_slice(&(data.len() as u16).to_le_bytes());
+        for w in data {
+            out.extend_from_slice(&w.to_le_bytes());
+        }
+        let mut x = 0u32;
+        for w in out.chunks(4) {
+            x ^= u32::from(w[0]) | u32::from(w[1]) << 8 | u32::from(w[2]) << 16 | u32::from(w[3]) << 24;
+        }
+        out.extend_from_slice(&x.to_le_bytes());
+        out
+    }
+
     fn frames_of(p: Protocol, i: u8) -> Vec<u8> {
         match p {
+            // A receiver-time message `~~` (4-byte time of day, then the checksum), then CR LF.
+            Protocol::JavadGreis => {
+                let mut f = greis_frame(*b"~~", &[i, 0x10, 0x27, 0x00]);
+                f.extend_from_slice(b"\r\n");
+                f
+            }
+            Protocol::NavCom => navcom_frame(0xB1, &[i, 0x02, 0x99, 0x66, 0x03, 0x10]),
+            Protocol::ITalk => italk_frame(0x0B, &[u16::from(i), 0xFFFF, 0x3E3C, 0x2101]),
+            Protocol::Geostar => geostar_frame(0x20, &[u32::from(i), 0x4747_5350, 0xFFFF_FFFF]),
             Protocol::SkyTraq => skytraq_frame(&[0xA8, i, 0x10, 0x0D, 0x0A, 0xA0, 0xA1]),
             Protocol::Zodiac => le_bytes(&zodiac_frame(1000, &[u16::from(i), 0x8181, 0xFFFF])),
             Protocol::SuperStarII => superstar_frame(20, &[i, 0x01, 0xFE, 0x10]),
@@ -450,6 +674,15 @@ mod tests {
         for c in noise.chunks(1000) {
             assert_eq!(d.feed(c), None);
             assert!(d.pending.len() <= MAX_FRAME + 1000);
+        }
+        // Text noise, the kind that could start GREIS frames (id characters and upper-case hex digits,
+        // with line ends): still nothing, since three checksums in a row would have to agree.
+        let alphabet = b"0123456789ABCDEF~~PSG<!@$,.*\r\n";
+        let text: Vec<u8> = noise.iter().map(|b| alphabet[usize::from(*b) % alphabet.len()]).collect();
+        let mut d = Detector::default();
+        for c in text.chunks(777) {
+            assert_eq!(d.feed(c), None);
+            assert!(d.pending.len() <= MAX_FRAME + 777);
         }
     }
 

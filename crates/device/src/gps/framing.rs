@@ -245,6 +245,20 @@ impl DecodeStats {
     }
 }
 
+impl DecodeStats {
+    /// NMEA sentences and GPS binary frames recognised by their checksum, whatever became of them (used,
+    /// rejected for a wrong checksum, ignored): 0 for input that is no GPS log at all (a text file, an
+    /// image), which a reader should report as such rather than as an empty log.
+    pub fn recognised(&self) -> u64 {
+        self.sentences
+            + self.bad_checksum
+            + self.ubx_frames
+            + self.sirf_frames
+            + self.casic_frames
+            + self.rtcm3_frames
+    }
+}
+
 impl std::fmt::Display for DecodeStats {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         if let Some(p) = self.undecoded_protocol {
