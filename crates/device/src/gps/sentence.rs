@@ -163,7 +163,7 @@ pub(crate) enum Unused {
 /// Parses a checksum-verified sentence (`$...*hh`).
 pub(crate) fn parse(sentence: &str) -> Result<Parsed, Unused> {
     let body = sentence.get(1..sentence.len().saturating_sub(3)).ok_or(Unused::Malformed)?;
-    // The first 96 fields after the tag are kept (a 164-character sentence has at most ~80). The common
+    // The first 96 fields after the tag are kept (a 256-character sentence has at most ~127, all empty). The common
     // sentences have fewer than 24: those go into a small array (no allocation, little to initialise), longer ones
     // into a vector. A plain byte scan: `str::split` costs more than the fields are long.
     let (tag, fields) = body.split_once(',').unwrap_or((body, ""));

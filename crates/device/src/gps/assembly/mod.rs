@@ -761,8 +761,17 @@ impl NmeaDecoder {
         }
         // THS mode V: the receiver says the epoch's heading (THS or HDT) is not valid.
         fix.true_heading_deg = e.heading_deg.filter(|_| !e.heading_invalid);
-        // GSA: the epoch's, else the receiver's last.
-        let gsa: &[GsaPart] = if e.gsa.is_empty() { &self.gsa_state } else { &e.gsa };
+        // GSA: the epoch's, else the receiver's last, unless that one said "no fix" and this epoch has a
+        // fix: it describes the receiver before the fix (the `MediaTek` FV-M11 sends GSA every few seconds
+        // and its last one, mode 1 with no ids, would otherwise turn GGA's 3 satellites into 0).
+        let stale_no_fix = valid
+            && !self.gsa_state.is_empty()
+            && self.gsa_state.iter().all(|g| g.mode == Some(FixMode::NoFix));
+        let gsa: &[GsaPart] = match (e.gsa.is_empty(), stale_no_fix) {
+            (false, _) => &e.gsa,
+            (true, false) => &self.gsa_state,
+            (true, true) => &[],
+        };
         let gsa_mode = gsa.iter().filter_map(|g| g.mode).max();
         fix.mode = if valid {
             Some(match gsa_mode {
