@@ -536,7 +536,7 @@ impl NmeaDecoder {
         let e = &mut self.epoch;
         match p {
             Parsed::Gga { pos, quality, sats, hdop, alt_m, geoid_sep_m, .. } => {
-                e.gga = Some((pos, quality, sats, hdop, alt_m, geoid_sep_m));
+                e.gga = Some((pos, quality, sats, given_dop(hdop), alt_m, geoid_sep_m));
                 if quality.is_some_and(FixQuality::has_position) {
                     e.latest_pos = pos.or(e.latest_pos);
                 }
@@ -560,7 +560,7 @@ impl NmeaDecoder {
                 e.substantive = true;
             }
             Parsed::Gns { pos, valid, sats, hdop, alt_m, geoid_sep_m, .. } => {
-                e.gns = Some((valid, pos, sats, hdop, alt_m, geoid_sep_m));
+                e.gns = Some((valid, pos, sats, given_dop(hdop), alt_m, geoid_sep_m));
                 if valid {
                     e.latest_pos = pos.or(e.latest_pos);
                 }
@@ -591,6 +591,7 @@ impl NmeaDecoder {
                     .into_iter()
                     .map(|id| (constellation.unwrap_or_else(|| Constellation::from_nmea_id(id)), id))
                     .collect();
+                let (pdop, hdop, vdop) = (given_dop(pdop), given_dop(hdop), given_dop(vdop));
                 e.gsa.push(GsaPart { mode, ids, pdop, hdop, vdop });
             }
             Parsed::Gsv { key, constellation, total, number, in_view, sats } => {
@@ -888,6 +889,14 @@ const ALL_CONSTELLATIONS: [Constellation; 8] = [
 
 fn utc(d: NaiveDate, t: NaiveTime) -> DateTime<Utc> {
     d.and_time(t).and_utc()
+}
+
+/// A DOP as the receiver means it: 0 is "not computed" (the Jackson Labs Micro JLT sends GSA DOPs of
+/// 0.00 with a 3D fix). No satellite geometry has a dilution of 0, and taken as a number it would make
+/// the DOP model claim an error of 0 m. (Negative and non-finite values stay: `Fix::validate` removes
+/// and counts them.)
+fn given_dop(dop: Option<f64>) -> Option<f64> {
+    dop.filter(|&d| d.abs() > 0.0 || !d.is_finite())
 }
 
 /// The error estimate: GST (1-sigma lat/lon/alt from the receiver) when sent, else Garmin PGRME, else the

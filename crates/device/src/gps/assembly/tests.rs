@@ -85,6 +85,41 @@ fn midnight_rolls_the_date_over() {
     );
 }
 
+/// GSA DOPs of 0.00 (the Jackson Labs Micro JLT's "not computed") are not DOPs: no 0 m error estimate.
+#[test]
+fn zero_dops_are_not_given() {
+    use crate::gps::framing::with_checksum;
+    let text = [
+        "GNGGA,012238.00,3454.4922,S,13835.7617,E,2,12,0.9,53.3,M,-3.5,M,,",
+        "GNGSA,A,3,27,9,20,5,4,30,8,7,14,,,,0.00,0.00,0.00",
+        "GNGGA,012239.00,3454.4922,S,13835.7617,E,2,12,0.9,53.3,M,-3.5,M,,",
+    ]
+    .map(with_checksum)
+    .concat();
+    let (fixes, _) = crate::gps::decode_reader(text.as_bytes()).unwrap();
+    let f = &fixes[0];
+    assert_eq!((f.hdop, f.pdop, f.vdop), (Some(0.9), None, None));
+    let e = f.error.unwrap();
+    assert!((e.horizontal_m - 0.9 * super::UERE_DGPS_M).abs() < 1e-9 && e.vertical_m.is_none(), "{e:?}");
+}
+
+/// A GSA of the receiver's no-fix time (mode 1, no ids) does not speak for a later epoch with a fix.
+#[test]
+fn a_no_fix_gsa_does_not_outlive_the_fix() {
+    use crate::gps::framing::with_checksum;
+    let text = [
+        "GPGGA,081433.591,8960.000000,N,00000.000000,E,0,0,,137.000,M,13.000,M,,",
+        "GPGSA,A,1,,,,,,,,,,,,,,,",
+        "GPGGA,081436.000,5212.982135,N,00653.101394,E,1,3,2.88,102.907,M,47.093,M,,",
+        "GPGGA,081437.000,5212.981473,N,00653.102458,E,1,3,2.88,102.907,M,47.093,M,,",
+    ]
+    .map(with_checksum)
+    .concat();
+    let (fixes, _) = crate::gps::decode_reader(text.as_bytes()).unwrap();
+    assert_eq!(fixes[0].sats_used, Some(0));
+    assert_eq!((fixes[1].sats_used, fixes[1].hdop), (Some(3), Some(2.88)));
+}
+
 #[test]
 fn fix_loss_and_recovery() {
     let (fixes, _) = crate::gps::decode_file(
