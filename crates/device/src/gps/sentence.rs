@@ -27,7 +27,7 @@
 //!   true with its own WMM declination, the same for every magnetic source. A missing heading, a sensor
 //!   heading outside [0, 360], a deviation or variation beyond ±180° or without its E/W letter is malformed.
 
-use chrono::{NaiveDate, NaiveTime, Timelike};
+use chrono::{Datelike, NaiveDate, NaiveTime, Timelike};
 
 use super::fix::{Constellation, FixMode, FixQuality};
 
@@ -246,7 +246,7 @@ fn via_crate(sentence: &str, talker: &str) -> Result<Parsed, Unused> {
         },
         P::RMC(d) => Parsed::Rmc {
             time: d.fix_time,
-            date: d.fix_date,
+            date: d.fix_date.map(gps_century),
             valid: !matches!(d.status_of_fix, nmea::sentences::rmc::RmcStatusOfFix::Invalid),
             pos: d.lat.zip(d.lon).filter(|p| valid_pos(*p)),
             speed_m_s: d.speed_over_ground.map(|k| f64_of(k) * MS_PER_KNOT),
@@ -422,7 +422,7 @@ fn fast_gll(sentence: &str, f: &[&str]) -> Option<Parsed> {
 }
 
 /// RMC in its canonical form (`time,A,lat,N,lon,E,knots,course,ddmmyy,magvar,E[,mode[,navstatus]]`),
-/// decoded exactly as [`via_crate`] would (two-digit years: 83-99 = 19xx, else 20xx); `None` when any
+/// decoded exactly as [`via_crate`] would (two-digit years by [`nmea_year`]); `None` when any
 /// field is unusual.
 fn fast_rmc(sentence: &str, f: &[&str]) -> Option<Parsed> {
     if !crate_shape(sentence) || f.len() < 11 {
@@ -443,7 +443,7 @@ fn fast_rmc(sentence: &str, f: &[&str]) -> Option<Parsed> {
             let day: u32 = d[0..2].parse().ok()?;
             let month: u32 = d[2..4].parse().ok()?;
             let yy: i32 = d[4..6].parse().ok()?;
-            let year = if (83..=99).contains(&yy) { 1900 + yy } else { 2000 + yy };
+            let year = nmea_year(yy);
             Some(NaiveDate::from_ymd_opt(year, month, day)?)
         }
         _ => return None,
@@ -735,6 +735,19 @@ fn parse_vtg(f: &[&str]) -> Parsed {
         return Parsed::Vtg { course_deg: None, speed_m_s: None };
     }
     Parsed::Vtg { course_deg: num(course), speed_m_s: speed }
+}
+
+/// RMC's two-digit year: 80-99 are 1980-1999, 00-79 are 2000-2079. GPS time begins in 1980, and the
+/// receivers that send a year 80 send it before their first fix (`SiRF`'s and `MediaTek`'s power-on dates
+/// 05/01/80 and 12/01/80): read as 2080 it would become a running date the real one has to overcome.
+pub(crate) fn nmea_year(yy: i32) -> i32 {
+    if (80..=99).contains(&yy) { 1900 + yy } else { 2000 + yy }
+}
+
+/// The `nmea` crate reads two-digit years 83-99 as 19xx and 00-82 as 20xx: its 2080-2082 are
+/// [`nmea_year`]'s 1980-1982.
+fn gps_century(d: NaiveDate) -> NaiveDate {
+    if (2080..=2082).contains(&d.year()) { d.with_year(d.year() - 100).unwrap_or(d) } else { d }
 }
 
 /// The time a sentence carries, if it is one of the time-bearing types.

@@ -120,6 +120,32 @@ fn a_no_fix_gsa_does_not_outlive_the_fix() {
     assert_eq!((fixes[1].sats_used, fixes[1].hdop), (Some(3), Some(2.88)));
 }
 
+/// Receivers' power-on dates with year 80 (`SiRF` 05/01/80, `MediaTek` 12/01/80) are 1980, not 2080, on
+/// every parse path; 1980-01-05 is before GPS time (implausible) and does not hold back the real date.
+#[test]
+fn year_80_is_1980_and_does_not_block_the_real_date() {
+    use crate::gps::framing::with_checksum;
+    use crate::gps::sentence::{Parsed, parse};
+    for body in [
+        "GPRMC,235951.952,V,0000.0000,N,00000.0000,E,,0.00,050180,,,N",
+        "GPRMC,081433.591,V,8960.000000,N,00000.000000,E,0.000,0.00,050180,,,N",
+        "GPRMC,235951,V,0000.0000,N,00000.0000,E,,,050180,,W",
+    ] {
+        let s = with_checksum(body);
+        let Ok(Parsed::Rmc { date, .. }) = parse(s.trim_end()) else { panic!("{body}") };
+        assert_eq!(date, chrono::NaiveDate::from_ymd_opt(1980, 1, 5), "{body}");
+    }
+    let text = [
+        "GPRMC,235951.952,V,0000.0000,N,00000.0000,E,,0.00,050180,,,N",
+        "GPRMC,102523.342,A,4815.6883,N,01140.3675,E,0.00,0.00,210808,,,A",
+    ]
+    .map(with_checksum)
+    .concat();
+    let (fixes, stats) = crate::gps::decode_reader(text.as_bytes()).unwrap();
+    assert_eq!(stats.implausible_dates, 1, "{stats}");
+    assert_eq!(fixes.last().unwrap().time.unwrap().to_rfc3339(), "2008-08-21T10:25:23.342+00:00");
+}
+
 #[test]
 fn fix_loss_and_recovery() {
     let (fixes, _) = crate::gps::decode_file(

@@ -49,8 +49,7 @@ pub(super) fn parse_rmc(f: &[&str]) -> Result<Parsed, Unused> {
         None | Some("") => None,
         Some(d) if d.len() == 6 && d.bytes().all(|b| b.is_ascii_digit()) => {
             let (day, month, yy) = (d[0..2].parse().ok(), d[2..4].parse().ok(), d[4..6].parse::<i32>().ok());
-            // Two-digit years as the crate reads them: 83-99 = 19xx, else 20xx.
-            let year = yy.map(|y| if (83..=99).contains(&y) { 1900 + y } else { 2000 + y });
+            let year = yy.map(super::nmea_year);
             Some(
                 year.zip(month)
                     .zip(day)

@@ -1,4 +1,4 @@
-//! Issue 13's truth table, extended by issue 21: every log of the three gpsd folders (39), per log the share
+//! Issue 13's truth table, extended by issue 21: every log of the three gpsd folders (41), per log the share
 //! of gpsd's epochs with a position that we match (same UTC time, lat/lon within 1e-7 deg, same fix mode),
 //! goal >= 99 %; the RTCM 3 correction streams give no fix, no sentence and no detected binary family, and
 //! every one of their frames that gpsd decoded is recognised.
@@ -81,6 +81,15 @@ const LOGS: &[(&str, &str, Judge)] = &[
     ),
     ("quectel-L70.log", "MediaTek", Judge::Nmea),
     ("jl-micro-jlt.log", "u-blox GPSDO", Judge::Nmea),
+    (
+        "rgm3800.log",
+        "SiRF III",
+        Judge::Exception {
+            min_rate: 0.5,
+            why: "as tomtom-mkII: GSA says 2D with 3 satellites, we report 2D, gpsd 3D from GGA's altitude",
+        },
+    ),
+    ("pypilot.log", "autopilot (no GPS)", Judge::Nmea),
     (
         "magellan315.log",
         "Magellan handheld",
