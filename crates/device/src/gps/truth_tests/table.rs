@@ -1,4 +1,4 @@
-//! Issue 13's truth table, extended by issue 21: every log of the three gpsd folders (42), per log the share
+//! Issue 13's truth table, extended by issue 21: every log of the three gpsd folders (43), per log the share
 //! of gpsd's epochs with a position that we match (same UTC time, lat/lon within 1e-7 deg, same fix mode),
 //! goal >= 99 %; the RTCM 3 correction streams give no fix, no sentence and no detected binary family, and
 //! every one of their frames that gpsd decoded is recognised.
@@ -91,6 +91,7 @@ const LOGS: &[(&str, &str, Judge)] = &[
     ),
     ("pypilot.log", "autopilot (no GPS)", Judge::Nmea),
     ("garmin15x.log", "Garmin OEM", Judge::Nmea),
+    ("cat-ms352.log", "Caterpillar machine GNSS", Judge::Nmea),
     (
         "magellan315.log",
         "Magellan handheld",
