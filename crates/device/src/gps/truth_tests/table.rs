@@ -1,4 +1,4 @@
-//! Issue 13's truth table, extended by issue 21: every log of the three gpsd folders (44), per log the share
+//! Issue 13's truth table, extended by issue 21: every log of the three gpsd folders (45), per log the share
 //! of gpsd's epochs with a position that we match (same UTC time, lat/lon within 1e-7 deg, same fix mode),
 //! goal >= 99 %; the RTCM 3 correction streams give no fix, no sentence and no detected binary family, and
 //! every one of their frames that gpsd decoded is recognised.
@@ -101,6 +101,11 @@ const LOGS: &[(&str, &str, Judge)] = &[
         "magellan315.log",
         "Magellan handheld",
         Judge::DateDiffers("gpsd adds 1024 weeks to RMC's 2005-03-13 (2024-10-27, its week-rollover guess)"),
+    ),
+    (
+        "eXplorist210.log",
+        "Magellan handheld",
+        Judge::DateDiffers("gpsd adds 1024 weeks to RMC's 2006-05-20 (2026-01-03, its week-rollover guess)"),
     ),
     (
         "hab-gpspi.log",
