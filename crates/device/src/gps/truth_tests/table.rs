@@ -137,6 +137,11 @@ const LOGS: &[(&str, &str, Judge)] = &[
     ("ublox-neo-m8l.log", "u-blox UBX", Judge::Nmea),
     ("ublox-neo-m8n.log", "u-blox UBX", Judge::Nmea),
     ("ublox-zed-f9p-rtk.log", "u-blox UBX", Judge::Nmea),
+    (
+        "iTrek.log",
+        "SiRF-style handheld",
+        Judge::DateDiffers("gpsd adds 1024 weeks to RMC's 2005-07-27 (2025-03-12, its week-rollover guess)"),
+    ),
     ("rtcm3.2.log", "RTCM 3 corrections", Judge::Corrections),
     ("rtcm3.bndm.log", "RTCM 3 corrections", Judge::Corrections),
 ];
