@@ -211,7 +211,9 @@ pub(crate) fn parse(sentence: &str) -> Result<Parsed, Unused> {
         "ZDA" => via_crate(sentence, talker).or_else(|_| parse_zda(f)),
         // Hot path: canonical GGA/GLL are decoded here with the crate's own arithmetic; anything unusual
         // goes through the crate so its acceptance rules stay the reference.
-        "GGA" => fast_gga(sentence, f).map_or_else(|| via_crate(sentence, talker), Ok),
+        "GGA" => fast_gga(sentence, f)
+            .map_or_else(|| via_crate(sentence, talker), Ok)
+            .or_else(|_| legacy::parse_gga(f)),
         // Older shapes the crate refuses (GLL without its v2.3 mode, RMC with an odd variation letter):
         // our own parsers, by NMEA 0183 and gpsd's rules (see `legacy`).
         "GLL" => fast_gll(sentence, f)

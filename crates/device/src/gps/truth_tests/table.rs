@@ -142,6 +142,7 @@ const LOGS: &[(&str, &str, Judge)] = &[
         "SiRF-style handheld",
         Judge::DateDiffers("gpsd adds 1024 weeks to RMC's 2005-07-27 (2025-03-12, its week-rollover guess)"),
     ),
+    ("myguide-3100.log", "car-dash GPS (Typhoon)", Judge::Nmea),
     ("rtcm3.2.log", "RTCM 3 corrections", Judge::Corrections),
     ("rtcm3.bndm.log", "RTCM 3 corrections", Judge::Corrections),
 ];
