@@ -24,14 +24,16 @@
 //!   behind it. (Until the false frame's length has passed, those sentences are held back: at most
 //!   [`MAX_BINARY_PAYLOAD`] + 8 bytes.)
 //! - lines longer than [`MAX_SENTENCE_LEN`] are dropped (NMEA 0183 allows 82 characters; real receivers
-//!   send up to ~100, `SkyTraq`'s PSTI is the record holder, so we accept twice the standard);
+//!   go beyond it: `SkyTraq`'s PSTI is ~100, `MediaTek`'s channel status `$PMTKCHN` 203 for its 32
+//!   channels, and gpsd frames and echoes it, so we accept a little more than that);
 //! - sentences without a checksum, or with a wrong one, are rejected (gpsd rejects them too);
 //! - lines starting with `#` are comments (gpsd's test logs) and are skipped, not counted as errors.
 
 use super::{casic, rtcm3, sirf, ubx};
 
-/// Longest sentence accepted, `$` to the last checksum digit: twice NMEA's 82 (which includes CR LF).
-pub const MAX_SENTENCE_LEN: usize = 164;
+/// Longest sentence accepted, `$` to the last checksum digit: above the longest real receiver sentence we
+/// know (`MediaTek`'s 32-channel `$PMTKCHN`, 203 characters), about three times NMEA's 82.
+pub const MAX_SENTENCE_LEN: usize = 256;
 /// Longest binary frame payload collected; a longer length field means the sync bytes were junk. The
 /// largest UBX messages of the receivers we know are far shorter (NAV-SAT with 100 satellites: 1208
 /// bytes; RXM-RAWX with 32 measurements: 1040), `SiRF`'s longest (MID 8, 50 BPS data) is 43.

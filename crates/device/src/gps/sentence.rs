@@ -27,7 +27,7 @@
 //!   true with its own WMM declination, the same for every magnetic source. A missing heading, a sensor
 //!   heading outside [0, 360], a deviation or variation beyond ±180° or without its E/W letter is malformed.
 
-use chrono::{NaiveDate, NaiveTime, Timelike};
+use chrono::{Datelike, NaiveDate, NaiveTime, Timelike};
 
 use super::fix::{Constellation, FixMode, FixQuality};
 
@@ -163,7 +163,7 @@ pub(crate) enum Unused {
 /// Parses a checksum-verified sentence (`$...*hh`).
 pub(crate) fn parse(sentence: &str) -> Result<Parsed, Unused> {
     let body = sentence.get(1..sentence.len().saturating_sub(3)).ok_or(Unused::Malformed)?;
-    // The first 96 fields after the tag are kept (a 164-character sentence has at most ~80). The common
+    // The first 96 fields after the tag are kept (a 256-character sentence has at most ~127, all empty). The common
     // sentences have fewer than 24: those go into a small array (no allocation, little to initialise), longer ones
     // into a vector. A plain byte scan: `str::split` costs more than the fields are long.
     let (tag, fields) = body.split_once(',').unwrap_or((body, ""));
@@ -211,7 +211,9 @@ pub(crate) fn parse(sentence: &str) -> Result<Parsed, Unused> {
         "ZDA" => via_crate(sentence, talker).or_else(|_| parse_zda(f)),
         // Hot path: canonical GGA/GLL are decoded here with the crate's own arithmetic; anything unusual
         // goes through the crate so its acceptance rules stay the reference.
-        "GGA" => fast_gga(sentence, f).map_or_else(|| via_crate(sentence, talker), Ok),
+        "GGA" => fast_gga(sentence, f)
+            .map_or_else(|| via_crate(sentence, talker), Ok)
+            .or_else(|_| legacy::parse_gga(f)),
         // Older shapes the crate refuses (GLL without its v2.3 mode, RMC with an odd variation letter):
         // our own parsers, by NMEA 0183 and gpsd's rules (see `legacy`).
         "GLL" => fast_gll(sentence, f)
@@ -246,7 +248,7 @@ fn via_crate(sentence: &str, talker: &str) -> Result<Parsed, Unused> {
         },
         P::RMC(d) => Parsed::Rmc {
             time: d.fix_time,
-            date: d.fix_date,
+            date: d.fix_date.map(gps_century),
             valid: !matches!(d.status_of_fix, nmea::sentences::rmc::RmcStatusOfFix::Invalid),
             pos: d.lat.zip(d.lon).filter(|p| valid_pos(*p)),
             speed_m_s: d.speed_over_ground.map(|k| f64_of(k) * MS_PER_KNOT),
@@ -422,7 +424,7 @@ fn fast_gll(sentence: &str, f: &[&str]) -> Option<Parsed> {
 }
 
 /// RMC in its canonical form (`time,A,lat,N,lon,E,knots,course,ddmmyy,magvar,E[,mode[,navstatus]]`),
-/// decoded exactly as [`via_crate`] would (two-digit years: 83-99 = 19xx, else 20xx); `None` when any
+/// decoded exactly as [`via_crate`] would (two-digit years by [`nmea_year`]); `None` when any
 /// field is unusual.
 fn fast_rmc(sentence: &str, f: &[&str]) -> Option<Parsed> {
     if !crate_shape(sentence) || f.len() < 11 {
@@ -443,7 +445,7 @@ fn fast_rmc(sentence: &str, f: &[&str]) -> Option<Parsed> {
             let day: u32 = d[0..2].parse().ok()?;
             let month: u32 = d[2..4].parse().ok()?;
             let yy: i32 = d[4..6].parse().ok()?;
-            let year = if (83..=99).contains(&yy) { 1900 + yy } else { 2000 + yy };
+            let year = nmea_year(yy);
             Some(NaiveDate::from_ymd_opt(year, month, day)?)
         }
         _ => return None,
@@ -735,6 +737,19 @@ fn parse_vtg(f: &[&str]) -> Parsed {
         return Parsed::Vtg { course_deg: None, speed_m_s: None };
     }
     Parsed::Vtg { course_deg: num(course), speed_m_s: speed }
+}
+
+/// RMC's two-digit year: 80-99 are 1980-1999, 00-79 are 2000-2079. GPS time begins in 1980, and the
+/// receivers that send a year 80 send it before their first fix (`SiRF`'s and `MediaTek`'s power-on dates
+/// 05/01/80 and 12/01/80): read as 2080 it would become a running date the real one has to overcome.
+pub(crate) fn nmea_year(yy: i32) -> i32 {
+    if (80..=99).contains(&yy) { 1900 + yy } else { 2000 + yy }
+}
+
+/// The `nmea` crate reads two-digit years 83-99 as 19xx and 00-82 as 20xx: its 2080-2082 are
+/// [`nmea_year`]'s 1980-1982.
+fn gps_century(d: NaiveDate) -> NaiveDate {
+    if (2080..=2082).contains(&d.year()) { d.with_year(d.year() - 100).unwrap_or(d) } else { d }
 }
 
 /// The time a sentence carries, if it is one of the time-bearing types.

@@ -5,7 +5,8 @@
 //!   a later one is a corrupted field (a ZDA with year 0255 and a valid checksum, found by mutation
 //!   fuzzing of real logs); old logs replayed today keep their dates, so "now" is no bound;
 //! - and consistent with the running date: the same day, or the next (previous) one when the time of day
-//!   wrapped forwards (backwards) past midnight. A different date counts as implausible until
+//!   wrapped forwards (backwards) past midnight, or any date that puts the epoch after the previous one by
+//!   less than a day (a receiver off for hours, two sessions of one log). A different date counts as implausible until
 //!   [`CONFIRM_EPOCHS`] epochs in a row agree on it (a receiver that really changed its date — a new
 //!   session spliced into a log, a cold start that corrected a week-rollover date — is followed after
 //!   that; a single corrupted sentence never is). A jump by whole 1024-week eras gets no exception: one
@@ -49,6 +50,21 @@ pub(crate) fn roll(date: NaiveDate, prev: Option<NaiveTime>, now: Option<NaiveTi
     }
 }
 
+/// True when the epoch at `date` `tod` follows the previous one at `running` `prev` by more than nothing and
+/// less than a day: a receiver that was off for hours (or a log spliced from two sessions) and says so with
+/// its date. Any corrupted date of a stream whose epochs are less than a day apart moves its UTC by whole
+/// days, so it lands before the previous epoch or a day or more after it: never in this window.
+fn steps_forward_within_a_day(
+    running: NaiveDate,
+    prev: Option<NaiveTime>,
+    date: NaiveDate,
+    tod: Option<NaiveTime>,
+) -> bool {
+    let (Some(prev), Some(tod)) = (prev, tod) else { return false };
+    let step = date.and_time(tod) - running.and_time(prev);
+    step > TimeDelta::zero() && step < TimeDelta::days(1)
+}
+
 /// The state of the date check: a new date waiting for confirmation.
 #[derive(Debug, Clone, Default)]
 pub(crate) struct DateCheck {
@@ -74,7 +90,7 @@ impl DateCheck {
             self.candidate = None;
             return true;
         };
-        if roll(running, last_tod, tod) == date {
+        if roll(running, last_tod, tod) == date || steps_forward_within_a_day(running, last_tod, date, tod) {
             self.candidate = None;
             return true;
         }
@@ -135,5 +151,16 @@ mod tests {
         let run = Some(d(2019, 4, 7));
         assert!(!c.accept(d(2019, 4, 8), t(12, 0, 6), run, t(12, 0, 5)));
         assert!(c.accept(d(2019, 4, 8), t(0, 0, 0), run, t(23, 59, 59)));
+    }
+
+    #[test]
+    fn a_gap_of_hours_that_the_date_explains_is_followed() {
+        let mut c = DateCheck::default();
+        // The i.Trek log: a session at 15:16 on the 26th, the next at 04:58 on the 27th (13.7 h later).
+        let run = Some(d(2005, 7, 26));
+        assert!(c.accept(d(2005, 7, 27), t(4, 58, 49), run, t(15, 16, 6)));
+        // A day or more forwards, or any step back, still needs confirmation.
+        assert!(!c.accept(d(2005, 7, 27), t(15, 16, 6), run, t(15, 16, 6)));
+        assert!(!c.accept(d(2005, 7, 25), t(15, 16, 7), run, t(15, 16, 6)));
     }
 }

@@ -551,7 +551,7 @@ impl NmeaDecoder {
         let e = &mut self.epoch;
         match p {
             Parsed::Gga { pos, quality, sats, hdop, alt_m, geoid_sep_m, .. } => {
-                e.gga = Some((pos, quality, sats, hdop, alt_m, geoid_sep_m));
+                e.gga = Some((pos, quality, sats, given_dop(hdop), alt_m, geoid_sep_m));
                 if quality.is_some_and(FixQuality::has_position) {
                     e.latest_pos = pos.or(e.latest_pos);
                 }
@@ -575,7 +575,7 @@ impl NmeaDecoder {
                 e.substantive = true;
             }
             Parsed::Gns { pos, valid, sats, hdop, alt_m, geoid_sep_m, .. } => {
-                e.gns = Some((valid, pos, sats, hdop, alt_m, geoid_sep_m));
+                e.gns = Some((valid, pos, sats, given_dop(hdop), alt_m, geoid_sep_m));
                 if valid {
                     e.latest_pos = pos.or(e.latest_pos);
                 }
@@ -606,6 +606,7 @@ impl NmeaDecoder {
                     .into_iter()
                     .map(|id| (constellation.unwrap_or_else(|| Constellation::from_nmea_id(id)), id))
                     .collect();
+                let (pdop, hdop, vdop) = (given_dop(pdop), given_dop(hdop), given_dop(vdop));
                 e.gsa.push(GsaPart { mode, ids, pdop, hdop, vdop });
             }
             Parsed::Gsv { key, constellation, total, number, in_view, sats } => {
@@ -776,8 +777,17 @@ impl NmeaDecoder {
         }
         // THS mode V: the receiver says the epoch's heading (THS or HDT) is not valid.
         fix.true_heading_deg = e.heading_deg.filter(|_| !e.heading_invalid);
-        // GSA: the epoch's, else the receiver's last.
-        let gsa: &[GsaPart] = if e.gsa.is_empty() { &self.gsa_state } else { &e.gsa };
+        // GSA: the epoch's, else the receiver's last, unless that one said "no fix" and this epoch has a
+        // fix: it describes the receiver before the fix (the `MediaTek` FV-M11 sends GSA every few seconds
+        // and its last one, mode 1 with no ids, would otherwise turn GGA's 3 satellites into 0).
+        let stale_no_fix = valid
+            && !self.gsa_state.is_empty()
+            && self.gsa_state.iter().all(|g| g.mode == Some(FixMode::NoFix));
+        let gsa: &[GsaPart] = match (e.gsa.is_empty(), stale_no_fix) {
+            (false, _) => &e.gsa,
+            (true, false) => &self.gsa_state,
+            (true, true) => &[],
+        };
         let gsa_mode = gsa.iter().filter_map(|g| g.mode).max();
         fix.mode = if valid {
             Some(match gsa_mode {
@@ -894,6 +904,14 @@ const ALL_CONSTELLATIONS: [Constellation; 8] = [
 
 fn utc(d: NaiveDate, t: NaiveTime) -> DateTime<Utc> {
     d.and_time(t).and_utc()
+}
+
+/// A DOP as the receiver means it: 0 is "not computed" (the Jackson Labs Micro JLT sends GSA DOPs of
+/// 0.00 with a 3D fix). No satellite geometry has a dilution of 0, and taken as a number it would make
+/// the DOP model claim an error of 0 m. (Negative and non-finite values stay: `Fix::validate` removes
+/// and counts them.)
+fn given_dop(dop: Option<f64>) -> Option<f64> {
+    dop.filter(|&d| d.abs() > 0.0 || !d.is_finite())
 }
 
 /// The error estimate: GST (1-sigma lat/lon/alt from the receiver) when sent, else Garmin PGRME, else the

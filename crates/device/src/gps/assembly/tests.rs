@@ -85,6 +85,67 @@ fn midnight_rolls_the_date_over() {
     );
 }
 
+/// GSA DOPs of 0.00 (the Jackson Labs Micro JLT's "not computed") are not DOPs: no 0 m error estimate.
+#[test]
+fn zero_dops_are_not_given() {
+    use crate::gps::framing::with_checksum;
+    let text = [
+        "GNGGA,012238.00,3454.4922,S,13835.7617,E,2,12,0.9,53.3,M,-3.5,M,,",
+        "GNGSA,A,3,27,9,20,5,4,30,8,7,14,,,,0.00,0.00,0.00",
+        "GNGGA,012239.00,3454.4922,S,13835.7617,E,2,12,0.9,53.3,M,-3.5,M,,",
+    ]
+    .map(with_checksum)
+    .concat();
+    let (fixes, _) = crate::gps::decode_reader(text.as_bytes()).unwrap();
+    let f = &fixes[0];
+    assert_eq!((f.hdop, f.pdop, f.vdop), (Some(0.9), None, None));
+    let e = f.error.unwrap();
+    assert!((e.horizontal_m - 0.9 * super::UERE_DGPS_M).abs() < 1e-9 && e.vertical_m.is_none(), "{e:?}");
+}
+
+/// A GSA of the receiver's no-fix time (mode 1, no ids) does not speak for a later epoch with a fix.
+#[test]
+fn a_no_fix_gsa_does_not_outlive_the_fix() {
+    use crate::gps::framing::with_checksum;
+    let text = [
+        "GPGGA,081433.591,8960.000000,N,00000.000000,E,0,0,,137.000,M,13.000,M,,",
+        "GPGSA,A,1,,,,,,,,,,,,,,,",
+        "GPGGA,081436.000,5212.982135,N,00653.101394,E,1,3,2.88,102.907,M,47.093,M,,",
+        "GPGGA,081437.000,5212.981473,N,00653.102458,E,1,3,2.88,102.907,M,47.093,M,,",
+    ]
+    .map(with_checksum)
+    .concat();
+    let (fixes, _) = crate::gps::decode_reader(text.as_bytes()).unwrap();
+    assert_eq!(fixes[0].sats_used, Some(0));
+    assert_eq!((fixes[1].sats_used, fixes[1].hdop), (Some(3), Some(2.88)));
+}
+
+/// Receivers' power-on dates with year 80 (`SiRF` 05/01/80, `MediaTek` 12/01/80) are 1980, not 2080, on
+/// every parse path; 1980-01-05 is before GPS time (implausible) and does not hold back the real date.
+#[test]
+fn year_80_is_1980_and_does_not_block_the_real_date() {
+    use crate::gps::framing::with_checksum;
+    use crate::gps::sentence::{Parsed, parse};
+    for body in [
+        "GPRMC,235951.952,V,0000.0000,N,00000.0000,E,,0.00,050180,,,N",
+        "GPRMC,081433.591,V,8960.000000,N,00000.000000,E,0.000,0.00,050180,,,N",
+        "GPRMC,235951,V,0000.0000,N,00000.0000,E,,,050180,,W",
+    ] {
+        let s = with_checksum(body);
+        let Ok(Parsed::Rmc { date, .. }) = parse(s.trim_end()) else { panic!("{body}") };
+        assert_eq!(date, chrono::NaiveDate::from_ymd_opt(1980, 1, 5), "{body}");
+    }
+    let text = [
+        "GPRMC,235951.952,V,0000.0000,N,00000.0000,E,,0.00,050180,,,N",
+        "GPRMC,102523.342,A,4815.6883,N,01140.3675,E,0.00,0.00,210808,,,A",
+    ]
+    .map(with_checksum)
+    .concat();
+    let (fixes, stats) = crate::gps::decode_reader(text.as_bytes()).unwrap();
+    assert_eq!(stats.implausible_dates, 1, "{stats}");
+    assert_eq!(fixes.last().unwrap().time.unwrap().to_rfc3339(), "2008-08-21T10:25:23.342+00:00");
+}
+
 #[test]
 fn fix_loss_and_recovery() {
     let (fixes, _) = crate::gps::decode_file(

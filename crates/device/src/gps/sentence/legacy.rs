@@ -1,4 +1,4 @@
-//! Own GLL and RMC parsers for the shapes the `nmea` crate refuses but NMEA 0183 (or gpsd) accepts.
+//! Own GLL, RMC and GGA parsers for the shapes the `nmea` crate refuses but NMEA 0183 (or gpsd) accepts.
 //!
 //! They run only after the crate has declined a sentence, so the crate stays the reference for every
 //! canonical one:
@@ -10,10 +10,13 @@
 //!   letter other than `W` as east, so the rest of the sentence stays good. We do not use the variation.
 //!   The status is `A` (valid) or `V` (navigation receiver warning); NMEA 4.1 receivers also send `D`
 //!   (differential). The mode (v2.3+) `N` also means no fix.
+//! - GGA with an empty fix-quality field: the Typhoon Myguide 3100 sends one during acquisition
+//!   (`...,W,,2,60.000,...`, with RMC `V` and GSA mode 1 in the same second). gpsd accepts the sentence and
+//!   takes the fix status from the others; so do we: the quality is unknown, which is not a fix.
 
 use chrono::NaiveDate;
 
-use super::{MS_PER_KNOT, Parsed, Unused, num, parse_coord, parse_time, valid_pos};
+use super::{MS_PER_KNOT, Parsed, Unused, num, parse_coord, parse_time, uint, valid_pos};
 
 /// GLL with or without the v2.3 mode field: `lat,N,lon,E[,time,status[,mode]]`.
 pub(super) fn parse_gll(f: &[&str]) -> Result<Parsed, Unused> {
@@ -49,8 +52,7 @@ pub(super) fn parse_rmc(f: &[&str]) -> Result<Parsed, Unused> {
         None | Some("") => None,
         Some(d) if d.len() == 6 && d.bytes().all(|b| b.is_ascii_digit()) => {
             let (day, month, yy) = (d[0..2].parse().ok(), d[2..4].parse().ok(), d[4..6].parse::<i32>().ok());
-            // Two-digit years as the crate reads them: 83-99 = 19xx, else 20xx.
-            let year = yy.map(|y| if (83..=99).contains(&y) { 1900 + y } else { 2000 + y });
+            let year = yy.map(super::nmea_year);
             Some(
                 year.zip(month)
                     .zip(day)
@@ -69,6 +71,27 @@ pub(super) fn parse_rmc(f: &[&str]) -> Result<Parsed, Unused> {
         speed_m_s: num(f.get(6)).filter(|k| *k >= 0.0).map(|k| k * MS_PER_KNOT),
         course_deg: num(f.get(7)),
     })
+}
+
+/// GGA whose fix-quality field is empty (every other shape is the crate's):
+/// `time,lat,N,lon,E,,sats,hdop,alt,M,sep,M,...`. Numeric fields that are present must be readable.
+pub(super) fn parse_gga(f: &[&str]) -> Result<Parsed, Unused> {
+    if f.len() < 11 || !f[5].is_empty() {
+        return Err(Unused::Malformed);
+    }
+    let time = time_field(f.first().copied())?;
+    let pos = position(f.get(1..5).unwrap_or(&[]))?;
+    let opt = |i: usize| -> Result<Option<f64>, Unused> {
+        match f.get(i) {
+            None | Some(&"") => Ok(None),
+            s => num(s).map(Some).ok_or(Unused::Malformed),
+        }
+    };
+    let sats = match f.get(6) {
+        None | Some(&"") => None,
+        s => Some(uint(s).ok_or(Unused::Malformed)?),
+    };
+    Ok(Parsed::Gga { time, pos, quality: None, sats, hdop: opt(7)?, alt_m: opt(8)?, geoid_sep_m: opt(10)? })
 }
 
 /// An optional `hhmmss[.sss]` field: empty is no time, anything unreadable is malformed.
@@ -95,6 +118,31 @@ mod tests {
 
     use super::super::parse;
     use super::*;
+
+    /// Typhoon Myguide 3100 (gpsd's myguide-3100.log): a GGA with an empty fix quality is a sentence with
+    /// its time and an unknown quality (no fix); an unreadable field is still malformed.
+    #[test]
+    fn gga_without_quality() {
+        let Ok(Parsed::Gga {
+            time: Some(t),
+            pos: Some((lat, _)),
+            quality: None,
+            sats: Some(3),
+            hdop,
+            alt_m,
+            ..
+        }) = parse("$GPGGA,105027.80,5612.9956,N,00306.6983,W,,3,2.506,160.002,M,,M,,*6D")
+        else {
+            panic!()
+        };
+        assert_eq!(t, chrono::NaiveTime::from_hms_milli_opt(10, 50, 27, 800).unwrap());
+        assert_relative_eq!(lat, 56.0 + 12.9956 / 60.0, max_relative = 1e-12);
+        assert_eq!((hdop, alt_m), (Some(2.506), Some(160.002)));
+        assert!(matches!(
+            parse("$GPGGA,105027.80,5612.9956,N,00306.6983,W,,x,2.506,160.002,M,,M,,*26"),
+            Err(Unused::Malformed)
+        ));
+    }
 
     /// Garmin 48 (gpsd's garmin48.log): a v2.0 GLL without the mode field is a valid position.
     #[test]
