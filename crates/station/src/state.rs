@@ -31,7 +31,7 @@ pub struct GpsState {
 }
 
 /// Why the GPS alarm is on.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum GpsAlarm {
     /// The last position is older than the stale limit.
     Stale {
@@ -196,7 +196,7 @@ impl VestState {
 }
 
 /// How bad a notice is.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, serde::Serialize, serde::Deserialize)]
 pub enum Severity {
     /// Cues cannot reach the wearer, data is being lost, or the operator's file was not used: red.
     Alarm,
@@ -207,7 +207,7 @@ pub enum Severity {
 }
 
 /// What a notice is about (where a view shows it).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 pub enum Subject {
     /// The vest link and the stop.
     Vest,
