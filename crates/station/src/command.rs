@@ -127,7 +127,8 @@ impl Station {
                     return Err(format!("route refused: next waypoint {} of {}", next + 1, waypoints.len()));
                 }
                 let name = name.trim();
-                let name = if name.is_empty() { "route".to_owned() } else { name.chars().take(200).collect() };
+                let name =
+                    if name.is_empty() { "route".to_owned() } else { name.chars().take(200).collect() };
                 self.route_mut().replace(name, waypoints).map_err(|e| format!("route refused: {e}"))?;
                 self.route_mut().set_next(next);
             }
@@ -163,11 +164,9 @@ impl Station {
         });
         let stop = match (self.vest.stop, self.stop_alarm(now)) {
             (None, _) => None,
-            (Some(_), Some(a)) => Some(StopSnapshot::Unconfirmed {
-                for_s: a.for_.as_secs_f64(),
-                acked: a.acked,
-                on: a.on,
-            }),
+            (Some(_), Some(a)) => {
+                Some(StopSnapshot::Unconfirmed { for_s: a.for_.as_secs_f64(), acked: a.acked, on: a.on })
+            }
             (Some(s), None) => match s.acked_at {
                 Some(_) => Some(StopSnapshot::Confirmed),
                 None => Some(StopSnapshot::Pending),
@@ -255,6 +254,7 @@ pub struct Snapshot {
 impl Snapshot {
     /// The same snapshot with every age zeroed: two snapshots that differ only by the passing of time
     /// compare equal (a publisher sends on change).
+    #[must_use]
     pub fn without_ages(&self) -> Self {
         let mut s = self.clone();
         s.fix_age_s = s.fix_age_s.map(|_| 0.0);

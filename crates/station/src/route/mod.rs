@@ -60,7 +60,12 @@ pub const MAX_WAYPOINT_NAME: usize = 200;
 /// Checks one waypoint's fields as the operator typed or sent them: a non-empty name of at most
 /// [`MAX_WAYPOINT_NAME`] characters, a position inside GPX's ranges, an arrival radius that is a positive
 /// finite number of metres when given. The message names the field.
-pub fn check_waypoint(name: &str, lat_deg: f64, lon_deg: f64, radius_m: Option<f64>) -> Result<(), RouteError> {
+pub fn check_waypoint(
+    name: &str,
+    lat_deg: f64,
+    lon_deg: f64,
+    radius_m: Option<f64>,
+) -> Result<(), RouteError> {
     if radius_m.is_some_and(|r| !(r.is_finite() && r > 0.0)) {
         return Err(RouteError::Field(
             "Arrival radius: must be a positive number of metres (empty: the global radius)".into(),
