@@ -4,6 +4,7 @@
 
 mod accuracy;
 mod analyze;
+mod broker_args;
 mod cli;
 mod completions;
 mod doctor;

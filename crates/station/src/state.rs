@@ -221,6 +221,8 @@ pub enum Subject {
     Settings,
     /// The session log and other recordings.
     Storage,
+    /// The remote operator's link through a broker (`vestnav-remote`).
+    Operator,
 }
 
 /// One typed notice for the operator: shown once, where it belongs, until dismissed or replaced by a
