@@ -282,11 +282,21 @@ impl StationBridge {
                 answers,
                 format!("{what}{who}{kept}: vest stopped, automatic cues halted"),
             );
-        } else if before && !self.stop_in_force() {
+        } else if retained {
+            // A resume replayed by the broker on (re)connection is history, not an operator's act now:
+            // whatever stopped this station since (a link loss, a STOP ALL) stays until resumed anew.
+            if before && !self.stop_in_force() {
+                self.event(
+                    EventKind::Stopped,
+                    answers,
+                    "a STOP was lifted while away: still halted until resumed".into(),
+                );
+            }
+        } else if self.stop_in_force() {
+            self.event(EventKind::Refused, answers, "resume refused: a newer STOP ALL is in force".into());
+        } else {
             station.resume_guidance();
             self.event(EventKind::Resumed, answers, format!("resumed{who}: automatic cues on"));
-        } else if !retained && self.stop_in_force() {
-            self.event(EventKind::Refused, answers, "resume refused: a newer STOP ALL is in force".into());
         }
     }
 

@@ -81,6 +81,9 @@ pub struct StationView {
     pub hello: Option<Hello>,
     /// Its latest state.
     pub state: Option<StateMsg>,
+    /// When that state arrived [ms since 1970, this machine's clock]: with the station's `at_ms` and the
+    /// fix's age, the delay from a fix on the station to this screen (when the two clocks agree).
+    pub state_arrived_ms: Option<i64>,
     /// Its route.
     pub route: Option<RouteMsg>,
     /// Its latest events, newest last, with their arrival.
@@ -402,7 +405,10 @@ impl FleetNet {
         match kind {
             StationTopic::Hello => v.hello = serde_json::from_slice(payload).ok(),
             StationTopic::State => match serde_json::from_slice::<StateMsg>(payload) {
-                Ok(m) if m.name == name => v.state = Some(m),
+                Ok(m) if m.name == name => {
+                    v.state = Some(m);
+                    v.state_arrived_ms = Some(now_ms());
+                }
                 _ => contact = false,
             },
             StationTopic::Event => match serde_json::from_slice::<EventMsg>(payload) {
