@@ -257,4 +257,17 @@ mod tests {
         assert!(check_name("a/b").is_err());
         assert!(check_name("").is_err());
     }
+
+    /// The command examples of docs/remote.md read as the station reads them.
+    #[test]
+    fn the_documented_commands_parse() {
+        let doc = include_str!("../../../docs/remote.md");
+        let examples: Vec<&str> =
+            doc.lines().filter(|l| l.starts_with("{\"type\":") && !l.contains('…')).collect();
+        assert!(examples.len() >= 7, "{examples:?}");
+        for e in examples {
+            let c: Command = serde_json::from_str(e).unwrap_or_else(|err| panic!("{e}: {err}"));
+            assert_eq!(serde_json::from_str::<Command>(&serde_json::to_string(&c).unwrap()).unwrap(), c);
+        }
+    }
 }
