@@ -64,6 +64,10 @@ pub struct Cli {
     /// Console only: how long the console runs before --screenshot is taken [s].
     #[arg(long = "screenshot-after", value_name = "SECONDS", default_value_t = 5.0, value_parser = parse_screenshot_after)]
     pub screenshot_after_s: f64,
+    /// Console only: the MQTT broker whose stations the Stations window lists and drives (docs/remote.md);
+    /// the operator's name is --user (default "operator").
+    #[command(flatten)]
+    pub broker: crate::broker_args::BrokerArgs,
     /// What to run; none opens the console.
     #[command(subcommand)]
     pub command: Option<Command>,

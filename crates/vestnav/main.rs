@@ -89,9 +89,14 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             path,
             after: std::time::Duration::from_secs_f64(cli.screenshot_after_s),
         });
+        let remote = cli.broker.config().map(|c| {
+            let operator = c.user.clone().unwrap_or_else(|| "operator".to_owned());
+            (c, operator)
+        });
         return vestnav_app::run(
             vestnav_app::console::DeviceOverrides { gps: cli.gps, vest: cli.vest, tiles: cli.tiles },
             screenshot,
+            remote,
         );
     };
     match command {
