@@ -352,6 +352,27 @@ fn three_stations_stop_all_link_loss_and_broker_restart() {
         });
     }
 
+    // The console's own STOP ALL (key, button) reaches every remote station too.
+    let mut console = vestnav_app::console::Console::new(
+        Box::new(vestnav_station::hardware::Hardware::default()),
+        vestnav_app::console::ConsoleOptions::default(),
+    );
+    console.remote = Some(
+        vestnav_app::remote_panel::RemotePanel::connect(&broker.client("operator"), "operator").unwrap(),
+    );
+    wait_for("the console's broker connection", Duration::from_secs(10), || {
+        console.remote.as_ref().is_some_and(|r| r.fleet().broker_status().0)
+    });
+    let t0 = Instant::now();
+    console.stop_all();
+    for s in &stations {
+        wait_for(&format!("the console's STOP ALL at {}'s vest", s.name), Duration::from_secs(1), || {
+            !s.unit.received_after(CommandKind::StopAll, t0).is_empty()
+        });
+    }
+    console.shutdown();
+    drop(console);
+
     // STOP ALL from the operator to the three vests, many times.
     let mut lat_ms = Vec::new();
     for _ in 0..40 {

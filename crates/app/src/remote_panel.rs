@@ -107,6 +107,11 @@ impl RemotePanel {
         Ok(Self { fleet: Fleet::connect(config, FleetOptions::operator(operator))?, open: true, error: None })
     }
 
+    /// The fleet client (the stations as last heard).
+    pub fn fleet(&self) -> &Fleet {
+        &self.fleet
+    }
+
     /// STOP ALL for every station on the broker (the console's STOP ALL calls it).
     pub fn stop_all(&mut self) {
         self.error = self.fleet.stop_all().err().map(|e| format!("STOP ALL: {e}"));
