@@ -68,9 +68,9 @@ pub enum FleetError {
 }
 
 /// Events kept per station.
-const EVENTS_KEPT: usize = 64;
+pub const EVENTS_KEPT: usize = 64;
 /// Stations tracked (more are ignored and counted).
-const MAX_STATIONS: usize = 256;
+pub const MAX_STATIONS: usize = 256;
 
 /// What the fleet knows of one station.
 #[derive(Debug, Clone, Default)]
