@@ -67,6 +67,10 @@ pub struct Cli {
     /// Console only: the window's size in points for --screenshot, width x height such as 1024x680 (default 1400x880).
     #[arg(long = "screenshot-size", value_name = "WxH", value_parser = parse_window_size)]
     pub screenshot_size: Option<[f32; 2]>,
+    /// Console only: the MQTT broker whose stations the Stations window lists and drives (docs/remote.md);
+    /// the operator's name is --user (default "operator").
+    #[command(flatten)]
+    pub broker: crate::broker_args::BrokerArgs,
     /// What to run; none opens the console.
     #[command(subcommand)]
     pub command: Option<Command>,

@@ -4,6 +4,7 @@
 
 mod accuracy;
 mod analyze;
+mod broker_args;
 mod cli;
 mod completions;
 mod doctor;
@@ -132,9 +133,14 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             after: std::time::Duration::from_secs_f64(cli.screenshot_after_s),
             size: cli.screenshot_size,
         });
+        let remote = cli.broker.config().map(|c| {
+            let operator = c.user.clone().unwrap_or_else(|| "operator".to_owned());
+            (c, operator)
+        });
         return vestnav_app::run(
             vestnav_app::console::DeviceOverrides { gps: cli.gps, vest: cli.vest, tiles: cli.tiles },
             screenshot,
+            remote,
         );
     };
     match command {

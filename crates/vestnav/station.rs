@@ -51,6 +51,16 @@ pub struct StationArgs {
     /// End (vest stopped first) when the GPS source has finished, e.g. a replay reached its end.
     #[arg(long)]
     pub exit_when_done: bool,
+    /// The station's name on the broker (letters, digits, '-' and '_'); needed with --broker.
+    #[arg(long, value_name = "NAME", requires = "broker")]
+    pub name: Option<String>,
+    /// With --broker: seconds without an operator's heartbeat after which the vest is stopped and automatic
+    /// cues halted (unless the operator armed "continue the route if the link drops").
+    #[arg(long, value_name = "SECONDS", default_value_t = 3.0, requires = "broker")]
+    pub link_bound: f64,
+    /// The MQTT broker the station publishes to and takes commands from (docs/remote.md).
+    #[command(flatten)]
+    pub broker: crate::broker_args::BrokerArgs,
 }
 
 /// Runs the station until a signal, `quit`, `--for` or `--exit-when-done` ends it.
@@ -83,6 +93,23 @@ pub fn run(a: &StationArgs) -> anyhow::Result<()> {
     }
     station.connect_vest();
     station.connect_gps(Vec::new());
+    let mut bridge = match a.broker.config() {
+        Some(config) => {
+            let name = a.name.as_deref().context("--broker needs --name")?;
+            if !(a.link_bound.is_finite() && (0.5..=600.0).contains(&a.link_bound)) {
+                anyhow::bail!("--link-bound {}: between 0.5 and 600 seconds", a.link_bound);
+            }
+            let opts = vestnav_remote::BridgeOptions {
+                link_bound: Duration::from_secs_f64(a.link_bound),
+                ..vestnav_remote::BridgeOptions::default()
+            };
+            let b = vestnav_remote::StationBridge::start(&config, name, station.stop_path().clone(), opts)
+                .context("broker")?;
+            eprintln!("vestnav station: station {name} on {}", config.url);
+            Some(b)
+        }
+        None => None,
+    };
     if let Some(p) = station.log_path() {
         eprintln!("vestnav station: session log {}", p.display());
     }
@@ -122,9 +149,19 @@ pub fn run(a: &StationArgs) -> anyhow::Result<()> {
         if a.exit_when_done && matches!(station.gps.state, Some(SourceState::Finished)) {
             break;
         }
-        std::thread::sleep(Duration::from_millis(20));
+        match &mut bridge {
+            Some(b) => {
+                b.turn(&mut station, now);
+                b.wait(&mut station, Duration::from_millis(20));
+            }
+            None => std::thread::sleep(Duration::from_millis(20)),
+        }
     }
     station.shutdown();
+    if let Some(b) = &mut bridge {
+        b.turn(&mut station, Instant::now());
+        b.shutdown();
+    }
     println!("{}", status_line(&station, Instant::now(), start, a.json));
     Ok(())
 }

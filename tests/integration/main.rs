@@ -20,6 +20,7 @@ mod gps_config;
 mod latency;
 mod nav;
 mod osm;
+mod remote;
 mod safety;
 mod sim_tactor;
 mod sim_wave;

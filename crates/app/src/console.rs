@@ -80,6 +80,8 @@ pub struct Console {
     overrides: DeviceOverrides,
     /// The running system.
     pub station: Station,
+    /// The stations on an MQTT broker (`vestnav --broker`), if any: the console's STOP ALL reaches them too.
+    pub remote: Option<crate::remote_panel::RemotePanel>,
     /// Active central tab.
     pub tab: Tab,
     /// The GPS panel's widget state.
@@ -200,6 +202,7 @@ impl Console {
             file_tiles,
             overrides: devices,
             station,
+            remote: None,
             tab: Tab::Map,
             compass_wizard: crate::compass_panel::Wizard::default(),
             pattern_editor: crate::pattern_editor::PatternEditor::default(),
@@ -277,6 +280,9 @@ impl Console {
     /// STOP ALL: every tactor off now, automatic guidance latched off until the operator resumes it.
     pub fn stop_all(&mut self) {
         self.station.stop_all();
+        if let Some(r) = &mut self.remote {
+            r.stop_all();
+        }
         self.sync_settings_from_station();
     }
 

@@ -27,6 +27,7 @@ pub mod log_viewer;
 pub mod map_panel;
 pub mod map_tools;
 pub mod pattern_editor;
+pub mod remote_panel;
 pub mod route_import;
 mod sim_panel;
 pub mod tiles;
@@ -49,7 +50,11 @@ use vestnav_station::stop::StopPath;
 ///
 /// With `screenshot`, the window saves a PNG of itself once `after` has passed and then closes as any close
 /// does (vest stopped first): the documentation's screenshots and bug reports come from the real window.
-pub fn run(devices: DeviceOverrides, screenshot: Option<Screenshot>) -> anyhow::Result<()> {
+pub fn run(
+    devices: DeviceOverrides,
+    screenshot: Option<Screenshot>,
+    remote: Option<(vestnav_remote::BrokerConfig, String)>,
+) -> anyhow::Result<()> {
     let cfg_path = config::default_path();
     let (cfg, cfg_error) =
         cfg_path.as_deref().map_or_else(|| (config::Config::default(), None), config::Config::load);
@@ -91,6 +96,16 @@ pub fn run(devices: DeviceOverrides, screenshot: Option<Screenshot>) -> anyhow::
             );
             if let Some(e) = cfg_error {
                 console.say(vestnav_station::Severity::Alarm, vestnav_station::Subject::Settings, e.banner());
+            }
+            if let Some((broker, operator)) = &remote {
+                match remote_panel::RemotePanel::connect(broker, operator) {
+                    Ok(p) => console.remote = Some(p),
+                    Err(e) => console.say(
+                        vestnav_station::Severity::Alarm,
+                        vestnav_station::Subject::Operator,
+                        format!("Stations not shown: {e}"),
+                    ),
+                }
             }
             Ok(Box::new(App { console, screenshot: screenshot.map(ScreenshotState::new) }))
         }),
@@ -180,6 +195,9 @@ impl eframe::App for App {
 
     fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
         self.console.ui(ui);
+        if let Some(r) = &mut self.console.remote {
+            r.ui(ui.ctx());
+        }
     }
 
     fn on_exit(&mut self, _gl: Option<&eframe::glow::Context>) {

@@ -41,7 +41,7 @@ const COMPASS_MAX_AGE: Duration = Duration::from_secs(1);
 pub const TICK: Duration = Duration::from_millis(250);
 
 /// Guidance settings the operator controls.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct GuidanceSettings {
     /// Send cues automatically.
     pub auto: bool,
@@ -93,7 +93,7 @@ pub enum GuidanceInput {
 }
 
 /// What the worker tells the UI after each update.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct GuidanceStatus {
     /// The cue the engine wants now (sent or not).
     pub cue: Option<Cue>,

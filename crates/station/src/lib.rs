@@ -32,6 +32,7 @@ use vestnav_device::session_log::{LogEntry, LogSender, SessionLog};
 use vestnav_device::wtcu::worker::{Heartbeat, Watched};
 use vestnav_device::wtcu::{CommandKind, CommandOrigin, LinkState, VestCommand, VestEvent, VestHandle};
 
+pub mod command;
 pub mod devices;
 pub mod fieldtests;
 pub mod guidance;
@@ -75,7 +76,7 @@ impl Default for Liveness {
 }
 
 /// The station's settings: guidance's and the GPS alarm's limits.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct StationSettings {
     /// Guidance (automatic cues, radius, interval, strategy, heading source; the fix age after which the
     /// GPS is stale).

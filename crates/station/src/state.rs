@@ -31,7 +31,7 @@ pub struct GpsState {
 }
 
 /// Why the GPS alarm is on.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum GpsAlarm {
     /// The last position is older than the stale limit.
     Stale {
@@ -201,7 +201,7 @@ impl VestState {
 }
 
 /// How bad a notice is.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, serde::Serialize, serde::Deserialize)]
 pub enum Severity {
     /// Cues cannot reach the wearer, data is being lost, or the operator's file was not used: red.
     Alarm,
@@ -212,7 +212,7 @@ pub enum Severity {
 }
 
 /// What a notice is about (where a view shows it).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 pub enum Subject {
     /// The vest link and the stop.
     Vest,
@@ -226,6 +226,8 @@ pub enum Subject {
     Settings,
     /// The session log and other recordings.
     Storage,
+    /// The remote operator's link through a broker (`vestnav-remote`).
+    Operator,
 }
 
 /// One typed notice for the operator: shown once, where it belongs, until dismissed or replaced by a

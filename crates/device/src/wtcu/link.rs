@@ -70,7 +70,7 @@ impl Default for LinkConfig {
 }
 
 /// State of a vest link.
-#[derive(Debug, Clone, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 pub enum LinkState {
     /// No transport.
     #[default]

@@ -54,6 +54,39 @@ pub enum RouteError {
     Gone(usize),
 }
 
+/// Longest waypoint name accepted from outside (a typed edit, a network command) [characters].
+pub const MAX_WAYPOINT_NAME: usize = 200;
+
+/// Checks one waypoint's fields as the operator typed or sent them: a non-empty name of at most
+/// [`MAX_WAYPOINT_NAME`] characters, a position inside GPX's ranges, an arrival radius that is a positive
+/// finite number of metres when given. The message names the field.
+pub fn check_waypoint(
+    name: &str,
+    lat_deg: f64,
+    lon_deg: f64,
+    radius_m: Option<f64>,
+) -> Result<(), RouteError> {
+    if radius_m.is_some_and(|r| !(r.is_finite() && r > 0.0)) {
+        return Err(RouteError::Field(
+            "Arrival radius: must be a positive number of metres (empty: the global radius)".into(),
+        ));
+    }
+    let name = name.trim();
+    if name.is_empty() {
+        return Err(RouteError::Field("Name: must not be empty".to_owned()));
+    }
+    if name.chars().count() > MAX_WAYPOINT_NAME {
+        return Err(RouteError::Field(format!("Name: longer than {MAX_WAYPOINT_NAME} characters")));
+    }
+    if !(-90.0..=90.0).contains(&lat_deg) {
+        return Err(RouteError::Field(format!("Latitude: {lat_deg} is outside [-90, 90] degrees")));
+    }
+    if !(-180.0..180.0).contains(&lon_deg) {
+        return Err(RouteError::Field(format!("Longitude: {lon_deg} is outside [-180, 180) degrees")));
+    }
+    Ok(())
+}
+
 /// The route the operator edits and guidance follows (see the module doc).
 #[derive(Debug, Clone)]
 pub struct RouteModel {
@@ -247,21 +280,8 @@ impl RouteModel {
         lon_deg: f64,
         radius_m: Option<f64>,
     ) -> Result<(), RouteError> {
-        if radius_m.is_some_and(|r| !(r.is_finite() && r > 0.0)) {
-            return Err(RouteError::Field(
-                "Arrival radius: must be a positive number of metres (empty: the global radius)".into(),
-            ));
-        }
+        check_waypoint(name, lat_deg, lon_deg, radius_m)?;
         let name = name.trim();
-        if name.is_empty() {
-            return Err(RouteError::Field("Name: must not be empty".to_owned()));
-        }
-        if !(-90.0..=90.0).contains(&lat_deg) {
-            return Err(RouteError::Field(format!("Latitude: {lat_deg} is outside [-90, 90] degrees")));
-        }
-        if !(-180.0..180.0).contains(&lon_deg) {
-            return Err(RouteError::Field(format!("Longitude: {lon_deg} is outside [-180, 180) degrees")));
-        }
         let Some(old) = self.waypoints.get(i).cloned() else {
             return Err(RouteError::Gone(i + 1));
         };

@@ -1,0 +1,39 @@
+//! The Stations window with no broker reachable: it says so where the operator looks, and its STOP ALL
+//! says what happened to the order (queued; each station stops itself when its operator link times out).
+//! The window against a real broker and three stations is `tests/integration/remote.rs`.
+#![allow(clippy::unwrap_used)]
+
+use std::time::{Duration, Instant};
+
+use egui_kittest::kittest::Queryable as _;
+use vestnav_app::remote_panel::RemotePanel;
+use vestnav_remote::BrokerConfig;
+
+#[test]
+fn without_a_broker_the_window_says_so_and_stop_all_says_what_became_of_it() {
+    // A loopback port nothing listens on (bound, read, released).
+    let port = std::net::TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port();
+    let config = BrokerConfig {
+        url: format!("mqtt://127.0.0.1:{port}"),
+        insecure_plaintext_loopback: true,
+        ..BrokerConfig::default()
+    };
+    let panel = RemotePanel::connect(&config, "operator").unwrap();
+    let until = Instant::now() + Duration::from_secs(5);
+    while panel.fleet().broker_status().1.is_none() {
+        assert!(Instant::now() < until, "the refused connection is reported");
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    let mut h = egui_kittest::Harness::builder()
+        .with_size(egui::vec2(1000.0, 500.0))
+        .build_ui_state(|ui, p: &mut RemotePanel| p.ui(ui.ctx()), panel);
+    h.run_steps(2);
+    assert!(h.query_by_label_contains("broker NOT connected").is_some());
+    assert!(h.query_by_label_contains("No station has published").is_some());
+    h.get_by_label("STOP ALL stations").click();
+    h.run_steps(2);
+    assert!(
+        h.query_by_label_contains("STOP ALL: not connected to the broker: queued").is_some(),
+        "the operator is told the order is only queued"
+    );
+}

@@ -1,0 +1,273 @@
+//! The topic schema and the payloads, version 1 (`vestnav/v1/…`), as `docs/remote.md` documents them for
+//! other tools. Every payload is one JSON object; every field a reader needs is here, nothing is implied.
+
+use serde::{Deserialize, Serialize};
+use vestnav_station::command::{Command, Snapshot};
+use vestnav_station::route::Waypoint;
+
+/// The schema's version, the second level of every topic.
+pub const SCHEMA: &str = "v1";
+/// The root of every topic.
+pub const ROOT: &str = "vestnav/v1";
+/// Longest station or operator name [bytes] (a topic level).
+pub const MAX_NAME: usize = 64;
+/// Largest payload a client accepts [bytes]: a route of 10,000 waypoints fits.
+pub const MAX_PAYLOAD: usize = 4 << 20;
+
+/// The global STOP ALL (retained, `QoS` 1): every station obeys it until it is resumed.
+pub const STOP_ALL_TOPIC: &str = "vestnav/v1/stop";
+/// Every operator's heartbeat (`+` is the operator's name).
+pub const HEARTBEATS: &str = "vestnav/v1/operator/+/heartbeat";
+
+/// What a station publishes or receives on, below `vestnav/v1/station/<name>/`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StationTopic {
+    /// Online or offline (retained; the offline one is the station's last will).
+    Hello,
+    /// The state, on change and at least every second (retained, `QoS` 0).
+    State,
+    /// What it did: applied, refused, link lost, stopped (`QoS` 1).
+    Event,
+    /// Its route's waypoints, when they change (retained, `QoS` 1).
+    Route,
+    /// Commands to it (`QoS` 1).
+    Cmd,
+    /// Its own STOP / resume (retained, `QoS` 1).
+    Stop,
+}
+
+impl StationTopic {
+    /// The last topic level.
+    pub fn level(self) -> &'static str {
+        match self {
+            Self::Hello => "hello",
+            Self::State => "state",
+            Self::Event => "event",
+            Self::Route => "route",
+            Self::Cmd => "cmd",
+            Self::Stop => "stop",
+        }
+    }
+
+    /// The topic of station `name`.
+    pub fn of(self, name: &str) -> String {
+        format!("{ROOT}/station/{name}/{}", self.level())
+    }
+
+    /// Every station's topic of this kind (a subscription filter).
+    pub fn all(self) -> String {
+        format!("{ROOT}/station/+/{}", self.level())
+    }
+
+    /// Splits a received topic into the station's name and the kind; `None` for anything else.
+    pub fn parse(topic: &str) -> Option<(&str, Self)> {
+        let rest = topic.strip_prefix(ROOT)?.strip_prefix("/station/")?;
+        let (name, level) = rest.split_once('/')?;
+        let kind = [Self::Hello, Self::State, Self::Event, Self::Route, Self::Cmd, Self::Stop]
+            .into_iter()
+            .find(|k| k.level() == level)?;
+        check_name(name).ok()?;
+        Some((name, kind))
+    }
+}
+
+/// The heartbeat topic of operator `name`.
+pub fn heartbeat_topic(name: &str) -> String {
+    format!("{ROOT}/operator/{name}/heartbeat")
+}
+
+/// Checks a station or operator name: 1 to [`MAX_NAME`] ASCII letters, digits, `-` or `_` (it is a topic
+/// level, so no `/`, `+` or `#`).
+pub fn check_name(name: &str) -> Result<(), String> {
+    if name.is_empty() || name.len() > MAX_NAME {
+        return Err(format!("name {name:?}: 1 to {MAX_NAME} characters"));
+    }
+    if !name.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'-' || b == b'_') {
+        return Err(format!("name {name:?}: only letters, digits, '-' and '_'"));
+    }
+    Ok(())
+}
+
+/// Who sent a command or a stop: the operator's name and its session (a new number each time the
+/// operator's program starts, so its sequence numbers never collide with an earlier run's).
+#[derive(Debug, Clone, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+pub struct Sender {
+    /// The operator's name.
+    pub operator: String,
+    /// The operator program's session.
+    pub session: u64,
+}
+
+/// A command on `…/station/<name>/cmd`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Envelope {
+    /// The station it is for (must be the station's own name, or it is refused).
+    pub to: String,
+    /// Who sent it.
+    pub from: Sender,
+    /// The sender's sequence number (per session, from 1): a repeat is played once.
+    pub seq: u64,
+    /// When it was sent [ms since 1970, the operator's clock].
+    pub sent_ms: i64,
+    /// What to do.
+    pub command: Command,
+}
+
+/// A STOP or a resume on `vestnav/v1/stop` (every station) or `…/station/<name>/stop` (one).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct StopOrder {
+    /// Stopped (true) or resumed (false).
+    pub stopped: bool,
+    /// Who sent it.
+    pub from: Sender,
+    /// The sender's sequence number.
+    pub seq: u64,
+    /// When it was sent [ms since 1970].
+    pub sent_ms: i64,
+    /// On a station's own resume: the global STOP ALL (its sender and sequence number) this resume lifts
+    /// for this station. A newer STOP ALL stops it again.
+    #[serde(default)]
+    pub resumes: Option<(Sender, u64)>,
+}
+
+/// An operator's heartbeat on `vestnav/v1/operator/<name>/heartbeat` (`QoS` 0, every 500 ms).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Heartbeat {
+    /// Who.
+    pub from: Sender,
+    /// When it was sent [ms since 1970].
+    pub sent_ms: i64,
+    /// The stations this operator armed to continue their route if the link drops.
+    #[serde(default)]
+    pub continue_route: Vec<String>,
+}
+
+/// A station's `hello` (retained): online when it connects, offline as its last will or when it ends.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Hello {
+    /// The station's name.
+    pub name: String,
+    /// Online or not.
+    pub online: bool,
+    /// The schema's version ([`SCHEMA`]).
+    pub schema: String,
+    /// Its operator-link bound [s]: past it without a heartbeat, it stops the vest.
+    pub link_bound_s: f64,
+}
+
+/// How the station sees its operator link.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LinkReport {
+    /// Whether an operator's heartbeat arrived within the bound.
+    pub operator_contact: bool,
+    /// Age of the latest heartbeat [s] (`None`: none yet).
+    pub heartbeat_age_s: Option<f64>,
+    /// The bound [s].
+    pub bound_s: f64,
+    /// Whether an operator armed "continue the route if the link drops" for this station.
+    pub continue_armed: bool,
+    /// What the station did at the latest loss of the link, in words.
+    pub on_loss: Option<String>,
+    /// Whether a STOP (global or its own) is in force.
+    pub stop_in_force: bool,
+}
+
+/// A station's `state`: its snapshot, its operator link and when it was made.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct StateMsg {
+    /// The station's name.
+    pub name: String,
+    /// When it was made [ms since 1970, the station's clock].
+    pub at_ms: i64,
+    /// Counts up by one per state published.
+    pub seq: u64,
+    /// The operator link.
+    pub link: LinkReport,
+    /// The station's state.
+    pub station: Snapshot,
+}
+
+/// What an event is about.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum EventKind {
+    /// A command was applied.
+    Applied,
+    /// A command was refused (late, addressed elsewhere, malformed, refused by the station).
+    Refused,
+    /// A STOP was obeyed.
+    Stopped,
+    /// A resume was obeyed.
+    Resumed,
+    /// The operator link was lost; the text says what the station did.
+    LinkLost,
+    /// The operator link is back.
+    LinkBack,
+}
+
+/// A station's `event`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct EventMsg {
+    /// When [ms since 1970, the station's clock].
+    pub at_ms: i64,
+    /// What about.
+    pub kind: EventKind,
+    /// The command it answers, when it answers one.
+    #[serde(default)]
+    pub answers: Option<(Sender, u64)>,
+    /// What happened, in words.
+    pub text: String,
+}
+
+/// A station's `route` (retained): the waypoints guidance follows.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RouteMsg {
+    /// The route's name.
+    pub name: String,
+    /// The waypoints.
+    pub waypoints: Vec<Waypoint>,
+    /// Index of the next waypoint.
+    pub next: usize,
+    /// The route's revision on the station.
+    pub revision: u64,
+}
+
+/// Now [ms since 1970] on this machine's clock.
+pub fn now_ms() -> i64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| i64::try_from(d.as_millis()).unwrap_or(i64::MAX))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn topics_round_trip_and_hostile_ones_are_not_stations() {
+        for k in [StationTopic::Hello, StationTopic::State, StationTopic::Cmd, StationTopic::Stop] {
+            assert_eq!(StationTopic::parse(&k.of("alpha-1")), Some(("alpha-1", k)));
+        }
+        assert_eq!(StationTopic::State.of("a"), "vestnav/v1/station/a/state");
+        assert_eq!(StationTopic::parse("vestnav/v2/station/a/state"), None);
+        assert_eq!(StationTopic::parse("vestnav/v1/station/a/b/state"), None);
+        assert_eq!(StationTopic::parse("vestnav/v1/station/a+/state"), None);
+        assert_eq!(StationTopic::parse("vestnav/v1/station/a/shell"), None);
+        assert!(check_name(&"x".repeat(65)).is_err());
+        assert!(check_name("a/b").is_err());
+        assert!(check_name("").is_err());
+    }
+
+    /// The command examples of docs/remote.md read as the station reads them.
+    #[test]
+    fn the_documented_commands_parse() {
+        let doc = include_str!("../../../docs/remote.md");
+        let examples: Vec<&str> =
+            doc.lines().filter(|l| l.starts_with("{\"type\":") && !l.contains('…')).collect();
+        assert!(examples.len() >= 7, "{examples:?}");
+        for e in examples {
+            let c: Command = serde_json::from_str(e).unwrap_or_else(|err| panic!("{e}: {err}"));
+            assert_eq!(serde_json::from_str::<Command>(&serde_json::to_string(&c).unwrap()).unwrap(), c);
+        }
+    }
+}

@@ -1,0 +1,393 @@
+//! The station's commands and state as data: what an operator can ask of a station ([`Command`], applied
+//! by [`Station::apply`]) and what a station shows of itself ([`Snapshot`], made by
+//! [`Station::snapshot`]). Both serialise with serde, so a view in another process (a console over a
+//! network, a lab logger) sends and reads the same things a view in this process calls and reads.
+//!
+//! Everything inside is the station's own type (settings, guidance status, vest commands, waypoints,
+//! fixes); the only additions are the ages a remote reader needs in place of this process's `Instant`s.
+
+use std::time::Instant;
+
+use serde::{Deserialize, Serialize};
+use vestnav_core::vest::{Cue, TactorMask};
+use vestnav_device::gps::{Fix, SourceState};
+use vestnav_device::wtcu::{LinkState, UnitStatus, VestCommand};
+
+use crate::guidance::GuidanceStatus;
+use crate::route::{MAX_WAYPOINTS, Waypoint, check_waypoint};
+use crate::state::{GpsAlarm, Severity, Subject};
+use crate::{Station, StationSettings};
+
+/// What an operator can ask of a station.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case")]
+pub enum Command {
+    /// STOP ALL: every tactor off, automatic cues latched off until [`Command::Resume`].
+    StopAll,
+    /// Automatic cues again (the operator's deliberate resume).
+    Resume,
+    /// A manual command to the vest (a FIRE, a pattern, an intensity); holds automatic cues off for the
+    /// manual hold. `cue` names it when it is one of the vocabulary's cues.
+    Manual {
+        /// What the vest is to do.
+        command: VestCommand,
+        /// The named cue it is, if any.
+        #[serde(default)]
+        cue: Option<Cue>,
+    },
+    /// Replaces the whole route (each waypoint with its own arrival radius, if any) and sets the next one.
+    SetRoute {
+        /// The route's name.
+        name: String,
+        /// The waypoints, in order (at most [`MAX_WAYPOINTS`]).
+        waypoints: Vec<Waypoint>,
+        /// Index of the waypoint to head for.
+        #[serde(default)]
+        next: usize,
+    },
+    /// Heads for waypoint `index` next.
+    NextWaypoint {
+        /// Index into the route.
+        index: usize,
+    },
+    /// New settings (guidance's and the GPS alarm's limits).
+    Settings(StationSettings),
+    /// Records a mark in the session log at the wearer's position.
+    Mark {
+        /// What the mark is (at most 200 characters).
+        label: String,
+    },
+}
+
+impl Command {
+    /// Whether this command can make a tactor run (a late or repeated one must never be played).
+    pub fn can_play(&self) -> bool {
+        matches!(self, Self::Manual { command, .. } if *command != VestCommand::StopAll)
+    }
+
+    /// The command in a few words, for notices and the session log.
+    pub fn describe(&self) -> String {
+        match self {
+            Self::StopAll => "STOP ALL".to_owned(),
+            Self::Resume => "resume".to_owned(),
+            Self::Manual { command, .. } => command.describe(),
+            Self::SetRoute { name, waypoints, .. } => format!("route {name} ({} waypoints)", waypoints.len()),
+            Self::NextWaypoint { index } => format!("next waypoint {}", index + 1),
+            Self::Settings(_) => "settings".to_owned(),
+            Self::Mark { label } => format!("mark {label}"),
+        }
+    }
+}
+
+/// Longest mark label accepted [characters].
+const MAX_MARK_LABEL: usize = 200;
+
+/// Limits of the settings a command may set (the console's settings file clamps to the same ranges).
+impl StationSettings {
+    /// Checks every value against its range; the message names the field. Values from a network or a
+    /// file go through this before they reach guidance.
+    pub fn check(&self) -> Result<(), String> {
+        let g = &self.guidance;
+        let within = |name: &str, v: f64, lo: f64, hi: f64| {
+            if v.is_finite() && (lo..=hi).contains(&v) {
+                Ok(())
+            } else {
+                Err(format!("{name}: {v} is outside [{lo}, {hi}]"))
+            }
+        };
+        within("arrival radius [m]", g.arrival_radius_m, 1.0, 100.0)?;
+        within("cue interval [s]", g.cue_interval_s, 0.5, 60.0)?;
+        within("manual hold [s]", g.manual_hold_s, 0.0, 600.0)?;
+        within("stale after [s]", g.stale_after_s, 1.0, 60.0)?;
+        within("lost after [s]", self.lost_after_s, g.stale_after_s, 600.0)?;
+        if !(20..=2000).contains(&g.on_ms) {
+            return Err(format!("on-time [ms]: {} is outside [20, 2000]", g.on_ms));
+        }
+        Ok(())
+    }
+}
+
+impl Station {
+    /// Applies one command, as the same calls a local view makes. Returns what to tell the operator when it
+    /// was refused (nothing changed then); STOP ALL is never refused.
+    pub fn apply(&mut self, command: Command) -> Result<(), String> {
+        match command {
+            Command::StopAll => self.stop_all(),
+            Command::Resume => self.resume_guidance(),
+            Command::Manual { command, cue } => self.send_manual(command, cue)?,
+            Command::SetRoute { name, waypoints, next } => {
+                if waypoints.len() > MAX_WAYPOINTS {
+                    return Err(format!("route refused: more than {MAX_WAYPOINTS} waypoints"));
+                }
+                for (i, w) in waypoints.iter().enumerate() {
+                    check_waypoint(&w.name, w.lat_deg, w.lon_deg, w.arrival_radius_m)
+                        .map_err(|e| format!("route refused: waypoint {}: {e}", i + 1))?;
+                }
+                if next > waypoints.len() {
+                    return Err(format!("route refused: next waypoint {} of {}", next + 1, waypoints.len()));
+                }
+                let name = name.trim();
+                let name =
+                    if name.is_empty() { "route".to_owned() } else { name.chars().take(200).collect() };
+                self.route_mut().replace(name, waypoints).map_err(|e| format!("route refused: {e}"))?;
+                self.route_mut().set_next(next);
+            }
+            Command::NextWaypoint { index } => {
+                let n = self.route().waypoints().len();
+                if index >= n {
+                    return Err(format!("next waypoint {} refused: the route has {n}", index + 1));
+                }
+                self.route_mut().set_next(index);
+            }
+            Command::Settings(s) => {
+                s.check().map_err(|e| format!("settings refused: {e}"))?;
+                self.set_settings(s);
+            }
+            Command::Mark { label } => {
+                if label.chars().count() > MAX_MARK_LABEL {
+                    return Err(format!("mark refused: longer than {MAX_MARK_LABEL} characters"));
+                }
+                self.mark(&label);
+            }
+        }
+        Ok(())
+    }
+
+    /// What the station shows of itself at `now`, for a view in another process.
+    pub fn snapshot(&self, now: Instant) -> Snapshot {
+        let age = |t: Instant| now.saturating_duration_since(t).as_secs_f64();
+        let fix = self.gps.last_position.as_ref().map(|f| {
+            // The satellite list is the GPS panel's; counts per constellation stay.
+            let mut f = f.clone();
+            f.satellites.clear();
+            f
+        });
+        let stop = match (self.vest.stop, self.stop_alarm(now)) {
+            (None, _) => None,
+            (Some(_), Some(a)) => {
+                Some(StopSnapshot::Unconfirmed { for_s: a.for_.as_secs_f64(), acked: a.acked, on: a.on })
+            }
+            (Some(s), None) => match s.acked_at {
+                Some(_) => Some(StopSnapshot::Confirmed),
+                None => Some(StopSnapshot::Pending),
+            },
+        };
+        Snapshot {
+            gps_state: self.gps.state.clone(),
+            gps_alarm: self.gps_alarm(now),
+            fix,
+            fix_age_s: self.position_age(now).map(|a| a.as_secs_f64()),
+            route: RouteSummary {
+                name: self.route().name().to_owned(),
+                waypoints: self.route().waypoints().len(),
+                next: self.route().next(),
+                revision: self.route().revision(),
+            },
+            vest_link: self.vest.state.clone(),
+            vest_lost: self.vest.lost.clone(),
+            last_reply: self.vest.last_reply.as_ref().map(|r| ReplySnapshot {
+                text: r.text.clone(),
+                refused: r.refused,
+                age_s: age(r.at),
+            }),
+            tactors_on: self.vest.tactors_on,
+            battery: self.vest.status.map(|(s, at)| BatterySnapshot { status: s, age_s: age(at) }),
+            halted: self.vest.halted.clone(),
+            stop,
+            auto: self.settings().guidance.auto,
+            guidance: self.guidance.clone(),
+            notices: self
+                .notices
+                .all()
+                .iter()
+                .rev()
+                .take(MAX_SNAPSHOT_NOTICES)
+                .map(|n| NoticeSnapshot {
+                    severity: n.severity,
+                    subject: n.subject,
+                    text: n.text.clone(),
+                    age_s: age(n.since),
+                })
+                .collect(),
+        }
+    }
+}
+
+/// Most notices a snapshot carries (the newest).
+pub const MAX_SNAPSHOT_NOTICES: usize = 16;
+
+/// What a station shows of itself (see [`Station::snapshot`]). Ages are at the moment it was made.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Snapshot {
+    /// The GPS source's state (`None`: no source running).
+    pub gps_state: Option<SourceState>,
+    /// The GPS alarm, if any.
+    pub gps_alarm: Option<GpsAlarm>,
+    /// The latest fix with a position (its satellite list left out).
+    pub fix: Option<Fix>,
+    /// Its age [s].
+    pub fix_age_s: Option<f64>,
+    /// The route guidance follows.
+    pub route: RouteSummary,
+    /// The vest link (`None`: no vest worker).
+    pub vest_link: Option<LinkState>,
+    /// Why the vest link was last lost, while it is not ready again.
+    pub vest_lost: Option<String>,
+    /// The unit's latest acknowledgement or refusal.
+    pub last_reply: Option<ReplySnapshot>,
+    /// Tactors on as the unit reports them (`None`: unknown).
+    pub tactors_on: Option<TactorMask>,
+    /// The unit's latest status report (battery).
+    pub battery: Option<BatterySnapshot>,
+    /// Why automatic cues are latched off, when they are.
+    pub halted: Option<String>,
+    /// The latest STOP ALL and its confirmation (`None`: no stop since the last deliberate command).
+    pub stop: Option<StopSnapshot>,
+    /// Automatic cues on.
+    pub auto: bool,
+    /// Guidance's latest decision (cue, hold, distance, heading).
+    pub guidance: Option<GuidanceStatus>,
+    /// The newest notices (at most [`MAX_SNAPSHOT_NOTICES`], newest first).
+    pub notices: Vec<NoticeSnapshot>,
+}
+
+impl Snapshot {
+    /// The same snapshot with every age zeroed: two snapshots that differ only by the passing of time
+    /// compare equal (a publisher sends on change).
+    #[must_use]
+    pub fn without_ages(&self) -> Self {
+        let mut s = self.clone();
+        s.fix_age_s = s.fix_age_s.map(|_| 0.0);
+        if let Some(r) = &mut s.last_reply {
+            r.age_s = 0.0;
+        }
+        if let Some(b) = &mut s.battery {
+            b.age_s = 0.0;
+        }
+        if let Some(StopSnapshot::Unconfirmed { for_s, .. }) = &mut s.stop {
+            *for_s = 0.0;
+        }
+        if let Some(crate::state::GpsAlarm::Stale { age_s }) = &mut s.gps_alarm {
+            *age_s = 0.0;
+        }
+        for n in &mut s.notices {
+            n.age_s = 0.0;
+        }
+        s
+    }
+}
+
+/// The route in a snapshot (the waypoints themselves go with [`Command::SetRoute`] and the route topic).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct RouteSummary {
+    /// Name.
+    pub name: String,
+    /// How many waypoints.
+    pub waypoints: usize,
+    /// Index of the next waypoint.
+    pub next: usize,
+    /// The route's revision (bumped by every change).
+    pub revision: u64,
+}
+
+/// The unit's latest acknowledgement or refusal.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ReplySnapshot {
+    /// What happened, in words.
+    pub text: String,
+    /// A refusal rather than an acknowledgement.
+    pub refused: bool,
+    /// Its age [s].
+    pub age_s: f64,
+}
+
+/// The unit's latest status report.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BatterySnapshot {
+    /// The report (battery voltage and charge, faults, firmware).
+    pub status: UnitStatus,
+    /// Its age [s].
+    pub age_s: f64,
+}
+
+/// The latest STOP ALL, as the unit confirmed it or not.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "state", rename_all = "snake_case")]
+pub enum StopSnapshot {
+    /// Asked for, within the unit's time to acknowledge it.
+    Pending,
+    /// Acknowledged by the unit, and no tactor reported on since.
+    Confirmed,
+    /// STOP NOT CONFIRMED: not acknowledged in time, or tactors still reported on.
+    Unconfirmed {
+        /// How long since it was asked for [s].
+        for_s: f64,
+        /// Whether the unit acknowledged it.
+        acked: bool,
+        /// Tactors the unit reports on, when it reports any.
+        on: Option<TactorMask>,
+    },
+}
+
+/// One notice in a snapshot.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct NoticeSnapshot {
+    /// How bad.
+    pub severity: Severity,
+    /// About what.
+    pub subject: Subject,
+    /// What happened and what to do.
+    pub text: String,
+    /// Its age [s].
+    pub age_s: f64,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn commands_round_trip_through_json() {
+        let commands = vec![
+            Command::StopAll,
+            Command::Resume,
+            Command::Manual {
+                command: VestCommand::Fire { mask: TactorMask::from_indices([1, 2]), duration_ms: 200 },
+                cue: Some(Cue::Forward),
+            },
+            Command::SetRoute {
+                name: "loop".into(),
+                waypoints: vec![Waypoint {
+                    name: "A".into(),
+                    lat_deg: 51.5,
+                    lon_deg: -0.1,
+                    arrival_radius_m: Some(5.0),
+                }],
+                next: 0,
+            },
+            Command::NextWaypoint { index: 3 },
+            Command::Settings(StationSettings::default()),
+            Command::Mark { label: "bench".into() },
+        ];
+        for c in commands {
+            let text = serde_json::to_string(&c).unwrap();
+            let back: Command = serde_json::from_str(&text).unwrap();
+            assert_eq!(back, c, "{text}");
+        }
+        // The wire form other tools write by hand.
+        let c: Command = serde_json::from_str(r#"{"type":"next_waypoint","index":2}"#).unwrap();
+        assert_eq!(c, Command::NextWaypoint { index: 2 });
+        assert!(serde_json::from_str::<Command>(r#"{"type":"self_destruct"}"#).is_err());
+    }
+
+    #[test]
+    fn settings_out_of_range_are_named() {
+        let mut s = StationSettings::default();
+        assert_eq!(s.check(), Ok(()));
+        s.guidance.arrival_radius_m = f64::NAN;
+        assert!(s.check().unwrap_err().starts_with("arrival radius"));
+        s = StationSettings::default();
+        s.guidance.on_ms = 60_000;
+        assert!(s.check().unwrap_err().starts_with("on-time"));
+    }
+}
