@@ -307,4 +307,9 @@ fn a_pinned_sirf_receiver_is_named_with_its_remedy() {
     assert!(h.query_by_label("Static navigation off").is_some());
     assert!(h.query_by_label_contains("guidance sees the wearer stand still").is_some());
     assert!(h.query_by_label_contains("ask them to walk a few steps").is_none());
+    // The Receiver window starts at the family the stream shows.
+    h.get_by_label("Receiver").click();
+    h.run_steps(2);
+    assert!(h.query_by_label_contains("the stream shows a SiRF III/IV").is_some());
+    assert_eq!(h.state().gps_ui.receiver.family, vestnav_device::gps::receiver_config::Family::Sirf);
 }
