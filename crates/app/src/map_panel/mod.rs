@@ -307,7 +307,9 @@ impl MapView {
         self.tools_line(ui);
         let speed_m_s = fix.and_then(|f| f.speed_m_s);
         Self::next_info(ui, route, fix, guidance, speed_m_s, walking_m_s);
-        egui::Panel::right("waypoint-list").default_size(290.0).show(ui, |ui| {
+        // A narrow window leaves the map the larger share.
+        let list_w = (ui.available_width() * 0.3).clamp(200.0, 290.0);
+        egui::Panel::right("waypoint-list").default_size(list_w).show(ui, |ui| {
             self.waypoint_list(ui, route, notices);
         });
         self.map_ui(ui, route, track, fix, guidance.and_then(|g| g.heading_deg), cfg, notices);
