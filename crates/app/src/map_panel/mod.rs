@@ -663,7 +663,7 @@ mod tests {
 
     #[test]
     fn coordinates_show_seven_decimals_at_most() {
-        assert_eq!(coordinate_text(42.358_100_000_000_004), "42.3581");
+        assert_eq!(coordinate_text(42.3581 + 4e-15), "42.3581");
         assert_eq!(coordinate_text(-71.093_612_345_678), "-71.0936123");
         assert_eq!(coordinate_text(10.0), "10.0");
         // 1e-7 degree of latitude is 6.4e6 m x 1e-7 x pi / 180 = 1.1 cm.

@@ -57,11 +57,11 @@ fn halo_text(
     painter: &egui::Painter,
     pos: Pos2,
     anchor: egui::Align2,
-    text: impl ToString,
+    text: impl Into<String>,
     font: egui::FontId,
     color: Color32,
 ) -> egui::Rect {
-    let galley = painter.layout_no_wrap(text.to_string(), font, color);
+    let galley = painter.layout_no_wrap(text.into(), font, color);
     let rect = anchor.anchor_size(pos, galley.size());
     let halo = halo_color(color);
     for (dx, dy) in

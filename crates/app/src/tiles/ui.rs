@@ -300,6 +300,12 @@ impl MapTiles {
     }
 
     fn window(&mut self, ui: &mut egui::Ui, cfg: &mut Config, waypoints: &[Waypoint]) {
+        self.source_ui(ui, cfg);
+        self.cache_and_prefetch_ui(ui, cfg, waypoints);
+    }
+
+    /// The source picker: kind, URL or path (with Browse…), where offline raster tiles come from, Use.
+    fn source_ui(&mut self, ui: &mut egui::Ui, cfg: &mut Config) {
         ui.heading("Source");
         ui.horizontal_wrapped(|ui| {
             ui.radio_value(&mut self.kind, Kind::Osm, "OpenStreetMap");
@@ -353,7 +359,10 @@ impl MapTiles {
         if let Some(e) = &self.source_error {
             ui.colored_label(ui.visuals().error_fg_color, e);
         }
+    }
 
+    /// The cache's folder, limit and prune, and the prefetch of the route's area.
+    fn cache_and_prefetch_ui(&mut self, ui: &mut egui::Ui, cfg: &mut Config, waypoints: &[Waypoint]) {
         ui.separator();
         ui.heading("Cache");
         let root = cache_root(cfg);
@@ -462,6 +471,34 @@ impl MapTiles {
             mb(est.bytes),
             prefetch::EST_TILE_BYTES / 1000
         ));
+        self.prefetch_progress(ui, cfg);
+        ui.horizontal(|ui| {
+            if running {
+                if ui.button("Cancel").clicked()
+                    && let Some(p) = &self.prefetch
+                {
+                    p.cancel();
+                }
+            } else if ui
+                .add_enabled(est.tiles <= prefetch::MAX_PREFETCH_TILES, egui::Button::new("Download"))
+                .clicked()
+            {
+                self.start_prefetch(ui.ctx(), cfg, bbox, (z0, z1));
+            }
+            if est.tiles > prefetch::MAX_PREFETCH_TILES {
+                ui.colored_label(
+                    ui.visuals().warn_fg_color,
+                    format!(
+                        "over the limit of {} tiles: lower the highest zoom",
+                        prefetch::MAX_PREFETCH_TILES
+                    ),
+                );
+            }
+        });
+    }
+
+    /// The running or last prefetch: progress, counts, the last error, and its file offered as the source.
+    fn prefetch_progress(&self, ui: &mut egui::Ui, cfg: &mut Config) {
         if let Some(p) = &self.prefetch {
             let s = p.snapshot();
             let frac = if s.total == 0 { 1.0 } else { s.done() as f32 / s.total as f32 };
@@ -490,29 +527,6 @@ impl MapTiles {
                 cfg.tiles = TileSourceConfig::MbTiles(file.clone());
             }
         }
-        ui.horizontal(|ui| {
-            if running {
-                if ui.button("Cancel").clicked()
-                    && let Some(p) = &self.prefetch
-                {
-                    p.cancel();
-                }
-            } else if ui
-                .add_enabled(est.tiles <= prefetch::MAX_PREFETCH_TILES, egui::Button::new("Download"))
-                .clicked()
-            {
-                self.start_prefetch(ui.ctx(), cfg, bbox, (z0, z1));
-            }
-            if est.tiles > prefetch::MAX_PREFETCH_TILES {
-                ui.colored_label(
-                    ui.visuals().warn_fg_color,
-                    format!(
-                        "over the limit of {} tiles: lower the highest zoom",
-                        prefetch::MAX_PREFETCH_TILES
-                    ),
-                );
-            }
-        });
     }
 
     /// Starts the prefetch the window's fields describe (the Download button).

@@ -1,6 +1,8 @@
 //! Bluetooth: the adapter, the `BlueZ` daemon, the `rfcomm` tool, paired SPP devices and their bindings.
 
-use super::*;
+use std::path::Path;
+
+use super::{Area, Environment, Finding, SPP_UUID, Verdict};
 
 /// Bluetooth: an adapter, the `BlueZ` daemon, the `rfcomm` tool, paired SPP devices and bindings.
 pub fn bluetooth_findings(env: &Environment) -> Vec<Finding> {

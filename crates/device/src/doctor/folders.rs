@@ -1,6 +1,8 @@
 //! Folders the program writes: writable (or creatable) with free space.
 
-use super::*;
+use std::path::Path;
+
+use super::{Area, Environment, Finding, Verdict, owner_of, permits};
 
 /// Whether `role`'s folder `path` (absolute, as on the checked machine) is writable, or can be created,
 /// with free space.

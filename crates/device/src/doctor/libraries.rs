@@ -1,7 +1,11 @@
 //! Libraries and optional parts: the display session and the window libraries opened at run time, and
 //! gpsd, liblsl and the broker.
 
-use super::*;
+use std::net::{TcpStream, ToSocketAddrs as _};
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use super::{Area, BROKER_TIMEOUT, Environment, Finding, Verdict};
 
 /// A library the console loads at run time, and the Debian package that has it.
 pub(super) struct Lib {

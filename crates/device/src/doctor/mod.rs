@@ -21,7 +21,6 @@
 
 use std::collections::BTreeMap;
 use std::io::Read as _;
-use std::net::{TcpStream, ToSocketAddrs as _};
 use std::path::{Component, Path, PathBuf};
 use std::time::Duration;
 

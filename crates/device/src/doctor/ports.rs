@@ -1,6 +1,8 @@
 //! Serial ports: which USB and Bluetooth ports exist, and whether this user may open them.
 
-use super::*;
+use super::{
+    Area, Environment, Finding, Group, Verdict, bluetooth_findings, owner_of, parse_groups, permits,
+};
 
 /// Whether a port name looks like one a GPS or a vest shows up as (`ttyS*` on-board UARTs always exist
 /// and are left out unless named).

@@ -200,7 +200,7 @@ fn probe(b: &[u8]) -> Probe {
 }
 
 /// The GREIS 8-bit checksum of `bytes` (GREIS reference guide, A.1.1): starting from 0, each byte is
-/// XORed into the running value rotated left by two bits; the result is rotated once more.
+/// combined by XOR into the running value rotated left by two bits; the result is rotated once more.
 fn greis_checksum(bytes: &[u8]) -> u8 {
     bytes.iter().fold(0u8, |cs, &x| cs.rotate_left(2) ^ x).rotate_left(2)
 }
@@ -527,7 +527,7 @@ mod tests {
         let mut out = id.to_vec();
         out.extend_from_slice(format!("{:03X}", body.len() + 1).as_bytes());
         out.extend_from_slice(body);
-        let rot = |v: u8| (v << 2) | (v >> 6);
+        let rot = |v: u8| ((u16::from(v) * 4) % 256) as u8 + v / 64;
         let mut cs = 0u8;
         for &x in &out {
             cs = rot(cs) ^ x;
