@@ -532,6 +532,28 @@ fn envelope(to: &str, from: &Sender, seq: u64, sent_ms: i64) -> Vec<u8> {
     serde_json::to_vec(&Envelope { to: to.to_owned(), from: from.clone(), seq, sent_ms, command }).unwrap()
 }
 
+/// The TCP sockets process `pid` listens on (from /proc: its socket inodes, the kernel's tables).
+fn tcp_listening(pid: u32) -> Vec<String> {
+    let inodes: std::collections::HashSet<String> = std::fs::read_dir(format!("/proc/{pid}/fd"))
+        .unwrap()
+        .filter_map(|e| std::fs::read_link(e.ok()?.path()).ok())
+        .filter_map(|l| Some(l.to_str()?.strip_prefix("socket:[")?.strip_suffix(']')?.to_owned()))
+        .collect();
+    assert!(!inodes.is_empty(), "the station has its broker connection open");
+    let mut found = Vec::new();
+    for table in ["tcp", "tcp6"] {
+        let text = std::fs::read_to_string(format!("/proc/{pid}/net/{table}")).unwrap_or_default();
+        for line in text.lines().skip(1) {
+            let cols: Vec<&str> = line.split_whitespace().collect();
+            // Column 4 is the state (0A: LISTEN), column 10 the socket's inode.
+            if cols.len() > 9 && cols[3] == "0A" && inodes.contains(cols[9]) {
+                found.push(format!("{table}: {line}"));
+            }
+        }
+    }
+    found
+}
+
 fn refused_with(fleet: &Fleet, name: &str, text: &str) -> bool {
     fleet
         .station(name)
@@ -647,6 +669,12 @@ fn refusals_through_a_real_mosquitto() {
     );
     assert!(spied.lock().unwrap().is_empty(), "the broker passed on a command from an observer or a station");
     assert!(broker.log().contains("Denied PUBLISH"), "the broker logged no denial:\n{}", broker.log());
+    // The station connects out and listens on no port.
+    let control = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    assert!(!tcp_listening(std::process::id()).is_empty(), "the check sees this test's own listener");
+    drop(control);
+    let listening = tcp_listening(alpha.child.id());
+    assert!(listening.is_empty(), "the station listens: {listening:?}");
     alpha.quit();
     drop(fleet);
     drop(broker);

@@ -86,6 +86,9 @@ pub struct StationBridge {
     client: Client,
     rx: Receiver<Inbound>,
     quit: Arc<AtomicBool>,
+    /// Messages the connection thread dropped because this loop's channel was full (never a STOP).
+    dropped: Arc<std::sync::atomic::AtomicU64>,
+    dropped_said: u64,
     thread: Option<JoinHandle<()>>,
     connected: bool,
     said_error: Option<String>,
@@ -145,7 +148,16 @@ impl StationBridge {
             schema: SCHEMA.into(),
             link_bound_s: opts.link_bound.as_secs_f64(),
         };
-        let net = Net { name: name.to_owned(), client: client.clone(), tx, stop, quit: quit.clone(), hello };
+        let dropped = Arc::new(std::sync::atomic::AtomicU64::new(0));
+        let net = Net {
+            name: name.to_owned(),
+            client: client.clone(),
+            tx,
+            stop,
+            quit: quit.clone(),
+            dropped: dropped.clone(),
+            hello,
+        };
         let thread = std::thread::Builder::new()
             .name("mqtt-station".into())
             .spawn(move || net.run(connection))
@@ -156,6 +168,8 @@ impl StationBridge {
             client,
             rx,
             quit,
+            dropped,
+            dropped_said: 0,
             thread: Some(thread),
             connected: false,
             said_error: None,
@@ -206,6 +220,16 @@ impl StationBridge {
     pub fn turn(&mut self, station: &mut Station, now: Instant) {
         while let Ok(msg) = self.rx.try_recv() {
             self.handle(station, msg);
+        }
+        let dropped = self.dropped.load(Ordering::Relaxed);
+        if dropped != self.dropped_said {
+            let text = format!(
+                "{} message(s) from the broker dropped: the station's loop fell behind",
+                dropped - self.dropped_said
+            );
+            station.notices.raise(Severity::Warning, Subject::Operator, text.clone());
+            self.event(EventKind::Refused, None, text);
+            self.dropped_said = dropped;
         }
         self.supervise(station, now);
         if self.connected {
@@ -536,6 +560,7 @@ struct Net {
     tx: SyncSender<Inbound>,
     stop: StopPath,
     quit: Arc<AtomicBool>,
+    dropped: Arc<std::sync::atomic::AtomicU64>,
     hello: Hello,
 }
 
@@ -586,8 +611,14 @@ impl Net {
                         if self.tx.send(msg).is_err() {
                             break;
                         }
-                    } else if let Err(TrySendError::Disconnected(_)) = self.tx.try_send(msg) {
-                        break;
+                    } else {
+                        match self.tx.try_send(msg) {
+                            Ok(()) => {}
+                            Err(TrySendError::Full(_)) => {
+                                self.dropped.fetch_add(1, Ordering::Relaxed);
+                            }
+                            Err(TrySendError::Disconnected(_)) => break,
+                        }
                     }
                 }
                 Ok(Ok(_)) | Err(rumqttc::RecvTimeoutError::Timeout) => {}
