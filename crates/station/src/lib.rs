@@ -145,6 +145,9 @@ pub enum StationEvent<'a> {
     Vest(&'a VestEvent),
 }
 
+/// The set-up findings of one failed port, for the notices of `subject`.
+type PortFindings = (Subject, Vec<vestnav_device::doctor::Finding>);
+
 /// The running system (see the crate doc).
 pub struct Station {
     settings: StationSettings,
@@ -189,10 +192,7 @@ pub struct Station {
     diagnosed: Vec<String>,
     /// Set-up findings of a failed port, from the thread that looked (it reads files and runs programs,
     /// which the view's thread never waits for).
-    port_findings: (
-        std::sync::mpsc::Sender<(Subject, Vec<vestnav_device::doctor::Finding>)>,
-        std::sync::mpsc::Receiver<(Subject, Vec<vestnav_device::doctor::Finding>)>,
-    ),
+    port_findings: (std::sync::mpsc::Sender<PortFindings>, std::sync::mpsc::Receiver<PortFindings>),
     /// The drift and cone tests, fed with every fix of whatever source runs.
     pub field_tests: FieldTests,
     /// The origin of the field tests' and the pin detector's times.
