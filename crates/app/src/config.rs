@@ -242,14 +242,18 @@ impl Config {
     /// Clamps values a hand-edited file could set out of range.
     fn sanitized(mut self) -> Self {
         let d = Self::default();
-        self.on_ms = self.on_ms.clamp(20, 2000);
-        let fix = |v: f64, lo: f64, hi: f64, def: f64| if v.is_finite() { v.clamp(lo, hi) } else { def };
-        self.arrival_radius_m = fix(self.arrival_radius_m, 1.0, 100.0, d.arrival_radius_m);
-        self.cue_interval_s = fix(self.cue_interval_s, 0.5, 60.0, d.cue_interval_s);
-        self.manual_hold_s = fix(self.manual_hold_s, 0.0, 600.0, d.manual_hold_s);
-        self.walking_speed_m_s = fix(self.walking_speed_m_s, 0.2, 5.0, d.walking_speed_m_s);
-        self.stale_after_s = fix(self.stale_after_s, 1.0, 60.0, d.stale_after_s);
-        self.lost_after_s = fix(self.lost_after_s, self.stale_after_s, 600.0, d.lost_after_s);
+        use vestnav_station::command::ranges;
+        self.on_ms = self.on_ms.clamp(*ranges::ON_MS.start(), *ranges::ON_MS.end());
+        let fix = |v: f64, r: std::ops::RangeInclusive<f64>, def: f64| {
+            if v.is_finite() { v.clamp(*r.start(), *r.end()) } else { def }
+        };
+        self.arrival_radius_m = fix(self.arrival_radius_m, ranges::ARRIVAL_RADIUS_M, d.arrival_radius_m);
+        self.cue_interval_s = fix(self.cue_interval_s, ranges::CUE_INTERVAL_S, d.cue_interval_s);
+        self.manual_hold_s = fix(self.manual_hold_s, ranges::MANUAL_HOLD_S, d.manual_hold_s);
+        self.walking_speed_m_s = fix(self.walking_speed_m_s, 0.2..=5.0, d.walking_speed_m_s);
+        self.stale_after_s = fix(self.stale_after_s, ranges::STALE_AFTER_S, d.stale_after_s);
+        self.lost_after_s =
+            fix(self.lost_after_s, self.stale_after_s..=ranges::LOST_AFTER_MAX_S, d.lost_after_s);
         self.tile_cache_mb = self.tile_cache_mb.clamp(10, 100_000);
         self.prefetch_parallelism =
             self.prefetch_parallelism.clamp(1, vestnav_tiles::prefetch::MAX_PARALLELISM);

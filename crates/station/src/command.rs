@@ -82,26 +82,45 @@ impl Command {
 /// Longest mark label accepted [characters].
 const MAX_MARK_LABEL: usize = 200;
 
-/// Limits of the settings a command may set (the console's settings file clamps to the same ranges).
+/// The ranges of the operator's settings: one home for the console's settings file (clamped into them)
+/// and for settings from a command (refused outside them).
+pub mod ranges {
+    use std::ops::RangeInclusive;
+
+    /// Arrival radius [m].
+    pub const ARRIVAL_RADIUS_M: RangeInclusive<f64> = 1.0..=100.0;
+    /// Time between automatic cues [s].
+    pub const CUE_INTERVAL_S: RangeInclusive<f64> = 0.5..=60.0;
+    /// How long an operator's manual cue holds automatic cues back [s].
+    pub const MANUAL_HOLD_S: RangeInclusive<f64> = 0.0..=600.0;
+    /// A fix this old is stale [s].
+    pub const STALE_AFTER_S: RangeInclusive<f64> = 1.0..=60.0;
+    /// A fix this old is lost [s]; never below the stale age.
+    pub const LOST_AFTER_MAX_S: f64 = 600.0;
+    /// A cue's on-time [ms].
+    pub const ON_MS: RangeInclusive<u16> = 20..=2000;
+}
+
 impl StationSettings {
-    /// Checks every value against its range; the message names the field. Values from a network or a
-    /// file go through this before they reach guidance.
+    /// Checks every value against its range ([`ranges`]); the message names the field. Values from a
+    /// network or a file go through this before they reach guidance.
     pub fn check(&self) -> Result<(), String> {
         let g = &self.guidance;
-        let within = |name: &str, v: f64, lo: f64, hi: f64| {
-            if v.is_finite() && (lo..=hi).contains(&v) {
+        let within = |name: &str, v: f64, r: std::ops::RangeInclusive<f64>| {
+            if v.is_finite() && r.contains(&v) {
                 Ok(())
             } else {
-                Err(format!("{name}: {v} is outside [{lo}, {hi}]"))
+                Err(format!("{name}: {v} is outside [{}, {}]", r.start(), r.end()))
             }
         };
-        within("arrival radius [m]", g.arrival_radius_m, 1.0, 100.0)?;
-        within("cue interval [s]", g.cue_interval_s, 0.5, 60.0)?;
-        within("manual hold [s]", g.manual_hold_s, 0.0, 600.0)?;
-        within("stale after [s]", g.stale_after_s, 1.0, 60.0)?;
-        within("lost after [s]", self.lost_after_s, g.stale_after_s, 600.0)?;
-        if !(20..=2000).contains(&g.on_ms) {
-            return Err(format!("on-time [ms]: {} is outside [20, 2000]", g.on_ms));
+        within("arrival radius [m]", g.arrival_radius_m, ranges::ARRIVAL_RADIUS_M)?;
+        within("cue interval [s]", g.cue_interval_s, ranges::CUE_INTERVAL_S)?;
+        within("manual hold [s]", g.manual_hold_s, ranges::MANUAL_HOLD_S)?;
+        within("stale after [s]", g.stale_after_s, ranges::STALE_AFTER_S)?;
+        within("lost after [s]", self.lost_after_s, g.stale_after_s..=ranges::LOST_AFTER_MAX_S)?;
+        if !ranges::ON_MS.contains(&g.on_ms) {
+            let r = ranges::ON_MS;
+            return Err(format!("on-time [ms]: {} is outside [{}, {}]", g.on_ms, r.start(), r.end()));
         }
         Ok(())
     }
