@@ -233,7 +233,7 @@ fn the_error_estimate_names_its_source() {
     fake.gps(&GpsEvent::Fix(Box::new(f)));
     settle(&mut h, |c| c.station.gps.fixes >= 1);
     h.run_steps(2);
-    assert!(h.query_by_label_contains("1.2 m · UBX hAcc").is_some());
+    assert!(h.query_by_label_contains("±1.2 m (from UBX hAcc)").is_some());
     let mut f = fix(42.0, -71.0, Duration::ZERO);
     f.error = Some(ErrorEstimate {
         horizontal_m: 7.5,
@@ -243,7 +243,7 @@ fn the_error_estimate_names_its_source() {
     fake.gps(&GpsEvent::Fix(Box::new(f)));
     settle(&mut h, |c| c.station.gps.fixes >= 2);
     h.run_steps(2);
-    assert!(h.query_by_label_contains("7.5 m · HDOP x 5 m").is_some());
+    assert!(h.query_by_label_contains("±7.5 m (from HDOP x 5 m)").is_some());
 }
 
 /// Issue 23 item 6: a replay at the end of its file is "Replay finished" (a notice, no STALE or FIX LOST

@@ -36,11 +36,12 @@ fn stop_all_acts_on_the_first_click_with_every_window_and_modal_open() {
     let dir = test_dir("stop-over-modal");
     let existing = dir.join("route.gpx");
     std::fs::write(&existing, "<gpx/>").unwrap();
+    // The pattern editor first: its button is in the side panel, which the other windows may cover.
+    open_pattern_editor(&mut h);
     h.get_by_label("Receiver").click();
     step(&mut h, 2);
     h.get_by_label("Tiles…").click();
     step(&mut h, 2);
-    open_pattern_editor(&mut h);
     // The export's own button may lie under a window now: its question is asked as the button would.
     h.state_mut().map.pending_replace = Some((existing.clone(), vestnav_app::map_panel::RouteExport::Gpx));
     step(&mut h, 3);
