@@ -419,6 +419,9 @@ pub fn show(station: &mut Station, cfg: &mut Config, gps_ui: &mut GpsUi, ui: &mu
             .strong()
             .color(ui.visuals().warn_fg_color),
         );
+    } else {
+        // The same line, saying the fix is current, so the panel keeps its height when the fix ages.
+        ui.label(RichText::new("CURRENT fix").strong());
     }
     fix_grid(ui, &fix, age, station.gps.fixes, fresh);
     if let Some(st) = &station.gps.stats {

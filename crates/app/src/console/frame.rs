@@ -538,7 +538,7 @@ impl Console {
             // text stays either way.
             let alarm = b.subject == BannerSubject::Gps && b.severity != Severity::Notice;
             let stop = b.subject == BannerSubject::Stop;
-            let blink = ((alarm && !self.station.gps.alarm_silenced) || stop) && (anim_s * 2.0).fract() < 0.5;
+            let blink = ((alarm && !self.station.gps.alarm_silenced) || stop) && anim_s.fract() < 0.5;
             egui::Frame::new()
                 .fill(if blink { fill.gamma_multiply(0.8) } else { fill })
                 .inner_margin(egui::Margin::symmetric(10, 5))
@@ -579,7 +579,8 @@ impl Console {
         let blinking = banners.iter().any(|b| b.subject == BannerSubject::Stop)
             || (banners.iter().any(|b| b.subject == BannerSubject::Gps) && !self.station.gps.alarm_silenced);
         if blinking {
-            ui.ctx().request_repaint_after(Duration::from_millis(250));
+            // A 1 Hz blink: two frames a second while an alarm is up, not four.
+            ui.ctx().request_repaint_after(Duration::from_millis(500));
         }
     }
 
