@@ -167,6 +167,7 @@ const LOGS: &[(&str, &str, Judge)] = &[
                   for 5 s GSA says 2D: we report 2D, gpsd 3D from GGA's altitude",
         },
     ),
+    ("sirfstarv-nmea.log", "SiRF V NMEA", Judge::Nmea),
     ("rtcm3.2.log", "RTCM 3 corrections", Judge::Corrections),
     ("rtcm3.bndm.log", "RTCM 3 corrections", Judge::Corrections),
 ];
