@@ -322,7 +322,7 @@ fn every_gpsd_log_matches_gpsd() {
         .filter(|p| p.extension().is_some_and(|e| e == "log"))
         .collect();
     logs.sort();
-    assert_eq!(logs.len(), 38);
+    assert_eq!(logs.len(), 39);
     let mut t = Tally::default();
     let mut epochs_matched = 0;
     let mut epochs_compared = 0;

@@ -168,6 +168,7 @@ const LOGS: &[(&str, &str, Judge)] = &[
         },
     ),
     ("sirfstarv-nmea.log", "SiRF V NMEA", Judge::Nmea),
+    ("st-teseo-liv3f.log", "ST Teseo LIV3F", Judge::Nmea),
     ("rtcm3.2.log", "RTCM 3 corrections", Judge::Corrections),
     ("rtcm3.bndm.log", "RTCM 3 corrections", Judge::Corrections),
 ];
