@@ -157,6 +157,18 @@ const LOGS: &[(&str, &str, Judge)] = &[
                   GSA says 2D with 3 satellites (HDOP 99.0): we report 2D, gpsd 3D from GGA's altitude",
         },
     ),
+    (
+        "haicom-305N.log",
+        "SiRF II NMEA",
+        Judge::Exception {
+            min_rate: 0.5,
+            date_differs: true,
+            why: "gpsd adds 1024 weeks to RMC's 2007-04-08 (2026-11-22, its week-rollover guess); as tomtom-mkII, \
+                  for 5 s GSA says 2D: we report 2D, gpsd 3D from GGA's altitude",
+        },
+    ),
+    ("sirfstarv-nmea.log", "SiRF V NMEA", Judge::Nmea),
+    ("st-teseo-liv3f.log", "ST Teseo LIV3F", Judge::Nmea),
     ("rtcm3.2.log", "RTCM 3 corrections", Judge::Corrections),
     ("rtcm3.bndm.log", "RTCM 3 corrections", Judge::Corrections),
 ];
