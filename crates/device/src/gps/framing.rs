@@ -535,7 +535,11 @@ impl Framer {
                     self.at_line_start = true;
                 }
                 b'$' | b'!' => {
-                    self.stats.truncated += 1;
+                    // A start character right after another (`$$GPGGA…`, as the ST Teseo LIV4F sends) is a
+                    // doubled start, not a sentence cut short: nothing is lost, so nothing is counted.
+                    if self.buf.len() > 1 {
+                        self.stats.truncated += 1;
+                    }
                     self.start_line(b);
                 }
                 0x20..=0x7e => {
@@ -792,6 +796,14 @@ mod tests {
         let (s, st) = frame(format!("$GPGGA,030130{GGA}\r\n").as_bytes());
         assert_eq!(s, vec![GGA.to_owned()]);
         assert_eq!(st.truncated, 1);
+    }
+
+    #[test]
+    fn a_doubled_start_character_is_no_truncated_sentence() {
+        let (s, st) = frame(format!("${GGA}\r\n").as_bytes());
+        assert_eq!(s, vec![GGA.to_owned()]);
+        assert_eq!(st.truncated, 0);
+        assert_eq!(st.rejected(), 0);
     }
 
     #[test]
