@@ -67,7 +67,7 @@ pub fn outbox<T: Send + 'static>(
     (out, rx)
 }
 
-/// The guidance worker's channel to the view: wakes it when the decision changes (see [`Decision`]).
+/// The guidance worker's channel to the view: wakes it when the `Decision` changes.
 pub fn guidance_outbox(
     capacity: usize,
     waker: Option<Waker>,
