@@ -99,15 +99,19 @@ impl MapView {
         self.tile_hits.set(0);
         self.tile_misses.set(0);
         let tile_notes = (self.tiles.note(cfg, false), self.tiles.note(cfg, true));
-        let mut counting = self.tiles.active(cfg, ui.ctx()).map(|t| CountingTiles {
-            inner: t,
-            hits: self.tile_hits.clone(),
-            misses: self.tile_misses.clone(),
-        });
-        let tiles_dyn = counting.as_mut().map(|t| t as &mut dyn Tiles);
+        // Bottom first: the OSM extract (once read), then the raster source; one of them alone is the base.
+        let (extract, raster) = self.tiles.layers(cfg, ui.ctx());
+        let extract_on = extract.is_some();
+        let (hits, misses) = (&self.tile_hits, &self.tile_misses);
+        let count = |t| CountingTiles { inner: t, hits: hits.clone(), misses: misses.clone() };
+        let (mut bottom, mut top) = (extract.map(count), raster.map(count));
+        let (base, over): (Option<&mut dyn Tiles>, Option<&mut dyn Tiles>) = match (bottom.as_mut(), top.as_mut()) {
+            (Some(b), t) => (Some(b), t.map(|t| t as &mut dyn Tiles)),
+            (None, t) => (t.map(|t| t as &mut dyn Tiles), None),
+        };
         let now_s = ui.input(|i| i.time);
         let tiles_missing_s = self.no_tiles_since_s.map_or(0.0, |t| now_s - t);
-        let tiles_on = cfg.map_tiles;
+        let tiles_on = cfg.map_tiles || extract_on;
         // Borrow the fields the closure needs separately from walkers' memory. The closure only reads the
         // route; what it asks for (drag, add, menu actions) is applied to the route after it.
         let waypoints = route.waypoints();
@@ -125,9 +129,12 @@ impl MapView {
         let menu_wp = &mut self.menu_wp;
         let mut dragging = false;
         let mut dragged_to = None;
-        let map = walkers::Map::new(tiles_dyn, &mut self.memory, my_position)
+        let mut map = walkers::Map::new(base, &mut self.memory, my_position)
             .double_click_to_zoom(true)
             .zoom_with_ctrl(false);
+        if let Some(over) = over {
+            map = map.with_layer(over, 1.0);
+        }
         let resp = map.show(ui, |ui, response, projector, _memory| {
             let rect = response.rect;
             let painter = ui.painter_at(rect);
@@ -492,7 +499,7 @@ impl MapView {
         if let Some((i, a)) = action {
             self.apply_waypoint_action(route, i, a, notices);
         }
-        if cfg.map_tiles && self.tile_hits.get() == 0 && self.tile_misses.get() > 0 {
+        if tiles_on && self.tile_hits.get() == 0 && self.tile_misses.get() > 0 {
             self.no_tiles_since_s.get_or_insert(now_s);
         } else {
             self.no_tiles_since_s = None;
