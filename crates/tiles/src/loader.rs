@@ -101,8 +101,9 @@ impl TileLoader {
         });
         for i in 0..threads.max(1) {
             let (sh, open, waker) = (shared.clone(), open.clone(), waker.clone());
-            let spawned =
-                std::thread::Builder::new().name(format!("tiles-{i}")).spawn(move || run(&sh, &*open, &waker));
+            let spawned = std::thread::Builder::new()
+                .name(format!("tiles-{i}"))
+                .spawn(move || run(&sh, &*open, &waker));
             if let Err(e) = spawned {
                 *lock(&shared.opened) = Some(Err(format!("cannot start the tile loader thread: {e}")));
             }
@@ -148,7 +149,11 @@ impl Drop for TileLoader {
 }
 
 /// One loader thread: opens its own store, then serves the newest request first until stopped.
-fn run(shared: &Shared, open: &(dyn Fn() -> Result<Box<dyn TileStore>, TileError> + Send + Sync), waker: &Waker) {
+fn run(
+    shared: &Shared,
+    open: &(dyn Fn() -> Result<Box<dyn TileStore>, TileError> + Send + Sync),
+    waker: &Waker,
+) {
     let mut store: Box<dyn TileStore> = match open() {
         Ok(s) => {
             lock(&shared.opened).get_or_insert(Ok(s.info()));

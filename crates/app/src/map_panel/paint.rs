@@ -105,10 +105,11 @@ impl MapView {
         let (hits, misses) = (&self.tile_hits, &self.tile_misses);
         let count = |t| CountingTiles { inner: t, hits: hits.clone(), misses: misses.clone() };
         let (mut bottom, mut top) = (extract.map(count), raster.map(count));
-        let (base, over): (Option<&mut dyn Tiles>, Option<&mut dyn Tiles>) = match (bottom.as_mut(), top.as_mut()) {
-            (Some(b), t) => (Some(b), t.map(|t| t as &mut dyn Tiles)),
-            (None, t) => (t.map(|t| t as &mut dyn Tiles), None),
-        };
+        let (base, over): (Option<&mut dyn Tiles>, Option<&mut dyn Tiles>) =
+            match (bottom.as_mut(), top.as_mut()) {
+                (Some(b), t) => (Some(b), t.map(|t| t as &mut dyn Tiles)),
+                (None, t) => (t.map(|t| t as &mut dyn Tiles), None),
+            };
         let now_s = ui.input(|i| i.time);
         let tiles_missing_s = self.no_tiles_since_s.map_or(0.0, |t| now_s - t);
         let tiles_on = cfg.map_tiles || extract_on;

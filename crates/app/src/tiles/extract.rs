@@ -42,13 +42,16 @@ impl TileStore for OsmStore {
     fn get(&mut self, key: TileKey) -> Result<Option<FoundTile>, TileError> {
         let Some(id) = vestnav_osm::TileId::new(key.z, key.x, key.y) else { return Ok(None) };
         let Some((sw, ne)) = self.renderer.map().bounds() else { return Ok(None) };
-        let (a, b) = (vestnav_osm::TileId::containing(ne, key.z), vestnav_osm::TileId::containing(sw, key.z));
-        let (Some(a), Some(b)) = (a, b) else { return Ok(None) };
-        if key.x < a.x || key.x > b.x || key.y < a.y || key.y > b.y {
+        // Tile rows run southwards: the north-east corner's tile has the highest column, the lowest row.
+        let (sw, ne) =
+            (vestnav_osm::TileId::containing(sw, key.z), vestnav_osm::TileId::containing(ne, key.z));
+        let (Some(sw), Some(ne)) = (sw, ne) else { return Ok(None) };
+        if !(sw.x..=ne.x).contains(&key.x) || !(ne.y..=sw.y).contains(&key.y) {
             return Ok(None);
         }
         let what = tile_what(key, &self.path.display().to_string());
-        let bytes = self.renderer.tile_png(id).map_err(|why| TileError::Corrupt { what: what.clone(), why })?;
+        let bytes =
+            self.renderer.tile_png(id).map_err(|why| TileError::Corrupt { what: what.clone(), why })?;
         Ok(Some(FoundTile { bytes, origin: Origin::Local, what }))
     }
 }

@@ -268,14 +268,7 @@ impl MapTiles {
         } else {
             Color32::from_rgb(70, 170, 90)
         };
-        (
-            format!(
-                "{}: {}",
-                t.label(),
-                if parts.is_empty() { "—".into() } else { parts.join(" · ") }
-            ),
-            colour,
-        )
+        (format!("{}: {}", t.label(), if parts.is_empty() { "—".into() } else { parts.join(" · ") }), colour)
     }
 
     /// The map toolbar's tile controls and, when open, the Tiles window.
