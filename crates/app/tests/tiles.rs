@@ -619,3 +619,92 @@ fn broken_osm_extract_is_refused_naming_the_file() {
     assert!(h.query_by_label_contains("broken.osm.pbf").is_some());
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// "Route to here" on the Helsinki extract in the console: planned off the UI thread, the route replaced
+/// in one undo step by a dense route whose every point between the two ends is a node of the extract's
+/// path network, ending at the clicked point, and no shorter than the geodesic (geographiclib); a point
+/// far from any path gives a notice, not a route.
+#[test]
+fn route_to_here_follows_the_extracts_paths() {
+    use geographiclib_rs::{Geodesic, InverseGeodesic as _};
+    use vestnav_app::map_panel::walk::WalkRequest;
+    use vestnav_core::geo::LatLon;
+    let path = osm_data("helsinki.osm.pbf");
+    let extract = vestnav_osm::Extract::read(&path).unwrap();
+    let nodes: Vec<LatLon> = extract.graph.nodes().map(|(_, p)| p).collect();
+    let on_graph = |p: &vestnav_station::route::Waypoint| {
+        nodes.iter().any(|n| (n.lat_deg - p.lat_deg).abs() < 1e-9 && (n.lon_deg - p.lon_deg).abs() < 1e-9)
+    };
+    let geo = Geodesic::wgs84();
+    let dist = |a: (f64, f64), b: (f64, f64)| -> f64 { geo.inverse(a.0, a.1, b.0, b.1) };
+    // Two nodes of the network 400–1500 m apart that the planner joins.
+    let (from, to) = nodes
+        .iter()
+        .step_by(97)
+        .flat_map(|a| nodes.iter().step_by(89).map(move |b| (*a, *b)))
+        .find(|(a, b)| {
+            let d = dist((a.lat_deg, a.lon_deg), (b.lat_deg, b.lon_deg));
+            (400.0..1500.0).contains(&d) && extract.graph.plan(*a, *b, vestnav_osm::Profile::Shortest).is_ok()
+        })
+        .unwrap();
+    let mut cfg = map_cfg(TileSourceConfig::Osm);
+    cfg.map_tiles = false;
+    cfg.osm_map = Some(path);
+    let (mut h, _tex) = console(cfg);
+    for _ in 0..300 {
+        h.step();
+        if h.state().map.tiles.extract.as_ref().is_some_and(|e| e.loaded().is_some()) {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    let ctx = h.ctx.clone();
+    let plan = |h: &mut Harness<'static, Console>, req| {
+        let c = h.state_mut();
+        let (map, station) = (&mut c.map, &mut c.station);
+        map.start_walk(req, &ctx, &mut station.notices);
+    };
+    let (revision, before) = (h.state().station.route().revision(), h.state().station.route().state());
+    plan(&mut h, WalkRequest::ToHere { from, to });
+    for _ in 0..300 {
+        h.step();
+        if h.state().station.route().revision() != revision {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    let wps = h.state().station.route().waypoints().to_vec();
+    assert!(wps.len() >= 3, "{} points; notices: {:?}", wps.len(), h.state().station.notices.all());
+    assert!(wps[1..wps.len() - 1].iter().all(|w| on_graph(w)), "a point off the network");
+    let last = wps.last().unwrap();
+    assert!(dist((last.lat_deg, last.lon_deg), (to.lat_deg, to.lon_deg)) < 0.01);
+    let along: f64 =
+        wps.windows(2).map(|w| dist((w[0].lat_deg, w[0].lon_deg), (w[1].lat_deg, w[1].lon_deg))).sum();
+    assert!(along >= dist((from.lat_deg, from.lon_deg), (to.lat_deg, to.lon_deg)) - 0.01);
+    // One undo step brings the route before back.
+    assert!(h.state_mut().station.route_mut().undo());
+    assert!(h.state().station.route().is(&before));
+
+    // 5 km out to sea: no path, said as a notice; the route is untouched.
+    let revision = h.state().station.route().revision();
+    let sea = LatLon::new(to.lat_deg - 0.05, to.lon_deg);
+    plan(&mut h, WalkRequest::ToHere { from, to: sea });
+    let mut said = None;
+    for _ in 0..300 {
+        h.step();
+        said = h
+            .state()
+            .station
+            .notices
+            .all()
+            .iter()
+            .find(|n| n.text.starts_with("walk to here"))
+            .map(|n| n.text.clone());
+        if said.is_some() {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    assert!(said.is_some(), "no notice: {:?}", h.state().station.notices.all());
+    assert_eq!(h.state().station.route().revision(), revision);
+}

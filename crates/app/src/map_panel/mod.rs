@@ -32,6 +32,7 @@ pub use vestnav_station::route::{Coordinate, UNDO_STEPS, parse_coordinate, plaus
 
 mod files;
 mod paint;
+pub mod walk;
 
 /// Waypoints drawn as markers at most per frame: beyond it (a long route zoomed out) only the route line,
 /// the next waypoint and the waypoint under the pointer are drawn, so the frame stays cheap at
@@ -161,6 +162,8 @@ pub struct MapView {
     pub pending_import: Option<crate::route_import::ImportChoice>,
     /// Whether guidance is steering the wearer along the route (an import then asks first).
     guiding: bool,
+    /// Routing on foot over the OSM extract's paths: the profile and the plan running.
+    pub walk: walk::WalkPlanner,
     /// The waypoint picked in the list (a click selects; "Guide to" makes it the next one).
     pub selected: Option<usize>,
 }
@@ -237,6 +240,7 @@ impl MapView {
             pending_replace: None,
             pending_import: None,
             guiding: false,
+            walk: walk::WalkPlanner::default(),
             selected: None,
             right_click_at: None,
             menu_wp: None,
@@ -300,6 +304,7 @@ impl MapView {
         self.toolbar(ui, route, track, cfg, notices);
         self.file_row(ui, route, track, cfg, notices);
         self.import_dialog(ui, route, notices);
+        self.poll_walk(route, notices);
         self.confirm_import(ui, route, notices);
         if let Some(e) = &self.tools.goto_error {
             ui.label(RichText::new(format!("Go to: {e}")).color(ui.visuals().error_fg_color));

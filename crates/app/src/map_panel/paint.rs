@@ -16,6 +16,7 @@ use vestnav_device::route_file::TrackPoint;
 use vestnav_station::route::{RouteModel, Track, segments};
 use vestnav_station::{Notices, Severity, Subject};
 
+use super::walk::{PROFILES, WalkRequest};
 use super::{
     MapView, TILES_OFFLINE_AFTER_S, TRACK_DRAW_MAX, TRACK_TAIL, WAYPOINT_MARKERS_MAX, WaypointAction,
     age_text, decimation_stride, nice_length_m, wearer_marker,
@@ -130,6 +131,10 @@ impl MapView {
         let menu_wp = &mut self.menu_wp;
         let mut dragging = false;
         let mut dragged_to = None;
+        let has_paths = extract_on;
+        let walk_busy = self.walk.busy();
+        let walk_profile = &mut self.walk.profile;
+        let mut walk_req: Option<WalkRequest> = None;
         let mut map = walkers::Map::new(base, &mut self.memory, my_position)
             .double_click_to_zoom(true)
             .zoom_with_ctrl(false);
@@ -431,6 +436,39 @@ impl MapView {
                 if ui.button("Insert as next waypoint").clicked() {
                     add_here = Some(true);
                 }
+                if has_paths {
+                    ui.separator();
+                    let here = right_click_at.map(|p| LatLon::new(p.y(), p.x()));
+                    let from = wearer.map(|w| LatLon::new(w.y(), w.x()));
+                    let to_here = ui
+                        .add_enabled(
+                            from.is_some() && !walk_busy,
+                            egui::Button::new("Route to here along paths"),
+                        )
+                        .on_disabled_hover_text("needs a fix of the wearer (and no plan running)");
+                    if to_here.clicked()
+                        && let (Some(from), Some(to)) = (from, here)
+                    {
+                        walk_req = Some(WalkRequest::ToHere { from, to });
+                    }
+                    let follow = ui
+                        .add_enabled(
+                            waypoints.len() >= 2 && !walk_busy,
+                            egui::Button::new("Follow paths (every leg of the route)"),
+                        )
+                        .on_disabled_hover_text("needs a route of two waypoints or more");
+                    if follow.clicked() {
+                        walk_req = Some(WalkRequest::FollowPaths(
+                            waypoints.iter().map(|w| LatLon::new(w.lat_deg, w.lon_deg)).collect(),
+                        ));
+                    }
+                    ui.horizontal(|ui| {
+                        ui.label("Profile");
+                        for (p, name) in PROFILES {
+                            ui.radio_value(walk_profile, p, name);
+                        }
+                    });
+                }
             });
 
             // Scale bar and attribution / offline note.
@@ -499,6 +537,9 @@ impl MapView {
         }
         if let Some((i, a)) = action {
             self.apply_waypoint_action(route, i, a, notices);
+        }
+        if let Some(req) = walk_req {
+            self.start_walk(req, ui.ctx(), notices);
         }
         if tiles_on && self.tile_hits.get() == 0 && self.tile_misses.get() > 0 {
             self.no_tiles_since_s.get_or_insert(now_s);
