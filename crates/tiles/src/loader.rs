@@ -84,13 +84,13 @@ impl TileLoader {
     pub fn start(source: &TileSourceConfig, cache_dir: &Path, waker: &Waker) -> Self {
         let threads = if source.url_template().is_some() { 2 } else { 1 };
         let (source, cache_dir) = (source.clone(), cache_dir.to_path_buf());
-        Self::start_with(threads, Arc::new(move || store::open(&source, &cache_dir)), waker)
+        Self::start_with(threads, &(Arc::new(move || store::open(&source, &cache_dir)) as OpenStore), waker)
     }
 
     /// Starts `threads` loader threads, each serving requests from the store `open` gives it (called
     /// once per thread, on that thread): the one path for every kind of store, including ones made
     /// outside this crate (the console's OpenStreetMap extract, drawn on demand).
-    pub fn start_with(threads: usize, open: OpenStore, waker: &Waker) -> Self {
+    pub fn start_with(threads: usize, open: &OpenStore, waker: &Waker) -> Self {
         let shared = Arc::new(Shared {
             queue: Mutex::default(),
             wake: Condvar::new(),

@@ -93,7 +93,7 @@ impl MapView {
         match spawned {
             Ok(_) => self.walk.job = Some(rx),
             Err(e) => {
-                notices.raise(Severity::Alarm, Subject::Route, format!("cannot start the planner: {e}"))
+                notices.raise(Severity::Alarm, Subject::Route, format!("cannot start the planner: {e}"));
             }
         }
     }

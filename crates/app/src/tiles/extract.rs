@@ -9,7 +9,7 @@ use std::sync::Arc;
 use std::sync::mpsc::{Receiver, TryRecvError};
 
 use vestnav_osm::{ATTRIBUTION, Extract, ExtractStats, PathGraph, Renderer};
-use vestnav_tiles::loader::TileLoader;
+use vestnav_tiles::loader::{OpenStore, TileLoader};
 use vestnav_tiles::store::{FoundTile, Origin, StoreInfo, TileStore};
 use vestnav_tiles::{TileError, TileKey, tile_what};
 
@@ -78,7 +78,7 @@ impl LoadedExtract {
 
 enum State {
     Reading(Receiver<Result<Extract, String>>),
-    Ready(Box<LoadedExtract>, SourceTiles),
+    Ready(Box<(LoadedExtract, SourceTiles)>),
     Failed(String),
 }
 
@@ -127,7 +127,7 @@ impl MapExtract {
             Ok(Ok(e)) => {
                 let loaded = LoadedExtract::new(e);
                 let tiles = extract_tiles(&loaded, ctx);
-                State::Ready(Box::new(loaded), tiles)
+                State::Ready(Box::new((loaded, tiles)))
             }
         };
     }
@@ -135,7 +135,7 @@ impl MapExtract {
     /// The extract once read.
     pub fn loaded(&self) -> Option<&LoadedExtract> {
         match &self.state {
-            State::Ready(l, _) => Some(l),
+            State::Ready(r) => Some(&r.0),
             _ => None,
         }
     }
@@ -143,7 +143,7 @@ impl MapExtract {
     /// Its tiles once read.
     pub fn tiles(&mut self) -> Option<&mut SourceTiles> {
         match &mut self.state {
-            State::Ready(_, t) => Some(t),
+            State::Ready(r) => Some(&mut r.1),
             _ => None,
         }
     }
@@ -162,10 +162,10 @@ impl MapExtract {
         match &self.state {
             State::Reading(_) => format!("map {name}: reading…"),
             State::Failed(e) => format!("map: {e}"),
-            State::Ready(l, _) => format!(
+            State::Ready(r) => format!(
                 "map {name}: {:.1} MB, {} path nodes",
-                l.stats.bytes as f64 / 1e6,
-                l.graph.node_count()
+                r.0.stats.bytes as f64 / 1e6,
+                r.0.graph.node_count()
             ),
         }
     }
@@ -176,12 +176,9 @@ pub fn extract_tiles(loaded: &LoadedExtract, ctx: &egui::Context) -> SourceTiles
     let (renderer, path) = (loaded.renderer.clone(), loaded.path.clone());
     let repaint = ctx.clone();
     let waker: vestnav_tiles::Waker = Arc::new(move || repaint.request_repaint());
-    let loader = TileLoader::start_with(
-        RENDER_THREADS,
-        Arc::new(move || -> Result<Box<dyn TileStore>, TileError> {
-            Ok(Box::new(OsmStore { renderer: renderer.clone(), path: path.clone() }))
-        }),
-        &waker,
-    );
+    let open: OpenStore = Arc::new(move || -> Result<Box<dyn TileStore>, TileError> {
+        Ok(Box::new(OsmStore { renderer: renderer.clone(), path: path.clone() }))
+    });
+    let loader = TileLoader::start_with(RENDER_THREADS, &open, &waker);
     SourceTiles::with_loader(format!("OSM extract {}", file_name(&loaded.path)), None, loader, ctx.clone())
 }
