@@ -4,7 +4,8 @@
 //!
 //! Mouse: drag the map to pan (leaves follow mode), Ctrl+wheel or pinch to zoom; drag a waypoint to move
 //! it; right-click a waypoint for delete / move earlier / move later / make next; right-click the map to add
-//! a waypoint there; with "Add waypoints" on, a left click adds one at the end of the route.
+//! a waypoint there (with an OpenStreetMap extract loaded, also *Route to here along paths* and *Follow
+//! paths*: `walk`); with "Add waypoints" on, a left click adds one at the end of the route.
 //!
 //! Every edit of the route (add, move, drag, delete, reorder, rename, typed coordinates, clear, import)
 //! is one step of a bounded undo history ([`UNDO_STEPS`]); Ctrl+Z undoes, Ctrl+Shift+Z and Ctrl+Y redo
