@@ -685,6 +685,22 @@ fn route_to_here_follows_the_extracts_paths() {
     assert!(h.state_mut().station.route_mut().undo());
     assert!(h.state().station.route().is(&before));
 
+    // Follow paths through from, a node of the walk just planned, and to: every leg along the network,
+    // so the route passes through that middle node.
+    let mid = LatLon::new(wps[wps.len() / 2].lat_deg, wps[wps.len() / 2].lon_deg);
+    let revision = h.state().station.route().revision();
+    plan(&mut h, WalkRequest::FollowPaths(vec![from, mid, to]));
+    for _ in 0..300 {
+        h.step();
+        if h.state().station.route().revision() != revision {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    let legs = h.state().station.route().waypoints().to_vec();
+    assert!(legs.len() >= 3 && legs[1..legs.len() - 1].iter().all(on_graph));
+    assert!(legs.iter().any(|w| dist((w.lat_deg, w.lon_deg), (mid.lat_deg, mid.lon_deg)) < 0.01));
+
     // 5 km out to sea: no path, said as a notice; the route is untouched.
     let revision = h.state().station.route().revision();
     let sea = LatLon::new(to.lat_deg - 0.05, to.lon_deg);
