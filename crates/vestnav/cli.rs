@@ -57,6 +57,11 @@ pub struct Cli {
     /// .mbtiles, or a folder.
     #[arg(long, value_name = "SOURCE", value_parser = parse_tiles)]
     pub tiles: Option<vestnav_tiles::TileSourceConfig>,
+    /// Console only: an OpenStreetMap extract (.osm.pbf) drawn offline under the tiles at zooms 14–19, and
+    /// routed on for walks along its footways (kept as the console's setting, like the Tiles window's
+    /// choice).
+    #[arg(long, value_name = "AREA.osm.pbf")]
+    pub map: Option<std::path::PathBuf>,
     /// Console only: save a PNG of the window after --screenshot-after seconds, then close it (the vest is
     /// stopped first, as on any close). For documentation and bug reports; works under Xvfb.
     #[arg(long, value_name = "FILE.png")]

@@ -138,7 +138,12 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             (c, operator)
         });
         return vestnav_app::run(
-            vestnav_app::console::DeviceOverrides { gps: cli.gps, vest: cli.vest, tiles: cli.tiles },
+            vestnav_app::console::DeviceOverrides {
+                gps: cli.gps,
+                vest: cli.vest,
+                tiles: cli.tiles,
+                map: cli.map,
+            },
             screenshot,
             remote,
         );

@@ -51,6 +51,9 @@ pub struct Config {
     pub map_tiles: bool,
     /// Where the tiles come from (`vestnav --tiles SOURCE` overrides it for one run).
     pub tiles: vestnav_tiles::TileSourceConfig,
+    /// The OpenStreetMap extract (`.osm.pbf`) drawn offline under the tiles and routed on
+    /// (`vestnav --map FILE` sets it); `None` = none.
+    pub osm_map: Option<PathBuf>,
     /// Size limit of the tile cache [MB]; the least recently used tiles are pruned above it.
     pub tile_cache_mb: u64,
     /// Tile cache folder; `None` = the platform cache folder (`vestnav_tiles::cache::default_root`).
@@ -99,6 +102,7 @@ impl Default for Config {
             walking_speed_m_s: 1.3,
             map_tiles: true,
             tiles: vestnav_tiles::TileSourceConfig::Osm,
+            osm_map: None,
             tile_cache_mb: vestnav_tiles::cache::DEFAULT_LIMIT_MB,
             tile_cache_dir: None,
             prefetch_parallelism: vestnav_tiles::prefetch::DEFAULT_PARALLELISM,
@@ -241,8 +245,8 @@ impl Config {
 
     /// Clamps values a hand-edited file could set out of range.
     fn sanitized(mut self) -> Self {
-        let d = Self::default();
         use vestnav_station::command::ranges;
+        let d = Self::default();
         self.on_ms = self.on_ms.clamp(*ranges::ON_MS.start(), *ranges::ON_MS.end());
         let fix = |v: f64, r: std::ops::RangeInclusive<f64>, def: f64| {
             if v.is_finite() { v.clamp(*r.start(), *r.end()) } else { def }

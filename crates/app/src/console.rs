@@ -65,6 +65,8 @@ pub struct DeviceOverrides {
     pub vest: Option<VestSourceConfig>,
     /// `--tiles`: the map's tile source for this run.
     pub tiles: Option<vestnav_tiles::TileSourceConfig>,
+    /// `--map`: the OpenStreetMap extract drawn under the tiles (becomes the saved setting).
+    pub map: Option<PathBuf>,
 }
 
 /// The console.
@@ -163,6 +165,9 @@ impl Console {
         }
         if let Some(v) = &devices.vest {
             cfg.vest = v.clone();
+        }
+        if let Some(m) = &devices.map {
+            cfg.osm_map = Some(m.clone());
         }
         let file_tiles = cfg.tiles.clone();
         if let Some(t) = &devices.tiles {

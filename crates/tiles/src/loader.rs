@@ -15,7 +15,10 @@ use std::sync::{Arc, Condvar, Mutex, PoisonError};
 use std::time::Duration;
 
 use super::store::{self, Origin, StoreInfo, TileStore};
-use super::{TileImage, TileKey, TileSourceConfig, Waker, decode_tile};
+use super::{TileError, TileImage, TileKey, TileSourceConfig, Waker, decode_tile};
+
+/// How a loader thread opens its store (called once on each loader thread).
+pub type OpenStore = Arc<dyn Fn() -> Result<Box<dyn TileStore>, TileError> + Send + Sync>;
 
 /// Requests waiting at most; older ones are dropped (the map has moved on).
 pub const MAX_QUEUE: usize = 256;
@@ -79,6 +82,15 @@ impl TileLoader {
     /// Starts the loader threads of `source`; `cache_dir` holds downloaded tiles; `waker` is called
     /// whenever a tile is done or the store has opened (or failed to).
     pub fn start(source: &TileSourceConfig, cache_dir: &Path, waker: &Waker) -> Self {
+        let threads = if source.url_template().is_some() { 2 } else { 1 };
+        let (source, cache_dir) = (source.clone(), cache_dir.to_path_buf());
+        Self::start_with(threads, &(Arc::new(move || store::open(&source, &cache_dir)) as OpenStore), waker)
+    }
+
+    /// Starts `threads` loader threads, each serving requests from the store `open` gives it (called
+    /// once per thread, on that thread): the one path for every kind of store, including ones made
+    /// outside this crate (the console's OpenStreetMap extract, drawn on demand).
+    pub fn start_with(threads: usize, open: &OpenStore, waker: &Waker) -> Self {
         let shared = Arc::new(Shared {
             queue: Mutex::default(),
             wake: Condvar::new(),
@@ -87,13 +99,11 @@ impl TileLoader {
             opened: Mutex::new(None),
             last_error: Mutex::new(None),
         });
-        let threads = if source.url_template().is_some() { 2 } else { 1 };
-        for i in 0..threads {
-            let (sh, source, cache_dir, waker) =
-                (shared.clone(), source.clone(), cache_dir.to_path_buf(), waker.clone());
+        for i in 0..threads.max(1) {
+            let (sh, open, waker) = (shared.clone(), open.clone(), waker.clone());
             let spawned = std::thread::Builder::new()
                 .name(format!("tiles-{i}"))
-                .spawn(move || run(&sh, &source, &cache_dir, &waker));
+                .spawn(move || run(&sh, &*open, &waker));
             if let Err(e) = spawned {
                 *lock(&shared.opened) = Some(Err(format!("cannot start the tile loader thread: {e}")));
             }
@@ -139,8 +149,12 @@ impl Drop for TileLoader {
 }
 
 /// One loader thread: opens its own store, then serves the newest request first until stopped.
-fn run(shared: &Shared, source: &TileSourceConfig, cache_dir: &Path, waker: &Waker) {
-    let mut store: Box<dyn TileStore> = match store::open(source, cache_dir) {
+fn run(
+    shared: &Shared,
+    open: &(dyn Fn() -> Result<Box<dyn TileStore>, TileError> + Send + Sync),
+    waker: &Waker,
+) {
+    let mut store: Box<dyn TileStore> = match open() {
         Ok(s) => {
             lock(&shared.opened).get_or_insert(Ok(s.info()));
             s

@@ -4,7 +4,8 @@
 //!
 //! Mouse: drag the map to pan (leaves follow mode), Ctrl+wheel or pinch to zoom; drag a waypoint to move
 //! it; right-click a waypoint for delete / move earlier / move later / make next; right-click the map to add
-//! a waypoint there; with "Add waypoints" on, a left click adds one at the end of the route.
+//! a waypoint there (with an OpenStreetMap extract loaded, also *Route to here along paths* and *Follow
+//! paths*: `walk`); with "Add waypoints" on, a left click adds one at the end of the route.
 //!
 //! Every edit of the route (add, move, drag, delete, reorder, rename, typed coordinates, clear, import)
 //! is one step of a bounded undo history ([`UNDO_STEPS`]); Ctrl+Z undoes, Ctrl+Shift+Z and Ctrl+Y redo
@@ -32,6 +33,7 @@ pub use vestnav_station::route::{Coordinate, UNDO_STEPS, parse_coordinate, plaus
 
 mod files;
 mod paint;
+pub mod walk;
 
 /// Waypoints drawn as markers at most per frame: beyond it (a long route zoomed out) only the route line,
 /// the next waypoint and the waypoint under the pointer are drawn, so the frame stays cheap at
@@ -161,6 +163,8 @@ pub struct MapView {
     pub pending_import: Option<crate::route_import::ImportChoice>,
     /// Whether guidance is steering the wearer along the route (an import then asks first).
     guiding: bool,
+    /// Routing on foot over the OSM extract's paths: the profile and the plan running.
+    pub walk: walk::WalkPlanner,
     /// The waypoint picked in the list (a click selects; "Guide to" makes it the next one).
     pub selected: Option<usize>,
 }
@@ -237,6 +241,7 @@ impl MapView {
             pending_replace: None,
             pending_import: None,
             guiding: false,
+            walk: walk::WalkPlanner::default(),
             selected: None,
             right_click_at: None,
             menu_wp: None,
@@ -300,6 +305,7 @@ impl MapView {
         self.toolbar(ui, route, track, cfg, notices);
         self.file_row(ui, route, track, cfg, notices);
         self.import_dialog(ui, route, notices);
+        self.poll_walk(route, notices);
         self.confirm_import(ui, route, notices);
         if let Some(e) = &self.tools.goto_error {
             ui.label(RichText::new(format!("Go to: {e}")).color(ui.visuals().error_fg_color));

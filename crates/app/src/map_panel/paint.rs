@@ -16,6 +16,7 @@ use vestnav_device::route_file::TrackPoint;
 use vestnav_station::route::{RouteModel, Track, segments};
 use vestnav_station::{Notices, Severity, Subject};
 
+use super::walk::{PROFILES, WalkRequest};
 use super::{
     MapView, TILES_OFFLINE_AFTER_S, TRACK_DRAW_MAX, TRACK_TAIL, WAYPOINT_MARKERS_MAX, WaypointAction,
     age_text, decimation_stride, nice_length_m, wearer_marker,
@@ -99,15 +100,20 @@ impl MapView {
         self.tile_hits.set(0);
         self.tile_misses.set(0);
         let tile_notes = (self.tiles.note(cfg, false), self.tiles.note(cfg, true));
-        let mut counting = self.tiles.active(cfg, ui.ctx()).map(|t| CountingTiles {
-            inner: t,
-            hits: self.tile_hits.clone(),
-            misses: self.tile_misses.clone(),
-        });
-        let tiles_dyn = counting.as_mut().map(|t| t as &mut dyn Tiles);
+        // Bottom first: the OSM extract (once read), then the raster source; one of them alone is the base.
+        let (extract, raster) = self.tiles.layers(cfg, ui.ctx());
+        let extract_on = extract.is_some();
+        let (hits, misses) = (&self.tile_hits, &self.tile_misses);
+        let count = |t| CountingTiles { inner: t, hits: hits.clone(), misses: misses.clone() };
+        let (mut bottom, mut top) = (extract.map(count), raster.map(count));
+        let (base, over): (Option<&mut dyn Tiles>, Option<&mut dyn Tiles>) =
+            match (bottom.as_mut(), top.as_mut()) {
+                (Some(b), t) => (Some(b), t.map(|t| t as &mut dyn Tiles)),
+                (None, t) => (t.map(|t| t as &mut dyn Tiles), None),
+            };
         let now_s = ui.input(|i| i.time);
         let tiles_missing_s = self.no_tiles_since_s.map_or(0.0, |t| now_s - t);
-        let tiles_on = cfg.map_tiles;
+        let tiles_on = cfg.map_tiles || extract_on;
         // Borrow the fields the closure needs separately from walkers' memory. The closure only reads the
         // route; what it asks for (drag, add, menu actions) is applied to the route after it.
         let waypoints = route.waypoints();
@@ -125,9 +131,16 @@ impl MapView {
         let menu_wp = &mut self.menu_wp;
         let mut dragging = false;
         let mut dragged_to = None;
-        let map = walkers::Map::new(tiles_dyn, &mut self.memory, my_position)
+        let has_paths = extract_on;
+        let walk_busy = self.walk.busy();
+        let walk_profile = &mut self.walk.profile;
+        let mut walk_req: Option<WalkRequest> = None;
+        let mut map = walkers::Map::new(base, &mut self.memory, my_position)
             .double_click_to_zoom(true)
             .zoom_with_ctrl(false);
+        if let Some(over) = over {
+            map = map.with_layer(over, 1.0);
+        }
         let resp = map.show(ui, |ui, response, projector, _memory| {
             let rect = response.rect;
             let painter = ui.painter_at(rect);
@@ -423,6 +436,39 @@ impl MapView {
                 if ui.button("Insert as next waypoint").clicked() {
                     add_here = Some(true);
                 }
+                if has_paths {
+                    ui.separator();
+                    let here = right_click_at.map(|p| LatLon::new(p.y(), p.x()));
+                    let from = wearer.map(|w| LatLon::new(w.y(), w.x()));
+                    let to_here = ui
+                        .add_enabled(
+                            from.is_some() && !walk_busy,
+                            egui::Button::new("Route to here along paths"),
+                        )
+                        .on_disabled_hover_text("needs a fix of the wearer (and no plan running)");
+                    if to_here.clicked()
+                        && let (Some(from), Some(to)) = (from, here)
+                    {
+                        walk_req = Some(WalkRequest::ToHere { from, to });
+                    }
+                    let follow = ui
+                        .add_enabled(
+                            waypoints.len() >= 2 && !walk_busy,
+                            egui::Button::new("Follow paths (every leg of the route)"),
+                        )
+                        .on_disabled_hover_text("needs a route of two waypoints or more");
+                    if follow.clicked() {
+                        walk_req = Some(WalkRequest::FollowPaths(
+                            waypoints.iter().map(|w| LatLon::new(w.lat_deg, w.lon_deg)).collect(),
+                        ));
+                    }
+                    ui.horizontal(|ui| {
+                        ui.label("Profile");
+                        for (p, name) in PROFILES {
+                            ui.radio_value(walk_profile, p, name);
+                        }
+                    });
+                }
             });
 
             // Scale bar and attribution / offline note.
@@ -492,7 +538,10 @@ impl MapView {
         if let Some((i, a)) = action {
             self.apply_waypoint_action(route, i, a, notices);
         }
-        if cfg.map_tiles && self.tile_hits.get() == 0 && self.tile_misses.get() > 0 {
+        if let Some(req) = walk_req {
+            self.start_walk(req, ui.ctx(), notices);
+        }
+        if tiles_on && self.tile_hits.get() == 0 && self.tile_misses.get() > 0 {
             self.no_tiles_since_s.get_or_insert(now_s);
         } else {
             self.no_tiles_since_s = None;

@@ -70,7 +70,9 @@ fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
 
 /// Tiles of one source, loaded off the UI thread by a [`TileLoader`].
 pub struct SourceTiles {
-    source: TileSourceConfig,
+    /// The configured raster source (`None` for the OpenStreetMap extract drawn on demand).
+    source: Option<TileSourceConfig>,
+    label: String,
     loader: TileLoader,
     slots: HashMap<TileKey, Slot>,
     ctx: egui::Context,
@@ -104,9 +106,21 @@ impl SourceTiles {
         let repaint = ctx.clone();
         let waker: vestnav_tiles::Waker = Arc::new(move || repaint.request_repaint());
         let loader = TileLoader::start(&source, cache_dir, &waker);
-        let attribution = intern(&source.attribution());
+        Self::with_loader(source.label(), Some(source), loader, ctx)
+    }
+
+    /// The tiles a started `loader` hands over; `label` names them in the indicator, `source` is the
+    /// configured source they come from (`None` for a store made by the console, the OSM extract).
+    pub fn with_loader(
+        label: String,
+        source: Option<TileSourceConfig>,
+        loader: TileLoader,
+        ctx: egui::Context,
+    ) -> Self {
+        let attribution = intern(&source.as_ref().map(TileSourceConfig::attribution).unwrap_or_default());
         Self {
             source,
+            label,
             loader,
             slots: HashMap::new(),
             ctx,
@@ -117,9 +131,14 @@ impl SourceTiles {
         }
     }
 
-    /// The source shown.
-    pub fn source(&self) -> &TileSourceConfig {
-        &self.source
+    /// The configured source shown (`None` for the OSM extract).
+    pub fn source(&self) -> Option<&TileSourceConfig> {
+        self.source.as_ref()
+    }
+
+    /// The source's name for the indicator.
+    pub fn label(&self) -> &str {
+        &self.label
     }
 
     /// Starts a new frame's counts (call before the map draws).

@@ -4,8 +4,10 @@
 //! MBTiles, the tile folder, the HTTP fetch, the prefetch, checks and decoding — is the `vestnav_tiles`
 //! crate.
 
+pub mod extract;
 pub mod local;
 pub mod ui;
 
+pub use extract::MapExtract;
 pub use local::SourceTiles;
 pub use ui::MapTiles;

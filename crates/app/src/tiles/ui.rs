@@ -9,7 +9,7 @@ use egui::{Color32, RichText};
 use vestnav_tiles::prefetch::{self, Prefetch, PrefetchRequest, PrefetchTarget};
 use vestnav_tiles::{BBox, MAX_ZOOM, TileSourceConfig, cache, check_url_template, url_host};
 
-use super::SourceTiles;
+use super::{MapExtract, SourceTiles};
 use crate::config::Config;
 use crate::file_dialog::{Browse, DialogSpec, Mode, path_field};
 use vestnav_station::route::Waypoint;
@@ -37,6 +37,12 @@ type CacheReport = (Option<String>, (u64, usize));
 /// Tile state of the map: the active source's tiles, the Tiles window and a prefetch job.
 pub struct MapTiles {
     active: Option<SourceTiles>,
+    /// The OpenStreetMap extract the settings name (`vestnav --map`), read, drawn under the raster source.
+    pub extract: Option<MapExtract>,
+    /// The extract path field of the Tiles window.
+    map_path: String,
+    /// Its Browse… dialog.
+    browse_map: Browse,
     /// The Tiles window is open.
     pub window_open: bool,
     kind: Kind,
@@ -76,6 +82,9 @@ impl Default for MapTiles {
     fn default() -> Self {
         Self {
             active: None,
+            extract: None,
+            map_path: String::new(),
+            browse_map: Browse::default(),
             window_open: false,
             kind: Kind::Osm,
             url: String::new(),
@@ -111,6 +120,11 @@ const MBTILES_FILE: DialogSpec =
     DialogSpec { mode: Mode::Open, title: "Raster MBTiles file", filter: ("MBTiles", &["mbtiles"]) };
 const MBTILES_WRITE: DialogSpec =
     DialogSpec { mode: Mode::Save, title: "MBTiles file to write", filter: ("MBTiles", &["mbtiles"]) };
+const OSM_EXTRACT: DialogSpec = DialogSpec {
+    mode: Mode::Open,
+    title: "OpenStreetMap extract (.osm.pbf)",
+    filter: ("OSM extract", &["pbf"]),
+};
 const TILE_FOLDER: DialogSpec =
     DialogSpec { mode: Mode::Folder, title: "Folder of {z}/{x}/{y} tiles", filter: ("", &[]) };
 
@@ -145,7 +159,7 @@ impl MapTiles {
             self.active = None;
             return None;
         }
-        if self.active.as_ref().is_none_or(|t| t.source() != &cfg.tiles) {
+        if self.active.as_ref().is_none_or(|t| t.source() != Some(&cfg.tiles)) {
             self.active = Some(SourceTiles::new(cfg.tiles.clone(), &cache_root(cfg), ctx.clone()));
         }
         if !self.pruned {
@@ -162,21 +176,63 @@ impl MapTiles {
         Some(t)
     }
 
+    /// The extract the settings name, opened (read on its thread) when the setting changed; its outcome
+    /// taken when it has arrived.
+    pub fn sync_extract(&mut self, cfg: &Config, ctx: &egui::Context) {
+        match &cfg.osm_map {
+            None => self.extract = None,
+            Some(p) if self.extract.as_ref().is_none_or(|e| e.path() != p) => {
+                self.extract = Some(MapExtract::open(p, ctx));
+            }
+            Some(_) => {}
+        }
+        if let Some(e) = &mut self.extract {
+            e.poll(ctx);
+        }
+    }
+
+    /// The layers to draw this frame, bottom first: the extract's tiles (once read) and the raster
+    /// source's (with tiles on). The extract shows wherever the raster source has no tile.
+    pub fn layers(
+        &mut self,
+        cfg: &Config,
+        ctx: &egui::Context,
+    ) -> (Option<&mut SourceTiles>, Option<&mut SourceTiles>) {
+        self.sync_extract(cfg, ctx);
+        // `active` borrows all of self: take the raster layer through it, the extract's beside it.
+        let raster = self.active(cfg, ctx).is_some();
+        let mut extract = self.extract.as_mut().and_then(MapExtract::tiles);
+        if let Some(t) = extract.as_deref_mut() {
+            t.begin_frame();
+        }
+        (extract, if raster { self.active.as_mut() } else { None })
+    }
+
     /// The note at the map's bottom right: the attribution with tiles, "no tiles: metric grid" (and why)
     /// without: the source that could not be opened, the tiles refused or failed (the latest reason, naming
     /// the tile and its file or server: offline, refused, unreachable, an HTTP error), tiles still loading,
     /// or — only when the source itself said it has no such tile (a 404, a file without it) — that the
     /// source has none here.
     pub fn note(&self, cfg: &Config, no_tiles_shown: bool) -> String {
+        if self.extract.as_ref().is_some_and(|e| e.loaded().is_some()) {
+            // The extract's own attribution, required wherever its map shows; the raster's beside it.
+            let raster = self.active.as_ref().filter(|_| cfg.map_tiles).map(SourceTiles::attribution_text);
+            return match raster {
+                Some(a) if !a.is_empty() && a != vestnav_osm::ATTRIBUTION => {
+                    format!("{} · {a}", vestnav_osm::ATTRIBUTION)
+                }
+                _ => vestnav_osm::ATTRIBUTION.to_owned(),
+            };
+        }
         if !cfg.map_tiles {
             return "no tiles: metric grid (tiles off)".into();
         }
         let Some(t) = &self.active else { return "no tiles: metric grid".into() };
         if no_tiles_shown {
-            return no_tiles_note(t.open_state(), t.last_error(), t.counts(), &t.source().label());
+            return no_tiles_note(t.open_state(), t.last_error(), t.counts(), t.label());
         }
         let a = t.attribution_text();
-        if a.is_empty() { t.source().label() } else { a }
+        if a.is_empty() { t.label().to_owned() } else { a }
     }
 
     /// The indicator's text and colour: the source and the tiles of the last frame by state.
@@ -186,7 +242,7 @@ impl MapTiles {
         }
         let Some(t) = &self.active else { return (cfg.tiles.label(), Color32::GRAY) };
         if let Some(Err(e)) = t.open_state() {
-            return (format!("{}: {e}", t.source().label()), Color32::from_rgb(220, 80, 60));
+            return (format!("{}: {e}", t.label()), Color32::from_rgb(220, 80, 60));
         }
         let c = t.counts();
         let mut parts = Vec::new();
@@ -212,14 +268,7 @@ impl MapTiles {
         } else {
             Color32::from_rgb(70, 170, 90)
         };
-        (
-            format!(
-                "{}: {}",
-                t.source().label(),
-                if parts.is_empty() { "—".into() } else { parts.join(" · ") }
-            ),
-            colour,
-        )
+        (format!("{}: {}", t.label(), if parts.is_empty() { "—".into() } else { parts.join(" · ") }), colour)
     }
 
     /// The map toolbar's tile controls and, when open, the Tiles window.
@@ -232,10 +281,22 @@ impl MapTiles {
             .and_then(SourceTiles::last_error)
             .unwrap_or_else(|| "where the map's tiles come from".into());
         ui.label(RichText::new(text).color(colour).small()).on_hover_text(hover);
+        if let Some(e) = &self.extract {
+            let colour = if e.error().is_some() {
+                Color32::from_rgb(220, 80, 60)
+            } else if e.loaded().is_some() {
+                Color32::from_rgb(70, 170, 90)
+            } else {
+                Color32::from_rgb(220, 170, 40)
+            };
+            ui.label(RichText::new(e.status()).color(colour).small())
+                .on_hover_text("the OpenStreetMap extract drawn offline under the tiles (Tiles… to change)");
+        }
         if ui.button("Tiles…").on_hover_text("Tile source, cache and offline prefetch").clicked() {
             self.window_open = !self.window_open;
             if self.window_open {
                 self.load_fields(&cfg.tiles);
+                self.map_path = cfg.osm_map.as_ref().map(|p| p.display().to_string()).unwrap_or_default();
             }
         }
         if let Some(p) = &self.prefetch
@@ -301,6 +362,7 @@ impl MapTiles {
 
     fn window(&mut self, ui: &mut egui::Ui, cfg: &mut Config, waypoints: &[Waypoint]) {
         self.source_ui(ui, cfg);
+        self.extract_ui(ui, cfg);
         self.cache_and_prefetch_ui(ui, cfg, waypoints);
     }
 
@@ -358,6 +420,35 @@ impl MapTiles {
         });
         if let Some(e) = &self.source_error {
             ui.colored_label(ui.visuals().error_fg_color, e);
+        }
+    }
+
+    /// The OpenStreetMap extract: path (with Browse…), Use, Remove, and its state.
+    fn extract_ui(&mut self, ui: &mut egui::Ui, cfg: &mut Config) {
+        ui.separator();
+        ui.heading("Offline map from an OpenStreetMap extract");
+        ui.label(
+            "An .osm.pbf extract (Geofabrik, BBBike, osmium extract) drawn offline at zooms 14–19 under \
+             the tile source, where it has no tile; its footways route the wearer (right-click the map).",
+        );
+        let base = crate::file_dialog::documents_dir();
+        path_field(ui, &mut self.map_path, &mut self.browse_map, OSM_EXTRACT, &base, "/path/area.osm.pbf");
+        ui.horizontal(|ui| {
+            if ui.button("Use this extract").clicked() {
+                match crate::file_dialog::resolve(&self.map_path, &base) {
+                    Some(p) => cfg.osm_map = Some(p),
+                    None => self.source_error = Some("enter the extract's path".into()),
+                }
+            }
+            if cfg.osm_map.is_some() && ui.button("Remove").clicked() {
+                cfg.osm_map = None;
+            }
+        });
+        if let Some(e) = &self.extract {
+            match e.error() {
+                Some(err) => ui.colored_label(ui.visuals().error_fg_color, err),
+                None => ui.label(e.status()),
+            };
         }
     }
 
