@@ -27,6 +27,7 @@ pub mod log_viewer;
 pub mod map_panel;
 pub mod map_tools;
 pub mod pattern_editor;
+pub mod remote_drive;
 pub mod remote_panel;
 pub mod route_import;
 mod sim_panel;
@@ -196,7 +197,7 @@ impl eframe::App for App {
     fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
         self.console.ui(ui);
         if let Some(r) = &mut self.console.remote {
-            r.ui(ui.ctx());
+            r.ui(ui.ctx(), &self.console.station);
         }
     }
 

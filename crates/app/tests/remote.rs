@@ -24,9 +24,15 @@ fn without_a_broker_the_window_says_so_and_stop_all_says_what_became_of_it() {
         assert!(Instant::now() < until, "the refused connection is reported");
         std::thread::sleep(Duration::from_millis(10));
     }
-    let mut h = egui_kittest::Harness::builder()
-        .with_size(egui::vec2(1000.0, 500.0))
-        .build_ui_state(|ui, p: &mut RemotePanel| p.ui(ui.ctx()), panel);
+    // The console's own station (no devices started): what the drive controls would send.
+    let local = vestnav_station::Station::new(
+        Box::new(vestnav_station::hardware::Hardware::default()),
+        vestnav_station::StationOptions::default(),
+    );
+    let mut h = egui_kittest::Harness::builder().with_size(egui::vec2(1000.0, 500.0)).build_ui_state(
+        |ui, (p, local): &mut (RemotePanel, vestnav_station::Station)| p.ui(ui.ctx(), local),
+        (panel, local),
+    );
     h.run_steps(2);
     assert!(h.query_by_label_contains("broker NOT connected").is_some());
     assert!(h.query_by_label_contains("No station has published").is_some());

@@ -183,6 +183,11 @@ impl Fleet {
         &self.opts
     }
 
+    /// This client as commands name it (a station's events answer `(sender, seq)`).
+    pub fn sender(&self) -> &Sender {
+        &self.from
+    }
+
     /// Whether the broker connection is up, and the latest connection error.
     pub fn broker_status(&self) -> (bool, Option<String>) {
         let s = self.lock();
