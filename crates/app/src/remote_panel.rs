@@ -119,6 +119,17 @@ impl RemotePanel {
         &self.fleet
     }
 
+    /// Every station's wearer as the map draws it (a fix older than `fix_stale_s` is drawn as stale).
+    pub fn wearers(&self, fix_stale_s: f64) -> Vec<crate::map_panel::remote::RemoteWearer> {
+        let now = Instant::now();
+        let stale_after = self.fleet.options().stale_after;
+        self.fleet
+            .stations()
+            .iter()
+            .map(|v| crate::map_panel::remote::RemoteWearer::from_view(v, now, stale_after, fix_stale_s))
+            .collect()
+    }
+
     /// STOP ALL for every station on the broker (the console's STOP ALL calls it).
     pub fn stop_all(&mut self) {
         self.error = self.fleet.stop_all().err().map(|e| format!("STOP ALL: {e}"));
