@@ -350,6 +350,13 @@ impl Console {
                 ui.checkbox(&mut self.cfg.large_text, "Large text");
                 ui.checkbox(&mut self.cfg.audible_alarm, "Audible alarm")
                     .on_hover_text("Ring the terminal bell once when the GPS fix or the vest link is lost");
+                ui.separator();
+                if ui.button("Broker and stations…").clicked() {
+                    self.broker_window.open = true;
+                    if let Some(r) = &mut self.remote {
+                        r.open = true;
+                    }
+                }
             });
             ui.separator();
             ui.selectable_value(&mut self.tab, Tab::Map, "Map");
