@@ -680,3 +680,85 @@ fn refusals_through_a_real_mosquitto() {
     drop(broker);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The Stations window in a window harness against a real broker and two stations: the operator picks
+/// alpha to drive and fires a tactor on its grid; the FIRE reaches alpha's vest on its PTY and not bravo's,
+/// the window shows alpha's answer, and both wearers are handed to the map with their positions.
+#[test]
+fn driving_one_station_from_the_window_reaches_its_vest_only() {
+    use egui_kittest::kittest::Queryable as _;
+    let _t = crate::timing_exclusive();
+    let dir = temp_dir("drive");
+    let broker = Broker::start(&dir);
+    let stations: Vec<StationProc> =
+        ["alpha", "bravo"].iter().map(|n| StationProc::spawn(&broker, n)).collect();
+    let panel =
+        vestnav_app::remote_panel::RemotePanel::connect(&broker.client("operator"), "operator").unwrap();
+    for n in ["alpha", "bravo"] {
+        wait_for(&format!("{n} in contact with a ready vest"), Duration::from_secs(30), || {
+            in_contact(panel.fleet(), n)
+        });
+    }
+    let local = vestnav_station::Station::new(
+        Box::new(vestnav_station::hardware::Hardware::default()),
+        vestnav_station::StationOptions::default(),
+    );
+    let mut h = egui_kittest::Harness::builder().with_size(egui::vec2(1400.0, 900.0)).build_ui_state(
+        |ui, (p, local): &mut (vestnav_app::remote_panel::RemotePanel, vestnav_station::Station)| {
+            p.ui(ui.ctx(), local);
+        },
+        (panel, local),
+    );
+    h.run_steps(2);
+    // Rows are in name order: the first Drive is alpha's.
+    h.get_all_by_label("Drive").next().unwrap().click();
+    h.run_steps(2);
+    assert!(h.query_by_label_contains("Driving alpha").is_some());
+    let t0 = Instant::now();
+    h.get_by_label("T5").click();
+    h.run_steps(2);
+    let (alpha, bravo) = (&stations[0].unit, &stations[1].unit);
+    wait_for("the FIRE at alpha's vest", Duration::from_secs(2), || {
+        !alpha.received_after(CommandKind::Fire, t0).is_empty()
+    });
+    let until = Instant::now() + Duration::from_secs(5);
+    while h.query_by_label_contains("applied").is_none() {
+        assert!(Instant::now() < until, "alpha's answer shown in the window");
+        std::thread::sleep(Duration::from_millis(20));
+        h.run_steps(1);
+    }
+    std::thread::sleep(Duration::from_millis(300));
+    assert!(bravo.received_after(CommandKind::Fire, t0).is_empty(), "bravo's vest got no FIRE");
+    // A refusal is shown with the station's reason: alpha stopped, then a resume of its cues.
+    h.get_all_by_label("Stop").next().unwrap().click();
+    h.run_steps(1);
+    wait_for("alpha's STOP in force", Duration::from_secs(5), || {
+        h.state().0.fleet().station("alpha").and_then(|s| s.state).is_some_and(|s| s.link.stop_in_force)
+    });
+    h.get_by_label("Resume automatic cues").click();
+    let until = Instant::now() + Duration::from_secs(5);
+    while h.query_by_label_contains("resume refused: a STOP is in force").is_none() {
+        assert!(Instant::now() < until, "alpha's refusal shown in the window");
+        std::thread::sleep(Duration::from_millis(20));
+        h.run_steps(1);
+    }
+
+    // The wearers for the map: each station's simulated GPS position, in contact, with a track.
+    wait_for("tracks of two fixes or more", Duration::from_secs(10), || {
+        h.state().0.wearers(10.0).iter().all(|w| w.track.len() >= 2)
+    });
+    let wearers = h.state().0.wearers(10.0);
+    assert_eq!(wearers.iter().map(|w| w.name.as_str()).collect::<Vec<_>>(), ["alpha", "bravo"]);
+    for w in &wearers {
+        let state = h.state().0.fleet().station(&w.name).and_then(|s| s.state).unwrap();
+        let fix = state.station.fix.unwrap();
+        let (lat, lon) = w.position.unwrap();
+        // The position drawn is the one the station last published (the next state may have moved on).
+        assert!((lat - fix.lat_deg.unwrap()).abs() < 1e-3 && (lon - fix.lon_deg.unwrap()).abs() < 1e-3);
+        assert!(!w.stale, "{} is live: {}", w.name, w.label);
+    }
+    drop(h);
+    for s in stations {
+        s.quit();
+    }
+}

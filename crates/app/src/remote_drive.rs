@@ -119,7 +119,7 @@ impl Drive {
         let me = fleet.sender().clone();
         for s in self.sent.iter().rev().filter(|s| s.to == name) {
             let (text, bad) = outcome(s, view.as_ref(), &me, now);
-            let line = RichText::new(format!("{} → {text}", s.what));
+            let line = RichText::new(format!("{}: {text}", s.what));
             ui.label(if bad { line.color(ui.visuals().error_fg_color) } else { line });
         }
     }
