@@ -248,8 +248,8 @@ impl Config {
 
     /// Clamps values a hand-edited file could set out of range.
     fn sanitized(mut self) -> Self {
-        let d = Self::default();
         use vestnav_station::command::ranges;
+        let d = Self::default();
         self.on_ms = self.on_ms.clamp(*ranges::ON_MS.start(), *ranges::ON_MS.end());
         let fix = |v: f64, r: std::ops::RangeInclusive<f64>, def: f64| {
             if v.is_finite() { v.clamp(*r.start(), *r.end()) } else { def }

@@ -45,20 +45,18 @@ pub fn outcome(sent: &Sent, view: Option<&StationView>, me: &Sender, now: Instan
     let answer = sent.seq.and_then(|seq| {
         view?.events.iter().rev().find(|(_, e)| e.answers.as_ref().is_some_and(|(s, n)| s == me && *n == seq))
     });
-    match answer {
-        Some((_, e)) => match e.kind {
+    if let Some((_, e)) = answer {
+        return match e.kind {
             EventKind::Refused => (e.text.clone(), true),
             EventKind::Applied => (format!("applied: {}", e.text), false),
             _ => (e.text.clone(), false),
-        },
-        None => {
-            let age = now.saturating_duration_since(sent.at);
-            if age > ANSWER_BOUND {
-                (format!("no answer from the station for {:.0} s", age.as_secs_f64()), true)
-            } else {
-                ("sent, waiting for the station".to_owned(), false)
-            }
-        }
+        };
+    }
+    let age = now.saturating_duration_since(sent.at);
+    if age > ANSWER_BOUND {
+        (format!("no answer from the station for {:.0} s", age.as_secs_f64()), true)
+    } else {
+        ("sent, waiting for the station".to_owned(), false)
     }
 }
 

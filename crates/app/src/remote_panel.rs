@@ -110,7 +110,7 @@ impl RemotePanel {
             fleet: Fleet::connect(config, FleetOptions::operator(operator))?,
             open: true,
             error: None,
-            drive: Default::default(),
+            drive: crate::remote_drive::Drive::default(),
         })
     }
 

@@ -3,6 +3,7 @@
 //! last published and when it arrived: a station out of contact, or whose fix is old, is drawn hollow and
 //! grey with its age ("last known").
 
+use std::fmt::Write as _;
 use std::time::{Duration, Instant};
 
 use egui::{Color32, Pos2, Stroke, vec2};
@@ -63,14 +64,14 @@ impl RemoteWearer {
             .filter(|(la, lo)| la.is_finite() && lo.is_finite());
         let offline = v.hello.as_ref().is_some_and(|h| !h.online);
         let fix_age = snapshot.and_then(|s| s.fix_age_s);
-        let old_fix = fix_age.is_none_or(|a| !(a <= fix_stale_s));
+        let old_fix = fix_age.is_none_or(|a| a.is_nan() || a > fix_stale_s);
         let stale = offline || v.is_stale(now, stale_after) || old_fix;
         let mut label = format!("{} · {}", v.name, v.contact_label(now, stale_after));
         if offline {
             label.push_str(" · offline");
         }
         if let (Some(a), true) = (fix_age, old_fix) {
-            label.push_str(&format!(" · fix {a:.0} s old"));
+            let _ = write!(label, " · fix {a:.0} s old");
         }
         let (route, next) = v.route.as_ref().map_or_else(Default::default, |r| {
             (r.waypoints.iter().map(|w| (w.lat_deg, w.lon_deg)).collect(), r.next)
