@@ -758,6 +758,31 @@ fn driving_one_station_from_the_window_reaches_its_vest_only() {
         assert!(!w.stale, "{} is live: {}", w.name, w.label);
     }
     drop(h);
+
+    // The console's map is handed the same wearers each frame.
+    let cfg = vestnav_app::config::Config { map_tiles: false, ..vestnav_app::config::Config::default() };
+    let mut console = vestnav_app::console::Console::new(
+        Box::new(vestnav_station::hardware::Hardware::default()),
+        vestnav_app::console::ConsoleOptions { cfg, ..vestnav_app::console::ConsoleOptions::default() },
+    );
+    console.tab = vestnav_app::console::Tab::Map;
+    console.remote = Some(
+        vestnav_app::remote_panel::RemotePanel::connect(&broker.client("operator"), "operator").unwrap(),
+    );
+    wait_for("the console's copy of both stations", Duration::from_secs(10), || {
+        console
+            .remote
+            .as_ref()
+            .is_some_and(|r| r.wearers(10.0).iter().filter(|w| w.position.is_some()).count() == 2)
+    });
+    let mut h = egui_kittest::Harness::builder()
+        .with_size(egui::vec2(1400.0, 880.0))
+        .build_ui_state(|ui, c: &mut vestnav_app::console::Console| c.ui(ui), console);
+    h.run_steps(3);
+    let names: Vec<String> = h.state().map.remote_wearers.iter().map(|w| w.name.clone()).collect();
+    assert_eq!(names, ["alpha", "bravo"]);
+    h.state_mut().shutdown();
+    drop(h);
     for s in stations {
         s.quit();
     }

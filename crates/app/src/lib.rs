@@ -205,9 +205,6 @@ impl eframe::App for App {
     }
 
     fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
-        if let Some(r) = &self.console.remote {
-            self.console.map.remote_wearers = r.wearers(self.console.cfg.stale_after_s);
-        }
         self.console.ui(ui);
         if let Some(r) = &mut self.console.remote {
             r.ui(ui.ctx(), &self.console.station);
