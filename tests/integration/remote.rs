@@ -18,7 +18,7 @@ use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use vestnav_core::vest::TactorMask;
+use vestnav_core::vest::{Frame, Pattern, TactorMask};
 use vestnav_device::wtcu::emulator::{Pty, SERVE_POLL, UnitConfig};
 use vestnav_device::wtcu::{CommandKind, FrameCodec, VestCommand, WireCodec as _};
 use vestnav_remote::wire::{Envelope, EventKind, Sender, StationTopic, now_ms};
@@ -703,11 +703,25 @@ fn driving_one_station_from_the_window_reaches_its_vest_only() {
         Box::new(vestnav_station::hardware::Hardware::default()),
         vestnav_station::StationOptions::default(),
     );
+    // An operator's saved pattern (Vest panel), played on the driven station.
+    let sweep = Pattern {
+        name: "sweep".into(),
+        frames: vec![
+            Frame { mask: TactorMask::row(0), duration_ms: 100 },
+            Frame { mask: TactorMask::row(3), duration_ms: 100 },
+        ],
+        repeats: 1,
+    };
     let mut h = egui_kittest::Harness::builder().with_size(egui::vec2(1400.0, 900.0)).build_ui_state(
-        |ui, (p, local): &mut (vestnav_app::remote_panel::RemotePanel, vestnav_station::Station)| {
-            p.ui(ui.ctx(), local);
+        |ui,
+         (p, local, patterns): &mut (
+            vestnav_app::remote_panel::RemotePanel,
+            vestnav_station::Station,
+            Vec<Pattern>,
+        )| {
+            p.ui(ui.ctx(), local, patterns);
         },
-        (panel, local),
+        (panel, local, vec![sweep]),
     );
     h.run_steps(2);
     // Rows are in name order: the first Drive is alpha's.
@@ -727,8 +741,14 @@ fn driving_one_station_from_the_window_reaches_its_vest_only() {
         std::thread::sleep(Duration::from_millis(20));
         h.run_steps(1);
     }
+    h.get_by_label("Play sweep").click();
+    h.run_steps(1);
+    wait_for("the pattern at alpha's vest", Duration::from_secs(2), || {
+        !alpha.received_after(CommandKind::Play, t0).is_empty()
+    });
     std::thread::sleep(Duration::from_millis(300));
     assert!(bravo.received_after(CommandKind::Fire, t0).is_empty(), "bravo's vest got no FIRE");
+    assert!(bravo.received_after(CommandKind::Play, t0).is_empty(), "bravo's vest got no pattern");
     // A refusal is shown with the station's reason: alpha stopped, then a resume of its cues.
     h.get_all_by_label("Stop").next().unwrap().click();
     h.run_steps(1);

@@ -207,7 +207,7 @@ impl eframe::App for App {
     fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
         self.console.ui(ui);
         if let Some(r) = &mut self.console.remote {
-            r.ui(ui.ctx(), &self.console.station);
+            r.ui(ui.ctx(), &self.console.station, &self.console.cfg.user_patterns);
         }
         if self.console.broker_window.open {
             let c = &mut self.console;

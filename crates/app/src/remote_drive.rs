@@ -1,6 +1,6 @@
 //! Driving one remote station from the Stations window: the operator picks a station, and the controls act
 //! on it through `Fleet::send` — manual cues on a 4x4 back-view grid (one tactor, a row, a column, the cue
-//! set), the console's route and guidance settings sent to it, its next waypoint, Resume and Mark.
+//! set, the operator's saved patterns), the console's route and guidance settings sent to it, its next waypoint, Resume and Mark.
 //!
 //! The grid shows the tactors the station's unit reports on, from the station's last state (never from
 //! what was sent); a stale station's grid is drawn grey and says so. Every command sent is listed with its
@@ -10,7 +10,7 @@ use std::collections::VecDeque;
 use std::time::{Duration, Instant};
 
 use egui::{Color32, RichText, vec2};
-use vestnav_core::vest::{Cue, GRID, TactorMask};
+use vestnav_core::vest::{Cue, GRID, Pattern, TactorMask};
 use vestnav_device::wtcu::VestCommand;
 use vestnav_remote::wire::{EventKind, Sender};
 use vestnav_remote::{Fleet, StationView};
@@ -90,7 +90,14 @@ impl Drive {
 
     /// Draws the controls for the selected station (nothing when none is selected). `local` is the
     /// console's own station: its route and settings are what "send" sends.
-    pub fn ui(&mut self, ui: &mut egui::Ui, fleet: &Fleet, local: &Station, now: Instant) {
+    pub fn ui(
+        &mut self,
+        ui: &mut egui::Ui,
+        fleet: &Fleet,
+        local: &Station,
+        patterns: &[Pattern],
+        now: Instant,
+    ) {
         let Some(name) = self.selected.clone() else {
             ui.label(RichText::new("Pick a station (Drive) to send it cues, a route or settings.").weak());
             return;
@@ -109,7 +116,20 @@ impl Drive {
         }
         let on_ms = local.settings().guidance.on_ms;
         ui.horizontal_top(|ui| {
-            ui.vertical(|ui| self.grid_ui(ui, fleet, view.as_ref(), stale, on_ms, now));
+            ui.vertical(|ui| {
+                self.grid_ui(ui, fleet, view.as_ref(), stale, on_ms, now);
+                // The operator's saved patterns (Vest panel), played on this station.
+                ui.horizontal_wrapped(|ui| {
+                    for p in patterns {
+                        if ui.button(format!("Play {}", p.name)).clicked() {
+                            self.send(
+                                fleet,
+                                Command::Manual { command: VestCommand::Play(p.clone()), cue: None },
+                            );
+                        }
+                    }
+                });
+            });
             ui.separator();
             ui.vertical(|ui| self.commands_ui(ui, fleet, view.as_ref(), local));
         });

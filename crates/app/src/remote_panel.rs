@@ -136,8 +136,13 @@ impl RemotePanel {
     }
 
     /// Draws the window. `local` is the console's own station: its route and settings are what the drive
-    /// controls send to the station picked.
-    pub fn ui(&mut self, ctx: &egui::Context, local: &vestnav_station::Station) {
+    /// controls send to the station picked, with the operator's saved `patterns`.
+    pub fn ui(
+        &mut self,
+        ctx: &egui::Context,
+        local: &vestnav_station::Station,
+        patterns: &[vestnav_core::vest::Pattern],
+    ) {
         let now = Instant::now();
         let stale_after = self.fleet.options().stale_after;
         let stations = self.fleet.stations();
@@ -206,7 +211,7 @@ impl RemotePanel {
                 }
             });
             ui.separator();
-            self.drive.ui(ui, &self.fleet, local, now);
+            self.drive.ui(ui, &self.fleet, local, patterns, now);
         });
         self.open = open;
     }

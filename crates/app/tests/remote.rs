@@ -30,7 +30,7 @@ fn without_a_broker_the_window_says_so_and_stop_all_says_what_became_of_it() {
         vestnav_station::StationOptions::default(),
     );
     let mut h = egui_kittest::Harness::builder().with_size(egui::vec2(1000.0, 500.0)).build_ui_state(
-        |ui, (p, local): &mut (RemotePanel, vestnav_station::Station)| p.ui(ui.ctx(), local),
+        |ui, (p, local): &mut (RemotePanel, vestnav_station::Station)| p.ui(ui.ctx(), local, &[]),
         (panel, local),
     );
     h.run_steps(2);
