@@ -801,6 +801,28 @@ fn driving_one_station_from_the_window_reaches_its_vest_only() {
     h.run_steps(3);
     let names: Vec<String> = h.state().map.remote_wearers.iter().map(|w| w.name.clone()).collect();
     assert_eq!(names, ["alpha", "bravo"]);
+    // A retained state replayed by the broker is not contact: both are live once each has spoken since.
+    let until = Instant::now() + Duration::from_secs(5);
+    while h.state().map.remote_wearers.iter().any(|w| w.stale) {
+        assert!(Instant::now() < until, "both wearers live: {:?}", h.state().map.remote_wearers);
+        std::thread::sleep(Duration::from_millis(50));
+        h.run_steps(1);
+    }
+    // Bravo's station ends: its wearer turns stale (hollow, grey, "last known") and alpha's stays live.
+    let mut stations = stations;
+    stations.pop().unwrap().quit();
+    let until = Instant::now() + Duration::from_secs(5);
+    loop {
+        h.run_steps(1);
+        let w = &h.state().map.remote_wearers;
+        if w.len() == 2 && w[1].stale {
+            assert!(!w[0].stale, "alpha is live: {}", w[0].label);
+            assert!(w[1].position.is_some(), "bravo's last position is still drawn");
+            break;
+        }
+        assert!(Instant::now() < until, "bravo's wearer drawn as stale");
+        std::thread::sleep(Duration::from_millis(50));
+    }
     h.state_mut().shutdown();
     drop(h);
     for s in stations {
