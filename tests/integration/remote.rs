@@ -779,7 +779,12 @@ fn driving_one_station_from_the_window_reaches_its_vest_only() {
     }
     drop(h);
 
-    // The console's map is handed the same wearers each frame.
+    console_map_wearers(&broker, stations);
+}
+
+/// The console's map is handed the wearers of `stations` (alpha, bravo) each frame; bravo's, once its
+/// station ends, turns stale.
+fn console_map_wearers(broker: &Broker, stations: Vec<StationProc>) {
     let cfg = vestnav_app::config::Config { map_tiles: false, ..vestnav_app::config::Config::default() };
     let mut console = vestnav_app::console::Console::new(
         Box::new(vestnav_station::hardware::Hardware::default()),
