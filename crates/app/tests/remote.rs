@@ -43,3 +43,40 @@ fn without_a_broker_the_window_says_so_and_stop_all_says_what_became_of_it() {
         "the operator is told the order is only queued"
     );
 }
+
+/// The Broker window: a password file others can read is refused at Connect with its reason where the
+/// operator looks, nothing connects; the settings edited are the console's (saved with them).
+#[test]
+#[cfg(unix)]
+fn the_broker_window_refuses_a_password_file_others_can_read() {
+    use std::os::unix::fs::PermissionsExt as _;
+    let dir = std::env::temp_dir().join(format!("vestnav-broker-window-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let pw = dir.join("password");
+    std::fs::write(&pw, "secret\n").unwrap();
+    std::fs::set_permissions(&pw, std::fs::Permissions::from_mode(0o644)).unwrap();
+    let cfg = vestnav_app::config::Config {
+        broker: BrokerConfig {
+            url: "mqtts://127.0.0.1:8883".into(),
+            user: Some("operator".into()),
+            password_file: Some(pw.clone()),
+            ..BrokerConfig::default()
+        },
+        ..vestnav_app::config::Config::default()
+    };
+    let mut window = vestnav_app::broker_settings::BrokerWindow::default();
+    window.open = true;
+    type State =
+        (vestnav_app::broker_settings::BrokerWindow, vestnav_app::config::Config, Option<RemotePanel>);
+    let mut h = egui_kittest::Harness::builder()
+        .with_size(egui::vec2(900.0, 700.0))
+        .build_ui_state(|ui, (w, cfg, remote): &mut State| w.ui(ui.ctx(), cfg, remote), (window, cfg, None));
+    h.run_steps(2);
+    assert!(h.query_by_label_contains("not connected").is_some());
+    h.get_by_label("Connect").click();
+    h.run_steps(2);
+    let want = format!("{}: readable by group or others (mode 644)", pw.display());
+    assert!(h.query_by_label_contains(&want).is_some(), "the refusal names the file and the fix");
+    assert!(h.state().2.is_none(), "nothing connected");
+    let _ = std::fs::remove_dir_all(&dir);
+}
