@@ -50,6 +50,8 @@ fn without_a_broker_the_window_says_so_and_stop_all_says_what_became_of_it() {
 #[cfg(unix)]
 fn the_broker_window_refuses_a_password_file_others_can_read() {
     use std::os::unix::fs::PermissionsExt as _;
+    type State =
+        (vestnav_app::broker_settings::BrokerWindow, vestnav_app::config::Config, Option<RemotePanel>);
     let dir = std::env::temp_dir().join(format!("vestnav-broker-window-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let pw = dir.join("password");
@@ -66,8 +68,6 @@ fn the_broker_window_refuses_a_password_file_others_can_read() {
     };
     let mut window = vestnav_app::broker_settings::BrokerWindow::default();
     window.open = true;
-    type State =
-        (vestnav_app::broker_settings::BrokerWindow, vestnav_app::config::Config, Option<RemotePanel>);
     let mut h = egui_kittest::Harness::builder()
         .with_size(egui::vec2(900.0, 700.0))
         .build_ui_state(|ui, (w, cfg, remote): &mut State| w.ui(ui.ctx(), cfg, remote), (window, cfg, None));
