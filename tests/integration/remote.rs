@@ -18,7 +18,7 @@ use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use vestnav_core::vest::TactorMask;
+use vestnav_core::vest::{Frame, Pattern, TactorMask};
 use vestnav_device::wtcu::emulator::{Pty, SERVE_POLL, UnitConfig};
 use vestnav_device::wtcu::{CommandKind, FrameCodec, VestCommand, WireCodec as _};
 use vestnav_remote::wire::{Envelope, EventKind, Sender, StationTopic, now_ms};
@@ -679,4 +679,158 @@ fn refusals_through_a_real_mosquitto() {
     drop(fleet);
     drop(broker);
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The Stations window in a window harness against a real broker and two stations: the operator picks
+/// alpha to drive and fires a tactor on its grid; the FIRE reaches alpha's vest on its PTY and not bravo's,
+/// the window shows alpha's answer, and both wearers are handed to the map with their positions.
+#[test]
+fn driving_one_station_from_the_window_reaches_its_vest_only() {
+    use egui_kittest::kittest::Queryable as _;
+    let _t = crate::timing_exclusive();
+    let dir = temp_dir("drive");
+    let broker = Broker::start(&dir);
+    let stations: Vec<StationProc> =
+        ["alpha", "bravo"].iter().map(|n| StationProc::spawn(&broker, n)).collect();
+    let panel =
+        vestnav_app::remote_panel::RemotePanel::connect(&broker.client("operator"), "operator").unwrap();
+    for n in ["alpha", "bravo"] {
+        wait_for(&format!("{n} in contact with a ready vest"), Duration::from_secs(30), || {
+            in_contact(panel.fleet(), n)
+        });
+    }
+    let local = vestnav_station::Station::new(
+        Box::new(vestnav_station::hardware::Hardware::default()),
+        vestnav_station::StationOptions::default(),
+    );
+    // An operator's saved pattern (Vest panel), played on the driven station.
+    let sweep = Pattern {
+        name: "sweep".into(),
+        frames: vec![
+            Frame { mask: TactorMask::row(0), duration_ms: 100 },
+            Frame { mask: TactorMask::row(3), duration_ms: 100 },
+        ],
+        repeats: 1,
+    };
+    let mut h = egui_kittest::Harness::builder().with_size(egui::vec2(1400.0, 900.0)).build_ui_state(
+        |ui,
+         (p, local, patterns): &mut (
+            vestnav_app::remote_panel::RemotePanel,
+            vestnav_station::Station,
+            Vec<Pattern>,
+        )| {
+            p.ui(ui.ctx(), local, patterns);
+        },
+        (panel, local, vec![sweep]),
+    );
+    h.run_steps(2);
+    // Rows are in name order: the first Drive is alpha's.
+    h.get_all_by_label("Drive").next().unwrap().click();
+    h.run_steps(2);
+    assert!(h.query_by_label_contains("Driving alpha").is_some());
+    let t0 = Instant::now();
+    h.get_by_label("T5").click();
+    h.run_steps(2);
+    let (alpha, bravo) = (&stations[0].unit, &stations[1].unit);
+    wait_for("the FIRE at alpha's vest", Duration::from_secs(2), || {
+        !alpha.received_after(CommandKind::Fire, t0).is_empty()
+    });
+    let until = Instant::now() + Duration::from_secs(5);
+    while h.query_by_label_contains("applied").is_none() {
+        assert!(Instant::now() < until, "alpha's answer shown in the window");
+        std::thread::sleep(Duration::from_millis(20));
+        h.run_steps(1);
+    }
+    h.get_by_label("Play sweep").click();
+    h.run_steps(1);
+    wait_for("the pattern at alpha's vest", Duration::from_secs(2), || {
+        !alpha.received_after(CommandKind::Play, t0).is_empty()
+    });
+    std::thread::sleep(Duration::from_millis(300));
+    assert!(bravo.received_after(CommandKind::Fire, t0).is_empty(), "bravo's vest got no FIRE");
+    assert!(bravo.received_after(CommandKind::Play, t0).is_empty(), "bravo's vest got no pattern");
+    // A refusal is shown with the station's reason: alpha stopped, then a resume of its cues.
+    h.get_all_by_label("Stop").next().unwrap().click();
+    h.run_steps(1);
+    wait_for("alpha's STOP in force", Duration::from_secs(5), || {
+        h.state().0.fleet().station("alpha").and_then(|s| s.state).is_some_and(|s| s.link.stop_in_force)
+    });
+    h.get_by_label("Resume automatic cues").click();
+    let until = Instant::now() + Duration::from_secs(5);
+    while h.query_by_label_contains("resume refused: a STOP is in force").is_none() {
+        assert!(Instant::now() < until, "alpha's refusal shown in the window");
+        std::thread::sleep(Duration::from_millis(20));
+        h.run_steps(1);
+    }
+
+    // The wearers for the map: each station's simulated GPS position, in contact, with a track.
+    wait_for("tracks of two fixes or more", Duration::from_secs(10), || {
+        h.state().0.wearers(10.0).iter().all(|w| w.track.len() >= 2)
+    });
+    let wearers = h.state().0.wearers(10.0);
+    assert_eq!(wearers.iter().map(|w| w.name.as_str()).collect::<Vec<_>>(), ["alpha", "bravo"]);
+    for w in &wearers {
+        let state = h.state().0.fleet().station(&w.name).and_then(|s| s.state).unwrap();
+        let fix = state.station.fix.unwrap();
+        let (lat, lon) = w.position.unwrap();
+        // The position drawn is the one the station last published (the next state may have moved on).
+        assert!((lat - fix.lat_deg.unwrap()).abs() < 1e-3 && (lon - fix.lon_deg.unwrap()).abs() < 1e-3);
+        assert!(!w.stale, "{} is live: {}", w.name, w.label);
+    }
+    drop(h);
+
+    console_map_wearers(&broker, stations);
+}
+
+/// The console's map is handed the wearers of `stations` (alpha, bravo) each frame; bravo's, once its
+/// station ends, turns stale.
+fn console_map_wearers(broker: &Broker, stations: Vec<StationProc>) {
+    let cfg = vestnav_app::config::Config { map_tiles: false, ..vestnav_app::config::Config::default() };
+    let mut console = vestnav_app::console::Console::new(
+        Box::new(vestnav_station::hardware::Hardware::default()),
+        vestnav_app::console::ConsoleOptions { cfg, ..vestnav_app::console::ConsoleOptions::default() },
+    );
+    console.tab = vestnav_app::console::Tab::Map;
+    console.remote = Some(
+        vestnav_app::remote_panel::RemotePanel::connect(&broker.client("operator"), "operator").unwrap(),
+    );
+    wait_for("the console's copy of both stations", Duration::from_secs(10), || {
+        console
+            .remote
+            .as_ref()
+            .is_some_and(|r| r.wearers(10.0).iter().filter(|w| w.position.is_some()).count() == 2)
+    });
+    let mut h = egui_kittest::Harness::builder()
+        .with_size(egui::vec2(1400.0, 880.0))
+        .build_ui_state(|ui, c: &mut vestnav_app::console::Console| c.ui(ui), console);
+    h.run_steps(3);
+    let names: Vec<String> = h.state().map.remote_wearers.iter().map(|w| w.name.clone()).collect();
+    assert_eq!(names, ["alpha", "bravo"]);
+    // A retained state replayed by the broker is not contact: both are live once each has spoken since.
+    let until = Instant::now() + Duration::from_secs(5);
+    while h.state().map.remote_wearers.iter().any(|w| w.stale) {
+        assert!(Instant::now() < until, "both wearers live: {:?}", h.state().map.remote_wearers);
+        std::thread::sleep(Duration::from_millis(50));
+        h.run_steps(1);
+    }
+    // Bravo's station ends: its wearer turns stale (hollow, grey, "last known") and alpha's stays live.
+    let mut stations = stations;
+    stations.pop().unwrap().quit();
+    let until = Instant::now() + Duration::from_secs(5);
+    loop {
+        h.run_steps(1);
+        let w = &h.state().map.remote_wearers;
+        if w.len() == 2 && w[1].stale {
+            assert!(!w[0].stale, "alpha is live: {}", w[0].label);
+            assert!(w[1].position.is_some(), "bravo's last position is still drawn");
+            break;
+        }
+        assert!(Instant::now() < until, "bravo's wearer drawn as stale");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    h.state_mut().shutdown();
+    drop(h);
+    for s in stations {
+        s.quit();
+    }
 }

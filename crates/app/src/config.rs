@@ -84,6 +84,11 @@ pub struct Config {
     pub show_satellite_table: bool,
     /// The last files used, per kind, and the folder relative typed paths are taken in.
     pub recent: crate::file_dialog::RecentFiles,
+    /// The MQTT broker of the Stations window (file names only: the password and key stay in their files);
+    /// an empty URL: none. `vestnav --broker` overrides it for one run.
+    pub broker: vestnav_remote::BrokerConfig,
+    /// Connect to that broker when the console starts.
+    pub broker_at_start: bool,
 }
 
 impl Default for Config {
@@ -118,6 +123,8 @@ impl Default for Config {
             audible_alarm: true,
             show_satellite_table: false,
             recent: crate::file_dialog::RecentFiles::default(),
+            broker: vestnav_remote::BrokerConfig::default(),
+            broker_at_start: false,
         }
     }
 }

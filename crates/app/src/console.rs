@@ -84,6 +84,8 @@ pub struct Console {
     pub station: Station,
     /// The stations on an MQTT broker (`vestnav --broker`), if any: the console's STOP ALL reaches them too.
     pub remote: Option<crate::remote_panel::RemotePanel>,
+    /// The Broker window (the broker in the saved settings; connect, disconnect).
+    pub broker_window: crate::broker_settings::BrokerWindow,
     /// Active central tab.
     pub tab: Tab,
     /// The GPS panel's widget state.
@@ -208,6 +210,7 @@ impl Console {
             overrides: devices,
             station,
             remote: None,
+            broker_window: crate::broker_settings::BrokerWindow::default(),
             tab: Tab::Map,
             compass_wizard: crate::compass_panel::Wizard::default(),
             pattern_editor: crate::pattern_editor::PatternEditor::default(),

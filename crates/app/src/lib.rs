@@ -14,6 +14,7 @@
 //! assert!(console.gps_connected());
 //! ```
 
+pub mod broker_settings;
 pub mod compass_panel;
 pub mod config;
 pub mod console;
@@ -27,6 +28,7 @@ pub mod log_viewer;
 pub mod map_panel;
 pub mod map_tools;
 pub mod pattern_editor;
+pub mod remote_drive;
 pub mod remote_panel;
 pub mod route_import;
 mod sim_panel;
@@ -97,15 +99,24 @@ pub fn run(
             if let Some(e) = cfg_error {
                 console.say(vestnav_station::Severity::Alarm, vestnav_station::Subject::Settings, e.banner());
             }
-            if let Some((broker, operator)) = &remote {
-                match remote_panel::RemotePanel::connect(broker, operator) {
-                    Ok(p) => console.remote = Some(p),
-                    Err(e) => console.say(
-                        vestnav_station::Severity::Alarm,
-                        vestnav_station::Subject::Operator,
-                        format!("Stations not shown: {e}"),
-                    ),
+            // `--broker` wins for this run; else the saved broker when it is to connect at start.
+            let connected = match &remote {
+                Some((broker, operator)) => {
+                    remote_panel::RemotePanel::connect(broker, operator).map_err(|e| e.to_string())
                 }
+                None if console.cfg.broker_at_start => {
+                    broker_settings::connect(&console.cfg.broker, &console.cfg.recent.base())
+                }
+                None => Err(String::new()),
+            };
+            match connected {
+                Ok(p) => console.remote = Some(p),
+                Err(e) if !e.is_empty() => console.say(
+                    vestnav_station::Severity::Alarm,
+                    vestnav_station::Subject::Operator,
+                    format!("Stations not shown: {e}"),
+                ),
+                Err(_) => {}
             }
             Ok(Box::new(App { console, screenshot: screenshot.map(ScreenshotState::new) }))
         }),
@@ -196,7 +207,11 @@ impl eframe::App for App {
     fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
         self.console.ui(ui);
         if let Some(r) = &mut self.console.remote {
-            r.ui(ui.ctx());
+            r.ui(ui.ctx(), &self.console.station, &self.console.cfg.user_patterns);
+        }
+        if self.console.broker_window.open {
+            let c = &mut self.console;
+            c.broker_window.ui(ui.ctx(), &mut c.cfg, &mut c.remote);
         }
     }
 

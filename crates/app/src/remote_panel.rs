@@ -99,12 +99,19 @@ pub struct RemotePanel {
     pub open: bool,
     /// The latest failure of a request, shown in the window until the next request.
     error: Option<String>,
+    /// The station picked to drive, and what was sent to it.
+    pub drive: crate::remote_drive::Drive,
 }
 
 impl RemotePanel {
     /// Connects to the broker as `operator` (in the background; the window shows the connection's state).
     pub fn connect(config: &BrokerConfig, operator: &str) -> Result<Self, FleetError> {
-        Ok(Self { fleet: Fleet::connect(config, FleetOptions::operator(operator))?, open: true, error: None })
+        Ok(Self {
+            fleet: Fleet::connect(config, FleetOptions::operator(operator))?,
+            open: true,
+            error: None,
+            drive: crate::remote_drive::Drive::default(),
+        })
     }
 
     /// The fleet client (the stations as last heard).
@@ -112,13 +119,30 @@ impl RemotePanel {
         &self.fleet
     }
 
+    /// Every station's wearer as the map draws it (a fix older than `fix_stale_s` is drawn as stale).
+    pub fn wearers(&self, fix_stale_s: f64) -> Vec<crate::map_panel::remote::RemoteWearer> {
+        let now = Instant::now();
+        let stale_after = self.fleet.options().stale_after;
+        self.fleet
+            .stations()
+            .iter()
+            .map(|v| crate::map_panel::remote::RemoteWearer::from_view(v, now, stale_after, fix_stale_s))
+            .collect()
+    }
+
     /// STOP ALL for every station on the broker (the console's STOP ALL calls it).
     pub fn stop_all(&mut self) {
         self.error = self.fleet.stop_all().err().map(|e| format!("STOP ALL: {e}"));
     }
 
-    /// Draws the window.
-    pub fn ui(&mut self, ctx: &egui::Context) {
+    /// Draws the window. `local` is the console's own station: its route and settings are what the drive
+    /// controls send to the station picked, with the operator's saved `patterns`.
+    pub fn ui(
+        &mut self,
+        ctx: &egui::Context,
+        local: &vestnav_station::Station,
+        patterns: &[vestnav_core::vest::Pattern],
+    ) {
         let now = Instant::now();
         let stale_after = self.fleet.options().stale_after;
         let stations = self.fleet.stations();
@@ -144,7 +168,7 @@ impl RemotePanel {
                 ui.label("No station has published on this broker yet.");
             }
             egui::Grid::new("stations-grid").striped(true).show(ui, |ui| {
-                for h in ["station", "contact", "GPS", "vest", "guidance", "battery", "stop", "", ""] {
+                for h in ["station", "contact", "GPS", "vest", "guidance", "battery", "stop", "", "", "", ""] {
                     ui.label(RichText::new(h).strong());
                 }
                 ui.end_row();
@@ -175,9 +199,19 @@ impl RemotePanel {
                     {
                         self.fleet.set_continue_on_loss(&r.name, armed);
                     }
+                    let driving = self.drive.selected.as_deref() == Some(r.name.as_str());
+                    if ui
+                        .selectable_label(driving, "Drive")
+                        .on_hover_text("Send this station cues, a route, settings")
+                        .clicked()
+                    {
+                        self.drive.selected = (!driving).then(|| r.name.clone());
+                    }
                     ui.end_row();
                 }
             });
+            ui.separator();
+            self.drive.ui(ui, &self.fleet, local, patterns, now);
         });
         self.open = open;
     }

@@ -56,8 +56,10 @@ pub enum ConfigError {
     Tls(String),
 }
 
-/// Where the broker is and how to prove who we are.
-#[derive(Debug, Clone, Default, PartialEq, Eq)]
+/// Where the broker is and how to prove who we are. It serialises (the console keeps it in its settings
+/// file): only file names, never a secret.
+#[derive(Debug, Clone, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(default)]
 pub struct BrokerConfig {
     /// `mqtts://HOST:PORT` (port 8883 by default) or, with [`Self::insecure_plaintext_loopback`],
     /// `mqtt://127.0.0.1:PORT` (1883).

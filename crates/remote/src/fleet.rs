@@ -69,6 +69,8 @@ pub enum FleetError {
 
 /// Events kept per station.
 pub const EVENTS_KEPT: usize = 64;
+/// Positions kept per station for its track on a map (the newest; one per state received with a fix).
+pub const TRACK_KEPT: usize = 2_000;
 /// Stations tracked (more are ignored and counted).
 pub const MAX_STATIONS: usize = 256;
 
@@ -92,6 +94,9 @@ pub struct StationView {
     pub last_contact: Option<Instant>,
     /// Its own retained STOP or resume, as the broker holds it.
     pub own_stop: Option<StopOrder>,
+    /// Its recent positions `(lat, lon)` [deg], oldest first, at most [`TRACK_KEPT`]: each new fix time
+    /// in the states received (a state repeating the same fix adds nothing).
+    pub track: VecDeque<(f64, f64)>,
 }
 
 impl StationView {
@@ -181,6 +186,11 @@ impl Fleet {
     /// The options in force.
     pub fn options(&self) -> &FleetOptions {
         &self.opts
+    }
+
+    /// This client as commands name it (a station's events answer `(sender, seq)`).
+    pub fn sender(&self) -> &Sender {
+        &self.from
     }
 
     /// Whether the broker connection is up, and the latest connection error.
@@ -406,6 +416,7 @@ impl FleetNet {
             StationTopic::Hello => v.hello = serde_json::from_slice(payload).ok(),
             StationTopic::State => match serde_json::from_slice::<StateMsg>(payload) {
                 Ok(m) if m.name == name => {
+                    push_track(v, &m);
                     v.state = Some(m);
                     v.state_arrived_ms = Some(now_ms());
                 }
@@ -428,6 +439,27 @@ impl FleetNet {
             v.last_contact = Some(now);
         }
     }
+}
+
+/// Adds the fix in `m` to `v`'s track when it is a new one with a finite position.
+fn push_track(v: &mut StationView, m: &StateMsg) {
+    let Some(f) = &m.station.fix else { return };
+    let Some((lat, lon)) = f.lat_deg.zip(f.lon_deg) else { return };
+    if !(lat.is_finite()
+        && lon.is_finite()
+        && (-90.0..=90.0).contains(&lat)
+        && (-180.0..=180.0).contains(&lon))
+    {
+        return;
+    }
+    let same_fix = v.state.as_ref().and_then(|s| s.station.fix.as_ref()).is_some_and(|p| p.time == f.time);
+    if same_fix && v.track.back() == Some(&(lat, lon)) {
+        return;
+    }
+    if v.track.len() >= TRACK_KEPT {
+        v.track.pop_front();
+    }
+    v.track.push_back((lat, lon));
 }
 
 /// Subscribed filters, for the docs and tests: what an operator or observer reads.

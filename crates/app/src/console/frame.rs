@@ -133,6 +133,9 @@ impl Console {
     #[allow(clippy::too_many_lines)] // the frame's layout in one place: panels in the order they are drawn
     pub fn ui(&mut self, ui: &mut egui::Ui) {
         self.frame_pump();
+        // The remote stations' wearers for the map, as the broker last told of them.
+        self.map.remote_wearers =
+            self.remote.as_ref().map_or_else(Vec::new, |r| r.wearers(self.cfg.stale_after_s));
         apply_theme(ui, &self.cfg);
         let now = Instant::now();
         let anim_s = ui.input(|i| i.time);
@@ -350,6 +353,13 @@ impl Console {
                 ui.checkbox(&mut self.cfg.large_text, "Large text");
                 ui.checkbox(&mut self.cfg.audible_alarm, "Audible alarm")
                     .on_hover_text("Ring the terminal bell once when the GPS fix or the vest link is lost");
+                ui.separator();
+                if ui.button("Broker and stations…").clicked() {
+                    self.broker_window.open = true;
+                    if let Some(r) = &mut self.remote {
+                        r.open = true;
+                    }
+                }
             });
             ui.separator();
             ui.selectable_value(&mut self.tab, Tab::Map, "Map");

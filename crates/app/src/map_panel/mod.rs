@@ -34,6 +34,7 @@ pub use vestnav_station::route::{Coordinate, UNDO_STEPS, parse_coordinate, plaus
 mod files;
 mod paint;
 pub mod walk;
+pub mod remote;
 
 /// Waypoints drawn as markers at most per frame: beyond it (a long route zoomed out) only the route line,
 /// the next waypoint and the waypoint under the pointer are drawn, so the frame stays cheap at
@@ -135,6 +136,8 @@ pub struct MapView {
     pub no_tiles_since_s: Option<f64>,
     /// How the wearer was drawn in the latest frame (`None`: no position), for tests and the status line.
     pub wearer_shown: Option<WearerMarker>,
+    /// Remote stations' wearers to draw (handed in each frame from the Stations window's fleet).
+    pub remote_wearers: Vec<remote::RemoteWearer>,
     /// A track shown from a session log being replayed, and the replay cursor.
     pub replay: Option<(Vec<TrackPoint>, usize)>,
     /// Left click adds a waypoint.
@@ -232,6 +235,7 @@ impl MapView {
             tile_misses: Rc::default(),
             no_tiles_since_s: None,
             wearer_shown: None,
+            remote_wearers: Vec::new(),
             replay: None,
             add_mode: false,
             marks: 0,

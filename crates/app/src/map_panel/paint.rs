@@ -54,7 +54,7 @@ fn halo_color(text: Color32) -> Color32 {
 
 /// Text on the map with a 1.5 px halo of [`halo_color`] (the galley is laid out once and painted nine
 /// times: eight offsets of the halo, then the text).
-fn halo_text(
+pub(super) fn halo_text(
     painter: &egui::Painter,
     pos: Pos2,
     anchor: egui::Align2,
@@ -123,6 +123,7 @@ impl MapView {
         let drawn_breaks: Vec<usize> =
             track.breaks().iter().filter(|b| **b > track_from).map(|b| b - track_from).collect();
         let replay = &self.replay;
+        let remote_wearers = &self.remote_wearers;
         let add_mode = self.add_mode && !self.tools.measuring;
         let measuring = self.tools.measuring;
         let measure_points = self.tools.measure_points.clone();
@@ -328,6 +329,9 @@ impl MapView {
                     );
                 }
             }
+
+            // Remote stations' wearers (`vestnav --broker`), over the local one.
+            super::remote::draw(&painter, projector, remote_wearers, ui);
 
             // The measuring tool's line, its ends and its result at the second point.
             let accent = Color32::from_rgb(230, 30, 140);
