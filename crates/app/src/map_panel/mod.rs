@@ -33,8 +33,8 @@ pub use vestnav_station::route::{Coordinate, UNDO_STEPS, parse_coordinate, plaus
 
 mod files;
 mod paint;
-pub mod walk;
 pub mod remote;
+pub mod walk;
 
 /// Waypoints drawn as markers at most per frame: beyond it (a long route zoomed out) only the route line,
 /// the next waypoint and the waypoint under the pointer are drawn, so the frame stays cheap at
