@@ -101,13 +101,17 @@ fn quiet_on_broken_pipe() {
     }));
 }
 
-/// The files `--gps` and `--tiles` name, checked before the console's window opens: a missing replay, a
-/// bad route, a tile file that is not PMTiles/MBTiles or a missing tile folder end the program with a
-/// clear error (and a non-zero exit) instead of a window that says less.
+/// The files `--gps`, `--tiles` and `--map` name, checked before the console's window opens: a missing
+/// replay, a bad route, a tile file that is not PMTiles/MBTiles, a missing tile folder or a file that is no
+/// OSM extract end the program with a clear error (and a non-zero exit) instead of a window that says less.
 fn check_console_files(
     gps: Option<&vestnav_device::gps::GpsSourceSpec>,
     tiles: Option<&vestnav_tiles::TileSourceConfig>,
+    map: Option<&std::path::Path>,
 ) -> anyhow::Result<()> {
+    if let Some(path) = map {
+        vestnav_osm::Extract::check_file(path).map_err(|e| anyhow::anyhow!("--map {e}"))?;
+    }
     if let Some(spec) = gps {
         spec.check_files().map_err(|e| anyhow::anyhow!("--gps {spec}: {e}"))?;
     }
@@ -127,7 +131,7 @@ fn check_console_files(
 
 fn run(cli: Cli) -> anyhow::Result<()> {
     let Some(command) = cli.command else {
-        check_console_files(cli.gps.as_ref(), cli.tiles.as_ref())?;
+        check_console_files(cli.gps.as_ref(), cli.tiles.as_ref(), cli.map.as_deref())?;
         let screenshot = cli.screenshot.map(|path| vestnav_app::Screenshot {
             path,
             after: std::time::Duration::from_secs_f64(cli.screenshot_after_s),

@@ -158,8 +158,8 @@ fn console_refusal(args: &[&str]) -> (bool, String) {
     }
 }
 
-/// Issue 23 item 6: `--gps replay:MISSING` and a `--tiles` file that is not a tile store are refused
-/// before the window opens, naming the file, with a non-zero exit.
+/// Issue 23 item 6: `--gps replay:MISSING`, a `--tiles` file that is not a tile store and a `--map` file
+/// that is no OSM extract are refused before the window opens, naming the file, with a non-zero exit.
 #[test]
 fn console_files_are_checked_before_the_window_opens() {
     let (ok, err) = console_refusal(&["--gps", "replay:/nonexistent/walk.nmea"]);
@@ -172,6 +172,11 @@ fn console_files_are_checked_before_the_window_opens() {
     let (ok, err) = console_refusal(&["--tiles", bad.to_str().unwrap()]);
     assert!(!ok);
     assert!(err.contains("--tiles") && err.contains("area.pmtiles"), "{err}");
+    let not_an_extract = dir.join("area.osm.pbf");
+    std::fs::write(&not_an_extract, b"<osm version='0.6'/> is XML, not the PBF format").unwrap();
+    let (ok, err) = console_refusal(&["--map", not_an_extract.to_str().unwrap()]);
+    assert!(!ok);
+    assert!(err.contains("--map") && err.contains("area.osm.pbf"), "{err}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

@@ -411,6 +411,38 @@ impl Extract {
         Ok(Self { path: path.to_owned(), map, graph, stats })
     }
 
+    /// What can be said of an extract before reading it: a regular file within [`MAX_EXTRACT_BYTES`]
+    /// whose first block is the `OSMHeader` the PBF format puts first (a 4-byte big-endian length, then a
+    /// `BlobHeader` message whose field 1, the block type, is that string). Cheap: reads at most 64 KiB.
+    pub fn check_file(path: &Path) -> Result<(), OsmError> {
+        use std::io::Read;
+        let io = |source| OsmError::Io { path: path.to_owned(), source };
+        let format = |reason: &str| OsmError::Format { path: path.to_owned(), reason: reason.to_owned() };
+        let mut file = vestnav_files::open_regular(path).map_err(io)?;
+        let bytes = file.metadata().map_err(io)?.len();
+        if bytes > MAX_EXTRACT_BYTES {
+            return Err(OsmError::TooLarge { path: path.to_owned(), bytes, limit: MAX_EXTRACT_BYTES });
+        }
+        let mut len = [0u8; 4];
+        file.read_exact(&mut len).map_err(|_| format("shorter than a block header"))?;
+        let len = u32::from_be_bytes(len) as usize;
+        // The format caps a BlobHeader at 64 KiB.
+        if len == 0 || len > 64 * 1024 {
+            return Err(format("the first block header's length is out of range"));
+        }
+        let mut header = vec![0u8; len];
+        file.read_exact(&mut header).map_err(|_| format("the first block header is cut short"))?;
+        // Field 1, wire type 2 (length-delimited): tag byte 0x0A, a one-byte varint length, the type.
+        let kind = match header.as_slice() {
+            [0x0A, n, rest @ ..] if usize::from(*n) <= rest.len() && *n < 0x80 => &rest[..usize::from(*n)],
+            _ => return Err(format("the first block header has no block type")),
+        };
+        if kind != b"OSMHeader" {
+            return Err(format("the first block is not an OSMHeader"));
+        }
+        Ok(())
+    }
+
     /// Builds an extract from elements in memory (tests, tools): relations, then ways, then nodes.
     pub fn from_elements(nodes: &[RawNode], ways: Vec<RawWay>, relations: Vec<RawRelation>) -> Self {
         let mut b = Builder::new();

@@ -300,3 +300,24 @@ fn helsinki_renders_legibly_at_every_zoom() {
         assert!(t.rgba.chunks_exact(4).all(|p| p[3] == 255));
     }
 }
+
+/// The check made before the console's window opens: real extracts pass; a text file, a truncated header
+/// and a missing file are refused, each error naming the file.
+#[test]
+fn check_file_passes_real_extracts_and_refuses_others() {
+    for name in ["helsinki.osm.pbf", "rules.osm.pbf"] {
+        Extract::check_file(&data(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
+    }
+    let dir = std::env::temp_dir().join(format!("vestnav-osm-check-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let text = dir.join("notes.osm.pbf");
+    std::fs::write(&text, "this is a text file, not an extract").unwrap();
+    let cut = dir.join("cut.osm.pbf");
+    let real = std::fs::read(data("helsinki.osm.pbf")).unwrap();
+    std::fs::write(&cut, &real[..10]).unwrap();
+    for bad in [&text, &cut, &dir.join("missing.osm.pbf")] {
+        let e = Extract::check_file(bad).expect_err("refused").to_string();
+        assert!(e.contains(&*bad.to_string_lossy()), "{e}");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
