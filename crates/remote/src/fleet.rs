@@ -122,6 +122,8 @@ impl StationView {
 
 #[derive(Default)]
 struct Shared {
+    /// Called after each message taken in (a view's repaint request).
+    waker: Option<vestnav_core::Waker>,
     stations: BTreeMap<String, StationView>,
     connected: bool,
     last_error: Option<String>,
@@ -181,6 +183,17 @@ impl Fleet {
 
     fn lock(&self) -> std::sync::MutexGuard<'_, Shared> {
         self.shared.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+
+    /// Calls `waker` after each message from the broker is taken in (a station's state, route, event or
+    /// hello), so a view redraws when a station changes instead of polling.
+    pub fn set_waker(&self, waker: vestnav_core::Waker) {
+        self.lock().waker = Some(waker);
+    }
+
+    /// Whether a waker is set.
+    pub fn has_waker(&self) -> bool {
+        self.lock().waker.is_some()
     }
 
     /// The options in force.
@@ -394,6 +407,14 @@ impl FleetNet {
     }
 
     fn received(&self, topic: &str, payload: &[u8], retained: bool) {
+        self.take_in(topic, payload, retained);
+        let waker = self.lock().waker.clone();
+        if let Some(wake) = waker {
+            wake();
+        }
+    }
+
+    fn take_in(&self, topic: &str, payload: &[u8], retained: bool) {
         let now = Instant::now();
         let mut s = self.lock();
         if topic == STOP_ALL_TOPIC {

@@ -133,6 +133,13 @@ impl Console {
     #[allow(clippy::too_many_lines)] // the frame's layout in one place: panels in the order they are drawn
     pub fn ui(&mut self, ui: &mut egui::Ui) {
         self.frame_pump();
+        // Remote stations wake the window when one of them says something new.
+        if let Some(r) = &self.remote
+            && !r.fleet().has_waker()
+        {
+            let ctx = ui.ctx().clone();
+            r.fleet().set_waker(std::sync::Arc::new(move || ctx.request_repaint()));
+        }
         // The remote stations' wearers for the map, as the broker last told of them.
         self.map.remote_wearers =
             self.remote.as_ref().map_or_else(Vec::new, |r| r.wearers(self.cfg.stale_after_s));

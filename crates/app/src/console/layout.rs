@@ -36,8 +36,6 @@ pub const CUE_PT: f32 = 26.0;
 pub const LIVENESS_TURN: Duration = Duration::from_millis(750);
 /// Ages are shown in whole seconds: with a device connected the window turns once a second.
 pub const AGE_STEP: Duration = Duration::from_secs(1);
-/// How often the window turns while connected to a broker (remote wearers, answers, contact ages).
-pub const REMOTE_TURN: Duration = Duration::from_millis(200);
 
 /// Moves every window whose top is above `top` (the top bar's bottom) down to just below it: a window
 /// opened or dragged there would hide its own title bar under the top bar.
@@ -79,9 +77,10 @@ impl Console {
         if vest || self.gps_connected() {
             at_most(AGE_STEP);
         }
-        // Remote stations publish with no wake of this window: their states, answers and ages are polled.
+        // Remote stations wake the window when they publish (`Fleet::set_waker`); their contact ages are
+        // shown in whole seconds.
         if self.remote.is_some() {
-            at_most(REMOTE_TURN);
+            at_most(AGE_STEP);
         }
         // A fix turns stale, then lost, with no event at all: turn at the instant it does.
         if let Some(age) = self.position_age(now) {
