@@ -194,6 +194,9 @@ impl GpsdClient {
                     None
                 }
                 Err(()) => {
+                    // Implausible values make the report malformed, not a parsed report: each line is
+                    // counted once, as parsed or as malformed.
+                    self.stats.sentences -= 1;
                     self.stats.malformed += 1;
                     None
                 }
