@@ -532,16 +532,10 @@ impl StationBridge {
                 self.client.try_publish(StationTopic::Hello.of(&self.name), QoS::AtLeastOnce, true, bytes);
         }
         let _ = self.client.try_disconnect();
-        let deadline = Instant::now() + Duration::from_millis(500);
-        while !thread.is_finished() && Instant::now() < deadline {
-            std::thread::sleep(Duration::from_millis(10));
-        }
+        // First the last will's replacement goes out with the disconnect; then the thread is told to quit.
+        crate::broker::wait_for_end(&thread, Duration::from_millis(500));
         self.quit.store(true, Ordering::Relaxed);
-        let deadline = Instant::now() + Duration::from_millis(500);
-        while !thread.is_finished() && Instant::now() < deadline {
-            std::thread::sleep(Duration::from_millis(10));
-        }
-        if thread.is_finished() {
+        if crate::broker::wait_for_end(&thread, Duration::from_millis(500)) {
             let _ = thread.join();
         }
     }

@@ -221,6 +221,16 @@ impl BrokerConfig {
     }
 }
 
+/// Waits at most `within` for a connection thread to end (a shutdown never blocks on the network);
+/// true when it has.
+pub(crate) fn wait_for_end(thread: &std::thread::JoinHandle<()>, within: Duration) -> bool {
+    let deadline = std::time::Instant::now() + within;
+    while !thread.is_finished() && std::time::Instant::now() < deadline {
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    thread.is_finished()
+}
+
 fn file_error(path: &Path, why: &str) -> ConfigError {
     ConfigError::File { path: path.display().to_string(), why: why.to_owned() }
 }

@@ -312,11 +312,7 @@ impl Fleet {
         let Some(thread) = self.thread.take() else { return };
         let _ = self.client.try_disconnect();
         self.quit.store(true, Ordering::Relaxed);
-        let deadline = Instant::now() + Duration::from_millis(500);
-        while !thread.is_finished() && Instant::now() < deadline {
-            std::thread::sleep(Duration::from_millis(10));
-        }
-        if thread.is_finished() {
+        if crate::broker::wait_for_end(&thread, Duration::from_millis(500)) {
             let _ = thread.join();
         }
     }
