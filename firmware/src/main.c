@@ -111,6 +111,19 @@ void wtcu_hw_publish(const struct wtcu_plan *plan)
     {
         g_plan = *plan;
         g_drive = plan->on;
+        /* The core computed the plan from a clock read before this tick may have passed an instant in it
+         * (a frame finished just before the tick that applied a pattern step). The tick already drove that
+         * instant's outputs: keep them rather than drive the older state for one millisecond. */
+        uint32_t now = g_ms;
+        if (g_plan.has_next && reached(now, g_plan.next_at)) {
+            g_drive = g_plan.next_mask;
+            g_plan.has_next = 0;
+        }
+        if (g_plan.wd_armed && reached(now, g_plan.wd_at)) {
+            g_drive = 0;
+            g_plan.wd_armed = 0;
+            g_plan.has_next = 0;
+        }
         apply_outputs();
     }
 }
