@@ -11,7 +11,8 @@
  *  4. On-times are guaranteed by scheduled instants: the core publishes to the 1 ms tick ISR the next
  *     instant at which the driven set changes (a FIRE's end, a PATTERN's next step) and the protocol
  *     watchdog's deadline (last valid frame + 1500 ms). The ISR applies them on the tick they fall on,
- *     whatever the main loop is doing; if the plan reaches the ISR late, it is applied on the next tick.
+ *     whatever the main loop is doing; an instant the ISR's clock has already passed when a plan is
+ *     published is applied by the publish itself, so a late plan never brings back an older state.
  *  5. The AVR hardware watchdog (250 ms) is reset only by the main loop: a hung main loop resets the MCU,
  *     and the reset (1.) switches every tactor off.
  *  6. Nobody reading the link never blocks anything: replies go to a bounded queue that drops (HEADING
