@@ -18,6 +18,8 @@ mod doctor;
 mod gps;
 mod gps_config;
 mod latency;
+#[cfg(unix)]
+mod local_stations;
 mod nav;
 mod osm;
 mod remote;

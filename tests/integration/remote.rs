@@ -182,15 +182,15 @@ impl Drop for Broker {
 }
 
 /// A WTCU on the master of a PTY pair, logging every request frame that reached it, with its arrival.
-struct Unit {
-    path: String,
+pub(crate) struct Unit {
+    pub(crate) path: String,
     received: Arc<Mutex<Vec<(Instant, CommandKind)>>>,
     stop: Arc<AtomicBool>,
     thread: Option<JoinHandle<()>>,
 }
 
 impl Unit {
-    fn spawn() -> Self {
+    pub(crate) fn spawn() -> Self {
         let Pty { mut master, path, slave } = Pty::open_with_timeout(SERVE_POLL).unwrap();
         let received = Arc::new(Mutex::new(Vec::new()));
         let stop = Arc::new(AtomicBool::new(false));
@@ -228,7 +228,7 @@ impl Unit {
     }
 
     /// When frames of `kind` arrived after `since`.
-    fn received_after(&self, kind: CommandKind, since: Instant) -> Vec<Instant> {
+    pub(crate) fn received_after(&self, kind: CommandKind, since: Instant) -> Vec<Instant> {
         let r = self.received.lock().unwrap();
         r.iter().filter(|(t, k)| *k == kind && *t >= since).map(|(t, _)| *t).collect()
     }
@@ -304,7 +304,7 @@ impl StationProc {
     }
 }
 
-fn wait_for(what: &str, timeout: Duration, mut ok: impl FnMut() -> bool) {
+pub(crate) fn wait_for(what: &str, timeout: Duration, mut ok: impl FnMut() -> bool) {
     let until = Instant::now() + timeout;
     while !ok() {
         assert!(Instant::now() < until, "timed out waiting for {what}");
@@ -358,10 +358,15 @@ fn three_stations_stop_all_link_loss_and_broker_restart() {
         vestnav_app::console::ConsoleOptions::default(),
     );
     console.remote = Some(
-        vestnav_app::remote_panel::RemotePanel::connect(&broker.client("operator"), "operator").unwrap(),
+        vestnav_app::remote_panel::RemotePanel::connect(
+            &broker.client("operator"),
+            "operator",
+            vestnav_station::stop::StopPath::default(),
+        )
+        .unwrap(),
     );
     wait_for("the console's broker connection", Duration::from_secs(10), || {
-        console.remote.as_ref().is_some_and(|r| r.fleet().broker_status().0)
+        console.remote.as_ref().is_some_and(|r| r.fleet().is_some_and(|f| f.broker_status().0))
     });
     let t0 = Instant::now();
     console.stop_all();
@@ -692,11 +697,15 @@ fn driving_one_station_from_the_window_reaches_its_vest_only() {
     let broker = Broker::start(&dir);
     let stations: Vec<StationProc> =
         ["alpha", "bravo"].iter().map(|n| StationProc::spawn(&broker, n)).collect();
-    let panel =
-        vestnav_app::remote_panel::RemotePanel::connect(&broker.client("operator"), "operator").unwrap();
+    let panel = vestnav_app::remote_panel::RemotePanel::connect(
+        &broker.client("operator"),
+        "operator",
+        vestnav_station::stop::StopPath::default(),
+    )
+    .unwrap();
     for n in ["alpha", "bravo"] {
         wait_for(&format!("{n} in contact with a ready vest"), Duration::from_secs(30), || {
-            in_contact(panel.fleet(), n)
+            in_contact(panel.fleet().unwrap(), n)
         });
     }
     let local = vestnav_station::Station::new(
@@ -753,7 +762,13 @@ fn driving_one_station_from_the_window_reaches_its_vest_only() {
     h.get_all_by_label("Stop").next().unwrap().click();
     h.run_steps(1);
     wait_for("alpha's STOP in force", Duration::from_secs(5), || {
-        h.state().0.fleet().station("alpha").and_then(|s| s.state).is_some_and(|s| s.link.stop_in_force)
+        h.state()
+            .0
+            .fleet()
+            .unwrap()
+            .station("alpha")
+            .and_then(|s| s.state)
+            .is_some_and(|s| s.link.stop_in_force)
     });
     h.get_by_label("Resume automatic cues").click();
     let until = Instant::now() + Duration::from_secs(5);
@@ -770,7 +785,7 @@ fn driving_one_station_from_the_window_reaches_its_vest_only() {
     let wearers = h.state().0.wearers(10.0);
     assert_eq!(wearers.iter().map(|w| w.name.as_str()).collect::<Vec<_>>(), ["alpha", "bravo"]);
     for w in &wearers {
-        let state = h.state().0.fleet().station(&w.name).and_then(|s| s.state).unwrap();
+        let state = h.state().0.fleet().unwrap().station(&w.name).and_then(|s| s.state).unwrap();
         let fix = state.station.fix.unwrap();
         let (lat, lon) = w.position.unwrap();
         // The position drawn is the one the station last published (the next state may have moved on).
@@ -792,7 +807,12 @@ fn console_map_wearers(broker: &Broker, stations: Vec<StationProc>) {
     );
     console.tab = vestnav_app::console::Tab::Map;
     console.remote = Some(
-        vestnav_app::remote_panel::RemotePanel::connect(&broker.client("operator"), "operator").unwrap(),
+        vestnav_app::remote_panel::RemotePanel::connect(
+            &broker.client("operator"),
+            "operator",
+            vestnav_station::stop::StopPath::default(),
+        )
+        .unwrap(),
     );
     wait_for("the console's copy of both stations", Duration::from_secs(10), || {
         console

@@ -46,14 +46,14 @@ pub fn resolved(cfg: &BrokerConfig, base: &Path) -> BrokerConfig {
 
 /// Connects the Stations window to the broker `cfg` names; the operator's name is its user ("operator"
 /// without one).
-pub fn connect(cfg: &BrokerConfig, base: &Path) -> Result<RemotePanel, String> {
+pub fn connect(panel: &mut RemotePanel, cfg: &BrokerConfig, base: &Path) -> Result<(), String> {
     let c = resolved(cfg, base);
     if c.url.is_empty() {
         return Err("no broker URL".to_owned());
     }
     c.mqtt_options("vestnav-check", None).map_err(|e| e.to_string())?;
     let operator = c.user.clone().unwrap_or_else(|| "operator".to_owned());
-    RemotePanel::connect(&c, &operator).map_err(|e| e.to_string())
+    panel.set_broker(&c, &operator).map_err(|e| e.to_string())
 }
 
 fn path_row(
@@ -72,11 +72,18 @@ fn path_row(
 
 impl BrokerWindow {
     /// Draws the window: edits `cfg.broker` (saved with the other settings) and connects `remote`.
-    pub fn ui(&mut self, ctx: &egui::Context, cfg: &mut Config, remote: &mut Option<RemotePanel>) {
+    /// `new_panel` makes the Stations window when there is none yet (with the console's stop path).
+    pub fn ui(
+        &mut self,
+        ctx: &egui::Context,
+        cfg: &mut Config,
+        remote: &mut Option<RemotePanel>,
+        new_panel: impl Fn() -> RemotePanel,
+    ) {
         let mut open = self.open;
         let base = cfg.recent.base();
         egui::Window::new("Broker").open(&mut open).default_width(460.0).show(ctx, |ui| {
-            match remote.as_ref().map(|r| r.fleet().broker_status()) {
+            match remote.as_ref().and_then(|r| r.fleet()).map(vestnav_remote::Fleet::broker_status) {
                 Some((true, _)) => {
                     ui.label(RichText::new("connected").color(Color32::from_rgb(60, 160, 60)));
                 }
@@ -85,7 +92,7 @@ impl BrokerWindow {
                     ui.label(RichText::new(format!("NOT connected: {why}")).color(ui.visuals().error_fg_color));
                 }
                 None => {
-                    ui.label("not connected (no Stations window)");
+                    ui.label("not connected");
                 }
             }
             let b = &mut cfg.broker;
@@ -103,23 +110,27 @@ impl BrokerWindow {
             path_row(ui, "Client key (mode 600)", &mut b.key, key, PEM, &base);
             ui.checkbox(&mut cfg.broker_at_start, "Connect when the console starts");
             ui.horizontal(|ui| {
-                if ui.button(if remote.is_some() { "Reconnect" } else { "Connect" }).clicked() {
-                    // The old link goes first: one operator session at a time.
-                    *remote = None;
-                    match connect(&cfg.broker, &base) {
-                        Ok(p) => {
-                            *remote = Some(p);
-                            self.error = None;
-                        }
-                        Err(e) => self.error = Some(e),
-                    }
+                let connected = remote.as_ref().is_some_and(|r| r.fleet().is_some());
+                if ui.button(if connected { "Reconnect" } else { "Connect" }).clicked() {
+                    // The old link goes first (in `set_broker`): one operator session at a time.
+                    // A Stations window is made only for a connection that starts.
+                    let result = if let Some(panel) = remote.as_mut() {
+                        panel.leave_broker();
+                        connect(panel, &cfg.broker, &base).map(|()| panel.open = true)
+                    } else {
+                        let mut panel = new_panel();
+                        connect(&mut panel, &cfg.broker, &base).map(|()| *remote = Some(panel))
+                    };
+                    self.error = result.err();
                 }
                 if ui
-                    .add_enabled(remote.is_some(), egui::Button::new("Disconnect"))
+                    .add_enabled(connected, egui::Button::new("Disconnect"))
                     .on_hover_text("Each station then stops its vest at its operator-link bound, unless 'continue if link drops' is armed for it")
                     .clicked()
                 {
-                    *remote = None;
+                    if let Some(r) = remote.as_mut() {
+                        r.leave_broker();
+                    }
                     self.error = None;
                 }
             });
@@ -158,8 +169,10 @@ mod tests {
     #[test]
     fn no_url_or_a_plaintext_remote_broker_is_refused_before_any_connection() {
         let base = std::env::temp_dir();
-        assert!(connect(&BrokerConfig::default(), &base).is_err());
+        let mut panel = RemotePanel::new(vestnav_station::stop::StopPath::default(), None);
+        assert!(connect(&mut panel, &BrokerConfig::default(), &base).is_err());
         let plain = BrokerConfig { url: "mqtt://10.0.0.1:1883".into(), ..BrokerConfig::default() };
-        assert!(connect(&plain, &base).is_err());
+        assert!(connect(&mut panel, &plain, &base).is_err());
+        assert!(panel.fleet().is_none(), "nothing connected");
     }
 }

@@ -283,10 +283,17 @@ impl Console {
     /// Stops the vest first (STOP ALL, acknowledged or timed out), then the GPS: the console's exit.
     pub fn shutdown(&mut self) {
         self.station.shutdown();
+        // The Stations window's local stations (their vests stopped), and the broker left.
+        if let Some(r) = &mut self.remote {
+            r.stations_mut().shutdown();
+        }
     }
 
     /// STOP ALL: every tactor off now, automatic guidance latched off until the operator resumes it.
     pub fn stop_all(&mut self) {
+        // Every vest of the process first (this station's and each local station's of the Stations
+        // window), with no thread in the way; then each station's own state.
+        self.station.stop_path().stop_all();
         self.station.stop_all();
         if let Some(r) = &mut self.remote {
             r.stop_all();
@@ -364,7 +371,8 @@ impl Console {
         }
     }
 
-    fn log_dir(&self) -> PathBuf {
+    /// Where session logs go (the settings' folder, else the data folder's `sessions`).
+    pub(crate) fn log_dir(&self) -> PathBuf {
         self.cfg.log_dir.clone().unwrap_or_else(|| crate::config::data_dir().join("sessions"))
     }
 

@@ -102,15 +102,21 @@ pub fn run(
             // `--broker` wins for this run; else the saved broker when it is to connect at start.
             let connected = match &remote {
                 Some((broker, operator)) => {
-                    remote_panel::RemotePanel::connect(broker, operator).map_err(|e| e.to_string())
+                    remote_panel::RemotePanel::connect(broker, operator, console.station.stop_path().clone())
+                        .map_err(|e| e.to_string())
                 }
                 None if console.cfg.broker_at_start => {
-                    broker_settings::connect(&console.cfg.broker, &console.cfg.recent.base())
+                    let mut p = remote_panel::RemotePanel::new(console.station.stop_path().clone(), None);
+                    broker_settings::connect(&mut p, &console.cfg.broker, &console.cfg.recent.base())
+                        .map(|()| p)
                 }
                 None => Err(String::new()),
             };
             match connected {
-                Ok(p) => console.remote = Some(p),
+                Ok(mut p) => {
+                    p.set_log_dir(Some(console.log_dir()));
+                    console.remote = Some(p);
+                }
                 Err(e) if !e.is_empty() => console.say(
                     vestnav_station::Severity::Alarm,
                     vestnav_station::Subject::Operator,
@@ -211,7 +217,13 @@ impl eframe::App for App {
         }
         if self.console.broker_window.open {
             let c = &mut self.console;
-            c.broker_window.ui(ui.ctx(), &mut c.cfg, &mut c.remote);
+            let stop = c.station.stop_path().clone();
+            let logs = Some(c.log_dir());
+            c.broker_window.ui(ui.ctx(), &mut c.cfg, &mut c.remote, || {
+                let mut p = remote_panel::RemotePanel::new(stop.clone(), logs.clone());
+                p.open = true;
+                p
+            });
         }
     }
 

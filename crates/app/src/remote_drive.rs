@@ -1,5 +1,5 @@
-//! Driving one remote station from the Stations window: the operator picks a station, and the controls act
-//! on it through `Fleet::send` — manual cues on a 4x4 back-view grid (one tactor, a row, a column, the cue
+//! Driving one station from the Stations window (on the broker or on this machine's ports): the operator
+//! picks a station, and the controls act on it through `Stations::send` — manual cues on a 4x4 back-view grid (one tactor, a row, a column, the cue
 //! set, the operator's saved patterns), the console's route and guidance settings sent to it, its next waypoint, Resume and Mark.
 //!
 //! The grid shows the tactors the station's unit reports on, from the station's last state (never from
@@ -13,7 +13,7 @@ use egui::{Color32, RichText, vec2};
 use vestnav_core::vest::{Cue, GRID, Pattern, TactorMask};
 use vestnav_device::wtcu::VestCommand;
 use vestnav_remote::wire::{EventKind, Sender};
-use vestnav_remote::{Fleet, StationView};
+use vestnav_remote::{StationView, Stations};
 use vestnav_station::Station;
 use vestnav_station::command::Command;
 
@@ -75,10 +75,10 @@ pub struct Drive {
 
 impl Drive {
     /// Sends `command` to the selected station and records it for the outcome list.
-    pub fn send(&mut self, fleet: &Fleet, command: Command) {
+    pub fn send(&mut self, stations: &Stations, command: Command) {
         let Some(to) = self.selected.clone() else { return };
         let what = command.describe();
-        let (seq, error) = match fleet.send(&to, command) {
+        let (seq, error) = match stations.send(&to, command) {
             Ok(seq) => (Some(seq), None),
             Err(e) => (None, Some(e.to_string())),
         };
@@ -93,7 +93,7 @@ impl Drive {
     pub fn ui(
         &mut self,
         ui: &mut egui::Ui,
-        fleet: &Fleet,
+        stations: &Stations,
         local: &Station,
         patterns: &[Pattern],
         now: Instant,
@@ -102,8 +102,8 @@ impl Drive {
             ui.label(RichText::new("Pick a station (Drive) to send it cues, a route or settings.").weak());
             return;
         };
-        let view = fleet.station(&name);
-        let stale_after = fleet.options().stale_after;
+        let view = stations.station(&name);
+        let stale_after = stations.stale_after();
         let stale = view.as_ref().is_none_or(|v| v.is_stale(now, stale_after));
         ui.horizontal(|ui| {
             ui.heading(format!("Driving {name}"));
@@ -117,13 +117,13 @@ impl Drive {
         let on_ms = local.settings().guidance.on_ms;
         ui.horizontal_top(|ui| {
             ui.vertical(|ui| {
-                self.grid_ui(ui, fleet, view.as_ref(), stale, on_ms, now);
+                self.grid_ui(ui, stations, view.as_ref(), stale, on_ms, now);
                 // The operator's saved patterns (Vest panel), played on this station.
                 ui.horizontal_wrapped(|ui| {
                     for p in patterns {
                         if ui.button(format!("Play {}", p.name)).clicked() {
                             self.send(
-                                fleet,
+                                stations,
                                 Command::Manual { command: VestCommand::Play(p.clone()), cue: None },
                             );
                         }
@@ -131,10 +131,10 @@ impl Drive {
                 });
             });
             ui.separator();
-            ui.vertical(|ui| self.commands_ui(ui, fleet, view.as_ref(), local));
+            ui.vertical(|ui| self.commands_ui(ui, stations, view.as_ref(), local));
         });
         ui.separator();
-        let me = fleet.sender().clone();
+        let me = stations.sender_for(&name);
         for s in self.sent.iter().rev().filter(|s| s.to == name) {
             let (text, bad) = outcome(s, view.as_ref(), &me, now);
             let line = RichText::new(format!("{}: {text}", s.what));
@@ -145,7 +145,7 @@ impl Drive {
     fn grid_ui(
         &mut self,
         ui: &mut egui::Ui,
-        fleet: &Fleet,
+        stations: &Stations,
         view: Option<&StationView>,
         stale: bool,
         on_ms: u16,
@@ -156,7 +156,7 @@ impl Drive {
             (_, true) => {
                 let age = view.map_or_else(
                     || "no contact yet".to_owned(),
-                    |v| v.contact_label(now, fleet.options().stale_after),
+                    |v| v.contact_label(now, stations.stale_after()),
                 );
                 RichText::new(format!("STALE ({age}): the tactors shown may no longer be true"))
                     .color(ui.visuals().error_fg_color)
@@ -205,7 +205,7 @@ impl Drive {
         });
         if let Some(mask) = fire {
             self.send(
-                fleet,
+                stations,
                 Command::Manual { command: VestCommand::Fire { mask, duration_ms: on_ms }, cue: None },
             );
         }
@@ -213,13 +213,19 @@ impl Drive {
             for cue in Cue::ALL {
                 if ui.button(cue.name()).clicked() {
                     let command = VestCommand::Play(cue.pattern(on_ms));
-                    self.send(fleet, Command::Manual { command, cue: Some(cue) });
+                    self.send(stations, Command::Manual { command, cue: Some(cue) });
                 }
             }
         });
     }
 
-    fn commands_ui(&mut self, ui: &mut egui::Ui, fleet: &Fleet, view: Option<&StationView>, local: &Station) {
+    fn commands_ui(
+        &mut self,
+        ui: &mut egui::Ui,
+        stations: &Stations,
+        view: Option<&StationView>,
+        local: &Station,
+    ) {
         let route = local.route();
         let n = route.waypoints().len();
         if let Some(r) = view.and_then(|v| v.route.as_ref()) {
@@ -236,7 +242,7 @@ impl Drive {
             .clicked()
         {
             self.send(
-                fleet,
+                stations,
                 Command::SetRoute {
                     name: route.name().to_owned(),
                     waypoints: route.waypoints().to_vec(),
@@ -252,7 +258,7 @@ impl Drive {
             );
             if ui.add_enabled(remote_n > 0, egui::Button::new("Set next waypoint")).clicked() {
                 let index = self.next_waypoint.clamp(1, remote_n.max(1)) - 1;
-                self.send(fleet, Command::NextWaypoint { index });
+                self.send(stations, Command::NextWaypoint { index });
             }
         });
         if ui
@@ -260,10 +266,10 @@ impl Drive {
             .on_hover_text("Arrival radius, cue interval, on-time, manual hold, stale and lost ages")
             .clicked()
         {
-            self.send(fleet, Command::Settings(*local.settings()));
+            self.send(stations, Command::Settings(*local.settings()));
         }
         if ui.button("Resume automatic cues").clicked() {
-            self.send(fleet, Command::Resume);
+            self.send(stations, Command::Resume);
         }
         ui.horizontal(|ui| {
             ui.add(egui::TextEdit::singleline(&mut self.mark).hint_text("mark label").desired_width(120.0));
@@ -272,7 +278,7 @@ impl Drive {
                 .on_hover_text("A mark in the station's session log at the wearer's position")
                 .clicked()
             {
-                self.send(fleet, Command::Mark { label: self.mark.trim().to_owned() });
+                self.send(stations, Command::Mark { label: self.mark.trim().to_owned() });
                 self.mark.clear();
             }
         });

@@ -1,15 +1,21 @@
-//! The Stations window (`vestnav --broker …`): every station on the MQTT broker with its last contact
-//! (stale shown as stale), GPS, vest, guidance, battery and stop, a Stop and a Resume per station, the
-//! "continue the route if the link drops" switch, and STOP ALL for every station (the console's own STOP
-//! ALL reaches them too, through [`RemotePanel::stop_all`]). It is a view over `vestnav_remote::Fleet`,
-//! whose thread owns the connection; every row is derived from what the station last published and when.
+//! The Stations window (`vestnav --broker …`, View > Stations…): every station on the MQTT broker and every
+//! station on this machine's own ports (a second vest and GPS), with its last contact (stale shown as
+//! stale), GPS, vest, guidance, battery and stop, a Stop and a Resume per station, the "continue the route
+//! if the link drops" switch (broker stations), Add/Remove for local ones, and STOP ALL for every station
+//! (the console's own STOP ALL reaches them too, through [`RemotePanel::stop_all`]). It is a view over
+//! `vestnav_remote::Stations`, whose threads own the connection and the local stations; every row is
+//! derived from what the station last published and when.
 
 use std::time::{Duration, Instant};
 
 use egui::{Color32, RichText};
 use vestnav_remote::wire::StateMsg;
-use vestnav_remote::{BrokerConfig, Fleet, FleetError, FleetOptions, StationView};
+use vestnav_remote::{
+    BrokerConfig, Fleet, FleetError, FleetOptions, LocalStationConfig, StationView, Stations,
+};
 use vestnav_station::command::StopSnapshot;
+use vestnav_station::sources::{VEST_SPEC_FORMS, parse_gps_spec, parse_vest_spec};
+use vestnav_station::stop::StopPath;
 
 /// One station's row, as words (a pure view-model: tests read it without a window).
 #[derive(Debug, Clone, PartialEq)]
@@ -92,47 +98,152 @@ fn describe_state(m: &StateMsg) -> (String, String, String, String, String) {
     (gps, vest, guidance, battery, stop)
 }
 
-/// The Stations window and its fleet client.
+/// What the operator types to start a local station.
+#[derive(Debug, Clone)]
+#[allow(clippy::derivable_impls)] // the empty form, spelled out
+struct AddLocal {
+    name: String,
+    vest: String,
+    gps: String,
+}
+
+impl Default for AddLocal {
+    fn default() -> Self {
+        Self { name: String::new(), vest: String::new(), gps: String::new() }
+    }
+}
+
+/// The Stations window: every station, on the broker or on this machine's ports.
 pub struct RemotePanel {
-    fleet: Fleet,
+    stations: Stations,
     /// Whether the window is open.
     pub open: bool,
     /// The latest failure of a request, shown in the window until the next request.
     error: Option<String>,
     /// The station picked to drive, and what was sent to it.
     pub drive: crate::remote_drive::Drive,
+    add: AddLocal,
+    /// Where local stations' session logs go.
+    log_dir: Option<std::path::PathBuf>,
 }
 
 impl RemotePanel {
-    /// Connects to the broker as `operator` (in the background; the window shows the connection's state).
-    pub fn connect(config: &BrokerConfig, operator: &str) -> Result<Self, FleetError> {
-        Ok(Self {
-            fleet: Fleet::connect(config, FleetOptions::operator(operator))?,
+    /// No broker and no local station yet. `stop` is the console's stop path (local stations join it, so
+    /// the console's STOP ALL, a signal and every exit reach their vests).
+    pub fn new(stop: StopPath, log_dir: Option<std::path::PathBuf>) -> Self {
+        Self {
+            stations: Stations::new("console", stop),
             open: true,
             error: None,
             drive: crate::remote_drive::Drive::default(),
-        })
+            add: AddLocal::default(),
+            log_dir,
+        }
     }
 
-    /// The fleet client (the stations as last heard).
-    pub fn fleet(&self) -> &Fleet {
-        &self.fleet
+    /// Connects to the broker as `operator` (in the background; the window shows the connection's state).
+    pub fn connect(config: &BrokerConfig, operator: &str, stop: StopPath) -> Result<Self, FleetError> {
+        let mut p = Self::new(stop, None);
+        p.set_broker(config, operator)?;
+        Ok(p)
+    }
+
+    /// Connects (again) to a broker, replacing the previous connection.
+    pub fn set_broker(&mut self, config: &BrokerConfig, operator: &str) -> Result<(), FleetError> {
+        self.stations.set_fleet(None);
+        self.stations.set_fleet(Some(Fleet::connect(config, FleetOptions::operator(operator))?));
+        Ok(())
+    }
+
+    /// Leaves the broker (local stations go on).
+    pub fn leave_broker(&mut self) {
+        self.stations.set_fleet(None);
+    }
+
+    /// Sets where local stations' session logs go.
+    pub fn set_log_dir(&mut self, dir: Option<std::path::PathBuf>) {
+        self.log_dir = dir;
+    }
+
+    /// The broker's client, when connected.
+    pub fn fleet(&self) -> Option<&Fleet> {
+        self.stations.fleet()
+    }
+
+    /// Every station, local and on the broker.
+    pub fn stations(&self) -> &Stations {
+        &self.stations
+    }
+
+    /// The same, to add or remove a local station.
+    pub fn stations_mut(&mut self) -> &mut Stations {
+        &mut self.stations
     }
 
     /// Every station's wearer as the map draws it (a fix older than `fix_stale_s` is drawn as stale).
     pub fn wearers(&self, fix_stale_s: f64) -> Vec<crate::map_panel::remote::RemoteWearer> {
         let now = Instant::now();
-        let stale_after = self.fleet.options().stale_after;
-        self.fleet
+        let stale_after = self.stations.stale_after();
+        self.stations
             .stations()
             .iter()
             .map(|v| crate::map_panel::remote::RemoteWearer::from_view(v, now, stale_after, fix_stale_s))
             .collect()
     }
 
-    /// STOP ALL for every station on the broker (the console's STOP ALL calls it).
+    /// STOP ALL for every station, local and on the broker (the console's STOP ALL calls it).
     pub fn stop_all(&mut self) {
-        self.error = self.fleet.stop_all().err().map(|e| format!("STOP ALL: {e}"));
+        self.error = self.stations.stop_all().err().map(|e| format!("STOP ALL: {e}"));
+    }
+
+    /// Starts the local station the form describes.
+    fn add_local(&mut self) {
+        let a = &self.add;
+        let config = parse_vest_spec(a.vest.trim()).and_then(|vest| {
+            let gps = parse_gps_spec(a.gps.trim())?;
+            let name = a.name.trim().to_owned();
+            let log_dir = self.log_dir.as_ref().map(|d| d.join(&name));
+            Ok(LocalStationConfig { name, vest, gps, log_dir })
+        });
+        let result = config.and_then(|c| {
+            self.stations.add_local(c, Box::new(vestnav_station::hardware::Hardware::default()))
+        });
+        match result {
+            Ok(()) => {
+                self.error = None;
+                self.add = AddLocal::default();
+            }
+            Err(e) => self.error = Some(format!("Add station: {e}")),
+        }
+    }
+
+    /// The form that starts a local station.
+    fn add_ui(&mut self, ui: &mut egui::Ui) {
+        ui.collapsing("Add a station on this machine (a second vest and GPS)", |ui| {
+            ui.horizontal(|ui| {
+                ui.label("name");
+                ui.add(egui::TextEdit::singleline(&mut self.add.name).hint_text("bravo").desired_width(90.0));
+                ui.label("vest");
+                ui.add(
+                    egui::TextEdit::singleline(&mut self.add.vest)
+                        .hint_text("serial:/dev/rfcomm1")
+                        .desired_width(160.0),
+                )
+                .on_hover_text(format!("The vest: {VEST_SPEC_FORMS}"));
+                ui.label("GPS");
+                ui.add(
+                    egui::TextEdit::singleline(&mut self.add.gps)
+                        .hint_text("serial:/dev/rfcomm2")
+                        .desired_width(160.0),
+                )
+                .on_hover_text(
+                    "The GPS: serial:PATH[@BAUD], gpsd://HOST:PORT, replay:FILE, sim[:ROUTE.gpx], vest",
+                );
+                if ui.button("Add station").clicked() {
+                    self.add_local();
+                }
+            });
+        });
     }
 
     /// Draws the window. `local` is the console's own station: its route and settings are what the drive
@@ -144,16 +255,18 @@ impl RemotePanel {
         patterns: &[vestnav_core::vest::Pattern],
     ) {
         let now = Instant::now();
-        let stale_after = self.fleet.options().stale_after;
-        let stations = self.fleet.stations();
+        let stale_after = self.stations.stale_after();
+        let stations = self.stations.stations();
         let mut open = self.open;
         egui::Window::new("Stations").open(&mut open).default_width(760.0).show(ctx, |ui| {
-            let (connected, err) = self.fleet.broker_status();
-            let broker = if connected {
-                RichText::new("broker connected").color(Color32::from_rgb(60, 160, 60))
-            } else {
-                RichText::new(format!("broker NOT connected: {}", err.unwrap_or_else(|| "connecting".into())))
-                    .color(ui.visuals().error_fg_color)
+            let broker = match self.stations.fleet().map(Fleet::broker_status) {
+                Some((true, _)) => RichText::new("broker connected").color(Color32::from_rgb(60, 160, 60)),
+                Some((false, err)) => RichText::new(format!(
+                    "broker NOT connected: {}",
+                    err.unwrap_or_else(|| "connecting".into())
+                ))
+                .color(ui.visuals().error_fg_color),
+                None => RichText::new("no broker (View > Broker…); local stations only"),
             };
             ui.horizontal(|ui| {
                 ui.label(broker);
@@ -165,15 +278,22 @@ impl RemotePanel {
                 ui.label(RichText::new(e).color(ui.visuals().error_fg_color));
             }
             if stations.is_empty() {
-                ui.label("No station has published on this broker yet.");
+                ui.label(if self.stations.fleet().is_some() {
+                    "No station has published on this broker yet."
+                } else {
+                    "No station yet: add one on this machine's ports below."
+                });
             }
+            let mut remove = None;
             egui::Grid::new("stations-grid").striped(true).show(ui, |ui| {
                 for h in ["station", "contact", "GPS", "vest", "guidance", "battery", "stop", "", "", "", ""] {
                     ui.label(RichText::new(h).strong());
                 }
                 ui.end_row();
                 for (r, v) in rows(&stations, now, stale_after).into_iter().zip(&stations) {
-                    ui.label(RichText::new(&r.name).strong());
+                    let is_local = self.stations.is_local(&r.name);
+                    let name = if is_local { format!("{} (this machine)", r.name) } else { r.name.clone() };
+                    ui.label(RichText::new(name).strong());
                     let contact = RichText::new(&r.contact);
                     ui.label(if r.stale { contact.color(ui.visuals().error_fg_color) } else { contact });
                     for text in [&r.gps, &r.vest, &r.guidance, &r.battery] {
@@ -186,18 +306,29 @@ impl RemotePanel {
                         ui.visuals().text_color()
                     }));
                     if ui.button("Stop").clicked() {
-                        self.error = self.fleet.stop(&r.name).err().map(|e| format!("Stop {}: {e}", r.name));
+                        self.error = self.stations.stop(&r.name).err().map(|e| format!("Stop {}: {e}", r.name));
                     }
                     if ui.button("Resume").clicked() {
-                        self.error = self.fleet.resume(&r.name).err().map(|e| format!("Resume {}: {e}", r.name));
+                        self.error =
+                            self.stations.resume(&r.name).err().map(|e| format!("Resume {}: {e}", r.name));
                     }
-                    let mut armed = v.state.as_ref().is_some_and(|s| s.link.continue_armed);
-                    if ui
-                        .checkbox(&mut armed, "continue if link drops")
-                        .on_hover_text("Armed: if this console's link to the station drops, the station keeps guiding along its own copy of the route instead of stopping the vest.")
-                        .changed()
-                    {
-                        self.fleet.set_continue_on_loss(&r.name, armed);
+                    if is_local {
+                        if ui
+                            .button("Remove")
+                            .on_hover_text("Stop this station's vest and close its ports")
+                            .clicked()
+                        {
+                            remove = Some(r.name.clone());
+                        }
+                    } else if let Some(fleet) = self.stations.fleet() {
+                        let mut armed = v.state.as_ref().is_some_and(|s| s.link.continue_armed);
+                        if ui
+                            .checkbox(&mut armed, "continue if link drops")
+                            .on_hover_text("Armed: if this console's link to the station drops, the station keeps guiding along its own copy of the route instead of stopping the vest.")
+                            .changed()
+                        {
+                            fleet.set_continue_on_loss(&r.name, armed);
+                        }
                     }
                     let driving = self.drive.selected.as_deref() == Some(r.name.as_str());
                     if ui
@@ -210,8 +341,15 @@ impl RemotePanel {
                     ui.end_row();
                 }
             });
+            if let Some(name) = remove {
+                self.stations.remove_local(&name);
+                if self.drive.selected.as_deref() == Some(name.as_str()) {
+                    self.drive.selected = None;
+                }
+            }
+            self.add_ui(ui);
             ui.separator();
-            self.drive.ui(ui, &self.fleet, local, patterns, now);
+            self.drive.ui(ui, &self.stations, local, patterns, now);
         });
         self.open = open;
     }

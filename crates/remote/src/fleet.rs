@@ -459,7 +459,7 @@ impl FleetNet {
 }
 
 /// Adds the fix in `m` to `v`'s track when it is a new one with a finite position.
-fn push_track(v: &mut StationView, m: &StateMsg) {
+pub(crate) fn push_track(v: &mut StationView, m: &StateMsg) {
     let Some(f) = &m.station.fix else { return };
     let Some((lat, lon)) = f.lat_deg.zip(f.lon_deg) else { return };
     if !(lat.is_finite()

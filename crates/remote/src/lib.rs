@@ -24,8 +24,12 @@
 pub mod bridge;
 pub mod broker;
 pub mod fleet;
+pub mod local;
+pub mod stations;
 pub mod wire;
 
 pub use bridge::{BridgeError, BridgeOptions, StationBridge};
 pub use broker::{BrokerConfig, ConfigError};
 pub use fleet::{Fleet, FleetError, FleetOptions, StationView};
+pub use local::{LocalStationConfig, LocalStations};
+pub use stations::Stations;

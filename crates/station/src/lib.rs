@@ -148,6 +148,9 @@ pub enum StationEvent<'a> {
 /// The set-up findings of one failed port, for the notices of `subject`.
 type PortFindings = (Subject, Vec<vestnav_device::doctor::Finding>);
 
+/// The next station's id on a shared stop path (each station of a process has its own).
+static NEXT_STOP_ID: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+
 /// The running system (see the crate doc).
 pub struct Station {
     settings: StationSettings,
@@ -169,6 +172,8 @@ pub struct Station {
     vest_link: Option<Arc<VestHandle>>,
     view_beat: Option<Heartbeat>,
     stop: StopPath,
+    /// This station's vest on the stop path (stations sharing one path each have their own).
+    stop_id: u64,
     log: Option<SessionLog>,
     log_tx: Option<LogSender>,
     route: RouteModel,
@@ -256,6 +261,7 @@ impl Station {
             vest_link: None,
             view_beat: None,
             stop,
+            stop_id: NEXT_STOP_ID.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
             log,
             log_tx,
             route,
@@ -457,7 +463,7 @@ impl Station {
         match self.factory.open_vest(&self.vest_source, outputs) {
             Ok(handle) => {
                 let handle = Arc::new(handle);
-                self.stop.register(0, handle.stopper());
+                self.stop.register(self.stop_id, handle.stopper());
                 self.view_beat = self.liveness.and_then(|l| l.view).map(|b| handle.heartbeat(Watched::Ui, b));
                 let g_bound = self.liveness.map_or(Duration::ZERO, |l| l.guidance);
                 if self.guidance_tx.try_send(GuidanceInput::VestLink(Some(handle.clone()), g_bound)).is_err()
@@ -485,7 +491,7 @@ impl Station {
         if let Some(link) = self.vest_link.take() {
             link.stopper().stop_and_close(EXIT_STOP_WAIT);
         }
-        self.stop.unregister(0);
+        self.stop.unregister(self.stop_id);
         self.vest = VestState::default();
     }
 
@@ -497,10 +503,17 @@ impl Station {
         self.autosave_route(true);
     }
 
-    /// STOP ALL: every tactor off now, automatic guidance latched off until the operator resumes it.
+    /// This station's vest's id on the stop path.
+    pub fn stop_id(&self) -> u64 {
+        self.stop_id
+    }
+
+    /// STOP ALL: every tactor of this station's vest off now, automatic guidance latched off until the
+    /// operator resumes it. (Every vest of the process at once: [`StopPath::stop_all`] on
+    /// [`Self::stop_path`], which a console with several local stations calls first.)
     pub fn stop_all(&mut self) {
         // The vest first: an atomic request the worker serves before anything else.
-        self.stop.stop_all();
+        self.stop.stop(self.stop_id);
         let now = Instant::now();
         if self.vest_link.is_some() {
             self.vest.stop_requested(now);

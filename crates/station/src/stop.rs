@@ -73,6 +73,16 @@ impl StopPath {
         self.len() == 0
     }
 
+    /// STOP ALL to the vest registered under `id` only (one station's own stop, when several stations
+    /// share the path). Never blocks beyond cloning the list.
+    pub fn stop(&self, id: u64) {
+        let one =
+            self.0.vests.lock().ok().and_then(|v| v.iter().find(|(i, _)| *i == id).map(|(_, s)| s.clone()));
+        if let Some(s) = one {
+            s.stop_all();
+        }
+    }
+
     /// STOP ALL to every vest now: each worker sends it within one read timeout and latches automatic
     /// cues off. Never blocks beyond cloning the list.
     pub fn stop_all(&self) {

@@ -134,11 +134,11 @@ impl Console {
     pub fn ui(&mut self, ui: &mut egui::Ui) {
         self.frame_pump();
         // Remote stations wake the window when one of them says something new.
-        if let Some(r) = &self.remote
-            && !r.fleet().has_waker()
+        if let Some(r) = &mut self.remote
+            && !r.stations().has_waker()
         {
             let ctx = ui.ctx().clone();
-            r.fleet().set_waker(std::sync::Arc::new(move || ctx.request_repaint()));
+            r.stations_mut().set_waker(std::sync::Arc::new(move || ctx.request_repaint()));
         }
         // The remote stations' wearers for the map, as the broker last told of them.
         self.map.remote_wearers =
@@ -361,11 +361,21 @@ impl Console {
                 ui.checkbox(&mut self.cfg.audible_alarm, "Audible alarm")
                     .on_hover_text("Ring the terminal bell once when the GPS fix or the vest link is lost");
                 ui.separator();
-                if ui.button("Broker and stations…").clicked() {
+                if ui.button("Broker…").clicked() {
                     self.broker_window.open = true;
-                    if let Some(r) = &mut self.remote {
-                        r.open = true;
-                    }
+                }
+                if ui
+                    .button("Stations…")
+                    .on_hover_text(
+                        "Every station: on the broker, and vests and GPS on this machine's other ports",
+                    )
+                    .clicked()
+                {
+                    let stop = self.station.stop_path().clone();
+                    let logs = Some(self.log_dir());
+                    self.remote
+                        .get_or_insert_with(|| crate::remote_panel::RemotePanel::new(stop, logs))
+                        .open = true;
                 }
             });
             ui.separator();
