@@ -99,18 +99,11 @@ fn describe_state(m: &StateMsg) -> (String, String, String, String, String) {
 }
 
 /// What the operator types to start a local station.
-#[derive(Debug, Clone)]
-#[allow(clippy::derivable_impls)] // the empty form, spelled out
+#[derive(Debug, Clone, Default)]
 struct AddLocal {
     name: String,
     vest: String,
     gps: String,
-}
-
-impl Default for AddLocal {
-    fn default() -> Self {
-        Self { name: String::new(), vest: String::new(), gps: String::new() }
-    }
 }
 
 /// The Stations window: every station, on the broker or on this machine's ports.
