@@ -119,14 +119,17 @@ fn c_string(text: &str, what: &'static str) -> Result<CString, LslError> {
 /// withdraws the stream.
 pub struct Outlet {
     api: Arc<Api>,
-    outlet: *mut c_void,
+    handle: *mut c_void,
     name: String,
     channels: usize,
 }
 
 impl std::fmt::Debug for Outlet {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Outlet").field("name", &self.name).field("channels", &self.channels).finish()
+        f.debug_struct("Outlet")
+            .field("name", &self.name)
+            .field("channels", &self.channels)
+            .finish_non_exhaustive()
     }
 }
 
@@ -146,8 +149,14 @@ impl Outlet {
         // SAFETY: every pointer passed is a live NUL-terminated string or an object liblsl returned and we
         // checked for NULL; the stream info is destroyed once, after the outlet copied it (outlet.h).
         unsafe {
-            let info =
-                (api.create_streaminfo)(name.as_ptr(), kind.as_ptr(), channels, rate, spec.format.code(), source.as_ptr());
+            let info = (api.create_streaminfo)(
+                name.as_ptr(),
+                kind.as_ptr(),
+                channels,
+                rate,
+                spec.format.code(),
+                source.as_ptr(),
+            );
             if info.is_null() {
                 return Err(null("stream info"));
             }
@@ -174,7 +183,7 @@ impl Outlet {
             if outlet.is_null() {
                 return Err(null("outlet"));
             }
-            Ok(Outlet { api, outlet, name: spec.name.clone(), channels: spec.channels })
+            Ok(Outlet { api, handle: outlet, name: spec.name.clone(), channels: spec.channels })
         }
     }
 
@@ -187,10 +196,14 @@ impl Outlet {
     /// reader: liblsl queues it (bounded by the outlet's buffer, oldest dropped).
     pub fn push_f64(&self, values: &[f64], at: f64) -> Result<(), LslError> {
         if values.len() != self.channels {
-            return Err(LslError::Shape { stream: self.name.clone(), expected: self.channels, got: values.len() });
+            return Err(LslError::Shape {
+                stream: self.name.clone(),
+                expected: self.channels,
+                got: values.len(),
+            });
         }
         // SAFETY: `values` holds exactly the stream's channel count of doubles; the outlet is live.
-        let code = unsafe { (self.api.push_sample_dtp)(self.outlet, values.as_ptr(), at, 1) };
+        let code = unsafe { (self.api.push_sample_dtp)(self.handle, values.as_ptr(), at, 1) };
         self.checked(code)
     }
 
@@ -202,7 +215,7 @@ impl Outlet {
         let s = c_string(bounded(text), "the sample")?;
         let ptrs = [s.as_ptr()];
         // SAFETY: one live C string for the one channel; the outlet is live.
-        let code = unsafe { (self.api.push_sample_strtp)(self.outlet, ptrs.as_ptr(), at, 1) };
+        let code = unsafe { (self.api.push_sample_strtp)(self.handle, ptrs.as_ptr(), at, 1) };
         self.checked(code)
     }
 
@@ -214,6 +227,6 @@ impl Outlet {
 impl Drop for Outlet {
     fn drop(&mut self) {
         // SAFETY: the outlet came from lsl_create_outlet, was checked non-NULL and is destroyed once.
-        unsafe { (self.api.destroy_outlet)(self.outlet) }
+        unsafe { (self.api.destroy_outlet)(self.handle) }
     }
 }

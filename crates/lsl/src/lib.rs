@@ -127,7 +127,7 @@ impl ChannelFormat {
 /// What an outlet announces: name, content type, channels, rate, format and source id.
 #[derive(Debug, Clone, PartialEq)]
 pub struct StreamSpec {
-    /// The stream's name (what LabRecorder lists).
+    /// The stream's name (what `LabRecorder` lists).
     pub name: String,
     /// Its content type ("Markers", …).
     pub kind: String,

@@ -80,7 +80,10 @@ fn system_names() -> &'static [&'static str] {
 
 /// The candidates in search order. Folders looked into that hold no pylsl are not listed; when
 /// `VESTNAV_LIBLSL` is set it is the only candidate. `tried` gets a line for each step that found nothing.
-pub fn candidates(env: &Environment, tried: &mut Vec<(String, String)>) -> Box<dyn Iterator<Item = Candidate>> {
+pub fn candidates(
+    env: &Environment,
+    tried: &mut Vec<(String, String)>,
+) -> Box<dyn Iterator<Item = Candidate>> {
     if let Some(p) = &env.explicit {
         return Box::new(std::iter::once(Candidate::File(PathBuf::from(p))));
     }
@@ -164,8 +167,9 @@ fn pylsl_libraries(site_dirs: &[PathBuf]) -> Vec<PathBuf> {
             .map(|e| e.path())
             .filter(|p| {
                 p.file_name().and_then(|n| n.to_str()).is_some_and(|n| {
+                    let n = n.to_ascii_lowercase();
                     (n.starts_with("liblsl") || n.starts_with("lsl"))
-                        && (n.contains(".so") || n.ends_with(".dylib") || n.ends_with(".dll"))
+                        && [".so", ".dylib", ".dll"].iter().any(|e| n.contains(e))
                 })
             })
             .collect();

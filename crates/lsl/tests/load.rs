@@ -1,4 +1,5 @@
 //! Loading liblsl: the real one (pylsl's copy, which CI installs) and files that are not liblsl.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use std::path::PathBuf;
 
@@ -42,8 +43,8 @@ fn files_that_are_not_liblsl_are_refused_with_the_reason() {
     assert_eq!(refusal(std::path::Path::new(libc)), "not a liblsl: it has no lsl_library_version");
 }
 
-/// liblsl must be found here (CI installs pylsl); VESTNAV_LSL_SKIP=1 skips with the reason printed.
-pub fn lsl_or_skip() -> Option<Lsl> {
+/// liblsl must be found here (CI installs pylsl); `VESTNAV_LSL_SKIP=1` skips with the reason printed.
+fn lsl_or_skip() -> Option<Lsl> {
     match Lsl::load() {
         Ok(l) => Some(l),
         Err(e) if std::env::var("VESTNAV_LSL_SKIP").is_ok_and(|v| v == "1") => {
@@ -70,11 +71,13 @@ fn the_installed_liblsl_loads_and_makes_outlets() {
     // A sample of the wrong shape is refused before liblsl sees it.
     assert!(out.push_f64(&[1.0, 2.0], t1).is_err());
     let pos = lsl
-        .outlet(&StreamSpec::new("vestnav-load-pos", "Position", 3, ChannelFormat::Double64, "x").with_units(&[
-            ("lat", "degrees"),
-            ("lon", "degrees"),
-            ("h_acc", "m"),
-        ]))
+        .outlet(
+            &StreamSpec::new("vestnav-load-pos", "Position", 3, ChannelFormat::Double64, "x").with_units(&[
+                ("lat", "degrees"),
+                ("lon", "degrees"),
+                ("h_acc", "m"),
+            ]),
+        )
         .unwrap();
     pos.push_f64(&[51.5, -0.1, 3.0], t1).unwrap();
     assert!(pos.push_str("x", t1).is_err());
