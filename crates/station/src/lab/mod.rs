@@ -70,6 +70,17 @@ impl LabConfig {
     }
 }
 
+/// An OSC target from the command line: `HOST:PORT` (a name is resolved once, the first address used).
+pub fn parse_osc_target(text: &str) -> Result<SocketAddr, String> {
+    use std::net::ToSocketAddrs as _;
+    let mut addrs = text.trim().to_socket_addrs().map_err(|e| format!("{text:?}: not HOST:PORT ({e})"))?;
+    let addr = addrs.next().ok_or_else(|| format!("{text:?}: no address"))?;
+    if addr.port() == 0 {
+        return Err(format!("{text:?}: port 0"));
+    }
+    Ok(addr)
+}
+
 /// Why the lab outputs could not start.
 #[derive(Debug, thiserror::Error)]
 pub enum LabError {
