@@ -58,6 +58,9 @@ pub struct StationArgs {
     /// cues halted (unless the operator armed "continue the route if the link drops").
     #[arg(long, value_name = "SECONDS", default_value_t = 3.0, requires = "broker")]
     pub link_bound: f64,
+    /// LSL streams and OSC messages (docs/study.md).
+    #[command(flatten)]
+    pub lab: crate::lab_args::LabArgs,
     /// The MQTT broker the station publishes to and takes commands from (docs/remote.md).
     #[command(flatten)]
     pub broker: crate::broker_args::BrokerArgs,
@@ -91,6 +94,7 @@ pub fn run(a: &StationArgs) -> anyhow::Result<()> {
     for n in station.notices.all() {
         eprintln!("vestnav station: {}", n.text);
     }
+    a.lab.start(&mut station, a.name.as_deref())?;
     station.connect_vest();
     station.connect_gps(Vec::new());
     let mut bridge = match a.broker.config() {
@@ -200,7 +204,7 @@ fn status_line(s: &Station, now: Instant, start: Instant, json: bool) -> String 
             "t_s": t_s, "gps": gps, "position_age_s": age_s, "lat_deg": pos.map(|p| p.0), "lon_deg": pos.map(|p| p.1),
             "fixes": s.gps.fixes, "vest": vest, "tactors_on": on, "halted": s.vest.halted, "cue": cue, "hold": hold,
             "next_waypoint": next, "waypoints": s.route().waypoints().len(), "gps_alarm": alarm,
-            "stop_not_confirmed": stop,
+            "stop_not_confirmed": stop, "lab": s.lab_status(),
         })
         .to_string()
     } else {
@@ -221,6 +225,9 @@ fn status_line(s: &Station, now: Instant, start: Instant, json: bool) -> String 
         }
         if let Some(st) = stop {
             let _ = write!(line, " · STOP NOT CONFIRMED: {st}");
+        }
+        if let Some(lab) = s.lab_status() {
+            let _ = write!(line, " · lab: {}", lab.summary());
         }
         line
     }

@@ -24,6 +24,7 @@ mod fieldtest_panel;
 pub mod file_dialog;
 pub mod gps_panel;
 pub mod gps_receiver;
+pub mod lab_window;
 pub mod log_viewer;
 pub mod map_panel;
 pub mod map_tools;
@@ -224,6 +225,11 @@ impl eframe::App for App {
                 p.open = true;
                 p
             });
+        }
+        let c = &mut self.console;
+        c.lab_window.ui(ui.ctx(), &mut c.station);
+        if c.lab_window.busy() {
+            ui.ctx().request_repaint_after(std::time::Duration::from_millis(50));
         }
     }
 
