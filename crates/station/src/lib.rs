@@ -37,6 +37,7 @@ pub mod devices;
 pub mod fieldtests;
 pub mod guidance;
 pub mod hardware;
+pub mod ntrip;
 pub mod pinned;
 pub mod route;
 pub mod sources;
@@ -199,6 +200,8 @@ pub struct Station {
     epoch: Instant,
     /// Watches for a receiver holding its position (see [`pinned`]).
     pin: PinDetector,
+    /// RTK corrections to the receiver, once started (see [`ntrip`]).
+    ntrip: Option<ntrip::Corrections>,
 }
 
 impl Station {
@@ -273,6 +276,7 @@ impl Station {
             field_tests: FieldTests::new(),
             epoch: Instant::now(),
             pin: PinDetector::default(),
+            ntrip: None,
         }
     }
 
@@ -420,6 +424,7 @@ impl Station {
 
     /// Stops the GPS source (never waits long on its IO).
     pub fn disconnect_gps(&mut self) {
+        self.end_ntrip("the GPS source was disconnected or changed");
         if let Some(mut w) = self.gps_worker.take() {
             w.stop();
         }
@@ -657,6 +662,7 @@ impl Station {
             view(StationEvent::Vest(ev));
         }
         self.take_port_findings();
+        self.pump_ntrip();
         let mut latest = None;
         let cues = &mut self.cues;
         drain_within(&self.guidance_rx, DRAIN_BUDGET, |st: GuidanceStatus| {
@@ -820,7 +826,7 @@ impl Station {
             }
             GpsEvent::Notice(n) => self.gps.notice = Some(n.clone()),
             GpsEvent::Attitude(a) => self.gps.attitude = Some(*a),
-            GpsEvent::Raw(_) => {}
+            GpsEvent::Raw(line) => self.ntrip_gga(line),
             GpsEvent::Discontinuity(n) => {
                 // A replay seek or loop: the next position must not be joined to the last one, and the
                 // receiver's clock jumps with it.
