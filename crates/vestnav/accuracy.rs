@@ -17,7 +17,9 @@ use vestnav_core::accuracy::{
 };
 use vestnav_core::fieldtest::{ConeStats, DriftStats};
 use vestnav_core::geo::Earth;
-use vestnav_report::accuracy::{AccuracyReport, AgainstReference, CompareReport, accuracy_rows};
+use vestnav_report::accuracy::{
+    AccuracyReport, AgainstReference, CONES_AGAINST_LABEL, CompareReport, DRIFT_AGAINST_LABEL, accuracy_rows,
+};
 use vestnav_report::fieldtest::{ConesReport, DriftReport};
 use vestnav_report::to_json;
 use vestnav_station::fieldtests::{typed_reference, waypoint_reference};
@@ -266,7 +268,7 @@ pub(crate) fn finish_drift(
         );
     }
     if let Some(path) = png {
-        both.figure(DriftReport::figure, "Against the reference").save_png(path)?;
+        both.figure(DriftReport::figure, DRIFT_AGAINST_LABEL).save_png(path)?;
     }
     Ok(())
 }
@@ -335,7 +337,7 @@ pub fn finish_cones(
         );
     }
     if let Some(path) = png {
-        both.figure(ConesReport::figure, "Marks against their cones").save_png(path)?;
+        both.figure(ConesReport::figure, CONES_AGAINST_LABEL).save_png(path)?;
     }
     Ok(())
 }

@@ -13,6 +13,12 @@
 //! end of its file) a running test ends "source ended" instead of waiting for fixes that cannot come; when
 //! it jumps ([`FieldTests::source_jumped`]: a replay sought or looped) a running test ends too.
 //!
+//! **Against a reference.** With a reference set ([`FieldTests::set_reference`]: typed, a GPX waypoint,
+//! or averaged over a window of good fixes with [`FieldTests::start_averaging`]), the accuracy test
+//! ([`FieldTests::accuracy`]) measures every fix against it with [`crate::accuracy::accuracy`], the drift
+//! test's fixes gain the same statistics, and the cone marks are measured against where their cones stand
+//! (the reference being the first cone): all live, on the tests' own clocks.
+//!
 //! **Moving during a drift test.** The receiver moves like a walker when either the reported speed over
 //! ground is at least [`WALKING_SPEED_M_S`] on every fix of the last [`WALK_SUSTAIN_S`] s, or the
 //! straight-line displacement over the last [`WALK_WINDOW_S`] s is at least that speed times the window (a
@@ -367,6 +373,8 @@ pub enum Procedure {
     Drift,
     /// The cone test.
     Cones,
+    /// The accuracy test against the reference.
+    Accuracy,
 }
 
 /// The drift and cone tests fed with every fix.
@@ -629,6 +637,7 @@ impl FieldTests {
         let (track, what) = match procedure {
             Procedure::Drift => (&self.drift.rec.fixes, "drift test"),
             Procedure::Cones => (&self.cones.rec.fixes, "cone test"),
+            Procedure::Accuracy => (&self.accuracy.recording().fixes, "accuracy test"),
         };
         let last = track.last()?;
         let start = track.iter().rposition(|f| last.t_s - f.t_s > 30.0).map_or(0, |i| i + 1);
