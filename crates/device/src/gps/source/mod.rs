@@ -350,7 +350,7 @@ impl GpsSource {
                         &port,
                         baud,
                         &config_rx,
-                        slot.as_deref().unwrap_or(&Default::default()),
+                        slot.as_deref().unwrap_or(&corrections::PortSlot::default()),
                     );
                 }
                 SourceConfig::Replay { path, speed } => {
