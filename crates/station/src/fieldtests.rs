@@ -84,3 +84,47 @@ fn stated(mut r: Reference, height_m: Option<f64>) -> Result<Reference, String> 
     r.height_m = height_m;
     Ok(r)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const GPX: &str = r#"<?xml version="1.0"?>
+<gpx version="1.1" creator="test" xmlns="http://www.topografix.com/GPX/1/1">
+  <wpt lat="-45.8775925" lon="170.5001265"><name>PILLAR</name></wpt>
+  <wpt lat="42.3575" lon="-71.1010"><name>MIT</name></wpt>
+</gpx>"#;
+
+    /// A reference from a GPX waypoint by name; several without a name, an unknown name, a typo in a typed
+    /// position and a negative uncertainty are refused saying what is wrong; a FIFO is refused without
+    /// blocking (the console reads on its view's thread).
+    #[test]
+    fn references_from_text_and_waypoints() {
+        let dir = std::env::temp_dir().join(format!("vestnav-ref-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let gpx = dir.join("marks.gpx");
+        std::fs::write(&gpx, GPX).unwrap();
+        let r = waypoint_reference(&gpx, Some("MIT"), 0.02, Some(12.5)).unwrap();
+        assert_eq!((r.pos.lat_deg, r.pos.lon_deg), (42.3575, -71.1010));
+        assert_eq!(r.height_m, Some(12.5));
+        assert!(matches!(&r.origin, ReferenceOrigin::Waypoint { name, .. } if name == "MIT"));
+        let several = waypoint_reference(&gpx, Some(" "), 0.0, None).unwrap_err();
+        assert!(several.contains("several waypoints") && several.contains("\"PILLAR\""), "{several}");
+        let unknown = waypoint_reference(&gpx, Some("NOPE"), 0.0, None).unwrap_err();
+        assert!(unknown.contains("no waypoint named \"NOPE\""), "{unknown}");
+        let t = typed_reference("45 52 39.333 S 170 30 0.4554 E", 0.01, None).unwrap();
+        assert!((t.pos.lat_deg + 45.877_592_5).abs() < 1e-7 && (t.pos.lon_deg - 170.500_126_5).abs() < 1e-7);
+        assert!(typed_reference("42.3575, -71.1010", -1.0, None).unwrap_err().contains("uncertainty"));
+        assert!(typed_reference("not a place", 0.0, None).is_err());
+        #[cfg(unix)]
+        {
+            let fifo = dir.join("fifo.gpx");
+            let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+            if made.is_ok_and(|s| s.success()) {
+                let e = waypoint_reference(&fifo, None, 0.0, None).unwrap_err();
+                assert!(e.contains("fifo.gpx"), "{e}");
+            }
+        }
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}

@@ -130,7 +130,8 @@ impl FieldTests {
         }
         let samples = self.averaging.rec.accuracy_samples();
         let from_s = samples.first().map_or(0.0, |s| s.t_s);
-        let window_s = self.averaging.rec.elapsed_s().max(f64::MIN_POSITIVE);
+        // A microsecond of slack: the last fix is inside the window whatever the rounding of `from + span`.
+        let window_s = self.averaging.rec.elapsed_s() + 1e-6;
         self.averaging.phase = Phase::Done;
         match accuracy::average_reference(&samples, from_s, window_s, self.earth) {
             Ok(r) => {
