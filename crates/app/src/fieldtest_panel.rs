@@ -11,6 +11,11 @@
 //!   [`FieldTestAction::Mark`] so the app logs the mark, and shows the consecutive distances, their mean, the
 //!   RMSE against the spacing and the along-/cross-line components.
 //!
+//! - **Reference and accuracy test** (issue 27, `reference` module): the truth typed, from a GPX waypoint or
+//!   averaged from good fixes, with its stated uncertainty; the **Accuracy test** measures every fix against
+//!   it (bias, CEP50/CEP95, 2DRMS, R95, shares within 0.1–5 m, vertical error), and with a reference set the
+//!   drift and cone tests show their statistics against it too. The station's field tests compute all of it.
+//!
 //! The panel says which clock a test is on (the receiver's UTC time, or arrival when the receiver sends
 //! none), warns in amber while a drift test's receiver moves at walking pace, and when the receiver looks
 //! pinned (`SiRF` Star III static navigation holds the position below about 1.2 m/s, physics.md §5).
@@ -22,8 +27,9 @@
 //! `vestnav-cones.*`), a relative one taken in the console's files folder (`~/Documents/vestnav`) and
 //! shown as the absolute path it uses, **Browse…** for the desktop's save dialog; an export
 //! never replaces an existing file silently: the panel asks "Replace X?" first (**Replace** / **Cancel**).
-//! The sheets shown and exported and the JSON reports come from `vestnav_report::fieldtest`, the same as
-//! `vestnav fieldtest drift|cones --png/--json` write for the same fixes.
+//! The sheets shown and exported and the JSON reports come from `vestnav_report::fieldtest` and
+//! `vestnav_report::accuracy`, the same as `vestnav fieldtest drift|cones|accuracy [--reference ...]
+//! --png/--json` write for the same fixes (`vestnav-accuracy.*` for the accuracy test).
 
 use std::path::PathBuf;
 
