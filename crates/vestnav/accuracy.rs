@@ -2,27 +2,29 @@
 //! accuracy against a known point, and several receivers side by side (core's `accuracy`, figures and JSON
 //! from vestnav-report).
 //!
-//! Fixes are read as `fieldtest` reads them (NMEA/UBX/SiRF logs through `vestnav_device::gps`, times from
-//! the receiver's UTC time of day; console session logs through the strict session-log reader), here with
+//! Fixes are read by `fieldtest`'s one log reader (NMEA/UBX/SiRF logs through `vestnav_device::gps`, times
+//! from the receiver's UTC time of day; console session logs through the strict session-log reader), with
 //! their height above mean sea level (GGA altitude) and whether the fix is good enough to average into a
-//! reference (a position-bearing quality, and 3-D when the mode is known).
+//! reference (`Fix::good_for_reference`). A typed or waypoint reference is made by the station's
+//! `fieldtests`, the same as the console's.
 
 use std::path::{Path, PathBuf};
 
 use anyhow::Context as _;
 use clap::Args;
 use vestnav_core::accuracy::{
-    Receiver, Reference, ReferenceOrigin, Sample, accuracy, average_reference, compare,
-    cones_against_reference,
+    Receiver, Reference, accuracy, average_reference, compare, cones_against_reference,
 };
 use vestnav_core::fieldtest::{ConeStats, DriftStats};
-use vestnav_core::geo::{Earth, LatLon};
-use vestnav_device::gps::{FixMode, FixQuality, decode_reader};
-use vestnav_report::accuracy::{AccuracyReport, AgainstReference, CompareReport, accuracy_rows};
-use vestnav_report::fieldtest::{ConesReport, DriftReport, Source};
+use vestnav_core::geo::Earth;
+use vestnav_report::accuracy::{
+    AccuracyReport, AgainstReference, CONES_AGAINST_LABEL, CompareReport, DRIFT_AGAINST_LABEL, accuracy_rows,
+};
+use vestnav_report::fieldtest::{ConesReport, DriftReport};
 use vestnav_report::to_json;
+use vestnav_station::fieldtests::{typed_reference, waypoint_reference};
 
-use crate::fieldtest::{EarthArg, LogFormat, seconds_of_day};
+use crate::fieldtest::{EarthArg, Log, LogFormat, load, source};
 
 /// Where the truth comes from (one of `--reference`, `--reference-gpx`, `--reference-average-s`).
 #[derive(Debug, Args, Default)]
@@ -107,68 +109,8 @@ pub struct CompareArgs {
     pub png: Option<PathBuf>,
 }
 
-/// A log's fixes for the accuracy statistics.
-pub struct LoadedLog {
-    /// Positioned fixes with time and height.
-    pub samples: Vec<Sample>,
-    /// Whether each is good enough to average into a reference.
-    pub good: Vec<bool>,
-    /// Where they came from.
-    pub source: Source,
-}
-
-/// Reads the positioned fixes of `path` with their heights (see the module doc).
-pub fn load_samples(path: &Path, format: LogFormat) -> anyhow::Result<LoadedLog> {
-    let format = match format {
-        LogFormat::Auto => crate::fieldtest::sniff(path)?,
-        f => f,
-    };
-    if format == LogFormat::Session {
-        // Session logs carry no height or quality: every fix counts as good.
-        let log = crate::fieldtest::load(path, format)?;
-        let source = crate::fieldtest::source(path, &log);
-        let samples: Vec<Sample> = log.fixes.iter().map(|f| Sample::new(f.t_s, f.pos)).collect();
-        return Ok(LoadedLog { good: vec![true; samples.len()], samples, source });
-    }
-    let file = vestnav_files::open_regular(path).with_context(|| format!("opening {}", path.display()))?;
-    let (fixes, stats) = decode_reader(std::io::BufReader::new(file))
-        .with_context(|| format!("reading {}", path.display()))?;
-    let mut out = LoadedLog {
-        samples: Vec::new(),
-        good: Vec::new(),
-        source: Source {
-            file: Some(path.display().to_string()),
-            format: "nmea".into(),
-            rejected_sentences: stats.rejected(),
-        },
-    };
-    let mut prev: Option<f64> = None;
-    for f in fixes.iter().filter(|f| f.has_position()) {
-        let t = match f.time_of_day {
-            Some(tod) => vestnav_core::fieldtest::unwrap_time_of_day(seconds_of_day(tod), prev),
-            None => prev.map_or(0.0, |p| p + 1.0),
-        };
-        prev = Some(t);
-        let (Some(lat), Some(lon)) = (f.lat_deg, f.lon_deg) else { continue };
-        let Ok(pos) = LatLon::new(lat, lon).validated() else { continue };
-        let good = f.quality.is_none_or(|q| {
-            matches!(
-                q,
-                FixQuality::Gps | FixQuality::Dgps | FixQuality::Pps | FixQuality::Rtk | FixQuality::FloatRtk
-            )
-        }) && f.mode.is_none_or(|m| m == FixMode::Fix3D);
-        out.samples.push(Sample { t_s: t, pos, height_m: f.alt_m.filter(|h| h.is_finite()) });
-        out.good.push(good);
-    }
-    Ok(out)
-}
-
 /// The reference the arguments name; `log` is averaged for `--reference-average-s`.
-pub fn resolve_reference(
-    args: &ReferenceArgs,
-    log: Option<&LoadedLog>,
-    earth: Earth,
-) -> anyhow::Result<Reference> {
+pub fn resolve_reference(args: &ReferenceArgs, log: Option<&Log>, earth: Earth) -> anyhow::Result<Reference> {
     let u = args.reference_uncertainty_m;
     if !(u.is_finite() && u >= 0.0) {
         anyhow::bail!("--reference-uncertainty-m must be a non-negative number of metres");
@@ -176,60 +118,38 @@ pub fn resolve_reference(
     if args.reference_height_m.is_some_and(|h| !h.is_finite()) {
         anyhow::bail!("--reference-height-m must be a number of metres");
     }
-    let mut reference = if let Some(text) = &args.reference {
-        let pos =
-            vestnav_core::coords::parse_position(text).map_err(|e| anyhow::anyhow!("--reference: {e}"))?;
-        Reference { origin: ReferenceOrigin::Typed { text: Some(text.clone()) }, ..Reference::typed(pos, u) }
+    let h = args.reference_height_m;
+    let reference = if let Some(text) = &args.reference {
+        typed_reference(text, u, h).map_err(|e| anyhow::anyhow!("--reference: {e}"))?
     } else if let Some(gpx) = &args.reference_gpx {
-        let file = vestnav_device::route_file::read_gpx(gpx)?;
-        let wpt = match &args.waypoint {
-            Some(name) => file.waypoints.iter().find(|w| w.name == *name).with_context(|| {
-                format!("{}: no waypoint named {name:?} (it has {})", gpx.display(), names(&file.waypoints))
-            })?,
-            None => match file.waypoints.as_slice() {
-                [only] => only,
-                [] => anyhow::bail!("{}: no waypoints (<wpt>)", gpx.display()),
-                many => anyhow::bail!(
-                    "{}: several waypoints, choose one with --waypoint ({})",
-                    gpx.display(),
-                    names(many)
-                ),
-            },
-        };
-        let pos = LatLon::new(wpt.lat_deg, wpt.lon_deg).validated()?;
-        Reference {
-            origin: ReferenceOrigin::Waypoint { file: gpx.display().to_string(), name: wpt.name.clone() },
-            ..Reference::typed(pos, u)
-        }
+        waypoint_reference(gpx, args.waypoint.as_deref(), u, h)
+            .map_err(|e| anyhow::anyhow!("--reference-gpx: {e}"))?
     } else if let Some(window_s) = args.reference_average_s {
         let log = log.context("--reference-average-s needs a log")?;
-        let good: Vec<Sample> =
-            log.samples.iter().zip(&log.good).filter(|(_, g)| **g).map(|(s, _)| *s).collect();
+        let good = log.good_samples();
         let from = good.first().map_or(0.0, |s| s.t_s);
-        average_reference(&good, from, window_s, earth).context("averaging the reference")?
+        let mut r = average_reference(&good, from, window_s, earth).context("averaging the reference")?;
+        if h.is_some() {
+            r.height_m = h;
+        }
+        r
     } else {
         anyhow::bail!("give a reference: --reference, --reference-gpx or --reference-average-s");
     };
-    if let Some(h) = args.reference_height_m {
-        reference.height_m = Some(h);
-    }
     Ok(reference)
-}
-
-fn names(w: &[vestnav_device::route_file::Waypoint]) -> String {
-    w.iter().take(10).map(|w| format!("{:?}", w.name)).collect::<Vec<_>>().join(", ")
 }
 
 /// Runs `vestnav fieldtest accuracy`.
 #[allow(clippy::print_stdout)]
 pub fn run_accuracy(args: &AccuracyArgs) -> anyhow::Result<()> {
     let earth = Earth::from(args.earth);
-    let log = load_samples(&args.file, args.format)?;
+    let log = load(&args.file, args.format)?;
     let reference = resolve_reference(&args.reference, Some(&log), earth)?;
-    let stats = accuracy(&log.samples, &reference, earth)
+    let samples = log.samples();
+    let stats = accuracy(&samples, &reference, earth)
         .with_context(|| format!("{}: no positioned fixes", args.file.display()))?;
     let report =
-        AccuracyReport::new(log.source.clone(), earth, reference.clone(), Ok(stats.clone()), &log.samples);
+        AccuracyReport::new(source(&args.file, &log), earth, reference.clone(), Ok(stats.clone()), &samples);
     if args.json {
         print!("{}", to_json(&report)?);
     } else {
@@ -256,8 +176,7 @@ fn print_rows(rows: &[(&str, String)]) {
 #[allow(clippy::print_stdout)]
 pub fn run_compare(args: &CompareArgs) -> anyhow::Result<()> {
     let earth = Earth::from(args.earth);
-    let logs: Vec<LoadedLog> =
-        args.files.iter().map(|f| load_samples(f, args.format)).collect::<anyhow::Result<_>>()?;
+    let logs: Vec<Log> = args.files.iter().map(|f| load(f, args.format)).collect::<anyhow::Result<_>>()?;
     let reference = if args.reference.is_set() {
         Some(resolve_reference(&args.reference, logs.first(), earth)?)
     } else {
@@ -269,17 +188,17 @@ pub fn run_compare(args: &CompareArgs) -> anyhow::Result<()> {
         .zip(&logs)
         .map(|(f, l)| Receiver {
             name: f.file_name().map_or_else(|| f.display().to_string(), |n| n.to_string_lossy().into_owned()),
-            samples: l.samples.clone(),
+            samples: l.samples(),
         })
         .collect();
     let comparison = compare(&receivers, reference.as_ref(), args.tolerance_s, earth)?;
     let report = CompareReport {
         test: "compare".into(),
-        sources: logs.iter().map(|l| l.source.clone()).collect(),
+        sources: args.files.iter().zip(&logs).map(|(f, l)| source(f, l)).collect(),
         earth,
         reference_point: reference.clone(),
         comparison: comparison.clone(),
-        tracks: logs.into_iter().map(|l| l.samples).collect(),
+        tracks: logs.iter().map(Log::samples).collect(),
     };
     if args.json {
         print!("{}", to_json(&report)?);
@@ -324,18 +243,17 @@ pub fn run_compare(args: &CompareArgs) -> anyhow::Result<()> {
 /// `fieldtest drift --reference ...`: the drift report with the fixes against the reference; prints it
 /// (JSON or text) and writes the figure.
 #[allow(clippy::print_stdout)]
-pub fn finish_drift(
+pub(crate) fn finish_drift(
     file: &Path,
-    format: LogFormat,
+    log: &Log,
     reference: &ReferenceArgs,
     report: DriftReport,
     json: bool,
     png: Option<&Path>,
 ) -> anyhow::Result<()> {
     let earth = report.earth;
-    let log = load_samples(file, format)?;
-    let reference = resolve_reference(reference, Some(&log), earth)?;
-    let stats = accuracy(&log.samples, &reference, earth).map_err(|e| e.to_string());
+    let reference = resolve_reference(reference, Some(log), earth)?;
+    let stats = accuracy(&log.samples(), &reference, earth).map_err(|e| e.to_string());
     let both = AgainstReference::new(report, reference, stats);
     if json {
         print!("{}", to_json(&both)?);
@@ -350,7 +268,7 @@ pub fn finish_drift(
         );
     }
     if let Some(path) = png {
-        both.figure(DriftReport::figure, "Against the reference").save_png(path)?;
+        both.figure(DriftReport::figure, DRIFT_AGAINST_LABEL).save_png(path)?;
     }
     Ok(())
 }
@@ -419,7 +337,7 @@ pub fn finish_cones(
         );
     }
     if let Some(path) = png {
-        both.figure(ConesReport::figure, "Marks against their cones").save_png(path)?;
+        both.figure(ConesReport::figure, CONES_AGAINST_LABEL).save_png(path)?;
     }
     Ok(())
 }

@@ -16,6 +16,7 @@ use std::path::{Path, PathBuf};
 use anyhow::Context as _;
 use chrono::{Datelike as _, NaiveTime, Timelike as _};
 use clap::{Args, ValueEnum};
+use vestnav_core::accuracy::Sample;
 use vestnav_core::fieldtest::{
     ConeConfig, ConeMark, TimedFix, cones, drift, position_at, unwrap_time_of_day,
 };
@@ -136,11 +137,17 @@ struct LogMark {
     pos: Option<LatLon>,
 }
 
-/// A decoded log: positioned fixes with times, the marks with times, and the first fix's date.
+/// A decoded log: positioned fixes with times, the marks with times, and the first fix's date — the one
+/// reading of a log for every `fieldtest` subcommand (`accuracy` and `compare` too).
 pub(crate) struct Log {
     /// The format it was read as (never `Auto`).
-    format: LogFormat,
+    pub(crate) format: LogFormat,
     pub(crate) fixes: Vec<TimedFix>,
+    /// Each fix's height above mean sea level (GGA altitude; session logs have none).
+    heights: Vec<Option<f64>>,
+    /// Whether each fix is good enough to average into a reference (`Fix::good_for_reference`; every fix
+    /// of a session log, which records no quality).
+    good: Vec<bool>,
     marks: Vec<LogMark>,
     date: Option<(i32, u8, u8)>,
     /// Rejected NMEA sentences, or skipped (cut-off) session-log lines.
@@ -149,7 +156,23 @@ pub(crate) struct Log {
     warnings: Vec<String>,
 }
 
-pub(crate) fn seconds_of_day(t: NaiveTime) -> f64 {
+impl Log {
+    /// The fixes with their heights, for the accuracy statistics.
+    pub(crate) fn samples(&self) -> Vec<Sample> {
+        self.fixes
+            .iter()
+            .zip(&self.heights)
+            .map(|(f, h)| Sample { t_s: f.t_s, pos: f.pos, height_m: *h })
+            .collect()
+    }
+
+    /// The fixes good enough to average into a reference.
+    pub(crate) fn good_samples(&self) -> Vec<Sample> {
+        self.samples().into_iter().zip(&self.good).filter(|(_, g)| **g).map(|(s, _)| s).collect()
+    }
+}
+
+fn seconds_of_day(t: NaiveTime) -> f64 {
     f64::from(t.num_seconds_from_midnight()) + f64::from(t.nanosecond()) / 1e9
 }
 
@@ -169,8 +192,8 @@ pub(crate) fn load(path: &Path, format: LogFormat) -> anyhow::Result<Log> {
 }
 
 /// `Session` when the first non-blank byte (after a UTF-8 byte order mark) is `{`, else `Nmea`.
-pub(crate) fn sniff(path: &Path) -> anyhow::Result<LogFormat> {
-    let file = std::fs::File::open(path).with_context(|| format!("opening {}", path.display()))?;
+fn sniff(path: &Path) -> anyhow::Result<LogFormat> {
+    let file = vestnav_files::open_regular(path).with_context(|| format!("opening {}", path.display()))?;
     let mut head = Vec::new();
     file.take(SNIFF_BYTES).read_to_end(&mut head).with_context(|| format!("reading {}", path.display()))?;
     let head = head.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(&head);
@@ -181,10 +204,10 @@ pub(crate) fn sniff(path: &Path) -> anyhow::Result<LogFormat> {
 }
 
 fn load_nmea(path: &Path) -> anyhow::Result<Log> {
-    let file = std::fs::File::open(path).with_context(|| format!("opening {}", path.display()))?;
+    let file = vestnav_files::open_regular(path).with_context(|| format!("opening {}", path.display()))?;
     let (raw, marks, stats) = decode_reader_with_marks(std::io::BufReader::new(file))
         .with_context(|| format!("reading {}", path.display()))?;
-    let mut fixes = Vec::new();
+    let (mut fixes, mut heights, mut good) = (Vec::new(), Vec::new(), Vec::new());
     let mut prev: Option<f64> = None;
     let mut date = None;
     for f in raw.iter().filter(|f| f.has_position()) {
@@ -198,6 +221,8 @@ fn load_nmea(path: &Path) -> anyhow::Result<Log> {
         }
         if let Some(pos) = position(f) {
             fixes.push(TimedFix { t_s: t, pos });
+            heights.push(f.alt_m.filter(|h| h.is_finite()));
+            good.push(f.good_for_reference());
         }
     }
     let first_t = fixes.first().map(|f| f.t_s);
@@ -209,7 +234,16 @@ fn load_nmea(path: &Path) -> anyhow::Result<Log> {
             pos: None,
         })
         .collect();
-    Ok(Log { format: LogFormat::Nmea, fixes, marks, date, rejected: stats.rejected(), warnings: Vec::new() })
+    Ok(Log {
+        format: LogFormat::Nmea,
+        fixes,
+        heights,
+        good,
+        marks,
+        date,
+        rejected: stats.rejected(),
+        warnings: Vec::new(),
+    })
 }
 
 /// `YYYY-MM-DD` at the start of an ISO-8601 time.
@@ -229,6 +263,8 @@ fn load_session(path: &Path) -> anyhow::Result<Log> {
     let mut log = Log {
         format: LogFormat::Session,
         fixes: Vec::new(),
+        heights: Vec::new(),
+        good: Vec::new(),
         marks: Vec::new(),
         date: None,
         rejected: stats.skipped() as u64,
@@ -263,6 +299,9 @@ fn load_session(path: &Path) -> anyhow::Result<Log> {
     }
     // Records from different threads can be milliseconds out of order: the analysis wants time order.
     log.fixes.sort_by(|a, b| a.t_s.total_cmp(&b.t_s));
+    // Session logs carry no height or quality: every fix counts as good.
+    log.heights = vec![None; log.fixes.len()];
+    log.good = vec![true; log.fixes.len()];
     log.marks.sort_by(|a, b| a.t_s.unwrap_or(0.0).total_cmp(&b.t_s.unwrap_or(0.0)));
     Ok(log)
 }
@@ -282,14 +321,7 @@ pub fn run_drift(args: &DriftArgs) -> anyhow::Result<()> {
     let report = DriftReport::new(source(args.file.as_path(), &log), earth, None, Ok(s.clone()), &log.fixes);
     if args.reference.is_set() {
         let png = args.png.as_deref();
-        return crate::accuracy::finish_drift(
-            &args.file,
-            log.format,
-            &args.reference,
-            report,
-            args.json,
-            png,
-        );
+        return crate::accuracy::finish_drift(&args.file, &log, &args.reference, report, args.json, png);
     }
     if args.json {
         print!("{}", to_json(&report)?);

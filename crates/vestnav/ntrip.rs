@@ -104,7 +104,7 @@ pub fn run(args: &NtripArgs) -> anyhow::Result<()> {
         }
         if now >= next_print {
             let q = *quality.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-            println!("{}", status_line(&status, q, now));
+            println!("{}", status.line(q, now));
             next_print += Duration::from_secs(1);
         }
         if duration.is_some_and(|d| now.duration_since(start) >= d) {
@@ -188,32 +188,4 @@ fn spawn_receiver_reader(
             }
         }
     })
-}
-
-/// The status line: state, correction age, rate, frames and types, GGA sent, the receiver's fix quality.
-fn status_line(s: &vestnav_device::ntrip::NtripStatus, quality: Option<FixQuality>, now: Instant) -> String {
-    let state = match &s.state {
-        NtripState::Connecting => "connecting".to_string(),
-        NtripState::Connected => "connected".to_string(),
-        NtripState::Reconnecting { reason } => format!("reconnecting ({reason})"),
-        NtripState::Failed { reason } => format!("failed ({reason})"),
-        NtripState::Stopped => "stopped".to_string(),
-    };
-    let age = s.correction_age(now).map_or_else(|| "-".to_string(), |a| format!("{:.1} s", a.as_secs_f64()));
-    let fix = match quality {
-        Some(FixQuality::Rtk) => "RTK fixed",
-        Some(FixQuality::FloatRtk) => "RTK float",
-        Some(FixQuality::Dgps) => "DGPS",
-        Some(FixQuality::Gps) => "autonomous",
-        Some(FixQuality::Invalid) => "no fix",
-        Some(_) => "other",
-        None => "unknown",
-    };
-    format!(
-        "{state}: age {age}, {:.0} B/s, {} frames [{}], GGA sent {}, receiver {fix}",
-        s.bytes_per_s,
-        s.frames,
-        s.message_types_text(),
-        s.gga_sent
-    )
 }

@@ -531,3 +531,96 @@ fn ntrip_cli_end_to_end() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("wrong user name or password"), "{err}");
 }
+
+/// `$BODY*hh` with its checksum.
+fn nmea(body: &str) -> String {
+    let sum = body.bytes().fold(0u8, |a, b| a ^ b);
+    format!("${body}*{sum:02X}")
+}
+
+/// The receiver's GGA at second `k` with fix quality `q` (4: RTK fixed).
+fn gga(k: u32, q: u8) -> String {
+    let (m, s) = (35 + k / 60, k % 60);
+    nmea(&format!("GPGGA,12{m:02}{s:02}.00,4807.038,N,01131.000,E,{q},12,0.6,545.4,M,46.9,M,1.0,0000"))
+}
+
+/// The console's path (issue 27): the station's serial GPS source gives the NTRIP client a write handle on
+/// its port, so every verified frame reaches the receiver's PTY byte for byte while the station reads the
+/// receiver's NMEA from the same port; the receiver's GGA goes upstream and its quality 4 shows as "RTK
+/// fixed" on the status line. Without a serial source the station says why it cannot.
+#[test]
+fn ntrip_through_the_station_reaches_the_receivers_pty() {
+    use std::os::unix::fs::PermissionsExt as _;
+    use vestnav_device::gps::SourceState;
+    use vestnav_station::hardware::Hardware;
+    use vestnav_station::ntrip::NtripSettings;
+    use vestnav_station::sources::GpsSourceConfig;
+    use vestnav_station::{Station, StationOptions};
+
+    let caster = Caster::start();
+    let dir = tempdir("ntrip-station");
+    let cred = dir.join("cred");
+    std::fs::write(&cred, format!("{USER}:{PASSWORD}\n")).unwrap();
+    std::fs::set_permissions(&cred, std::fs::Permissions::from_mode(0o600)).unwrap();
+    let mut pty = vestnav_device::serial::Pty::open().unwrap();
+    let mut station = Station::new(
+        Box::new(Hardware::default()),
+        StationOptions {
+            gps: Some(GpsSourceConfig::Serial { port: pty.path().to_owned(), baud: Some(115_200) }),
+            ..StationOptions::default()
+        },
+    );
+    let settings = NtripSettings {
+        caster: caster.addr.clone(),
+        mountpoint: "RTCM32".into(),
+        credentials_file: Some(cred.clone()),
+        gga_every_s: 0.3,
+        ..NtripSettings::default()
+    };
+    let refused = station.start_ntrip(settings.clone()).unwrap_err();
+    assert!(refused.contains("serial port"), "{refused}");
+    station.connect_gps(Vec::new());
+    assert!(
+        wait_until(Duration::from_secs(5), || {
+            station.pump(|_| {});
+            matches!(station.gps.state, Some(SourceState::Live { .. }))
+        }),
+        "GPS source live"
+    );
+    station.start_ntrip(settings).unwrap();
+    let expected: Vec<u8> = frames_of(&rtcm_stream("rtcm3.2.log")).concat();
+    let mut got = Vec::new();
+    let mut buf = [0u8; 4096];
+    let deadline = Instant::now() + Duration::from_secs(20);
+    let mut k = 0;
+    while Instant::now() < deadline
+        && (got.len() < expected.len() || !caster.upstream().iter().any(|l| l.contains(",4,12,")))
+    {
+        pty.write_all(format!("{}\r\n", gga(k, 4)).as_bytes()).unwrap();
+        k += 1;
+        if let Ok(n) = pty.read(&mut buf) {
+            got.extend_from_slice(&buf[..n]);
+        }
+        station.pump(|_| {});
+    }
+    assert_eq!(got.len(), expected.len(), "bytes at the receiver");
+    assert!(got == expected, "the receiver got the frames byte for byte through the station");
+    assert!(caster.upstream().iter().any(|l| l.contains(",4,12,")), "the receiver's GGA reached the caster");
+    station.pump(|_| {});
+    let line = station.ntrip_line(Instant::now()).unwrap();
+    assert!(line.starts_with("connected"), "{line}");
+    assert!(line.contains("receiver RTK fixed"), "{line}");
+    assert!(line.contains("1077("), "{line}");
+    station.stop_ntrip();
+    assert!(!station.ntrip().unwrap().running());
+    // Changing the source ends the corrections, and says why.
+    station
+        .start_ntrip(NtripSettings {
+            credentials_file: Some(cred),
+            ..station.ntrip().unwrap().settings.clone()
+        })
+        .unwrap();
+    station.disconnect_gps();
+    let c = station.ntrip().unwrap();
+    assert!(!c.running() && c.ended.as_deref().is_some_and(|w| w.contains("GPS source")));
+}

@@ -89,6 +89,8 @@ pub struct Config {
     pub broker: vestnav_remote::BrokerConfig,
     /// Connect to that broker when the console starts.
     pub broker_at_start: bool,
+    /// The NTRIP caster of the RTK window (the credentials file's name only, never the password).
+    pub ntrip: vestnav_station::ntrip::NtripSettings,
 }
 
 impl Default for Config {
@@ -125,6 +127,7 @@ impl Default for Config {
             recent: crate::file_dialog::RecentFiles::default(),
             broker: vestnav_remote::BrokerConfig::default(),
             broker_at_start: false,
+            ntrip: vestnav_station::ntrip::NtripSettings::default(),
         }
     }
 }

@@ -101,7 +101,8 @@ pub struct Console {
     /// The pattern editor (Vest panel), kept while its window is closed.
     pub pattern_editor: crate::pattern_editor::PatternEditor,
     sim_panel: SimPanel,
-    field_panel: FieldTestPanel,
+    /// The Field tests tab (its reference form, the exports).
+    pub field_panel: FieldTestPanel,
     /// Session log viewer / replay.
     pub log_viewer: crate::log_viewer::LogViewer,
     /// The audible alarm on fix loss, vest loss and an unconfirmed stop (`console/frame.rs`).

@@ -11,6 +11,11 @@
 //!   [`FieldTestAction::Mark`] so the app logs the mark, and shows the consecutive distances, their mean, the
 //!   RMSE against the spacing and the along-/cross-line components.
 //!
+//! - **Reference and accuracy test** (issue 27, `reference` module): the truth typed, from a GPX waypoint or
+//!   averaged from good fixes, with its stated uncertainty; the **Accuracy test** measures every fix against
+//!   it (bias, CEP50/CEP95, 2DRMS, R95, shares within 0.1–5 m, vertical error), and with a reference set the
+//!   drift and cone tests show their statistics against it too. The station's field tests compute all of it.
+//!
 //! The panel says which clock a test is on (the receiver's UTC time, or arrival when the receiver sends
 //! none), warns in amber while a drift test's receiver moves at walking pace, and when the receiver looks
 //! pinned (`SiRF` Star III static navigation holds the position below about 1.2 m/s, physics.md §5).
@@ -22,8 +27,9 @@
 //! `vestnav-cones.*`), a relative one taken in the console's files folder (`~/Documents/vestnav`) and
 //! shown as the absolute path it uses, **Browse…** for the desktop's save dialog; an export
 //! never replaces an existing file silently: the panel asks "Replace X?" first (**Replace** / **Cancel**).
-//! The sheets shown and exported and the JSON reports come from `vestnav_report::fieldtest`, the same as
-//! `vestnav fieldtest drift|cones --png/--json` write for the same fixes.
+//! The sheets shown and exported and the JSON reports come from `vestnav_report::fieldtest` and
+//! `vestnav_report::accuracy`, the same as `vestnav fieldtest drift|cones|accuracy [--reference ...]
+//! --png/--json` write for the same fixes (`vestnav-accuracy.*` for the accuracy test).
 
 use std::path::PathBuf;
 
@@ -31,15 +37,22 @@ use vestnav_core::fieldtest::{ConeStats, DAY_S};
 use vestnav_core::fieldtest_live::{FieldTests, Phase, Procedure};
 use vestnav_core::geo::Earth;
 use vestnav_report::Figure;
-use vestnav_report::fieldtest::{ConesReport, DriftReport, Source, cones_figure, drift_figure, drift_rows};
+use vestnav_report::accuracy::{AgainstReference, CONES_AGAINST_LABEL, DRIFT_AGAINST_LABEL};
+use vestnav_report::fieldtest::{ConesReport, DriftReport, Source, drift_rows};
 
 use crate::export::{ExportFormat, ExportRequest, Exporter};
 use crate::sim_panel::figure_grid;
+
+mod reference;
+
+pub use reference::ReferenceForm;
 
 /// Default export path of the drift test (the extension follows the format).
 pub const DRIFT_EXPORT_PATH: &str = "vestnav-drift.json";
 /// Default export path of the cone test (the extension follows the format).
 pub const CONES_EXPORT_PATH: &str = "vestnav-cones.json";
+/// Default export path of the accuracy test (the extension follows the format).
+pub const ACCURACY_EXPORT_PATH: &str = "vestnav-accuracy.json";
 
 /// What the operator did in the panel that the app must act on.
 #[derive(Debug, Clone, PartialEq)]
@@ -62,6 +75,10 @@ pub struct FieldTestPanel {
     drift_exporter: Exporter,
     /// The cone test's export path and state.
     cones_exporter: Exporter,
+    /// The accuracy test's export path and state.
+    accuracy_exporter: Exporter,
+    /// The reference being entered.
+    pub reference: ReferenceForm,
     /// Where a relative export path is taken (the console sets `cfg.recent.base()` each frame).
     pub base: PathBuf,
 }
@@ -97,6 +114,8 @@ impl FieldTestPanel {
             plots: None,
             drift_exporter: Exporter::new(DRIFT_EXPORT_PATH, "Export the drift test to"),
             cones_exporter: Exporter::new(CONES_EXPORT_PATH, "Export the cone test to"),
+            accuracy_exporter: Exporter::new(ACCURACY_EXPORT_PATH, "Export the accuracy test to"),
+            reference: ReferenceForm::default(),
             base: crate::file_dialog::documents_dir(),
         }
     }
@@ -122,6 +141,7 @@ impl FieldTestPanel {
         ui.horizontal(|ui| {
             ui.selectable_value(&mut self.procedure, Procedure::Drift, "Drift test");
             ui.selectable_value(&mut self.procedure, Procedure::Cones, "Cone test");
+            ui.selectable_value(&mut self.procedure, Procedure::Accuracy, "Accuracy test");
             ui.separator();
             ui.label("distances:");
             let before = t.earth;
@@ -150,10 +170,13 @@ impl FieldTestPanel {
         if let Some(w) = t.live_pinning_warning(self.procedure) {
             ui.colored_label(ui.visuals().warn_fg_color, format!("Warning: {w}"));
         }
+        let base = self.base.clone();
+        self.reference.ui(t, ui, &base);
         ui.separator();
         match self.procedure {
             Procedure::Drift => self.drift_ui(t, ui),
             Procedure::Cones => action = self.cones_ui(t, ui),
+            Procedure::Accuracy => self.accuracy_ui(t, ui),
         }
         action
     }
@@ -238,6 +261,7 @@ impl FieldTestPanel {
                 ui.colored_label(ui.visuals().warn_fg_color, format!("Warning: {w}"));
             }
         }
+        reference::against_ui(ui, "fieldtest-drift-against", DRIFT_AGAINST_LABEL, t.drift.against.as_ref());
         self.export_and_plots(t, ui);
     }
 
@@ -312,6 +336,7 @@ impl FieldTestPanel {
         } else if running {
             ui.label(format!("{} mark(s): statistics appear from the second mark.", t.cones.marks.len()));
         }
+        reference::against_ui(ui, "fieldtest-cones-against", CONES_AGAINST_LABEL, t.cones.against.as_ref());
         self.export_and_plots(t, ui);
         action
     }
@@ -323,14 +348,21 @@ impl FieldTestPanel {
             revision: match self.procedure {
                 Procedure::Drift => t.drift.revision,
                 Procedure::Cones => t.cones.revision,
+                Procedure::Accuracy => t.accuracy.revision,
             },
         };
         if self.plots.as_ref().is_none_or(|(k, _)| *k != key) {
+            // The reports' own sheets: the same as `vestnav fieldtest ... --png` draws for these fixes.
             let figure = match self.procedure {
-                Procedure::Drift => t.drift.stats.as_ref().map_or_else(Figure::new, drift_figure),
-                Procedure::Cones => {
-                    cones_figure(t.cones.stats.as_ref(), &t.cones.marks, t.cones.recording().fixes(), t.earth)
-                }
+                Procedure::Drift => match Self::drift_against(t) {
+                    Some(both) => both.figure(DriftReport::figure, DRIFT_AGAINST_LABEL),
+                    None => Self::drift_report(t).figure(),
+                },
+                Procedure::Cones => match Self::cones_against(t) {
+                    Some(both) => both.figure(ConesReport::figure, CONES_AGAINST_LABEL),
+                    None => Self::cones_report(t).figure(),
+                },
+                Procedure::Accuracy => reference::accuracy_report(t).map_or_else(Figure::new, |r| r.figure()),
             };
             self.plots = Some((key, figure));
         }
@@ -371,11 +403,36 @@ impl FieldTestPanel {
         )
     }
 
-    /// The JSON report of the current procedure.
+    /// The drift report with its statistics against the reference, when one is set.
+    fn drift_against(t: &FieldTests) -> Option<AgainstReference<DriftReport>> {
+        let r = t.reference()?;
+        let stats = t.drift.against.clone().unwrap_or_else(|| Err("no fixes recorded".to_string()));
+        Some(AgainstReference::new(Self::drift_report(t), r.clone(), stats))
+    }
+
+    /// The cone report with the marks against their cones, when a reference is set.
+    fn cones_against(t: &FieldTests) -> Option<AgainstReference<ConesReport>> {
+        let r = t.reference()?;
+        let stats = t.cones.against.clone().unwrap_or_else(|| Err("no cone statistics".to_string()));
+        Some(AgainstReference::new(Self::cones_report(t), r.clone(), stats))
+    }
+
+    /// The JSON report of the current procedure (with `reference_point` and `against_reference` when a
+    /// reference is set, as `vestnav fieldtest drift|cones --reference` writes it).
     fn report_json(&self, t: &FieldTests) -> Result<Vec<u8>, String> {
         let text = match self.procedure {
-            Procedure::Drift => vestnav_report::to_json(&Self::drift_report(t)),
-            Procedure::Cones => vestnav_report::to_json(&Self::cones_report(t)),
+            Procedure::Drift => match Self::drift_against(t) {
+                Some(both) => vestnav_report::to_json(&both),
+                None => vestnav_report::to_json(&Self::drift_report(t)),
+            },
+            Procedure::Cones => match Self::cones_against(t) {
+                Some(both) => vestnav_report::to_json(&both),
+                None => vestnav_report::to_json(&Self::cones_report(t)),
+            },
+            Procedure::Accuracy => match reference::accuracy_report(t) {
+                Some(r) => vestnav_report::to_json(&r),
+                None => return Err("no reference set".to_string()),
+            },
         };
         text.map(String::into_bytes).map_err(|e| format!("cannot encode the report: {e}"))
     }
@@ -385,6 +442,7 @@ impl FieldTestPanel {
         let has_data = match procedure {
             Procedure::Drift => !t.drift.recording().is_empty(),
             Procedure::Cones => !t.cones.recording().is_empty() || !t.cones.marks.is_empty(),
+            Procedure::Accuracy => !t.accuracy.recording().is_empty(),
         };
         if !has_data {
             return;
@@ -398,6 +456,7 @@ impl FieldTestPanel {
         let id = match procedure {
             Procedure::Drift => "fieldtest-drift",
             Procedure::Cones => "fieldtest-cones",
+            Procedure::Accuracy => "fieldtest-accuracy",
         };
         let figure = self.figure(t).clone();
         egui::ScrollArea::vertical().id_salt(id).show(ui, |ui| figure_grid(ui, id, &figure, 260.0));
@@ -407,6 +466,7 @@ impl FieldTestPanel {
         match procedure {
             Procedure::Drift => &mut self.drift_exporter,
             Procedure::Cones => &mut self.cones_exporter,
+            Procedure::Accuracy => &mut self.accuracy_exporter,
         }
     }
 

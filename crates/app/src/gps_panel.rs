@@ -32,6 +32,8 @@ pub struct GpsUi {
     pub receiver: ReceiverUi,
     /// A replay starts again at the end of its file (kept across reconnections).
     pub loop_replay: bool,
+    /// The RTK (NTRIP) window.
+    pub ntrip: crate::ntrip_panel::NtripUi,
 }
 
 impl GpsUi {
@@ -382,10 +384,13 @@ pub fn show(station: &mut Station, cfg: &mut Config, gps_ui: &mut GpsUi, ui: &mu
         ui.toggle_value(&mut gps_ui.monitor.open, "NMEA monitor");
         ui.toggle_value(&mut gps_ui.receiver.open, "Receiver")
             .on_hover_text("Configure the receiver: rate, constellations, dynamic model, static hold");
+        ui.toggle_value(&mut gps_ui.ntrip.open, "RTK (NTRIP)")
+            .on_hover_text("RTK corrections from an NTRIP caster to the receiver's serial port");
     });
     if let Some(n) = &station.gps.notice {
         ui.label(RichText::new(n).small().weak());
     }
+    crate::ntrip_panel::status_ui(station, ui, now);
     pinned_ui(station, cfg, gps_ui, ui, now);
     replay_ui(station, cfg, gps_ui, ui);
     record_ui(gps_ui, ui);
@@ -689,6 +694,7 @@ fn picker_ui(cfg: &Config, gps_ui: &mut GpsUi, ui: &mut egui::Ui, base: &std::pa
                 p.scanned = true;
             }
             ui.horizontal(|ui| {
+                let found = ui.label("Found ports");
                 egui::ComboBox::from_id_salt("gps-port")
                     .selected_text(if p.port.is_empty() { "pick a port" } else { p.port.as_str() })
                     .show_ui(ui, |ui| {
@@ -700,14 +706,16 @@ fn picker_ui(cfg: &Config, gps_ui: &mut GpsUi, ui: &mut egui::Ui, base: &std::pa
                         if p.ports.is_empty() {
                             ui.label("no serial ports found");
                         }
-                    });
+                    })
+                    .response
+                    .labelled_by(found.id);
                 if ui.button("Rescan").on_hover_text("Scan ports again").clicked() {
                     p.ports = vestnav_device::serial::list_ports();
                 }
             });
             ui.horizontal(|ui| {
-                ui.label("Port");
-                ui.text_edit_singleline(&mut p.port);
+                let name = ui.label("Port");
+                ui.text_edit_singleline(&mut p.port).labelled_by(name.id);
             });
             egui::ComboBox::from_label("Baud")
                 .selected_text(p.baud.map_or_else(|| "auto".to_owned(), |b| b.to_string()))

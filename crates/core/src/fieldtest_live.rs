@@ -13,16 +13,49 @@
 //! end of its file) a running test ends "source ended" instead of waiting for fixes that cannot come; when
 //! it jumps ([`FieldTests::source_jumped`]: a replay sought or looped) a running test ends too.
 //!
+//! **Against a reference.** With a reference set ([`FieldTests::set_reference`]: typed, a GPX waypoint,
+//! or averaged over a window of good fixes with [`FieldTests::start_averaging`]), the accuracy test
+//! ([`FieldTests::accuracy`]) measures every fix against it with [`crate::accuracy::accuracy`], the drift
+//! test's fixes gain the same statistics, and the cone marks are measured against where their cones stand
+//! (the reference being the first cone): all live, on the tests' own clocks.
+//!
 //! **Moving during a drift test.** The receiver moves like a walker when either the reported speed over
 //! ground is at least [`WALKING_SPEED_M_S`] on every fix of the last [`WALK_SUSTAIN_S`] s, or the
 //! straight-line displacement over the last [`WALK_WINDOW_S`] s is at least that speed times the window (a
 //! walker's progress, well above the noise of a still receiver, which wanders a few decimetres in a few
 //! seconds).
 
+use crate::accuracy::{AccuracyStats, Reference};
 use crate::fieldtest::{
     self, ConeConfig, ConeMark, ConeStats, DAY_S, DriftStats, TimedFix, unwrap_time_of_day,
 };
 use crate::geo::{Earth, LatLon};
+
+mod reference;
+
+pub use reference::{
+    AccuracyRun, AveragingRun, DEFAULT_ACCURACY_TARGET_S, DEFAULT_AVERAGING_S, MAX_ACCURACY_TARGET_S,
+    MAX_AVERAGING_S,
+};
+
+/// One fix as the station hands it to the tests.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LiveFix {
+    /// Arrival time [s] (any origin, increasing).
+    pub arrival_s: f64,
+    /// The receiver's UTC time of day [s], when sent.
+    pub tod_s: Option<f64>,
+    /// WGS-84 latitude [deg].
+    pub lat_deg: f64,
+    /// WGS-84 longitude [deg].
+    pub lon_deg: f64,
+    /// Speed over ground [m/s], when sent.
+    pub speed_m_s: Option<f64>,
+    /// Height above mean sea level [m] (GGA altitude), when sent.
+    pub height_m: Option<f64>,
+    /// Good enough to average into a reference (a position-bearing quality, 3-D when the mode is known).
+    pub good: bool,
+}
 
 /// Speed below which `SiRF` Star III static navigation may pin the position [m/s] (physics.md §5).
 pub const STATIC_NAV_SPEED_M_S: f64 = 1.2;
@@ -80,6 +113,8 @@ struct Sample {
     receiver_s: Option<f64>,
     pos: LatLon,
     speed_m_s: Option<f64>,
+    /// Height above mean sea level [m], when sent.
+    height_m: Option<f64>,
 }
 
 impl Sample {
@@ -108,9 +143,10 @@ impl Recording {
 
     /// Records a fix (receiver time of day `tod_s` [s], if any). Returns `false`, recording nothing, when the
     /// fix's time on the test's clock is earlier than the previous fix's.
-    fn push(&mut self, arrival_s: f64, tod_s: Option<f64>, pos: LatLon, speed_m_s: Option<f64>) -> bool {
+    fn push(&mut self, f: &LiveFix, pos: LatLon) -> bool {
+        let LiveFix { arrival_s, tod_s, speed_m_s, height_m, .. } = *f;
         let receiver_s = tod_s.map(|tod| unwrap_time_of_day(tod, self.last_receiver_s));
-        let sample = Sample { arrival_s, receiver_s, pos, speed_m_s };
+        let sample = Sample { arrival_s, receiver_s, pos, speed_m_s, height_m };
         let clock = match (self.clock, receiver_s) {
             (None | Some(Clock::Receiver), Some(_)) => Clock::Receiver,
             _ => Clock::Arrival,
@@ -156,6 +192,16 @@ impl Recording {
     /// No fix recorded.
     pub fn is_empty(&self) -> bool {
         self.samples.is_empty()
+    }
+
+    /// The recorded fixes with their heights, for the accuracy statistics (times on the test's clock).
+    pub fn accuracy_samples(&self) -> Vec<crate::accuracy::Sample> {
+        // One fix per sample: a test's clock is the receiver's only while every sample has its time.
+        self.fixes
+            .iter()
+            .zip(&self.samples)
+            .map(|(f, s)| crate::accuracy::Sample { t_s: f.t_s, pos: f.pos, height_m: s.height_m })
+            .collect()
     }
 
     /// The speed [m/s] at which the receiver moves like a walker at the latest fix, if it does (see the
@@ -216,6 +262,8 @@ pub struct DriftRun {
     pub stats: Option<DriftStats>,
     /// Why there are no statistics.
     pub error: Option<String>,
+    /// The fixes against the reference, when one is set (or why there are no such statistics).
+    pub against: Option<Result<AccuracyStats, String>>,
     /// Bumped whenever the data changes (views cache derived plots per revision).
     pub revision: u64,
 }
@@ -230,6 +278,7 @@ impl DriftRun {
             walked: None,
             stats: None,
             error: None,
+            against: None,
             revision: 0,
         }
     }
@@ -265,6 +314,9 @@ pub struct ConeRun {
     pub stats: Option<ConeStats>,
     /// Why there are no statistics.
     pub error: Option<String>,
+    /// Each mark against where its cone stands, the reference being the first cone (from the second
+    /// mark, when a reference is set).
+    pub against: Option<Result<AccuracyStats, String>>,
     /// Bumped whenever the data changes.
     pub revision: u64,
 }
@@ -281,6 +333,7 @@ impl ConeRun {
             marks: Vec::new(),
             stats: None,
             error: None,
+            against: None,
             revision: 0,
         }
     }
@@ -320,6 +373,8 @@ pub enum Procedure {
     Drift,
     /// The cone test.
     Cones,
+    /// The accuracy test against the reference.
+    Accuracy,
 }
 
 /// The drift and cone tests fed with every fix.
@@ -334,6 +389,12 @@ pub struct FieldTests {
     pub drift: DriftRun,
     /// The cone test.
     pub cones: ConeRun,
+    /// The truth the tests are measured against, when set ([`Self::set_reference`]).
+    reference: Option<Reference>,
+    /// A reference being averaged from good fixes.
+    pub averaging: AveragingRun,
+    /// The accuracy test: fixes against the reference.
+    pub accuracy: AccuracyRun,
 }
 
 impl Default for FieldTests {
@@ -345,7 +406,16 @@ impl Default for FieldTests {
 impl FieldTests {
     /// Idle tests: WGS-84 distances, thesis defaults (3 min; 10 cones, 10 m).
     pub fn new() -> Self {
-        Self { earth: Earth::Wgs84, latest: None, rejected: 0, drift: DriftRun::new(), cones: ConeRun::new() }
+        Self {
+            earth: Earth::Wgs84,
+            latest: None,
+            rejected: 0,
+            drift: DriftRun::new(),
+            cones: ConeRun::new(),
+            reference: None,
+            averaging: AveragingRun::new(),
+            accuracy: AccuracyRun::new(),
+        }
     }
 
     /// The latest fix given.
@@ -365,20 +435,37 @@ impl FieldTests {
         lon_deg: f64,
         speed: Option<f64>,
     ) {
-        let Ok(pos) = LatLon::new(lat_deg, lon_deg).validated() else {
+        self.push_fix(&LiveFix {
+            arrival_s,
+            tod_s,
+            lat_deg,
+            lon_deg,
+            speed_m_s: speed,
+            height_m: None,
+            good: true,
+        });
+    }
+
+    /// Feeds one fix with its height and whether it is good enough to average into a reference (see
+    /// [`Self::push`] for what is refused). The accuracy test and an averaging reference take it too.
+    pub fn push_fix(&mut self, fix: &LiveFix) {
+        let Ok(pos) = LatLon::new(fix.lat_deg, fix.lon_deg).validated() else {
             self.rejected += 1;
             return;
         };
+        let arrival_s = fix.arrival_s;
         if !arrival_s.is_finite() || self.latest.is_some_and(|l| arrival_s < l.fix.t_s) {
             self.rejected += 1;
             return;
         }
-        let tod_s = tod_s.filter(|t| t.is_finite() && (0.0..DAY_S + 1.0).contains(t));
-        let speed_m_s = speed.filter(|s| s.is_finite() && *s >= 0.0);
+        let tod_s = fix.tod_s.filter(|t| t.is_finite() && (0.0..DAY_S + 1.0).contains(t));
+        let speed_m_s = fix.speed_m_s.filter(|s| s.is_finite() && *s >= 0.0);
+        let height_m = fix.height_m.filter(|h| h.is_finite() && h.abs() < 100_000.0);
+        let fix = LiveFix { tod_s, speed_m_s, height_m, ..*fix };
         self.latest = Some(Latest { fix: TimedFix { t_s: arrival_s, pos }, tod_s, speed_m_s });
         let mut refused = false;
         if self.drift.phase == Phase::Running {
-            if self.drift.rec.push(arrival_s, tod_s, pos, speed_m_s) {
+            if self.drift.rec.push(&fix, pos) {
                 self.drift.revision += 1;
                 self.update_drift_stats();
                 self.drift.walking_now_m_s = self.drift.rec.walking_speed_m_s(self.earth);
@@ -395,13 +482,14 @@ impl FieldTests {
             }
         }
         if self.cones.phase == Phase::Running {
-            if self.cones.rec.push(arrival_s, tod_s, pos, speed_m_s) {
+            if self.cones.rec.push(&fix, pos) {
                 self.cones.revision += 1;
                 self.update_cone_stats();
             } else {
                 refused = true;
             }
         }
+        refused |= !self.push_reference_runs(&fix, pos);
         if refused {
             self.rejected += 1;
         }
@@ -428,6 +516,7 @@ impl FieldTests {
     }
 
     fn end_running(&mut self, why: &'static str) {
+        self.end_reference_runs(why);
         if self.drift.phase == Phase::Running {
             self.drift.phase = Phase::Ended(why);
             self.drift.walking_now_m_s = None;
@@ -446,11 +535,14 @@ impl FieldTests {
             self.update_drift_stats();
         }
         self.update_cone_stats();
+        self.update_accuracy_stats();
         self.drift.revision += 1;
         self.cones.revision += 1;
+        self.accuracy.revision += 1;
     }
 
     fn update_drift_stats(&mut self) {
+        self.drift.against = self.against_reference(&self.drift.rec);
         match fieldtest::drift(&self.drift.rec.fixes, self.earth) {
             Ok(s) => {
                 self.drift.stats = Some(s);
@@ -468,6 +560,7 @@ impl FieldTests {
         if self.cones.marks.len() < 2 {
             self.cones.stats = None;
             self.cones.error = None;
+            self.cones.against = None;
             return;
         }
         match fieldtest::cones(&self.cones.marks, &self.cones.rec.fixes, &self.cones.config(self.earth)) {
@@ -480,6 +573,7 @@ impl FieldTests {
                 self.cones.error = Some(e.to_string());
             }
         }
+        self.cones.against = self.cones_against_reference();
     }
 
     /// Starts a new drift test (discarding the previous one).
@@ -490,6 +584,7 @@ impl FieldTests {
         self.drift.walked = None;
         self.drift.stats = None;
         self.drift.error = None;
+        self.drift.against = None;
         self.drift.revision += 1;
     }
 
@@ -508,6 +603,7 @@ impl FieldTests {
         self.cones.marks.clear();
         self.cones.stats = None;
         self.cones.error = None;
+        self.cones.against = None;
         self.cones.revision += 1;
     }
 
@@ -541,6 +637,7 @@ impl FieldTests {
         let (track, what) = match procedure {
             Procedure::Drift => (&self.drift.rec.fixes, "drift test"),
             Procedure::Cones => (&self.cones.rec.fixes, "cone test"),
+            Procedure::Accuracy => (&self.accuracy.recording().fixes, "accuracy test"),
         };
         let last = track.last()?;
         let start = track.iter().rposition(|f| last.t_s - f.t_s > 30.0).map_or(0, |i| i + 1);

@@ -24,6 +24,7 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use crate::backoff::Backoff;
+use crate::gps::FixQuality;
 use crate::rtcm3;
 
 /// The protocol version spoken to the caster.
@@ -640,6 +641,44 @@ impl NtripStatus {
     pub fn message_types_text(&self) -> String {
         self.message_types.iter().map(|(t, n)| format!("{t}({n})")).collect::<Vec<_>>().join(" ")
     }
+
+    /// The one status line (the CLI prints it every second, the console shows it): state, correction
+    /// age, rate, frames and types, GGA sent, and the receiver's fix quality from its GGA
+    /// ([`receiver_fix_text`]).
+    pub fn line(&self, receiver: Option<FixQuality>, now: Instant) -> String {
+        let state = match &self.state {
+            NtripState::Connecting => "connecting".to_string(),
+            NtripState::Connected => "connected".to_string(),
+            NtripState::Reconnecting { reason } => format!("reconnecting ({reason})"),
+            NtripState::Failed { reason } => format!("failed ({reason})"),
+            NtripState::Stopped => "stopped".to_string(),
+        };
+        let age =
+            self.correction_age(now).map_or_else(|| "-".to_string(), |a| format!("{:.1} s", a.as_secs_f64()));
+        format!(
+            "{state}: age {age}, {:.0} B/s, {} frames [{}], GGA sent {}, receiver {}",
+            self.bytes_per_s,
+            self.frames,
+            self.message_types_text(),
+            self.gga_sent,
+            receiver_fix_text(receiver)
+        )
+    }
+}
+
+/// The receiver's fix quality in words, from its GGA quality digit: 4 is "RTK fixed", 5 "RTK float".
+pub fn receiver_fix_text(quality: Option<FixQuality>) -> &'static str {
+    match quality {
+        Some(FixQuality::Rtk) => "RTK fixed",
+        Some(FixQuality::FloatRtk) => "RTK float",
+        Some(FixQuality::Dgps) => "DGPS",
+        Some(FixQuality::Gps) => "autonomous",
+        Some(FixQuality::Pps) => "PPS",
+        Some(FixQuality::Invalid) => "no fix",
+        Some(FixQuality::Estimated) => "estimated",
+        Some(FixQuality::Manual | FixQuality::Simulation) => "not measured",
+        None => "unknown",
+    }
 }
 
 /// State shared between the worker and its handle.
@@ -684,6 +723,12 @@ impl NtripHandle {
             *self.shared.gga.lock().unwrap_or_else(std::sync::PoisonError::into_inner) = Some(s.to_string());
         }
         ok
+    }
+
+    /// Asks the worker to stop without waiting for it (a view's thread never waits on the network): it
+    /// stops within [`STOP_WAIT`], or at the end of a connection attempt in progress.
+    pub fn request_stop(&self) {
+        self.shared.stop.store(true, Ordering::Relaxed);
     }
 
     /// Whether the worker has ended (failed or stopped).

@@ -237,7 +237,9 @@ pub fn read_gpx(path: &Path) -> Result<RouteFile, RouteFileError> {
 pub fn read_gpx_limited(path: &Path, limit: u64) -> Result<RouteFile, RouteFileError> {
     let io_err = |source| RouteFileError::Io { path: path.to_path_buf(), source };
     let too_large = |bytes| RouteFileError::TooLarge { path: path.to_path_buf(), bytes, limit };
-    let file = std::fs::File::open(path).map_err(io_err)?;
+    // A FIFO or device is refused without being opened: reading a hostile path never blocks (the console
+    // reads a reference waypoint on its view's thread).
+    let file = vestnav_files::open_regular(path).map_err(io_err)?;
     let size = file.metadata().map_err(io_err)?.len();
     if size > limit {
         return Err(too_large(size));

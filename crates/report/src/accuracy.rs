@@ -160,6 +160,11 @@ pub fn accuracy_figure(s: &AccuracyStats, reference: &Reference) -> Figure {
     )
 }
 
+/// The label of a drift test's panels against the reference (CLI and console alike).
+pub const DRIFT_AGAINST_LABEL: &str = "Against the reference";
+/// The label of a cone test's panels against the reference (CLI and console alike).
+pub const CONES_AGAINST_LABEL: &str = "Marks against their cones";
+
 /// A drift or cone test with its statistics against a reference: the test's own report flattened (its
 /// keys unchanged), plus `reference_point` and `against_reference` (an [`AccuracyStats`]) or
 /// `against_reference_error`.

@@ -7,6 +7,7 @@
 //! the vest worker their own transport.
 
 use vestnav_device::gps::receiver_config::{ConfigTicket, ReceiverConfig};
+use vestnav_device::gps::source::CorrectionsWriter;
 use vestnav_device::gps::{GpsEvent, GpsHandle};
 use vestnav_device::outbox::Outbox;
 use vestnav_device::wtcu::{VestEvent, VestHandle};
@@ -30,6 +31,11 @@ pub trait GpsWorker: Send {
         let _ = config;
         Err(vestnav_device::gps::source::CONFIG_NEEDS_SERIAL.to_owned())
     }
+
+    /// A writer to the receiver's port for RTK corrections (a direct serial source only).
+    fn corrections_writer(&self) -> Result<CorrectionsWriter, String> {
+        Err(vestnav_device::gps::source::CORRECTIONS_NEED_SERIAL.to_owned())
+    }
 }
 
 impl GpsWorker for GpsHandle {
@@ -43,6 +49,10 @@ impl GpsWorker for GpsHandle {
 
     fn configure(&self, config: ReceiverConfig) -> Result<ConfigTicket, String> {
         GpsHandle::configure(self, config)
+    }
+
+    fn corrections_writer(&self) -> Result<CorrectionsWriter, String> {
+        GpsHandle::corrections_writer(self)
     }
 }
 

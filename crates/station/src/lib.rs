@@ -38,6 +38,7 @@ pub mod fieldtests;
 pub mod guidance;
 pub mod hardware;
 pub mod lab;
+pub mod ntrip;
 pub mod pinned;
 pub mod route;
 pub mod sources;
@@ -207,6 +208,8 @@ pub struct Station {
     pin: PinDetector,
     /// The lab outputs (LSL, OSC) every feeding thread sees (see [`lab`]).
     lab: lab::LabTap,
+    /// RTK corrections to the receiver, once started (see [`ntrip`]).
+    ntrip: Option<ntrip::Corrections>,
 }
 
 impl Station {
@@ -286,6 +289,7 @@ impl Station {
             epoch: Instant::now(),
             pin: PinDetector::default(),
             lab,
+            ntrip: None,
         }
     }
 
@@ -434,6 +438,7 @@ impl Station {
 
     /// Stops the GPS source (never waits long on its IO).
     pub fn disconnect_gps(&mut self) {
+        self.end_ntrip("the GPS source was disconnected or changed");
         if let Some(mut w) = self.gps_worker.take() {
             w.stop();
         }
@@ -681,6 +686,7 @@ impl Station {
             view(StationEvent::Vest(ev));
         }
         self.take_port_findings();
+        self.pump_ntrip();
         let mut latest = None;
         let cues = &mut self.cues;
         drain_within(&self.guidance_rx, DRAIN_BUDGET, |st: GuidanceStatus| {
@@ -844,7 +850,7 @@ impl Station {
             }
             GpsEvent::Notice(n) => self.gps.notice = Some(n.clone()),
             GpsEvent::Attitude(a) => self.gps.attitude = Some(*a),
-            GpsEvent::Raw(_) => {}
+            GpsEvent::Raw(line) => self.ntrip_gga(line),
             GpsEvent::Discontinuity(n) => {
                 // A replay seek or loop: the next position must not be joined to the last one, and the
                 // receiver's clock jumps with it.

@@ -221,6 +221,14 @@ impl Console {
         }
         self.pattern_editor.window(&mut self.station, &mut self.cfg, ui.ctx());
         crate::gps_receiver::window(&self.station, &self.cfg.gps, &mut self.gps_ui.receiver, ui.ctx());
+        let base = self.cfg.recent.base();
+        crate::ntrip_panel::window(
+            &mut self.station,
+            &mut self.cfg.ntrip,
+            &mut self.gps_ui.ntrip,
+            &base,
+            ui.ctx(),
+        );
         let pt = if self.cfg.large_text { BANNER_PT_LARGE } else { BANNER_PT };
         // Two lines of banner text and their margins, whether there are banners or not: nothing below
         // moves when they come and go (more scroll inside the strip).

@@ -269,6 +269,18 @@ impl Fix {
             && self.lon_deg.is_some()
     }
 
+    /// True when the fix is good enough to average into a reference position: a measured quality
+    /// (autonomous, differential, PPS, RTK fixed or float; not estimated, manual or simulated) when the
+    /// quality is known, and a 3-D fix when the mode is known.
+    pub fn good_for_reference(&self) -> bool {
+        self.quality.is_none_or(|q| {
+            matches!(
+                q,
+                FixQuality::Gps | FixQuality::Dgps | FixQuality::Pps | FixQuality::Rtk | FixQuality::FloatRtk
+            )
+        }) && self.mode.is_none_or(|m| m == FixMode::Fix3D)
+    }
+
     /// Age of the fix at `now` (time since its epoch was completed), when the receive time is known.
     pub fn age(&self, now: Instant) -> Option<Duration> {
         self.received_at.map(|t| now.saturating_duration_since(t))

@@ -27,6 +27,7 @@ use crate::outbox::{Outbox, Overflow, Waker};
 
 #[cfg(test)]
 mod control_tests;
+mod corrections;
 mod gpsd;
 mod replay;
 mod serial;
@@ -36,6 +37,7 @@ mod spec;
 mod tests;
 mod through_vest;
 
+pub use corrections::{CorrectionsWriter, PORT_NOT_OPEN};
 pub use replay::{ReplayControl, ReplayProgress, replay_lines};
 pub use serial::{detect_baud, score_baud};
 pub use spec::{
@@ -155,7 +157,13 @@ pub struct GpsHandle {
     thread: Option<JoinHandle<()>>,
     replay: Option<Arc<ReplayControl>>,
     config: Result<std::sync::mpsc::Sender<ConfigRequest>, &'static str>,
+    /// The serial port's write handle while it is open (serial sources only).
+    port: Option<Arc<corrections::PortSlot>>,
 }
+
+/// Why a source cannot take corrections (the operator sees this text).
+pub const CORRECTIONS_NEED_SERIAL: &str = "RTK corrections need a direct serial connection to the receiver (gpsd, a replay, the simulator or the \
+     receiver behind the vest cannot take them)";
 
 /// A receiver configuration on its way to a serial source's worker, with where to report.
 #[derive(Debug)]
@@ -183,6 +191,13 @@ impl GpsHandle {
         let (reporter, ticket) = ConfigTicket::channel();
         tx.send(ConfigRequest { config, reporter }).map_err(|_| "the GPS source has stopped".to_owned())?;
         Ok(ticket)
+    }
+
+    /// A writer to the receiver's port for RTK corrections (serial sources only): it follows the port
+    /// across reconnections, and says [`PORT_NOT_OPEN`] while the port is closed. Writing through it never
+    /// waits for the source's reading (see the `corrections` module).
+    pub fn corrections_writer(&self) -> Result<CorrectionsWriter, String> {
+        self.port.clone().map(CorrectionsWriter).ok_or_else(|| CORRECTIONS_NEED_SERIAL.to_owned())
     }
 
     /// True while the worker runs.
@@ -303,6 +318,9 @@ impl GpsSource {
         let replay =
             matches!(config, SourceConfig::Replay { .. }).then(|| Arc::new(ReplayControl::default()));
         let ctl = replay.clone();
+        let port =
+            matches!(config, SourceConfig::Serial { .. }).then(|| Arc::new(corrections::PortSlot::default()));
+        let slot = port.clone();
         let (config_tx, config_rx) = std::sync::mpsc::channel::<ConfigRequest>();
         let config_path = match &config {
             SourceConfig::Serial { .. } => Ok(config_tx),
@@ -326,7 +344,15 @@ impl GpsSource {
         };
         let thread = std::thread::Builder::new().name(name.into()).spawn(move || {
             match config {
-                SourceConfig::Serial { port, baud } => run_serial(&worker, &port, baud, &config_rx),
+                SourceConfig::Serial { port, baud } => {
+                    run_serial(
+                        &worker,
+                        &port,
+                        baud,
+                        &config_rx,
+                        slot.as_deref().unwrap_or(&corrections::PortSlot::default()),
+                    );
+                }
                 SourceConfig::Replay { path, speed } => {
                     run_replay(&worker, &path, speed, ctl.as_deref().unwrap_or(&ReplayControl::default()));
                 }
@@ -341,7 +367,7 @@ impl GpsSource {
                 o.try_send(GpsEvent::State(SourceState::Stopped));
             }
         })?;
-        Ok(GpsHandle { stop, thread: Some(thread), replay, config: config_path })
+        Ok(GpsHandle { stop, thread: Some(thread), replay, config: config_path, port })
     }
 
     /// Starts a source with one lossless consumer: a channel of `capacity` events with

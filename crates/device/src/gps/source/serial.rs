@@ -5,6 +5,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};
 
+use super::corrections::{Filled, PortSlot};
 use super::{ConfigRequest, DETECT_BAUDS, LOST_AFTER, STALE_AFTER, SourceState, Worker};
 use crate::gps::framing::Framer;
 use crate::gps::receiver_config::{ConfigEvent, ConfigReporter, ConfigSession, commands};
@@ -54,7 +55,13 @@ pub fn detect_baud(port: &str, per_baud: Duration, stop: &AtomicBool) -> Result<
     Err(last_err)
 }
 
-pub(super) fn run_serial(w: &Worker, port: &str, baud: Option<u32>, config: &Receiver<ConfigRequest>) {
+pub(super) fn run_serial(
+    w: &Worker,
+    port: &str,
+    baud: Option<u32>,
+    config: &Receiver<ConfigRequest>,
+    slot: &PortSlot,
+) {
     let mut attempt = 0u32;
     loop {
         if !w.back_off(attempt) {
@@ -93,6 +100,12 @@ pub(super) fn run_serial(w: &Worker, port: &str, baud: Option<u32>, config: &Rec
         if !w.state(SourceState::Live { detail: format!("{port} at {baud} baud") }) {
             return;
         }
+        // RTK corrections write through a second handle on the open port (see `corrections`).
+        match p.try_clone() {
+            Ok(writer) => slot.set(Some(Box::new(writer))),
+            Err(e) => tracing::warn!(port, "GPS serial port {port}: no write handle for corrections: {e}"),
+        }
+        let _filled = Filled(slot);
         let mut d = NmeaDecoder::new(DecoderConfig::live()).with_raw_lines();
         d.handle_bytes(&first, Instant::now());
         let reason = read_loop(w, &mut d, &mut Port { io: &mut *p, baud }, config);
