@@ -54,6 +54,14 @@ pub struct StudyRunArgs {
     /// (default 800 ms).
     #[arg(long, value_name = "SPEC", value_parser = SimulatedWearer::parse_spec)]
     pub wearer: Option<WearerSpec>,
+    /// Lab Streaming Layer streams (markers, position, heading, vest traffic) named vestnav-…; needs liblsl
+    /// (`pip install pylsl` carries it; docs/study.md). The markers are stamped on liblsl's clock, as the
+    /// results file's times are then.
+    #[arg(long)]
+    pub lsl: bool,
+    /// Open Sound Control messages to HOST:PORT over UDP (docs/study.md).
+    #[arg(long, value_name = "HOST:PORT", value_parser = vestnav_station::lab::parse_osc_target)]
+    pub osc: Option<std::net::SocketAddr>,
     /// Inter-trial interval [ms].
     #[arg(long, value_name = "MS", default_value_t = 1000)]
     pub iti_ms: u32,
@@ -102,6 +110,14 @@ pub fn run(a: &StudyRunArgs) -> anyhow::Result<()> {
             route: RouteStart::default(),
         },
     );
+    let lab = vestnav_station::lab::LabConfig { lsl: a.lsl, osc: a.osc, ..Default::default() };
+    if lab.any() {
+        // Asked for on the command line: a lab output that cannot start ends the run before anything moves.
+        station.set_lab(Some(&lab)).context("lab outputs")?;
+        if let Some(s) = station.lab_status() {
+            eprintln!("vestnav study: {}", s.summary());
+        }
+    }
     station.set_study_timing(Timing {
         iti_s: f64::from(a.iti_ms) / 1000.0,
         feedback_s: f64::from(a.feedback_ms) / 1000.0,

@@ -238,6 +238,7 @@ impl Station {
                 })
                 .collect(),
             study: self.study_view(),
+            lab: self.lab_status(),
         }
     }
 }
@@ -281,6 +282,9 @@ pub struct Snapshot {
     /// The study session loaded, if any.
     #[serde(default)]
     pub study: Option<StudyView>,
+    /// The lab outputs (LSL, OSC) and their counts (`None`: none asked for). Absent from older stations.
+    #[serde(default)]
+    pub lab: Option<crate::lab::LabStatus>,
 }
 
 impl Snapshot {

@@ -37,6 +37,7 @@ pub mod devices;
 pub mod fieldtests;
 pub mod guidance;
 pub mod hardware;
+pub mod lab;
 pub mod pinned;
 pub mod route;
 pub mod sources;
@@ -202,6 +203,8 @@ pub struct Station {
     pin: PinDetector,
     /// The study session loaded, if any (see [`study`]).
     study: study::StudySlot,
+    /// The lab outputs (LSL, OSC) every feeding thread sees (see [`lab`]).
+    lab: lab::LabTap,
 }
 
 impl Station {
@@ -238,6 +241,9 @@ impl Station {
                 ),
             );
         }
+        let lab = lab::LabTap::default();
+        // The channel is new and empty: this first message always fits.
+        let _ = guidance_tx.try_send(GuidanceInput::Lab(lab.clone()));
         let (gps_out, gps_rx) = view_wake::outbox(EVENT_CHANNEL, waker.clone(), view_wake::gps_wakes);
         let (vest_out, vest_rx) = view_wake::outbox(EVENT_CHANNEL, waker, view_wake::vest_wakes);
         let (route, autosave) = load_route(&route_start, &mut notices);
@@ -277,6 +283,7 @@ impl Station {
             epoch: Instant::now(),
             pin: PinDetector::default(),
             study: study::StudySlot::default(),
+            lab,
         }
     }
 
@@ -405,6 +412,7 @@ impl Station {
                 true
             }));
         }
+        outputs.push(self.lab.gps_sink());
         outputs.extend(taps);
         self.gps = GpsState::default();
         self.diagnosed.clear();
@@ -456,6 +464,7 @@ impl Station {
                 true
             }));
         }
+        outputs.push(self.lab.vest_sink());
         self.vest = VestState::default();
         self.diagnosed.clear();
         match self.factory.open_vest(&self.vest_source, outputs) {
@@ -511,6 +520,7 @@ impl Station {
             self.vest.stop_requested(now);
         }
         let _ = self.guidance_tx.try_send(GuidanceInput::StopAll);
+        self.lab.command(CommandOrigin::Manual, &VestCommand::StopAll);
         self.log(LogEntry::Command {
             origin: CommandOrigin::Manual,
             command: VestCommand::StopAll,
@@ -556,6 +566,7 @@ impl Station {
         match &result {
             Ok(()) => {
                 self.vest.commanded();
+                self.lab.command(CommandOrigin::Manual, &command);
                 self.log(LogEntry::Command {
                     origin: CommandOrigin::Manual,
                     command,

@@ -607,7 +607,7 @@ impl StudyRunner {
         match send_stimulus(&t.stimulus, pattern, io) {
             Ok(()) => {
                 let on = io.now_s();
-                io.marker(&format!("stimulus_on {} {:04x}", t.stimulus.label(), mask.0), on);
+                io.marker(&format!("stimulus_on {} 0x{:04x}", t.stimulus.label(), mask.0), on);
                 if let Some(r) = &mut self.running {
                     r.on_s = Some(on);
                 }

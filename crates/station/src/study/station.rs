@@ -9,12 +9,16 @@ use vestnav_device::wtcu::{Limits, VestCommand, VestEvent};
 
 use super::{StudyCommand, StudyIo, StudyPhase, StudyRunner, StudyView, Timing};
 use crate::Station;
+use crate::lab::LabOutputs;
 
 /// The station's study: the session loaded, if any, and the timing the next one is loaded with.
 #[derive(Debug, Default)]
 pub struct StudySlot {
     runner: Option<StudyRunner>,
     timing: Timing,
+    /// The lab outputs of the session loaded: its clock and its markers for the whole session (lab
+    /// outputs turned on later serve the next session).
+    lab: Option<LabOutputs>,
 }
 
 /// The station as the runner sees it.
@@ -26,6 +30,9 @@ impl StudyIo for Io<'_> {
     }
 
     fn marker(&mut self, text: &str, at_s: f64) {
+        if let Some(lab) = &self.0.study.lab {
+            lab.marker(text, at_s);
+        }
         self.0.log(LogEntry::Note { text: format!("study marker {at_s:.6} {text}") });
     }
 
@@ -47,9 +54,13 @@ impl StudyIo for Io<'_> {
 }
 
 impl Station {
-    /// The session clock of studies [s]: seconds since the station started.
+    /// The clock of the study session loaded [s]: liblsl's clock when the lab outputs had LSL on at load,
+    /// else seconds since the load; before any load, seconds since the station started.
     pub fn study_clock_s(&self) -> f64 {
-        self.epoch.elapsed().as_secs_f64()
+        match &self.study.lab {
+            Some(lab) => lab.now(),
+            None => self.epoch.elapsed().as_secs_f64(),
+        }
     }
 
     /// The study loaded, if any.
@@ -106,6 +117,7 @@ impl Station {
                     }
                 });
                 self.study.runner = None;
+                self.study.lab = None;
                 Ok(())
             }
             cmd => {
