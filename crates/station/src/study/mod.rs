@@ -213,7 +213,7 @@ impl Default for Timing {
 struct Running {
     /// When its stimulus was handed to the vest (session clock).
     on_s: Option<f64>,
-    /// Whether the unit acknowledged the stimulus.
+    /// Whether the unit acknowledged the stimulus's PLAY (a refusal after it is not the stimulus's).
     acked: bool,
     /// A note for its row.
     note: String,
@@ -465,7 +465,7 @@ impl StudyRunner {
     pub fn vest_event(&mut self, ev: &VestEvent, io: &mut dyn StudyIo) {
         match ev {
             VestEvent::Halted { reason } => self.stopped(reason, io),
-            VestEvent::Acked { kind: CommandKind::Play | CommandKind::SetIntensity, .. } => {
+            VestEvent::Acked { kind: CommandKind::Play, .. } => {
                 if let Some(r) = &mut self.running {
                     r.acked = true;
                 }
