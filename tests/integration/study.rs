@@ -118,9 +118,9 @@ fn a_localization_session_gives_the_confusion_models_percent_correct_and_informa
         .collect();
     devs.sort_by(f64::total_cmp);
     let (lo, hi) = (devs[1] - 0.05, devs[398] + 0.05);
-    let pairs: Vec<(String, String)> =
-        rows.iter().map(|r| (r.stimulus.clone(), r.response.clone().unwrap())).collect();
-    let it = it_of(&pairs);
+    // The session's own estimate, as `vestnav study analyze` and the console report it.
+    let analysis = vestnav_core::study::analyze(&rows);
+    let it = analysis.it_bits.unwrap();
     assert!(
         (it_model + lo..=it_model + hi).contains(&it),
         "IT {it:.3} bits; model {it_model:.3} bits, 80-trial band [{:.3}, {:.3}]",
@@ -128,7 +128,8 @@ fn a_localization_session_gives_the_confusion_models_percent_correct_and_informa
         it_model + hi
     );
     // Percent correct: Binomial(80, 1 - p), 4 standard deviations.
-    let correct = rows.iter().filter(|r| r.correct == Some(true)).count() as f64 / 80.0;
+    let correct = analysis.percent_correct.unwrap() / 100.0;
+    assert_eq!(analysis.answered, 80);
     let sd = (P * (1.0 - P) / 80.0).sqrt();
     assert!((correct - (1.0 - P)).abs() < 4.0 * sd, "{correct}");
     // Sanity of the closed form itself: 4 bits minus what the confusions cost, and less than perfect.
@@ -221,13 +222,16 @@ fn stop_all_from_the_stop_path_is_recorded_pauses_and_abort_keeps_every_row() {
     assert_eq!(std::fs::read_to_string(&existing).unwrap(), "precious\n");
 
     study(&mut s, StudyCommand::Start).unwrap();
-    assert!(pump_until(&mut s, Duration::from_secs(2), |s| !unit.view().tactors_on.is_empty()));
+    assert!(pump_until(&mut s, Duration::from_secs(2), |_| !unit.view().tactors_on.is_empty()));
     assert_eq!(phase(&s), Some(StudyPhase::Presenting));
     // STOP ALL as the network bridge and the signal handler give it: straight to the stop path, not
     // through the station's command.
     s.stop_path().stop_all();
     assert!(pump_until(&mut s, Duration::from_secs(2), |s| phase(s) == Some(StudyPhase::Paused)));
-    assert!(pump_until(&mut s, Duration::from_secs(1), |_| unit.view().tactors_on.is_empty()), "vest stopped");
+    assert!(
+        pump_until(&mut s, Duration::from_secs(1), |_| unit.view().tactors_on.is_empty()),
+        "vest stopped"
+    );
     let view = s.study_view().unwrap();
     assert!(view.error.as_deref().is_some_and(|e| e.contains("STOP ALL")), "{view:?}");
     // Never presented again without Resume.

@@ -170,6 +170,8 @@ pub struct StudyView {
     pub last: Option<LastAnswer>,
     /// The results file rows are appended to.
     pub results_csv: PathBuf,
+    /// The JSON of every row, once the session has ended.
+    pub results_json: Option<PathBuf>,
     /// Why the session is paused or what went wrong (a refusal, a STOP ALL, a file that cannot be written).
     pub error: Option<String>,
     /// Rows written so far.
@@ -236,6 +238,8 @@ pub struct StudyRunner {
     /// A note for the next presentation of trial `at` (presented again after a pause or a stop).
     again: Option<String>,
     results: ResultsFile,
+    /// The JSON, once written.
+    json: Option<PathBuf>,
     rows: Vec<TrialRecord>,
     last: Option<LastAnswer>,
     error: Option<String>,
@@ -310,6 +314,7 @@ impl StudyRunner {
             running: None,
             again: None,
             results,
+            json: None,
             rows: Vec::new(),
             last: None,
             error: None,
@@ -362,6 +367,7 @@ impl StudyRunner {
                 .flatten(),
             last: self.last.clone(),
             results_csv: self.results.csv_path().to_path_buf(),
+            results_json: self.json.clone(),
             error: self.error.clone(),
             rows: self.rows.len(),
         }
@@ -673,8 +679,9 @@ impl StudyRunner {
         self.phase = phase;
         self.until_s = None;
         io.marker(&format!("session_end {}", end_word(phase)), io.now_s());
-        if let Err(e) = self.results.write_json(&self.rows) {
-            self.error = Some(e);
+        match self.results.write_json(&self.rows) {
+            Ok(p) => self.json = Some(p),
+            Err(e) => self.error = Some(e),
         }
     }
 }
