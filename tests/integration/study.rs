@@ -34,6 +34,23 @@ fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     p
 }
 
+/// The JSON at `path` holds `rows` (times equal to the last bits a JSON float round trip may change).
+fn same_rows(path: &Path, rows: &[TrialRecord]) {
+    let json: Vec<TrialRecord> = serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+    assert_eq!(json.len(), rows.len());
+    for (j, r) in json.iter().zip(rows) {
+        let close = |a: Option<f64>, b: Option<f64>| match (a, b) {
+            (Some(a), Some(b)) => (a - b).abs() <= 1e-12 * a.abs().max(1.0),
+            (a, b) => a == b,
+        };
+        assert!(close(j.stimulus_on_s, r.stimulus_on_s) && close(j.response_s, r.response_s));
+        assert!(close(j.rt_ms, r.rt_ms));
+        let times =
+            |t: &TrialRecord| TrialRecord { stimulus_on_s: None, response_s: None, rt_ms: None, ..t.clone() };
+        assert_eq!(times(j), times(r));
+    }
+}
+
 /// Every tactor 5 times, 20 ms each, no feedback: 80 trials.
 const LOCALIZATION_16X5: &str = r#"
 name = "loc16"
@@ -73,7 +90,7 @@ fn a_localization_session_gives_the_confusion_models_percent_correct_and_informa
         .arg(format!("serial:{}", unit.path()))
         .arg("--out")
         .arg(&dir)
-        .args(["--wearer", "sim:0.2:2026:5", "--iti-ms", "10", "--feedback-ms", "10"])
+        .args(["--wearer", "sim:0.2:2026:5", "--iti-ms", "40", "--feedback-ms", "10"])
         .output()
         .unwrap();
     let stdout = String::from_utf8_lossy(&out.stdout);
@@ -87,10 +104,9 @@ fn a_localization_session_gives_the_confusion_models_percent_correct_and_informa
     for t in tactors() {
         assert_eq!(rows.iter().filter(|r| r.stimulus == t).count(), 5, "{t}");
     }
-    let json: Vec<TrialRecord> =
-        serde_json::from_str(&std::fs::read_to_string(dir.join("loc16_P01_S1.json")).unwrap()).unwrap();
-    assert_eq!(json, rows);
-    // The unit played every stimulus: 80 times some tactors went on (each stimulus is one frame).
+    same_rows(&dir.join("loc16_P01_S1.json"), &rows);
+    // The unit played every stimulus: 80 times some tactors went on (each stimulus is one frame; the 40 ms
+    // interval keeps two stimuli apart whatever the serial latency's jitter).
     assert_eq!(presentations(&unit), 80);
 
     // The closed form: the model's confusion probabilities, as counts in exact proportion (every
@@ -251,7 +267,9 @@ fn stop_all_from_the_stop_path_is_recorded_pauses_and_abort_keeps_every_row() {
     assert_eq!(s.study().unwrap().current().unwrap().answer, "T6");
     assert!(study(&mut s, StudyCommand::Respond { answer: "nowhere".into() }).is_err());
     study(&mut s, StudyCommand::Respond { answer: "t7".into() }).unwrap();
-    assert!(pump_until(&mut s, Duration::from_secs(2), |s| phase(s) == Some(StudyPhase::Presenting)));
+    // The next trial waits for this stimulus's end (1.5 s) and the interval.
+    assert_eq!(phase(&s), Some(StudyPhase::Interval));
+    assert!(pump_until(&mut s, Duration::from_secs(4), |s| phase(s) == Some(StudyPhase::Presenting)));
     study(&mut s, StudyCommand::Abort).unwrap();
     assert_eq!(phase(&s), Some(StudyPhase::Aborted));
     assert!(pump_until(&mut s, Duration::from_secs(1), |_| unit.view().tactors_on.is_empty()), "abort stops");
@@ -262,9 +280,7 @@ fn stop_all_from_the_stop_path_is_recorded_pauses_and_abort_keeps_every_row() {
         vec![(0, Outcome::Stopped, None), (0, Outcome::Answered, Some(false)), (1, Outcome::Aborted, None)]
     );
     assert_eq!(rows[1].response.as_deref(), Some("T7"));
-    let json: Vec<TrialRecord> =
-        serde_json::from_str(&std::fs::read_to_string(csv.with_extension("json")).unwrap()).unwrap();
-    assert_eq!(json, rows);
+    same_rows(&csv.with_extension("json"), &rows);
     assert_eq!(std::fs::read_to_string(&existing).unwrap(), "precious\n");
     drop(s);
     let _ = std::fs::remove_dir_all(&dir);
@@ -288,7 +304,8 @@ fn a_stimulus_the_unit_refuses_at_run_time_is_recorded_as_refused() {
     study(&mut s, StudyCommand::Start).unwrap();
     assert!(pump_until(&mut s, Duration::from_secs(2), |s| phase(s) == Some(StudyPhase::Presenting)));
     study(&mut s, StudyCommand::Respond { answer: "T1".into() }).unwrap();
-    assert!(pump_until(&mut s, Duration::from_secs(3), |s| phase(s) == Some(StudyPhase::Paused)));
+    let paused = pump_until(&mut s, Duration::from_secs(3), |s| phase(s) == Some(StudyPhase::Paused));
+    assert!(paused, "{:?} {:?} {:?}", s.study_view(), s.vest.last_reply, unit.view().log);
     let view = s.study_view().unwrap();
     assert!(view.error.as_deref().is_some_and(|e| e.contains("refused")), "{view:?}");
     let rows = vestnav_core::study::record::read_csv_file(&view.results_csv).unwrap();
