@@ -19,7 +19,7 @@ pub enum StudySubcommand {
     Analyze(AnalyzeArgs),
     /// Run one session of a protocol on the vest: prompts for each response (or a simulated wearer),
     /// results appended to a new CSV after every trial, JSON at the end.
-    Run(crate::study_run::StudyRunArgs),
+    Run(Box<crate::study_run::StudyRunArgs>),
 }
 
 /// `vestnav study check`.

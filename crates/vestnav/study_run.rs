@@ -49,8 +49,8 @@ pub struct StudyRunArgs {
     /// Where the session log goes (a new JSON Lines file, with every marker).
     #[arg(long, value_name = "DIR")]
     pub log_dir: Option<PathBuf>,
-    /// A simulated wearer answers instead of the terminal: sim:P[:SEED[:RT_MS]] reports a 4-neighbour of the
-    /// true tactor with probability P, else the true one; response times uniform in [0.5, 1.5] x RT_MS
+    /// A simulated wearer answers instead of the terminal: `sim:P[:SEED[:RT_MS]]` reports a 4-neighbour of the
+    /// true tactor with probability P, else the true one; response times uniform in [0.5, 1.5] x `RT_MS`
     /// (default 800 ms).
     #[arg(long, value_name = "SPEC", value_parser = SimulatedWearer::parse_spec)]
     pub wearer: Option<WearerSpec>,
@@ -94,40 +94,7 @@ pub fn run(a: &StudyRunArgs) -> anyhow::Result<()> {
         stop.set_closer(Some(Box::new(move || flag.store(true, Ordering::SeqCst))));
         vestnav_station::stop::exit_on_signals(stop.clone(), || {}).context("cannot watch for signals")?;
     }
-    let mut settings = StationSettings::default();
-    // A perception study: the vest plays the protocol's stimuli only.
-    settings.guidance.auto = false;
-    let mut station = Station::new(
-        Box::new(Hardware::default()),
-        StationOptions {
-            settings,
-            gps: a.gps.clone(),
-            vest: Some(a.vest.clone()),
-            log_dir: a.log_dir.clone(),
-            waker: None,
-            liveness: Some(Liveness { view: None, ..Liveness::default() }),
-            stop,
-            route: RouteStart::default(),
-        },
-    );
-    let lab = vestnav_station::lab::LabConfig { lsl: a.lsl, osc: a.osc, ..Default::default() };
-    if lab.any() {
-        // Asked for on the command line: a lab output that cannot start ends the run before anything moves.
-        station.set_lab(Some(&lab)).context("lab outputs")?;
-        if let Some(s) = station.lab_status() {
-            eprintln!("vestnav study: {}", s.summary());
-        }
-    }
-    station.set_study_timing(Timing {
-        iti_s: f64::from(a.iti_ms) / 1000.0,
-        feedback_s: f64::from(a.feedback_ms) / 1000.0,
-        response_timeout_s: a.response_timeout,
-    });
-    station.connect_vest();
-    if a.gps.is_some() {
-        station.connect_gps(Vec::new());
-    }
-    wait_for_vest(&mut station, &interrupted)?;
+    let mut station = open_station(a, stop, &interrupted)?;
     station
         .apply(Command::Study(StudyCommand::Load {
             protocol: a.protocol.clone(),
@@ -172,14 +139,13 @@ pub fn run(a: &StudyRunArgs) -> anyhow::Result<()> {
         if let Some(rx) = &input {
             match rx.try_recv() {
                 Ok(line) => typed(&line, &mut station),
-                Err(mpsc::TryRecvError::Empty) => {}
                 Err(mpsc::TryRecvError::Disconnected) if !loop_state.said_eof => {
                     loop_state.said_eof = true;
                     eprintln!(
                         "vestnav study: standard input closed; `a` can no longer be typed (Ctrl-C ends)"
                     );
                 }
-                Err(mpsc::TryRecvError::Disconnected) => {}
+                Err(_) => {}
             }
         }
         let nap = station.study_wake_in().unwrap_or(Duration::from_millis(20)).min(Duration::from_millis(20));
@@ -196,6 +162,46 @@ pub fn run(a: &StudyRunArgs) -> anyhow::Result<()> {
         std::process::exit(130);
     }
     Ok(())
+}
+
+/// The station of a session: the vest (and GPS) connected, the lab outputs and the timing asked for; returns
+/// once the vest is ready.
+fn open_station(a: &StudyRunArgs, stop: StopPath, interrupted: &AtomicBool) -> anyhow::Result<Station> {
+    let mut settings = StationSettings::default();
+    // A perception study: the vest plays the protocol's stimuli only.
+    settings.guidance.auto = false;
+    let mut station = Station::new(
+        Box::new(Hardware::default()),
+        StationOptions {
+            settings,
+            gps: a.gps.clone(),
+            vest: Some(a.vest.clone()),
+            log_dir: a.log_dir.clone(),
+            waker: None,
+            liveness: Some(Liveness { view: None, ..Liveness::default() }),
+            stop,
+            route: RouteStart::default(),
+        },
+    );
+    let lab = vestnav_station::lab::LabConfig { lsl: a.lsl, osc: a.osc, ..Default::default() };
+    if lab.any() {
+        // Asked for on the command line: a lab output that cannot start ends the run before anything moves.
+        station.set_lab(Some(&lab)).context("lab outputs")?;
+        if let Some(s) = station.lab_status() {
+            eprintln!("vestnav study: {}", s.summary());
+        }
+    }
+    station.set_study_timing(Timing {
+        iti_s: f64::from(a.iti_ms) / 1000.0,
+        feedback_s: f64::from(a.feedback_ms) / 1000.0,
+        response_timeout_s: a.response_timeout,
+    });
+    station.connect_vest();
+    if a.gps.is_some() {
+        station.connect_gps(Vec::new());
+    }
+    wait_for_vest(&mut station, interrupted)?;
+    Ok(station)
 }
 
 /// Pumps the station until the vest is ready (or fails to be).

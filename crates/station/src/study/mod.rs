@@ -232,7 +232,7 @@ pub struct StudyRunner {
     /// The planned trial under way or next.
     at: usize,
     phase: StudyPhase,
-    /// When the phase ends (Presenting, AwaitingResponse with a timeout, Feedback, Interval).
+    /// When the phase ends (`Presenting`, `AwaitingResponse` with a timeout, `Feedback`, `Interval`).
     until_s: Option<f64>,
     running: Option<Running>,
     /// A note for the next presentation of trial `at` (presented again after a pause or a stop).
