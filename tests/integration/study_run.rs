@@ -143,6 +143,12 @@ fn a_localization_session_gives_the_confusion_models_percent_correct_and_informa
         it_model + lo,
         it_model + hi
     );
+    eprintln!(
+        "IT {it:.3} bits (model {it_model:.3}, band [{:.3}, {:.3}]); percent correct {:.1}",
+        it_model + lo,
+        it_model + hi,
+        analysis.percent_correct.unwrap()
+    );
     // Percent correct: Binomial(80, 1 - p), 4 standard deviations.
     let correct = analysis.percent_correct.unwrap() / 100.0;
     assert_eq!(analysis.answered, 80);
@@ -316,5 +322,49 @@ fn a_stimulus_the_unit_refuses_at_run_time_is_recorded_as_refused() {
     assert_eq!(view.trial, 2);
     study(&mut s, StudyCommand::Unload).unwrap();
     assert!(s.study_view().is_none());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn ctrl_c_stops_the_vest_and_keeps_the_results() {
+    let dir = tempdir("sigint");
+    let protocol = write(&dir, "loc16.toml", LOCALIZATION_16X5);
+    let unit = PtyEmulator::spawn(UnitConfig::default()).unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_vestnav"))
+        .args(["study", "run"])
+        .arg(&protocol)
+        .args(["--participant", "P01", "--session", "S1", "--vest"])
+        .arg(format!("serial:{}", unit.path()))
+        .arg("--out")
+        .arg(&dir)
+        // Slow answers: the signal lands while a trial waits for one.
+        .args(["--wearer", "sim:0.2:3:800", "--iti-ms", "100"])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let csv = dir.join("loc16_P01_S1.csv");
+    let end = Instant::now() + Duration::from_secs(20);
+    while vestnav_core::study::record::read_csv_file(&csv).map_or(0, |r| r.len()) < 2 {
+        assert!(Instant::now() < end, "two trials within 20 s");
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    // Past the 100 ms interval, before the next answer (at least 400 ms after its stimulus): a trial is
+    // under way.
+    std::thread::sleep(Duration::from_millis(200));
+    let kill = Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap();
+    assert!(kill.success());
+    let status = child.wait().unwrap();
+    let mut err = String::new();
+    std::io::Read::read_to_string(&mut child.stderr.take().unwrap(), &mut err).unwrap();
+    assert_eq!(status.code(), Some(130), "{err}");
+    assert!(err.contains("STOP ALL acknowledged by the unit"), "{err}");
+    assert!(unit.view().tactors_on.is_empty());
+    let rows = vestnav_core::study::record::read_csv_file(&csv).unwrap();
+    assert!(rows.len() >= 3, "{rows:?}");
+    let last = rows.last().unwrap();
+    assert_eq!(last.outcome, Outcome::Stopped, "{last:?}");
+    assert!(rows[..rows.len() - 1].iter().all(|r| r.outcome == Outcome::Answered));
+    same_rows(&csv.with_extension("json"), &rows);
     let _ = std::fs::remove_dir_all(&dir);
 }
