@@ -420,6 +420,9 @@ mod tests {
         // The wire form other tools write by hand.
         let c: Command = serde_json::from_str(r#"{"type":"next_waypoint","index":2}"#).unwrap();
         assert_eq!(c, Command::NextWaypoint { index: 2 });
+        let c: Command =
+            serde_json::from_str(r#"{"type":"study","action":"respond","answer":"T6"}"#).unwrap();
+        assert_eq!(c, Command::Study(StudyCommand::Respond { answer: "T6".into() }));
         assert!(serde_json::from_str::<Command>(r#"{"type":"self_destruct"}"#).is_err());
     }
 
