@@ -104,7 +104,7 @@ fn analyze_agrees_with_counts_from_the_csv_text() {
         .unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    assert_eq!(json["answered"].as_f64().unwrap(), answered);
+    assert_eq!(json["answered"].as_u64().unwrap(), answered as u64);
     approx::assert_relative_eq!(
         json["percent_correct"].as_f64().unwrap(),
         100.0 * right / answered,
