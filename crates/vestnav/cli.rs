@@ -6,7 +6,7 @@ use clap::{Parser, Subcommand};
 
 use crate::{
     accuracy, analyze, completions, doctor, emulate_gps, emulate_vest, fieldtest, gps_configure, nav, nmea,
-    ntrip, route_plan, sim_tactor, sim_wave, station, tiles,
+    ntrip, route_plan, sim_tactor, sim_wave, station, study, tiles,
 };
 
 /// One line: `-h`, and the NAME of the man page.
@@ -151,6 +151,9 @@ pub enum Command {
     /// The offline map of an OpenStreetMap extract.
     #[command(subcommand)]
     Map(MapCommand),
+    /// Tactile-display studies (docs/study.md): check a protocol, run a session on the vest, analyse results.
+    #[command(subcommand)]
+    Study(study::StudySubcommand),
     /// Print a shell completion script for vestnav to standard output.
     #[command(hide = true)]
     Completions(completions::CompletionsArgs),

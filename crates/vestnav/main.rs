@@ -20,6 +20,8 @@ mod route_plan;
 mod sim_tactor;
 mod sim_wave;
 mod station;
+mod study;
+mod study_run;
 mod tiles;
 
 use clap::Parser;
@@ -173,6 +175,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Ntrip(a) => ntrip::run(&a),
         Command::Tiles(TilesCommand::Prefetch(a)) => tiles::run_prefetch(&a),
         Command::Station(a) => station::run(&a),
+        Command::Study(s) => study::run(&s),
         Command::Doctor(a) => doctor::run(&a),
         Command::Route(RouteCommand::Plan(a)) => route_plan::run_plan(&a),
         Command::Map(MapCommand::Render(a)) => route_plan::run_render(&a),

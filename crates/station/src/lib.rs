@@ -44,6 +44,7 @@ pub mod route;
 pub mod sources;
 pub mod state;
 pub mod stop;
+pub mod study;
 pub mod view_wake;
 
 use devices::{DeviceFactory, GpsWorker};
@@ -206,6 +207,8 @@ pub struct Station {
     epoch: Instant,
     /// Watches for a receiver holding its position (see [`pinned`]).
     pin: PinDetector,
+    /// The study session loaded, if any (see [`study`]).
+    study: study::StudySlot,
     /// The lab outputs (LSL, OSC) every feeding thread sees (see [`lab`]).
     lab: lab::LabTap,
     /// RTK corrections to the receiver, once started (see [`ntrip`]).
@@ -288,6 +291,7 @@ impl Station {
             field_tests: FieldTests::new(),
             epoch: Instant::now(),
             pin: PinDetector::default(),
+            study: study::StudySlot::default(),
             lab,
             ntrip: None,
         }
@@ -513,6 +517,7 @@ impl Station {
     /// station's end.
     pub fn shutdown(&mut self) {
         self.disconnect_vest();
+        self.study_exit();
         self.disconnect_gps();
         self.autosave_route(true);
     }
@@ -687,6 +692,7 @@ impl Station {
         }
         self.take_port_findings();
         self.pump_ntrip();
+        self.study_pump(&vest_events);
         let mut latest = None;
         let cues = &mut self.cues;
         drain_within(&self.guidance_rx, DRAIN_BUDGET, |st: GuidanceStatus| {
