@@ -27,7 +27,8 @@ use egui::{Color32, RichText, vec2};
 use vestnav_core::study::{Protocol, Task};
 use vestnav_station::Station;
 use vestnav_station::command::Command;
-use vestnav_station::lab::LabStatus;
+use vestnav_core::vest::TACTOR_COUNT;
+use vestnav_station::lab::{LabStatus, LslState};
 use vestnav_station::study::{StudyCommand, StudyPhase, StudyView};
 
 use crate::file_dialog::{self, Browse, DialogSpec, Mode, RecentFiles, RecentKind};
@@ -72,19 +73,26 @@ pub struct Summary {
     pub task: Task,
     /// The participants it lists (may be empty: then typed).
     pub participants: Vec<String>,
+    /// The sessions it foresees (may be empty).
+    pub sessions: Vec<String>,
+    /// Trials per participant.
+    pub trials: usize,
     /// Its blocks' names.
     pub blocks: Vec<String>,
 }
 
-/// Checks the protocol at `path` as `vestnav study check` does: parsed and validated, every stimulus
-/// within the unit's limits. Only reads the file.
+/// Reads and validates the protocol at `path` (`Protocol::load`: the file is only read, an error names the
+/// file and the line). Its stimuli are checked against the unit's limits by the station when it loads it
+/// (the unit's own limits, which only the station knows); a refusal there shows under the controls.
 pub fn check_protocol(path: &Path) -> Checked {
-    let result = vestnav_station::study::check_protocol(path)
-        .map(|p: Protocol| Summary {
-            name: p.name.clone(),
+    let result = Protocol::load(path)
+        .map(|p| Summary {
+            trials: p.trials_per_participant(),
+            name: p.name,
             task: p.task,
-            participants: p.participants.clone(),
-            blocks: p.blocks.iter().map(|b| b.name.clone()).collect(),
+            participants: p.participants,
+            sessions: p.sessions,
+            blocks: p.blocks.into_iter().map(|b| b.name).collect(),
         })
         .map_err(|e| e.to_string());
     Checked { path: path.to_path_buf(), result }
@@ -310,9 +318,10 @@ impl StudyPanel {
             Some(Ok(s)) => {
                 ui.label(
                     RichText::new(format!(
-                        "OK: {} — {:?}, blocks: {}",
+                        "OK: {} — {}, {} trials per participant, blocks: {}",
                         s.name,
-                        s.task,
+                        s.task.name(),
+                        s.trials,
                         s.blocks.join(", ")
                     ))
                     .color(Color32::from_rgb(40, 160, 60)),
@@ -349,6 +358,18 @@ impl StudyPanel {
         ui.horizontal(|ui| {
             ui.label("Session");
             ui.add(egui::TextEdit::singleline(&mut self.session).desired_width(80.0));
+            if let Some(Ok(s)) = checked
+                && !s.sessions.is_empty()
+            {
+                egui::ComboBox::from_id_salt("study-sessions").selected_text("from the protocol").show_ui(
+                    ui,
+                    |ui| {
+                        for p in &s.sessions {
+                            ui.selectable_value(&mut self.session, p.clone(), p);
+                        }
+                    },
+                );
+            }
         });
         ui.label("Results folder");
         let spec = DialogSpec { mode: Mode::Folder, title: "Folder for the study's results", filter: ("", &[]) };
@@ -542,20 +563,28 @@ fn answer_ui(ui: &mut egui::Ui, v: &StudyView) -> Option<String> {
             }
         })
     };
-    let grid = v.task == Task::Localization && v.choices.len() == vestnav_core::vest::TACTOR_COUNT;
-    if grid {
+    let mut clicked = None;
+    // Localization: the first 16 choices are the tactors (row-major from the wearer's upper left on the
+    // back view); any further ones are the tactor sets the protocol presents.
+    let rest = if v.task == Task::Localization && v.choices.len() >= TACTOR_COUNT {
         let side = ((ui.available_width() - 40.0) / 4.0).clamp(56.0, 110.0);
         let size = vec2(side, side * 0.75);
-        let clicked = back_view_grid(ui, "study-grid", size, taking, |i| {
+        let cell = back_view_grid(ui, "study-grid", size, taking, |i| {
             let choice = v.choices.get(i).cloned().unwrap_or_default();
-            GridCell { fill: mark(&choice), hover: format!("the wearer reports {choice}"), text: choice }
+            GridCell {
+                fill: mark(&choice),
+                hover: format!("the wearer reports {choice} (row {}, column {})", i / 4 + 1, i % 4 + 1),
+                text: choice,
+            }
         });
-        return clicked.and_then(|i| v.choices.get(i).cloned());
-    }
-    let mut clicked = None;
-    ui.label(RichText::new("What the wearer reports:").small());
+        clicked = cell.and_then(|i| v.choices.get(i).cloned());
+        &v.choices[TACTOR_COUNT..]
+    } else {
+        ui.label(RichText::new("What the wearer reports:").small());
+        &v.choices[..]
+    };
     ui.horizontal_wrapped(|ui| {
-        for c in &v.choices {
+        for c in rest {
             let text = RichText::new(c).size(20.0).strong();
             let b = match mark(c) {
                 Some(fill) => egui::Button::new(text.color(Color32::BLACK)).fill(fill),
@@ -595,5 +624,45 @@ fn lab_ui(ui: &mut egui::Ui, lab: Option<&LabStatus>) {
         ui.label(RichText::new("The station reports no lab outputs (LSL and OSC off).").weak());
         return;
     };
-    ui.label(s.to_string());
+    let bad = ui.visuals().error_fg_color;
+    match &s.lsl {
+        LslState::Off => {
+            ui.label("LSL: off");
+        }
+        LslState::On { version, library, streams } => {
+            ui.label(
+                RichText::new(format!("LSL: on (liblsl {version}, {library})"))
+                    .color(Color32::from_rgb(40, 160, 60)),
+            );
+            ui.label(RichText::new(format!("streams: {}", streams.join(", "))).small());
+        }
+        LslState::Missing { why } => {
+            ui.label(RichText::new("LSL: liblsl is not installed").strong().color(bad));
+            ui.label(RichText::new(why).small());
+        }
+        LslState::Failed { why } => {
+            ui.label(RichText::new(format!("LSL: failed: {why}")).strong().color(bad));
+        }
+    }
+    match &s.osc {
+        None => ui.label("OSC: off"),
+        Some(o) => ui.label(format!("OSC: to {}: {} sent, {} refused", o.target, o.sent, o.errors)),
+    };
+    ui.label(
+        RichText::new(format!(
+            "{} markers, {} positions, {} headings, {} vest messages{}",
+            s.markers,
+            s.positions,
+            s.headings,
+            s.vest,
+            if s.dropped > 0 { format!(", {} DROPPED (the lab thread fell behind)", s.dropped) } else { String::new() }
+        ))
+        .small(),
+    );
+    if let Some(m) = &s.last_marker {
+        ui.label(RichText::new(format!("last marker: {m}")).small().monospace());
+    }
+    if let Some(e) = &s.error {
+        ui.label(RichText::new(e).color(bad));
+    }
 }
