@@ -10,7 +10,8 @@
 //! never what this tab sent: the runner lives in the station (`vestnav_station::study`), and this tab only
 //! sends it [`StudyCommand`]s through [`Command::Study`], to the console's own station or to the remote
 //! station driven from the Stations window. STOP ALL stays in the top bar, above this tab and its Abort
-//! question; the runner records a stopped trial as stopped and waits for Resume.
+//! question; the runner records a trial stopped by it as stopped and pauses (its reason shown in red) until
+//! Resume.
 //!
 //! The stimulus being presented is not shown before the response: the operator records what the wearer
 //! says without knowing the answer. The right answer shows with the feedback in feedback blocks.
@@ -150,18 +151,17 @@ fn phase_words(phase: StudyPhase) -> (&'static str, bool) {
         StudyPhase::Presenting => ("PRESENTING: the vest plays the stimulus", false),
         StudyPhase::AwaitingResponse => ("AWAITING RESPONSE: click what the wearer reports", false),
         StudyPhase::Feedback => ("FEEDBACK", false),
-        StudyPhase::Paused => ("PAUSED: press Resume to go on", false),
+        StudyPhase::Interval => ("INTERVAL: the next trial follows", false),
+        StudyPhase::Paused => ("PAUSED: nothing is presented until Resume", false),
         StudyPhase::Finished => ("FINISHED: every trial done", false),
         StudyPhase::Aborted => ("ABORTED: the trials so far are kept", true),
-        StudyPhase::Stopped => {
-            ("STOPPED by STOP ALL: the trial is recorded as stopped; Resume when it is safe", true)
-        }
+        StudyPhase::Stopped => ("STOPPED: the program stopped the vest to exit; the session ended", true),
     }
 }
 
 /// Whether a session is under way (loaded and not over): a new one cannot be loaded then.
 fn under_way(phase: StudyPhase) -> bool {
-    !matches!(phase, StudyPhase::Finished | StudyPhase::Aborted)
+    !phase.is_over()
 }
 
 impl StudyPanel {
@@ -417,12 +417,14 @@ impl StudyPanel {
             if ui.add_enabled(p == StudyPhase::Ready, egui::Button::new(big("Start"))).clicked() {
                 send = Some(StudyCommand::Start);
             }
-            let running = matches!(p, StudyPhase::Presenting | StudyPhase::AwaitingResponse | StudyPhase::Feedback);
+            let running = matches!(
+                p,
+                StudyPhase::Presenting | StudyPhase::AwaitingResponse | StudyPhase::Feedback | StudyPhase::Interval
+            );
             if ui.add_enabled(running, egui::Button::new(big("Pause"))).clicked() {
                 send = Some(StudyCommand::Pause);
             }
-            let halted = matches!(p, StudyPhase::Paused | StudyPhase::Stopped);
-            if ui.add_enabled(halted, egui::Button::new(big("Resume"))).clicked() {
+            if ui.add_enabled(p == StudyPhase::Paused, egui::Button::new(big("Resume"))).clicked() {
                 send = Some(StudyCommand::Resume);
             }
             if ui.add_enabled(under_way(p), egui::Button::new(big("Abort…"))).clicked() {
@@ -460,7 +462,7 @@ impl StudyPanel {
         ui.add_space(6.0);
         feedback_ui(ui, v);
         ui.label(format!("Results: {}", v.results_csv.display()));
-        if matches!(v.phase, StudyPhase::Finished | StudyPhase::Aborted | StudyPhase::Paused)
+        if (v.phase.is_over() || v.phase == StudyPhase::Paused)
             && v.results_csv.is_file()
             && ui.button("Analyse these results").clicked()
         {
