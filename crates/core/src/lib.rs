@@ -20,6 +20,8 @@
 //!   position while the wearer walks;
 //! - [`accuracy`]: GPS accuracy against a reference (CEP, DRMS, bias, vertical), receivers side by side;
 //! - [`coords`]: typed positions (decimal, DMS, UTM/UPS, MGRS) read and written.
+//! - [`study`]: study protocols, trial plans, results and their analysis (localization, pattern
+//!   identification, navigation).
 //!
 //! ```
 //! use vestnav_core::tactor::{TactorParams, Preset};
@@ -44,6 +46,7 @@ pub mod geo;
 pub mod gnss_sim;
 pub mod guidance;
 pub mod pinned;
+pub mod study;
 pub mod sweep;
 pub mod tactor;
 pub mod twopoint;

@@ -1,0 +1,236 @@
+use std::path::Path;
+
+use super::*;
+
+/// The repository's docs/study folder (the example protocols).
+fn docs() -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../docs/study")
+}
+
+const MINIMAL: &str = r#"
+name = "m"
+task = "localization"
+[localization]
+[[block]]
+name = "test"
+repetitions = 1
+"#;
+
+fn err(text: &str) -> ProtocolError {
+    Protocol::parse_in(text, "broken.toml", Path::new("/nonexistent")).expect_err("must be refused")
+}
+
+#[test]
+fn every_example_protocol_parses() {
+    let loc = Protocol::load(&docs().join("localization.toml")).unwrap();
+    assert_eq!(loc.task, Task::Localization);
+    assert_eq!(loc.stimuli.len(), 16);
+    assert_eq!(loc.blocks.len(), 2);
+    assert!(loc.blocks[0].training && loc.blocks[0].feedback);
+    assert!(!loc.blocks[1].training && !loc.blocks[1].feedback);
+    assert_eq!(loc.trials_per_participant(), 16 * 6);
+    assert_eq!(loc.choices()[0], "T1");
+    assert_eq!(loc.choices().len(), 16);
+
+    let pat = Protocol::load(&docs().join("pattern-id.toml")).unwrap();
+    assert_eq!(pat.task, Task::PatternId);
+    assert_eq!(pat.choices(), ["left", "right", "stop", "corner sweep", "double tap"]);
+    // The pattern editor's file: four single-tactor frames of 200 ms around the corners.
+    let sweep = pat.stimuli[3].pattern().unwrap();
+    assert_eq!(sweep.frames.len(), 4);
+    assert_eq!(sweep.total_ms(), 800);
+    assert_eq!(pat.stimuli[3].intensity(), Some(200));
+    // The cue: the same frames as the console's own turn-left cue at 300 ms.
+    assert_eq!(pat.stimuli[0].pattern().unwrap().frames, crate::vest::Cue::TurnLeft.pattern(300).frames);
+    let tap = pat.stimuli[4].pattern().unwrap();
+    assert_eq!(tap.frames.len(), 3);
+    assert_eq!(tap.frames[1].mask, TactorMask::NONE);
+
+    let nav = Protocol::load(&docs().join("navigation.toml")).unwrap();
+    assert_eq!(nav.task, Task::Navigation);
+    assert_eq!(nav.stimuli.len(), 4);
+    assert_eq!(nav.stimuli[1].label(), "demo/bearing-compass");
+    assert!(nav.stimuli[0].pattern().is_none());
+    assert!(nav.choices().is_empty());
+}
+
+#[test]
+fn labels_round_trip() {
+    for i in 0..16 {
+        assert_eq!(parse_tactor_label(&tactor_label(i)), Some(i));
+    }
+    assert_eq!(parse_mask_label("T1+T4"), Some(TactorMask::from_indices([0, 3])));
+    assert_eq!(mask_label(TactorMask::from_indices([15, 0])), "T1+T16");
+    assert_eq!(parse_tactor_label("T0"), None);
+    assert_eq!(parse_tactor_label("T17"), None);
+    assert_eq!(parse_mask_label("T1+"), None);
+    assert_eq!(label_cell("T7"), Some((1, 2)));
+}
+
+#[test]
+fn a_tactor_stimulus_plays_its_on_time_repeats_and_pause() {
+    let s = Stimulus::Tactors {
+        tactors: TactorMask::single(5).unwrap(),
+        on_ms: 300,
+        intensity: 9,
+        repeats: 3,
+        isi_ms: 200,
+    };
+    let p = s.pattern().unwrap();
+    assert_eq!(p.repeats, 3);
+    assert_eq!(p.total_ms(), 3 * 500);
+    assert_eq!(p.longest_on_ms(), 300);
+    assert_eq!(s.answer(), "T6");
+}
+
+#[test]
+fn minimal_protocol_defaults() {
+    let p = Protocol::parse(MINIMAL, "m.toml").unwrap();
+    assert_eq!(p.order, Order::Random);
+    assert_eq!(p.seed, 0);
+    assert!(matches!(
+        p.stimuli[0],
+        Stimulus::Tactors { on_ms: 500, intensity: 255, repeats: 1, isi_ms: 0, .. }
+    ));
+}
+
+/// Each broken file is refused with the line of its fault (counted by hand in the text).
+#[test]
+fn broken_files_name_their_line() {
+    let cases: &[(&str, usize, &str)] = &[
+        // TOML syntax error on line 3.
+        ("name = \"x\"\ntask = \"localization\"\nseed = = 3\n", 3, ""),
+        // Unknown key on line 3.
+        ("name = \"x\"\ntask = \"localization\"\ncolour = 1\n", 3, "colour"),
+        // Unknown task on line 2.
+        (
+            "name = \"x\"\ntask = \"juggling\"\n[localization]\n[[block]]\nname = \"b\"\nrepetitions = 1\n",
+            2,
+            "juggling",
+        ),
+        // Intensity out of range on line 5.
+        (
+            "name = \"x\"\ntask = \"localization\"\n[localization]\non_ms = 100\nintensity = 300\n[[block]]\nname = \"b\"\nrepetitions = 1\n",
+            5,
+            "intensity",
+        ),
+        // A tactor that does not exist, on line 4.
+        (
+            "name = \"x\"\ntask = \"localization\"\n[localization]\nstimuli = [\"T1\",\n  \"T17\"]\n[[block]]\nname = \"b\"\nrepetitions = 1\n",
+            5,
+            "T17",
+        ),
+        // Zero repetitions on line 7.
+        (
+            "name = \"x\"\ntask = \"localization\"\n[localization]\n\n[[block]]\nname = \"b\"\nrepetitions = 0\n",
+            7,
+            "repetitions",
+        ),
+        // A training block after a test block: the training block's name line (9).
+        (
+            "name = \"x\"\ntask = \"localization\"\n[localization]\n[[block]]\nname = \"t\"\nrepetitions = 1\n[[block]]\ntraining = true\nname = \"tr\"\nrepetitions = 1\n",
+            9,
+            "training",
+        ),
+        // Unknown order on line 3.
+        (
+            "name = \"x\"\ntask = \"localization\"\norder = \"alphabetical\"\n[localization]\n[[block]]\nname = \"b\"\nrepetitions = 1\n",
+            3,
+            "alphabetical",
+        ),
+        // A Latin square without participants: the order line (3).
+        (
+            "name = \"x\"\ntask = \"localization\"\norder = \"latin-square\"\n[localization]\n[[block]]\nname = \"b\"\nrepetitions = 1\n",
+            3,
+            "participants",
+        ),
+        // A pattern with an unknown cue on line 5.
+        (
+            "name = \"x\"\ntask = \"pattern-id\"\n[[pattern]]\nname = \"a\"\ncue = \"wiggle\"\n[[pattern]]\nname = \"b\"\ncue = \"stop\"\n[[block]]\nname = \"b\"\nrepetitions = 1\n",
+            5,
+            "wiggle",
+        ),
+        // A pattern file that does not exist, line 8.
+        (
+            "name = \"x\"\ntask = \"pattern-id\"\n[[pattern]]\nname = \"a\"\ncue = \"stop\"\n[[pattern]]\nname = \"b\"\nfile = \"missing.json\"\n[[block]]\nname = \"b\"\nrepetitions = 1\n",
+            8,
+            "missing.json",
+        ),
+        // Duplicate participant on line 4.
+        (
+            "name = \"x\"\ntask = \"localization\"\nparticipants = [\"A\",\n \"A\"]\n[localization]\n[[block]]\nname = \"b\"\nrepetitions = 1\n",
+            4,
+            "twice",
+        ),
+        // A navigation condition with an unknown strategy on line 7, and its route missing (line 4).
+        (
+            "name = \"x\"\ntask = \"navigation\"\n[navigation]\nroutes = [\"r.gpx\"]\n[[condition]]\nname = \"c\"\nstrategy = \"teleport\"\nheading = \"cog\"\ncue_set = \"walking\"\ncue_interval_s = 3.0\n[[block]]\nname = \"b\"\nrepetitions = 1\n",
+            4,
+            "r.gpx",
+        ),
+        // Wrong type (a string for an integer) on line 4.
+        (
+            "name = \"x\"\ntask = \"localization\"\n[localization]\non_ms = \"long\"\n[[block]]\nname = \"b\"\nrepetitions = 1\n",
+            4,
+            "",
+        ),
+        // A localization table in a pattern-id protocol, line 3.
+        (
+            "name = \"x\"\ntask = \"pattern-id\"\n[localization]\n[[pattern]]\nname = \"a\"\ncue = \"stop\"\n[[pattern]]\nname = \"b\"\ncue = \"forward\"\n[[block]]\nname = \"b\"\nrepetitions = 1\n",
+            3,
+            "does not belong",
+        ),
+    ];
+    for (text, line, needle) in cases {
+        let e = err(text);
+        assert_eq!(e.line(), Some(*line), "{text}\n-> {e}");
+        assert!(e.to_string().starts_with(&format!("broken.toml:{line}: ")), "{e}");
+        assert!(e.to_string().contains(needle), "{e} lacks {needle}");
+    }
+    // Both problems of the navigation case are reported, in line order.
+    let e = err(cases[12].0);
+    assert_eq!(e.problems.len(), 2, "{e}");
+    assert_eq!(e.problems[1].line, Some(7));
+}
+
+#[test]
+fn no_blocks_is_an_error() {
+    let e = err("name = \"x\"\ntask = \"localization\"\n[localization]\n");
+    assert!(e.to_string().contains("block"), "{e}");
+}
+
+#[test]
+fn oversized_and_non_utf8_files_are_refused() {
+    let dir = std::env::temp_dir().join(format!("vestnav-study-proto-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let big = dir.join("big.toml");
+    std::fs::write(&big, vec![b'#'; MAX_PROTOCOL_BYTES as usize + 10]).unwrap();
+    let e = Protocol::load(&big).unwrap_err();
+    assert!(e.to_string().contains("larger than"), "{e}");
+    let bin = dir.join("bin.toml");
+    std::fs::write(&bin, [0xff, 0xfe, 0x00]).unwrap();
+    assert!(Protocol::load(&bin).unwrap_err().to_string().contains("UTF-8"));
+    assert!(Protocol::load(&dir).unwrap_err().to_string().contains("not a regular file"));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn check_stimuli_names_the_refused_stimulus_line() {
+    let text = "name = \"x\"\ntask = \"pattern-id\"\n[[pattern]]\nname = \"short\"\nframes = [{ tactors = \"T1\", ms = 100 }]\n[[pattern]]\nname = \"long\"\nframes = [{ tactors = \"T1\", ms = 3000 }]\n[[block]]\nname = \"b\"\nrepetitions = 1\n";
+    let p = Protocol::parse(text, "x.toml").unwrap();
+    let limit = |pat: &Pattern| {
+        if pat.longest_on_ms() > 2000 { Err(format!("on for {} ms", pat.longest_on_ms())) } else { Ok(()) }
+    };
+    let e = p.check_stimuli(limit).unwrap_err();
+    assert_eq!(e.problems.len(), 1);
+    assert_eq!(e.line(), Some(7));
+    assert!(e.to_string().contains("long: on for 3000 ms"), "{e}");
+}
+
+proptest::proptest! {
+    /// No text makes the parser panic.
+    #[test]
+    fn parser_never_panics(text in "[a-z_\\[\\]=\"0-9 .,\\n+T-]{0,300}") {
+        let _ = Protocol::parse_in(&text, "fuzz.toml", Path::new("/nonexistent"));
+    }
+}
