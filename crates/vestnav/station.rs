@@ -58,6 +58,14 @@ pub struct StationArgs {
     /// cues halted (unless the operator armed "continue the route if the link drops").
     #[arg(long, value_name = "SECONDS", default_value_t = 3.0, requires = "broker")]
     pub link_bound: f64,
+    /// Lab Streaming Layer streams: markers, position, heading and vest traffic, named after --name (else
+    /// "vestnav"); needs liblsl (`pip install pylsl` carries it; docs/study.md).
+    #[arg(long)]
+    pub lsl: bool,
+    /// Open Sound Control messages to HOST:PORT over UDP: /vestnav/marker, /vestnav/position,
+    /// /vestnav/heading, /vestnav/vest (docs/study.md).
+    #[arg(long, value_name = "HOST:PORT", value_parser = vestnav_station::lab::parse_osc_target)]
+    pub osc: Option<std::net::SocketAddr>,
     /// The MQTT broker the station publishes to and takes commands from (docs/remote.md).
     #[command(flatten)]
     pub broker: crate::broker_args::BrokerArgs,
@@ -90,6 +98,18 @@ pub fn run(a: &StationArgs) -> anyhow::Result<()> {
     );
     for n in station.notices.all() {
         eprintln!("vestnav station: {}", n.text);
+    }
+    let lab = vestnav_station::lab::LabConfig {
+        lsl: a.lsl,
+        osc: a.osc,
+        stream_prefix: a.name.clone().unwrap_or_else(|| "vestnav".to_owned()),
+    };
+    if lab.any() {
+        // Asked for on the command line: a lab output that cannot start ends the run before anything moves.
+        station.set_lab(Some(&lab)).context("lab outputs")?;
+        if let Some(s) = station.lab_status() {
+            eprintln!("vestnav station: {}", s.summary());
+        }
     }
     station.connect_vest();
     station.connect_gps(Vec::new());
@@ -200,7 +220,7 @@ fn status_line(s: &Station, now: Instant, start: Instant, json: bool) -> String 
             "t_s": t_s, "gps": gps, "position_age_s": age_s, "lat_deg": pos.map(|p| p.0), "lon_deg": pos.map(|p| p.1),
             "fixes": s.gps.fixes, "vest": vest, "tactors_on": on, "halted": s.vest.halted, "cue": cue, "hold": hold,
             "next_waypoint": next, "waypoints": s.route().waypoints().len(), "gps_alarm": alarm,
-            "stop_not_confirmed": stop,
+            "stop_not_confirmed": stop, "lab": s.lab_status(),
         })
         .to_string()
     } else {
@@ -221,6 +241,9 @@ fn status_line(s: &Station, now: Instant, start: Instant, json: bool) -> String 
         }
         if let Some(st) = stop {
             let _ = write!(line, " · STOP NOT CONFIRMED: {st}");
+        }
+        if let Some(lab) = s.lab_status() {
+            let _ = write!(line, " · lab: {}", lab.summary());
         }
         line
     }

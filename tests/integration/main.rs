@@ -17,6 +17,7 @@ mod cli;
 mod doctor;
 mod gps;
 mod gps_config;
+mod lab;
 mod latency;
 mod nav;
 mod osm;

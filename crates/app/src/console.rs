@@ -86,6 +86,8 @@ pub struct Console {
     pub remote: Option<crate::remote_panel::RemotePanel>,
     /// The Broker window (the broker in the saved settings; connect, disconnect).
     pub broker_window: crate::broker_settings::BrokerWindow,
+    /// The Lab outputs window (LSL, OSC of the local station).
+    pub lab_window: crate::lab_window::LabWindow,
     /// Active central tab.
     pub tab: Tab,
     /// The GPS panel's widget state.
@@ -211,6 +213,7 @@ impl Console {
             station,
             remote: None,
             broker_window: crate::broker_settings::BrokerWindow::default(),
+            lab_window: crate::lab_window::LabWindow::default(),
             tab: Tab::Map,
             compass_wizard: crate::compass_panel::Wizard::default(),
             pattern_editor: crate::pattern_editor::PatternEditor::default(),

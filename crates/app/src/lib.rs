@@ -24,6 +24,7 @@ mod fieldtest_panel;
 pub mod file_dialog;
 pub mod gps_panel;
 pub mod gps_receiver;
+pub mod lab_window;
 pub mod log_viewer;
 pub mod map_panel;
 pub mod map_tools;
@@ -212,6 +213,11 @@ impl eframe::App for App {
         if self.console.broker_window.open {
             let c = &mut self.console;
             c.broker_window.ui(ui.ctx(), &mut c.cfg, &mut c.remote);
+        }
+        let c = &mut self.console;
+        c.lab_window.ui(ui.ctx(), &mut c.station);
+        if c.lab_window.busy() {
+            ui.ctx().request_repaint_after(std::time::Duration::from_millis(50));
         }
     }
 

@@ -228,6 +228,7 @@ impl Station {
                     age_s: age(n.since),
                 })
                 .collect(),
+            lab: self.lab_status(),
         }
     }
 }
@@ -268,6 +269,9 @@ pub struct Snapshot {
     pub guidance: Option<GuidanceStatus>,
     /// The newest notices (at most [`MAX_SNAPSHOT_NOTICES`], newest first).
     pub notices: Vec<NoticeSnapshot>,
+    /// The lab outputs (LSL, OSC) and their counts (`None`: none asked for). Absent from older stations.
+    #[serde(default)]
+    pub lab: Option<crate::lab::LabStatus>,
 }
 
 impl Snapshot {

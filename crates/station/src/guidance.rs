@@ -90,6 +90,8 @@ pub enum GuidanceInput {
     Resume,
     /// The vest worker changed (connected / gone); the liveness bound of this thread's heartbeat.
     VestLink(Option<Arc<VestHandle>>, Duration),
+    /// Where the cues sent are recorded for the lab (LSL, OSC).
+    Lab(crate::lab::LabTap),
 }
 
 /// What the worker tells the UI after each update.
@@ -197,6 +199,7 @@ pub fn spawn(
             declination: None,
             ui,
             log,
+            lab: None,
         };
         let mut next_tick = Instant::now() + TICK;
         loop {
@@ -238,6 +241,8 @@ struct GuidanceWorker {
     declination: Option<(f64, LatLon)>,
     ui: Outbox<GuidanceStatus>,
     log: Option<LogSender>,
+    /// The lab outputs the cues sent are recorded in.
+    lab: Option<crate::lab::LabTap>,
 }
 
 impl GuidanceWorker {
@@ -294,6 +299,7 @@ impl GuidanceWorker {
                     g.resume();
                 }
             }
+            GuidanceInput::Lab(tap) => self.lab = Some(tap),
             GuidanceInput::VestLink(v, bound) => {
                 self.beat = v.as_ref().map(|h| h.heartbeat(Watched::Guidance, bound));
                 if let Some(b) = &self.beat {
@@ -445,6 +451,9 @@ impl GuidanceWorker {
                     match vest.send(cmd.clone(), CommandOrigin::Guidance) {
                         Ok(()) => {
                             sent = true;
+                            if let Some(lab) = &self.lab {
+                                lab.command(CommandOrigin::Guidance, &cmd);
+                            }
                             if let Some(log) = &self.log {
                                 log.log(LogEntry::Command {
                                     origin: CommandOrigin::Guidance,

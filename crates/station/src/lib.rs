@@ -37,6 +37,7 @@ pub mod devices;
 pub mod fieldtests;
 pub mod guidance;
 pub mod hardware;
+pub mod lab;
 pub mod pinned;
 pub mod route;
 pub mod sources;
@@ -199,6 +200,8 @@ pub struct Station {
     epoch: Instant,
     /// Watches for a receiver holding its position (see [`pinned`]).
     pin: PinDetector,
+    /// The lab outputs (LSL, OSC) every feeding thread sees (see [`lab`]).
+    lab: lab::LabTap,
 }
 
 impl Station {
@@ -235,6 +238,9 @@ impl Station {
                 ),
             );
         }
+        let lab = lab::LabTap::default();
+        // The channel is new and empty: this first message always fits.
+        let _ = guidance_tx.try_send(GuidanceInput::Lab(lab.clone()));
         let (gps_out, gps_rx) = view_wake::outbox(EVENT_CHANNEL, waker.clone(), view_wake::gps_wakes);
         let (vest_out, vest_rx) = view_wake::outbox(EVENT_CHANNEL, waker, view_wake::vest_wakes);
         let (route, autosave) = load_route(&route_start, &mut notices);
@@ -273,6 +279,7 @@ impl Station {
             field_tests: FieldTests::new(),
             epoch: Instant::now(),
             pin: PinDetector::default(),
+            lab,
         }
     }
 
@@ -401,6 +408,7 @@ impl Station {
                 true
             }));
         }
+        outputs.push(self.lab.gps_sink());
         outputs.extend(taps);
         self.gps = GpsState::default();
         self.diagnosed.clear();
@@ -452,6 +460,7 @@ impl Station {
                 true
             }));
         }
+        outputs.push(self.lab.vest_sink());
         self.vest = VestState::default();
         self.diagnosed.clear();
         match self.factory.open_vest(&self.vest_source, outputs) {
@@ -506,6 +515,7 @@ impl Station {
             self.vest.stop_requested(now);
         }
         let _ = self.guidance_tx.try_send(GuidanceInput::StopAll);
+        self.lab.command(CommandOrigin::Manual, &VestCommand::StopAll);
         self.log(LogEntry::Command {
             origin: CommandOrigin::Manual,
             command: VestCommand::StopAll,
@@ -551,6 +561,7 @@ impl Station {
         match &result {
             Ok(()) => {
                 self.vest.commanded();
+                self.lab.command(CommandOrigin::Manual, &command);
                 self.log(LogEntry::Command {
                     origin: CommandOrigin::Manual,
                     command,

@@ -361,6 +361,9 @@ impl Console {
                 ui.checkbox(&mut self.cfg.audible_alarm, "Audible alarm")
                     .on_hover_text("Ring the terminal bell once when the GPS fix or the vest link is lost");
                 ui.separator();
+                if ui.button("Lab outputs (LSL, OSC)…").clicked() {
+                    self.lab_window.open = true;
+                }
                 if ui.button("Broker and stations…").clicked() {
                     self.broker_window.open = true;
                     if let Some(r) = &mut self.remote {
