@@ -29,7 +29,7 @@ use vestnav_core::study::{Protocol, Task};
 use vestnav_station::Station;
 use vestnav_station::command::Command;
 use vestnav_core::vest::TACTOR_COUNT;
-use vestnav_station::lab::{LabStatus, LslState};
+use vestnav_station::lab::LabStatus;
 use vestnav_station::study::{StudyCommand, StudyPhase, StudyView};
 
 use crate::file_dialog::{self, Browse, DialogSpec, Mode, RecentFiles, RecentKind};
@@ -165,14 +165,15 @@ fn under_way(phase: StudyPhase) -> bool {
 }
 
 impl StudyPanel {
-    /// Draws the tab: the console's own `station`, the `remote` stations (when connected) and the
-    /// operator's `recent` files.
+    /// Draws the tab: the console's own `station`, the `remote` stations (when connected), the operator's
+    /// `recent` files; `lab_open` opens the Lab outputs window.
     pub fn ui(
         &mut self,
         ui: &mut egui::Ui,
         station: &mut Station,
         mut remote: Option<&mut RemotePanel>,
         recent: &mut RecentFiles,
+        lab_open: &mut bool,
         now: Instant,
     ) {
         ui.horizontal(|ui| {
@@ -225,7 +226,7 @@ impl StudyPanel {
                     ui.set_width(ui.available_width().min(460.0));
                     send = self.setup_ui(ui, study.as_ref(), recent);
                     ui.separator();
-                    lab_ui(ui, lab.as_ref());
+                    lab_ui(ui, lab.as_ref(), self.target == Target::Local, lab_open);
                 });
                 ui.separator();
                 ui.vertical(|ui| {
@@ -619,52 +620,15 @@ fn feedback_ui(ui: &mut egui::Ui, v: &StudyView) {
     ui.label(RichText::new(format!("Response time {:.0} ms", l.rt_ms)).size(16.0));
 }
 
-/// The lab outputs as the station reports them: LSL on, missing (and how to install it) or failed; OSC.
-fn lab_ui(ui: &mut egui::Ui, lab: Option<&LabStatus>) {
-    ui.heading("Lab outputs");
-    let Some(s) = lab else {
-        ui.label(RichText::new("The station reports no lab outputs (LSL and OSC off).").weak());
-        return;
-    };
-    let bad = ui.visuals().error_fg_color;
-    match &s.lsl {
-        LslState::Off => {
-            ui.label("LSL: off");
+/// The lab outputs as the station reports them (the Lab outputs window's own lines: LSL on, missing and
+/// how to install it, or failed; OSC; the counts), and the button to that window for this console's
+/// station.
+fn lab_ui(ui: &mut egui::Ui, lab: Option<&LabStatus>, local: bool, lab_open: &mut bool) {
+    ui.horizontal(|ui| {
+        ui.heading("Lab outputs");
+        if local && ui.button("Lab outputs…").on_hover_text("Turn LSL and OSC on or off").clicked() {
+            *lab_open = true;
         }
-        LslState::On { version, library, streams } => {
-            ui.label(
-                RichText::new(format!("LSL: on (liblsl {version}, {library})"))
-                    .color(Color32::from_rgb(40, 160, 60)),
-            );
-            ui.label(RichText::new(format!("streams: {}", streams.join(", "))).small());
-        }
-        LslState::Missing { why } => {
-            ui.label(RichText::new("LSL: liblsl is not installed").strong().color(bad));
-            ui.label(RichText::new(why).small());
-        }
-        LslState::Failed { why } => {
-            ui.label(RichText::new(format!("LSL: failed: {why}")).strong().color(bad));
-        }
-    }
-    match &s.osc {
-        None => ui.label("OSC: off"),
-        Some(o) => ui.label(format!("OSC: to {}: {} sent, {} refused", o.target, o.sent, o.errors)),
-    };
-    ui.label(
-        RichText::new(format!(
-            "{} markers, {} positions, {} headings, {} vest messages{}",
-            s.markers,
-            s.positions,
-            s.headings,
-            s.vest,
-            if s.dropped > 0 { format!(", {} DROPPED (the lab thread fell behind)", s.dropped) } else { String::new() }
-        ))
-        .small(),
-    );
-    if let Some(m) = &s.last_marker {
-        ui.label(RichText::new(format!("last marker: {m}")).small().monospace());
-    }
-    if let Some(e) = &s.error {
-        ui.label(RichText::new(e).color(bad));
-    }
+    });
+    crate::lab_window::status_ui(ui, lab);
 }
