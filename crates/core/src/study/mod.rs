@@ -4,7 +4,9 @@
 //! - [`protocol`]: the study protocol file (TOML), validated with errors that name the line;
 //! - [`plan`]: each participant's trials in presentation order (seeded random, blocked, balanced Latin
 //!   square), the same on every machine;
-//! - [`record`]: one [`TrialRecord`] per trial, the tidy results CSV and JSON.
+//! - [`record`]: one [`TrialRecord`] per trial, the tidy results CSV and JSON;
+//! - [`info`]: confusion matrices and information transfer (maximum likelihood, its bias);
+//! - [`analysis`]: percent correct, IT, response times, learning curve, localization map, navigation.
 //!
 //! Pure like the rest of core: the runner (vestnav-station) owns the clock, the vest and the files it
 //! appends to; only [`Protocol::load`] reads a file (and the pattern files a protocol names).
@@ -28,11 +30,14 @@
 //! assert_eq!(p.choices().len(), 16);
 //! ```
 
+pub mod analysis;
+pub mod info;
 mod parse;
 pub mod plan;
 pub mod protocol;
 pub mod record;
 
+pub use analysis::{StudyAnalysis, analyze};
 pub use plan::{PlannedTrial, plan};
 pub use protocol::{Block, Order, Protocol, ProtocolError, Stimulus, Task};
 pub use record::{CSV_COLUMNS, Outcome, TrialRecord, read_csv, write_csv, write_json};

@@ -157,6 +157,10 @@ pub enum Stimulus {
     },
 }
 
+/// Every tactor's label, by tactor index (row-major on the back view).
+pub const GRID_LABELS: [&str; TACTOR_COUNT] =
+    ["T1", "T2", "T3", "T4", "T5", "T6", "T7", "T8", "T9", "T10", "T11", "T12", "T13", "T14", "T15", "T16"];
+
 /// The label of a tactor: `T1`..`T16`, tactor index + 1 (row-major from the wearer's upper left as seen on
 /// the back view, [`crate::vest`]).
 pub fn tactor_label(index: usize) -> String {
