@@ -151,6 +151,9 @@ pub enum Command {
     /// The offline map of an OpenStreetMap extract.
     #[command(subcommand)]
     Map(MapCommand),
+    /// Tactile-display studies: run a protocol's trials on the vest.
+    #[command(subcommand)]
+    Study(StudyCommand),
     /// Print a shell completion script for vestnav to standard output.
     #[command(hide = true)]
     Completions(completions::CompletionsArgs),
@@ -251,4 +254,12 @@ pub enum MapCommand {
     /// Draw an .osm.pbf extract offline into a PNG (the tiles the console's map would show), optionally
     /// with a route over it.
     Render(route_plan::RenderArgs),
+}
+
+/// `vestnav study ...`
+#[derive(Debug, Subcommand)]
+pub enum StudyCommand {
+    /// Run one session of a protocol on the vest: prompts for each response (or a simulated wearer),
+    /// results appended to a new CSV after every trial, JSON at the end.
+    Run(crate::study_run::StudyRunArgs),
 }

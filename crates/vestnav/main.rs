@@ -19,13 +19,14 @@ mod route_plan;
 mod sim_tactor;
 mod sim_wave;
 mod station;
+mod study_run;
 mod tiles;
 
 use clap::Parser;
 
 use cli::{
     AnalyzeCommand, Cli, Command, EmulateCommand, FieldtestCommand, GpsCommand, MapCommand, NavCommand,
-    NmeaCommand, RouteCommand, SimCommand, TilesCommand,
+    NmeaCommand, RouteCommand, SimCommand, StudyCommand, TilesCommand,
 };
 
 fn main() -> std::process::ExitCode {
@@ -175,6 +176,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Doctor(a) => doctor::run(&a),
         Command::Route(RouteCommand::Plan(a)) => route_plan::run_plan(&a),
         Command::Map(MapCommand::Render(a)) => route_plan::run_render(&a),
+        Command::Study(StudyCommand::Run(a)) => study_run::run(&a),
         Command::Completions(a) => completions::run_completions(&a),
         Command::Man => completions::run_man(),
     }

@@ -49,8 +49,10 @@ pub fn status_ui(ui: &mut egui::Ui, status: Option<&LabStatus>) {
             ui.label("LSL off");
         }
         LslState::On { version, library, streams } => {
-            ui.label(RichText::new(format!("LSL on (liblsl {version})")).color(Color32::from_rgb(60, 160, 60)))
-                .on_hover_text(library.as_str());
+            ui.label(
+                RichText::new(format!("LSL on (liblsl {version})")).color(Color32::from_rgb(60, 160, 60)),
+            )
+            .on_hover_text(library.as_str());
             ui.label(format!("streams: {}", streams.join(", ")));
         }
         LslState::Missing { why } => {
@@ -135,7 +137,9 @@ impl LabWindow {
                 ui.checkbox(&mut self.osc_on, "OSC to");
                 ui.add_enabled(
                     self.osc_on,
-                    egui::TextEdit::singleline(&mut self.osc_text).hint_text("HOST:PORT").desired_width(160.0),
+                    egui::TextEdit::singleline(&mut self.osc_text)
+                        .hint_text("HOST:PORT")
+                        .desired_width(160.0),
                 );
             });
             ui.horizontal(|ui| {
@@ -144,7 +148,10 @@ impl LabWindow {
             });
             ui.horizontal(|ui| {
                 let on = station.lab_config().is_some();
-                if ui.add_enabled(!self.busy(), egui::Button::new(if on { "Restart" } else { "Start" })).clicked() {
+                if ui
+                    .add_enabled(!self.busy(), egui::Button::new(if on { "Restart" } else { "Start" }))
+                    .clicked()
+                {
                     self.apply(station);
                 }
                 if ui.add_enabled(on && !self.busy(), egui::Button::new("Stop")).clicked() {

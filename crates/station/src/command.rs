@@ -16,6 +16,7 @@ use vestnav_device::wtcu::{LinkState, UnitStatus, VestCommand};
 use crate::guidance::GuidanceStatus;
 use crate::route::{MAX_WAYPOINTS, Waypoint, check_waypoint};
 use crate::state::{GpsAlarm, Severity, Subject};
+use crate::study::{StudyCommand, StudyView};
 use crate::{Station, StationSettings};
 
 /// What an operator can ask of a station.
@@ -57,12 +58,18 @@ pub enum Command {
         /// What the mark is (at most 200 characters).
         label: String,
     },
+    /// A command to the study runner (see [`crate::study`]).
+    Study(StudyCommand),
 }
 
 impl Command {
     /// Whether this command can make a tactor run (a late or repeated one must never be played).
     pub fn can_play(&self) -> bool {
         matches!(self, Self::Manual { command, .. } if *command != VestCommand::StopAll)
+            || matches!(
+                self,
+                Self::Study(StudyCommand::Start | StudyCommand::Resume | StudyCommand::Respond { .. })
+            )
     }
 
     /// The command in a few words, for notices and the session log.
@@ -75,6 +82,7 @@ impl Command {
             Self::NextWaypoint { index } => format!("next waypoint {}", index + 1),
             Self::Settings(_) => "settings".to_owned(),
             Self::Mark { label } => format!("mark {label}"),
+            Self::Study(c) => c.describe(),
         }
     }
 }
@@ -168,6 +176,7 @@ impl Station {
                 }
                 self.mark(&label);
             }
+            Command::Study(c) => self.study_command(c)?,
         }
         Ok(())
     }
@@ -228,6 +237,7 @@ impl Station {
                     age_s: age(n.since),
                 })
                 .collect(),
+            study: self.study_view(),
             lab: self.lab_status(),
         }
     }
@@ -269,6 +279,9 @@ pub struct Snapshot {
     pub guidance: Option<GuidanceStatus>,
     /// The newest notices (at most [`MAX_SNAPSHOT_NOTICES`], newest first).
     pub notices: Vec<NoticeSnapshot>,
+    /// The study session loaded, if any.
+    #[serde(default)]
+    pub study: Option<StudyView>,
     /// The lab outputs (LSL, OSC) and their counts (`None`: none asked for). Absent from older stations.
     #[serde(default)]
     pub lab: Option<crate::lab::LabStatus>,
@@ -391,6 +404,13 @@ mod tests {
             Command::NextWaypoint { index: 3 },
             Command::Settings(StationSettings::default()),
             Command::Mark { label: "bench".into() },
+            Command::Study(StudyCommand::Respond { answer: "T3".into() }),
+            Command::Study(StudyCommand::Load {
+                protocol: "loc.toml".into(),
+                participant: "P01".into(),
+                session: "1".into(),
+                out_dir: "results".into(),
+            }),
         ];
         for c in commands {
             let text = serde_json::to_string(&c).unwrap();

@@ -43,6 +43,7 @@ pub mod route;
 pub mod sources;
 pub mod state;
 pub mod stop;
+pub mod study;
 pub mod view_wake;
 
 use devices::{DeviceFactory, GpsWorker};
@@ -200,6 +201,8 @@ pub struct Station {
     epoch: Instant,
     /// Watches for a receiver holding its position (see [`pinned`]).
     pin: PinDetector,
+    /// The study session loaded, if any (see [`study`]).
+    study: study::StudySlot,
     /// The lab outputs (LSL, OSC) every feeding thread sees (see [`lab`]).
     lab: lab::LabTap,
 }
@@ -279,6 +282,7 @@ impl Station {
             field_tests: FieldTests::new(),
             epoch: Instant::now(),
             pin: PinDetector::default(),
+            study: study::StudySlot::default(),
             lab,
         }
     }
@@ -502,6 +506,7 @@ impl Station {
     /// station's end.
     pub fn shutdown(&mut self) {
         self.disconnect_vest();
+        self.study_exit();
         self.disconnect_gps();
         self.autosave_route(true);
     }
@@ -668,6 +673,7 @@ impl Station {
             view(StationEvent::Vest(ev));
         }
         self.take_port_findings();
+        self.study_pump(&vest_events);
         let mut latest = None;
         let cues = &mut self.cues;
         drain_within(&self.guidance_rx, DRAIN_BUDGET, |st: GuidanceStatus| {

@@ -144,7 +144,11 @@ impl Station {
     /// Puts in force outputs started elsewhere (a view starts them on its own thread: finding liblsl may
     /// take a moment), or the error they ended with, as [`Self::set_lab`] does. Turn the old ones off first
     /// (`set_lab(None)`), so two outlets never share a name.
-    pub fn install_lab(&mut self, cfg: &LabConfig, started: Result<LabOutputs, LabError>) -> Result<(), LabError> {
+    pub fn install_lab(
+        &mut self,
+        cfg: &LabConfig,
+        started: Result<LabOutputs, LabError>,
+    ) -> Result<(), LabError> {
         match started {
             Ok(o) => {
                 self.lab.replace(o, Some(cfg.clone()), None);
