@@ -68,11 +68,15 @@ fn scratch_dir() -> PathBuf {
 
 /// Reads, analyses and draws `source` (on the worker thread).
 fn load(source: PathBuf) -> Result<Loaded, String> {
-    let rows = vestnav_core::study::read_csv(&source).map_err(|e| e.to_string())?;
+    let rows = vestnav_core::study::record::read_csv_file(&source)?;
     let analysis = Arc::new(vestnav_core::study::analyze(&rows));
     let dir = scratch_dir();
-    let drawn = vestnav_report::study::figures(&analysis, &dir)
-        .map_err(|e| format!("figures of {}: {e}", source.display()));
+    let drawn = std::fs::create_dir_all(&dir)
+        .map_err(|e| format!("figures: cannot make {}: {e}", dir.display()))
+        .and_then(|()| {
+            vestnav_report::study::figures(&analysis, &dir)
+                .map_err(|e| format!("figures of {}: {e}", source.display()))
+        });
     let figures = drawn.map(|files| {
         files.iter().take(MAX_FIGURES).filter_map(|f| decode(f).ok()).collect::<Vec<_>>()
     });
@@ -269,7 +273,9 @@ impl AnalysisView {
         let analysis = Arc::clone(&shown.analysis);
         let (tx, rx) = std::sync::mpsc::sync_channel(1);
         let spawned = std::thread::Builder::new().name("vestnav-export".to_owned()).spawn(move || {
-            let r = vestnav_report::study::figures(&analysis, &dir)
+            let r = std::fs::create_dir_all(&dir)
+                .map_err(|e| e.to_string())
+                .and_then(|()| vestnav_report::study::figures(&analysis, &dir).map_err(|e| e.to_string()))
                 .map(|files| format!("saved {} figures in {}", files.len(), dir.display()))
                 .map_err(|e| format!("figures not saved in {}: {e}", dir.display()));
             let _ = tx.send(r);
@@ -286,5 +292,36 @@ impl AnalysisView {
 
 /// The analysis's numbers: percent correct, information transfer with its bias note, response times.
 fn numbers_ui(ui: &mut egui::Ui, a: &StudyAnalysis) {
-    ui.label(format!("{a:?}"));
+    let task = a.task.map_or("mixed or unknown task", |t| t.name());
+    ui.label(format!(
+        "{} · {task} · participants: {}",
+        a.protocols.join(", "),
+        if a.participants.is_empty() { "none".to_owned() } else { a.participants.join(", ") }
+    ));
+    let outcomes: Vec<String> =
+        a.outcomes.iter().filter(|(_, n)| *n > 0).map(|(name, n)| format!("{name} {n}")).collect();
+    ui.label(format!("{} trials: {}", a.trials, outcomes.join(", ")));
+    let big = |t: String| RichText::new(t).size(18.0).strong();
+    match a.percent_correct {
+        Some(p) => ui.label(big(format!(
+            "Percent correct: {p:.1} % ({} of {} answered test trials)",
+            a.correct, a.answered
+        ))),
+        None => ui.label(big("Percent correct: no answered test trial".to_owned())),
+    };
+    if let Some(it) = a.it_bits {
+        let of = a.stimulus_bits.map_or_else(String::new, |m| format!(" of at most {m:.2}"));
+        let bias = match (a.it_bias_bits, a.it_corrected_bits) {
+            (Some(b), Some(c)) => format!("; small-sample bias ≈ {b:.2} bits, corrected {c:.2} bits"),
+            _ => String::new(),
+        };
+        ui.label(big(format!("Information transfer: {it:.2} bits{of}{bias}")));
+        ui.label(RichText::new(&a.it_note).small());
+    }
+    if let Some(rt) = &a.rt {
+        ui.label(format!(
+            "Response time: median {:.0} ms (quartiles {:.0}–{:.0} ms), mean {:.0} ms, n = {}",
+            rt.median_ms, rt.q1_ms, rt.q3_ms, rt.mean_ms, rt.n
+        ));
+    }
 }
