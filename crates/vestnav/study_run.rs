@@ -330,20 +330,17 @@ fn stdin_lines() -> mpsc::Receiver<String> {
     rx
 }
 
-/// The session's end in a few lines: outcome counts, percent correct, the files.
+/// The session's end: how it ended, core's analysis of the rows recorded, the files.
 fn summary(station: &Station, v: &vestnav_station::study::StudyView) {
     let rows = station.study().map(|s| s.rows().to_vec()).unwrap_or_default();
-    let answered: Vec<_> = rows.iter().filter(|r| r.correct.is_some()).collect();
-    let correct = answered.iter().filter(|r| r.correct == Some(true)).count();
-    println!(
-        "session {}: {} of {} trials recorded, {} answered, {:.1} % correct",
-        v.phase.name(),
-        rows.len(),
-        v.trials,
-        answered.len(),
-        if answered.is_empty() { 0.0 } else { 100.0 * correct as f64 / answered.len() as f64 }
-    );
+    println!("session {}: {} of {} trials recorded", v.phase.name(), rows.len(), v.trials);
+    for line in vestnav_core::study::analyze(&rows).summary_lines() {
+        println!("  {line}");
+    }
     println!("results: {}", v.results_csv.display());
+    if let Some(j) = &v.results_json {
+        println!("results: {}", j.display());
+    }
     if let Some(e) = &v.error {
         println!("note: {e}");
     }

@@ -170,6 +170,8 @@ pub struct StudyView {
     pub last: Option<LastAnswer>,
     /// The results file rows are appended to.
     pub results_csv: PathBuf,
+    /// The JSON of every row, once the session has ended.
+    pub results_json: Option<PathBuf>,
     /// Why the session is paused or what went wrong (a refusal, a STOP ALL, a file that cannot be written).
     pub error: Option<String>,
     /// Rows written so far.
@@ -213,7 +215,7 @@ impl Default for Timing {
 struct Running {
     /// When its stimulus was handed to the vest (session clock).
     on_s: Option<f64>,
-    /// Whether the unit acknowledged the stimulus.
+    /// Whether the unit acknowledged the stimulus's PLAY (a refusal after it is not the stimulus's).
     acked: bool,
     /// A note for its row.
     note: String,
@@ -235,7 +237,13 @@ pub struct StudyRunner {
     running: Option<Running>,
     /// A note for the next presentation of trial `at` (presented again after a pause or a stop).
     again: Option<String>,
+    /// The stimulus playing: when it ends (session clock) and its label, for `stimulus_off`.
+    playing: Option<(f64, String)>,
+    /// The feedback replay due when the stimulus has ended.
+    replay: Option<vestnav_core::study::Stimulus>,
     results: ResultsFile,
+    /// The JSON, once written.
+    json: Option<PathBuf>,
     rows: Vec<TrialRecord>,
     last: Option<LastAnswer>,
     error: Option<String>,
@@ -309,7 +317,10 @@ impl StudyRunner {
             until_s: None,
             running: None,
             again: None,
+            playing: None,
+            replay: None,
             results,
+            json: None,
             rows: Vec::new(),
             last: None,
             error: None,
@@ -339,7 +350,10 @@ impl StudyRunner {
     /// The session clock instant the runner next needs a turn at, if it waits for time (a view that sleeps
     /// between events wakes by then).
     pub fn next_deadline_s(&self) -> Option<f64> {
-        self.until_s
+        match (self.until_s, self.playing.as_ref().map(|p| p.0)) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, b) => a.or(b),
+        }
     }
 
     /// What a view shows.
@@ -362,6 +376,7 @@ impl StudyRunner {
                 .flatten(),
             last: self.last.clone(),
             results_csv: self.results.csv_path().to_path_buf(),
+            results_json: self.json.clone(),
             error: self.error.clone(),
             rows: self.rows.len(),
         }
@@ -408,7 +423,8 @@ impl StudyRunner {
                 io.marker("resume", now);
                 self.error = None;
                 io.hold_guidance();
-                self.next_or_finish(now, io);
+                let from = self.playing.as_ref().map_or(now, |p| p.0.max(now));
+                self.next_or_finish(from, io);
                 Ok(())
             }
             StudyCommand::Abort => {
@@ -437,15 +453,15 @@ impl StudyRunner {
     /// The runner's turn: phases that end with time.
     pub fn turn(&mut self, io: &mut dyn StudyIo) {
         let now = io.now_s();
+        if self.playing.as_ref().is_some_and(|(end, _)| now >= *end) {
+            self.stimulus_off(now, io);
+        }
         if self.until_s.is_none_or(|u| now < u) {
             return;
         }
         self.until_s = None;
         match self.phase {
             StudyPhase::Presenting => {
-                if let Some(t) = self.plan.get(self.at) {
-                    io.marker(&format!("stimulus_off {}", t.stimulus.label()), now);
-                }
                 self.phase = StudyPhase::AwaitingResponse;
                 let on = self.running.as_ref().and_then(|r| r.on_s).unwrap_or(now);
                 self.until_s = self.timing.response_timeout_s.map(|t| on + t);
@@ -455,7 +471,10 @@ impl StudyRunner {
                 self.at += 1;
                 self.next_or_finish(now, io);
             }
-            StudyPhase::Feedback => self.next_or_finish(now, io),
+            StudyPhase::Feedback => match self.replay.take() {
+                Some(stimulus) => self.replay(&stimulus, now, io),
+                None => self.next_or_finish(now, io),
+            },
             StudyPhase::Interval => self.present(io),
             _ => {}
         }
@@ -465,7 +484,7 @@ impl StudyRunner {
     pub fn vest_event(&mut self, ev: &VestEvent, io: &mut dyn StudyIo) {
         match ev {
             VestEvent::Halted { reason } => self.stopped(reason, io),
-            VestEvent::Acked { kind: CommandKind::Play | CommandKind::SetIntensity, .. } => {
+            VestEvent::Acked { kind: CommandKind::Play, .. } => {
                 if let Some(r) = &mut self.running {
                     r.acked = true;
                 }
@@ -489,8 +508,9 @@ impl StudyRunner {
         match self.phase {
             StudyPhase::Presenting | StudyPhase::AwaitingResponse => {
                 io.marker("stop_all", now);
+                self.stimulus_off(now, io);
                 let n = self.at + 1;
-                self.end_trial(Outcome::Stopped, &format!("STOP ALL: {reason}"), io);
+                self.end_trial(Outcome::Stopped, &format!("stopped ({reason})"), io);
                 self.again = Some("presented again after STOP ALL".to_owned());
                 self.pause(Some(format!(
                     "STOP ALL during trial {n}: recorded as stopped; Resume presents it again"
@@ -498,14 +518,21 @@ impl StudyRunner {
             }
             StudyPhase::Feedback | StudyPhase::Interval => {
                 io.marker("stop_all", now);
+                self.stimulus_off(now, io);
+                self.replay = None;
                 self.pause(Some("STOP ALL between trials; Resume goes on".to_owned()));
             }
-            StudyPhase::Paused => io.marker("stop_all", now),
+            StudyPhase::Paused => {
+                io.marker("stop_all", now);
+                self.stimulus_off(now, io);
+            }
             _ => {}
         }
     }
 
     fn refused(&mut self, reason: &str, io: &mut dyn StudyIo) {
+        // Never played: no `stimulus_off`.
+        self.playing = None;
         let n = self.at + 1;
         self.end_trial(Outcome::Refused, &format!("stimulus refused: {reason}"), io);
         self.at += 1;
@@ -519,6 +546,7 @@ impl StudyRunner {
         self.phase = StudyPhase::Paused;
         self.until_s = None;
         self.running = None;
+        self.replay = None;
         if why.is_some() {
             self.error = why;
         }
@@ -540,9 +568,8 @@ impl StudyRunner {
         let rt_ms = on.map(|on| (now - on) * 1000.0);
         let correct = choice == t.answer;
         io.marker(&format!("response {choice} {} {:.1}", u8::from(correct), rt_ms.unwrap_or(f64::NAN)), now);
-        if self.phase == StudyPhase::Presenting {
-            io.marker(&format!("stimulus_off {}", t.stimulus.label()), now);
-        }
+        // What follows waits for the stimulus's end when the wearer answered while it played.
+        let free = self.playing.as_ref().map_or(now, |p| p.0.max(now));
         self.last = Some(LastAnswer {
             response: choice.clone(),
             answer: t.answer.clone(),
@@ -560,29 +587,48 @@ impl StudyRunner {
         self.at += 1;
         if t.feedback {
             io.marker(&format!("feedback {}", t.answer), now);
-            let mut hold = self.timing.feedback_s;
-            if !correct && let Some(p) = t.stimulus.pattern() {
-                // The correct stimulus again, so the wearer feels where it was.
-                hold = hold.max(f64::from(p.total_ms()) / 1000.0 + 0.2);
-                if let Err(e) = send_stimulus(&t.stimulus, p, io) {
-                    self.error = Some(format!("feedback replay not sent: {e}"));
-                }
-            }
             self.phase = StudyPhase::Feedback;
-            self.until_s = Some(now + hold);
+            if correct {
+                self.until_s = Some(free + self.timing.feedback_s);
+            } else {
+                // The correct stimulus again once the first has ended, so the wearer feels where it was.
+                self.replay = Some(t.stimulus.clone());
+                self.until_s = Some(free);
+            }
         } else {
-            self.next_or_finish(now, io);
+            self.next_or_finish(free, io);
         }
         Ok(())
     }
 
-    /// After a trial (or a resume): the interval before trial `at`, or the end.
-    fn next_or_finish(&mut self, now: f64, io: &mut dyn StudyIo) {
-        if self.at >= self.plan.len() {
+    /// Plays the feedback replay; feedback lasts until it has ended (and at least the feedback time).
+    fn replay(&mut self, stimulus: &vestnav_core::study::Stimulus, now: f64, io: &mut dyn StudyIo) {
+        let mut hold = self.timing.feedback_s;
+        if let Some(p) = stimulus.pattern() {
+            hold = hold.max(f64::from(p.total_ms()) / 1000.0 + 0.2);
+            if let Err(e) = send_stimulus(stimulus, p, io) {
+                self.error = Some(format!("feedback replay not sent: {e}"));
+            }
+        }
+        self.until_s = Some(now + hold);
+    }
+
+    /// The stimulus has ended (played out, or stopped).
+    fn stimulus_off(&mut self, at: f64, io: &mut dyn StudyIo) {
+        if let Some((_, label)) = self.playing.take() {
+            io.marker(&format!("stimulus_off {label}"), at);
+        }
+    }
+
+    /// After a trial (or a resume): the interval from `from` before trial `at`, or the end (once the
+    /// stimulus has ended).
+    fn next_or_finish(&mut self, from: f64, io: &mut dyn StudyIo) {
+        if self.at >= self.plan.len() && self.playing.is_none() {
             self.end(StudyPhase::Finished, "", io);
         } else {
             self.phase = StudyPhase::Interval;
-            self.until_s = Some(now + self.timing.iti_s);
+            let iti = if self.at < self.plan.len() { self.timing.iti_s } else { 0.0 };
+            self.until_s = Some(from + iti);
         }
     }
 
@@ -613,6 +659,7 @@ impl StudyRunner {
                 }
                 self.phase = StudyPhase::Presenting;
                 self.until_s = Some(on + length_s);
+                self.playing = Some((on + length_s, t.stimulus.label()));
                 self.error = None;
             }
             Err(e) => {
@@ -666,6 +713,9 @@ impl StudyRunner {
 
     /// Ends the session: the trial under way recorded, `session_end`, the JSON.
     fn end(&mut self, phase: StudyPhase, why: &str, io: &mut dyn StudyIo) {
+        // Aborted or exiting: the vest was stopped.
+        self.stimulus_off(io.now_s(), io);
+        self.replay = None;
         if self.running.is_some() {
             let outcome = if phase == StudyPhase::Stopped { Outcome::Stopped } else { Outcome::Aborted };
             self.end_trial(outcome, why, io);
@@ -673,8 +723,9 @@ impl StudyRunner {
         self.phase = phase;
         self.until_s = None;
         io.marker(&format!("session_end {}", end_word(phase)), io.now_s());
-        if let Err(e) = self.results.write_json(&self.rows) {
-            self.error = Some(e);
+        match self.results.write_json(&self.rows) {
+            Ok(p) => self.json = Some(p),
+            Err(e) => self.error = Some(e),
         }
     }
 }
