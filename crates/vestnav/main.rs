@@ -12,6 +12,7 @@ mod emulate_gps;
 mod emulate_vest;
 mod fieldtest;
 mod gps_configure;
+mod lab_args;
 mod nav;
 mod nmea;
 mod ntrip;

@@ -58,14 +58,9 @@ pub struct StationArgs {
     /// cues halted (unless the operator armed "continue the route if the link drops").
     #[arg(long, value_name = "SECONDS", default_value_t = 3.0, requires = "broker")]
     pub link_bound: f64,
-    /// Lab Streaming Layer streams: markers, position, heading and vest traffic, named after --name (else
-    /// "vestnav"); needs liblsl (`pip install pylsl` carries it; docs/study.md).
-    #[arg(long)]
-    pub lsl: bool,
-    /// Open Sound Control messages to HOST:PORT over UDP: /vestnav/marker, /vestnav/position,
-    /// /vestnav/heading, /vestnav/vest (docs/study.md).
-    #[arg(long, value_name = "HOST:PORT", value_parser = vestnav_station::lab::parse_osc_target)]
-    pub osc: Option<std::net::SocketAddr>,
+    /// LSL streams and OSC messages (docs/study.md).
+    #[command(flatten)]
+    pub lab: crate::lab_args::LabArgs,
     /// The MQTT broker the station publishes to and takes commands from (docs/remote.md).
     #[command(flatten)]
     pub broker: crate::broker_args::BrokerArgs,
@@ -99,18 +94,7 @@ pub fn run(a: &StationArgs) -> anyhow::Result<()> {
     for n in station.notices.all() {
         eprintln!("vestnav station: {}", n.text);
     }
-    let lab = vestnav_station::lab::LabConfig {
-        lsl: a.lsl,
-        osc: a.osc,
-        stream_prefix: a.name.clone().unwrap_or_else(|| "vestnav".to_owned()),
-    };
-    if lab.any() {
-        // Asked for on the command line: a lab output that cannot start ends the run before anything moves.
-        station.set_lab(Some(&lab)).context("lab outputs")?;
-        if let Some(s) = station.lab_status() {
-            eprintln!("vestnav station: {}", s.summary());
-        }
-    }
+    a.lab.start(&mut station, a.name.as_deref())?;
     station.connect_vest();
     station.connect_gps(Vec::new());
     let mut bridge = match a.broker.config() {

@@ -4,6 +4,7 @@
 //! them these tests fail, unless `VESTNAV_LSL_SKIP=1` (then they say why they skipped).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
+use std::fmt::Write as _;
 use std::io::{BufRead as _, BufReader, Write as _};
 use std::net::UdpSocket;
 use std::path::PathBuf;
@@ -85,6 +86,30 @@ const SCRIPT: &[&str] = &[
     "session_end aborted",
 ];
 
+/// The reader's samples until it says "done": (stream, value as text, timestamp, the inlet's clock offset).
+fn collect(rx: &mpsc::Receiver<String>) -> Vec<(String, String, f64, f64)> {
+    let mut received: Vec<(String, String, f64, f64)> = Vec::new();
+    loop {
+        let l = rx.recv_timeout(Duration::from_secs(30)).expect("the reader went silent");
+        if l == "done" {
+            return received;
+        }
+        let v: Value = serde_json::from_str(&l).unwrap();
+        let stream = v["stream"].as_str().unwrap().to_owned();
+        let value = match stream.as_str() {
+            "markers" | "vest" => v["value"][0].as_str().unwrap().to_owned(),
+            _ => v["value"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|x| x.as_f64().map_or_else(|| "NaN".to_owned(), |f| f.to_string()))
+                .collect::<Vec<_>>()
+                .join(" "),
+        };
+        received.push((stream, value, v["t"].as_f64().unwrap(), v["tc"].as_f64().unwrap()));
+    }
+}
+
 #[test]
 fn pylsl_receives_every_marker_and_sample_within_a_millisecond() {
     let prefix = format!("vestnav-test-{}", std::process::id());
@@ -153,26 +178,7 @@ fn pylsl_receives_every_marker_and_sample_within_a_millisecond() {
         }
         std::thread::sleep(Duration::from_millis(3));
     }
-    let mut received: Vec<(String, String, f64, f64)> = Vec::new();
-    loop {
-        let l = rx.recv_timeout(Duration::from_secs(30)).expect("the reader went silent");
-        if l == "done" {
-            break;
-        }
-        let v: Value = serde_json::from_str(&l).unwrap();
-        let stream = v["stream"].as_str().unwrap().to_owned();
-        let value = match stream.as_str() {
-            "markers" | "vest" => v["value"][0].as_str().unwrap().to_owned(),
-            _ => v["value"]
-                .as_array()
-                .unwrap()
-                .iter()
-                .map(|x| x.as_f64().map_or_else(|| "NaN".to_owned(), |f| f.to_string()))
-                .collect::<Vec<_>>()
-                .join(" "),
-        };
-        received.push((stream, value, v["t"].as_f64().unwrap(), v["tc"].as_f64().unwrap()));
-    }
+    let received = collect(&rx);
     let _ = ended(child);
     let mut worst: f64 = 0.0;
     let mut worst_raw: f64 = 0.0;
@@ -213,7 +219,10 @@ fn decode_osc(datagrams: &[Vec<u8>]) -> Option<Vec<(String, Vec<Value>)>> {
     {
         let mut stdin = child.stdin.take().unwrap();
         for d in datagrams {
-            let hex: String = d.iter().map(|b| format!("{b:02x}")).collect();
+            let hex = d.iter().fold(String::new(), |mut h, b| {
+                let _ = write!(h, "{b:02x}");
+                h
+            });
             writeln!(stdin, "{hex}").unwrap();
         }
     }

@@ -494,3 +494,51 @@ fn run(rx: &Receiver<Item>, outlets: Option<&Outlets>, osc: Option<&osc::Sender>
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn osc_targets_are_host_and_port() {
+        assert_eq!(parse_osc_target("127.0.0.1:9000").unwrap(), "127.0.0.1:9000".parse().unwrap());
+        assert_eq!(parse_osc_target(" localhost:57120 ").unwrap().port(), 57120);
+        assert!(parse_osc_target("127.0.0.1").is_err());
+        assert!(parse_osc_target("127.0.0.1:0").unwrap_err().contains("port 0"));
+        assert!(parse_osc_target("127.0.0.1:99999").is_err());
+    }
+
+    #[test]
+    fn stream_prefixes_are_tidied() {
+        let p = |s: &str| LabConfig { stream_prefix: s.into(), ..LabConfig::default() }.prefix();
+        assert_eq!(p("lab-3_a.b"), "lab-3_a.b");
+        assert_eq!(p("  "), "vestnav");
+        assert_eq!(p("a b/c\0"), "a_b_c_");
+        assert_eq!(p(&"x".repeat(100)).len(), 64);
+    }
+
+    #[test]
+    fn disabled_outputs_count_and_keep_a_session_clock() {
+        let lab = LabOutputs::disabled();
+        assert!(!lab.is_on() && !lab.lsl_on());
+        let t0 = lab.now();
+        std::thread::sleep(Duration::from_millis(5));
+        assert!(lab.now() - t0 >= 0.004);
+        let earlier = Instant::now().checked_sub(Duration::from_secs(1)).unwrap();
+        assert!((lab.now() - lab.at(earlier) - 1.0).abs() < 0.01);
+        lab.marker("pause", lab.now());
+        let s = lab.status();
+        assert_eq!((s.markers, s.lsl, s.osc), (1, LslState::Off, None));
+        assert_eq!(s.last_marker.as_deref(), Some("pause"));
+    }
+
+    #[test]
+    fn a_failed_start_shows_why() {
+        let cfg = LabConfig { lsl: true, ..LabConfig::default() };
+        let missing = LslMissing { tried: vec![("liblsl.so (system library)".into(), "not found".into())] };
+        let s = LabStatus::failed(&cfg, &LabError::LslMissing(missing));
+        let LslState::Missing { why } = &s.lsl else { panic!("{s:?}") };
+        assert!(why.contains("liblsl.so (system library): not found") && why.contains("pip install pylsl"));
+        assert!(s.summary().starts_with("LSL missing"));
+    }
+}
