@@ -15,6 +15,8 @@
 //! - [`accuracy`]: GPS accuracy against a reference and receivers side by side,
 //!   [`accuracy::AccuracyReport`], [`accuracy::CompareReport`], [`accuracy::AgainstReference`];
 //! - [`nav`]: the guidance simulation, [`nav::NavReport`];
+//! - [`study`]: the study figures (confusion matrix, localization map, learning curve, response times,
+//!   navigation), from core's `StudyAnalysis`;
 //! - [`series`]: `linspace`, time windows and `sig` (numbers with sensible precision in labels); [`csv`]: a figure's data as CSV.
 //!
 //! ```
@@ -36,6 +38,7 @@ pub mod csv;
 pub mod fieldtest;
 pub mod nav;
 pub mod series;
+pub mod study;
 pub mod sweep;
 pub mod tactor;
 pub mod twopoint;

@@ -25,10 +25,11 @@ fn every_example_protocol_parses() {
     let loc = Protocol::load(&docs().join("localization.toml")).unwrap();
     assert_eq!(loc.task, Task::Localization);
     assert_eq!(loc.stimuli.len(), 16);
-    assert_eq!(loc.blocks.len(), 2);
+    assert_eq!(loc.blocks.len(), 4);
     assert!(loc.blocks[0].training && loc.blocks[0].feedback);
-    assert!(!loc.blocks[1].training && !loc.blocks[1].feedback);
-    assert_eq!(loc.trials_per_participant(), 16 * 6);
+    assert!(loc.blocks[1..].iter().all(|b| !b.training && !b.feedback && b.order == Order::LatinSquare));
+    assert_eq!(loc.blocks[0].order, Order::Random);
+    assert_eq!(loc.trials_per_participant(), 16 * 7);
     assert_eq!(loc.choices()[0], "T1");
     assert_eq!(loc.choices().len(), 16);
 
