@@ -77,9 +77,8 @@ fn load(source: PathBuf) -> Result<Loaded, String> {
             vestnav_report::study::figures(&analysis, &dir)
                 .map_err(|e| format!("figures of {}: {e}", source.display()))
         });
-    let figures = drawn.map(|files| {
-        files.iter().take(MAX_FIGURES).filter_map(|f| decode(f).ok()).collect::<Vec<_>>()
-    });
+    let figures =
+        drawn.map(|files| files.iter().take(MAX_FIGURES).filter_map(|f| decode(f).ok()).collect::<Vec<_>>());
     let _ = std::fs::remove_dir_all(&dir);
     Ok(Loaded { source, rows: rows.len(), analysis, figures: figures? })
 }
@@ -312,7 +311,7 @@ fn numbers_ui(ui: &mut egui::Ui, a: &StudyAnalysis) {
     if let Some(it) = a.it_bits {
         let of = a.stimulus_bits.map_or_else(String::new, |m| format!(" of at most {m:.2}"));
         let bias = match (a.it_bias_bits, a.it_corrected_bits) {
-            (Some(b), Some(c)) => format!("; small-sample bias ≈ {b:.2} bits, corrected {c:.2} bits"),
+            (Some(b), Some(c)) => format!("; small-sample bias about {b:.2} bits, corrected {c:.2} bits"),
             _ => String::new(),
         };
         ui.label(big(format!("Information transfer: {it:.2} bits{of}{bias}")));

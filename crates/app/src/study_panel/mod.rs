@@ -26,9 +26,9 @@ use std::time::Instant;
 
 use egui::{Color32, RichText, vec2};
 use vestnav_core::study::{Protocol, Task};
+use vestnav_core::vest::TACTOR_COUNT;
 use vestnav_station::Station;
 use vestnav_station::command::Command;
-use vestnav_core::vest::TACTOR_COUNT;
 use vestnav_station::lab::LabStatus;
 use vestnav_station::study::{StudyCommand, StudyPhase, StudyView};
 
@@ -171,7 +171,7 @@ impl StudyPanel {
         &mut self,
         ui: &mut egui::Ui,
         station: &mut Station,
-        mut remote: Option<&mut RemotePanel>,
+        remote: Option<&mut RemotePanel>,
         recent: &mut RecentFiles,
         lab_open: &mut bool,
         now: Instant,
@@ -239,13 +239,13 @@ impl StudyPanel {
                 send = Some(c);
             }
         });
-        if self.confirm_abort {
-            if let Some(c) = self.abort_question(ui.ctx(), study.as_ref()) {
-                send = Some(c);
-            }
+        if self.confirm_abort
+            && let Some(c) = self.abort_question(ui.ctx(), study.as_ref())
+        {
+            send = Some(c);
         }
         if let Some(command) = send {
-            self.send(command, station, remote.as_deref_mut());
+            self.send(command, station, remote);
         }
     }
 
@@ -273,23 +273,18 @@ impl StudyPanel {
         }
     }
 
-    /// Protocol, participant, session, results folder and Load. Returns the command to send.
-    fn setup_ui(
-        &mut self,
-        ui: &mut egui::Ui,
-        study: Option<&StudyView>,
-        recent: &mut RecentFiles,
-    ) -> Option<StudyCommand> {
-        let base = recent.base();
+    /// The protocol's path field, Recent, Check, and the check's outcome.
+    fn protocol_ui(&mut self, ui: &mut egui::Ui, recent: &mut RecentFiles, base: &Path) {
         let remote = self.target != Target::Local;
         ui.heading("Protocol");
-        let spec = DialogSpec { mode: Mode::Open, title: "Open a study protocol", filter: ("TOML", &["toml"]) };
+        let spec =
+            DialogSpec { mode: Mode::Open, title: "Open a study protocol", filter: ("TOML", &["toml"]) };
         let mut chosen = file_dialog::path_field(
             ui,
             &mut self.protocol,
             &mut self.protocol_browse,
             spec,
-            &base,
+            base,
             "protocol.toml",
         );
         ui.horizontal(|ui| {
@@ -298,7 +293,7 @@ impl StudyPanel {
                 chosen = Some(p);
             }
             if ui.button("Check").on_hover_text("Check the file as `vestnav study check` does").clicked() {
-                chosen = file_dialog::resolve(&self.protocol, &base);
+                chosen = file_dialog::resolve(&self.protocol, base);
             }
         });
         if let Some(p) = chosen {
@@ -312,9 +307,8 @@ impl StudyPanel {
                 }
             }
         }
-        let resolved = file_dialog::resolve(&self.protocol, &base);
-        let checked =
-            self.checked.as_ref().filter(|c| Some(&c.path) == resolved.as_ref()).map(|c| &c.result);
+        let resolved = file_dialog::resolve(&self.protocol, base);
+        let checked = self.checked.as_ref().filter(|c| Some(&c.path) == resolved.as_ref()).map(|c| &c.result);
         match checked {
             Some(Ok(s)) => {
                 ui.label(
@@ -340,20 +334,33 @@ impl StudyPanel {
             }
             None => {}
         }
+    }
+
+    /// Protocol, participant, session, results folder and Load. Returns the command to send.
+    fn setup_ui(
+        &mut self,
+        ui: &mut egui::Ui,
+        study: Option<&StudyView>,
+        recent: &mut RecentFiles,
+    ) -> Option<StudyCommand> {
+        let base = recent.base();
+        let remote = self.target != Target::Local;
+        self.protocol_ui(ui, recent, &base);
+        let resolved = file_dialog::resolve(&self.protocol, &base);
+        let checked = self.checked.as_ref().filter(|c| Some(&c.path) == resolved.as_ref()).map(|c| &c.result);
         ui.horizontal(|ui| {
             ui.label("Participant");
             ui.add(egui::TextEdit::singleline(&mut self.participant).desired_width(120.0).hint_text("P01"));
             if let Some(Ok(s)) = checked
                 && !s.participants.is_empty()
             {
-                egui::ComboBox::from_id_salt("study-participants").selected_text("from the protocol").show_ui(
-                    ui,
-                    |ui| {
+                egui::ComboBox::from_id_salt("study-participants")
+                    .selected_text("from the protocol")
+                    .show_ui(ui, |ui| {
                         for p in &s.participants {
                             ui.selectable_value(&mut self.participant, p.clone(), p);
                         }
-                    },
-                );
+                    });
             }
         });
         ui.horizontal(|ui| {
@@ -373,7 +380,8 @@ impl StudyPanel {
             }
         });
         ui.label("Results folder");
-        let spec = DialogSpec { mode: Mode::Folder, title: "Folder for the study's results", filter: ("", &[]) };
+        let spec =
+            DialogSpec { mode: Mode::Folder, title: "Folder for the study's results", filter: ("", &[]) };
         file_dialog::path_field(ui, &mut self.out_dir, &mut self.out_browse, spec, &base, "study");
         let busy = study.is_some_and(|v| under_way(v.phase));
         let ok = (remote || matches!(checked, Some(Ok(_))))
@@ -420,7 +428,10 @@ impl StudyPanel {
             }
             let running = matches!(
                 p,
-                StudyPhase::Presenting | StudyPhase::AwaitingResponse | StudyPhase::Feedback | StudyPhase::Interval
+                StudyPhase::Presenting
+                    | StudyPhase::AwaitingResponse
+                    | StudyPhase::Feedback
+                    | StudyPhase::Interval
             );
             if ui.add_enabled(running, egui::Button::new(big("Pause"))).clicked() {
                 send = Some(StudyCommand::Pause);
@@ -443,15 +454,22 @@ impl StudyPanel {
         let kind = if v.training { "training" } else { "test" };
         let feedback = if v.feedback { "with feedback" } else { "no feedback" };
         ui.label(
-            RichText::new(format!("Trial {trial}/{} · block {} · {kind}, {feedback}", v.trials, v.block_name))
-                .size(20.0)
-                .strong(),
+            RichText::new(format!(
+                "Trial {trial}/{} · block {} · {kind}, {feedback}",
+                v.trials, v.block_name
+            ))
+            .size(20.0)
+            .strong(),
         );
         let (words, alarm) = phase_words(v.phase);
         let color = if alarm { ui.visuals().error_fg_color } else { ui.visuals().strong_text_color() };
         ui.label(RichText::new(words).size(20.0).strong().color(color));
         if v.presented.is_some() {
-            ui.label(RichText::new("● stimulus on").color(Color32::from_rgb(250, 170, 20)).strong());
+            ui.label(
+                RichText::new("STIMULUS ON: the vest plays it now")
+                    .color(Color32::from_rgb(250, 170, 20))
+                    .strong(),
+            );
         }
         if let Some(e) = &v.error {
             ui.label(RichText::new(e).strong().color(ui.visuals().error_fg_color));
@@ -480,7 +498,7 @@ impl StudyPanel {
             return None;
         };
         let mut answer = None;
-        let modal = egui::Modal::new(egui::Id::new("vestnav-study-abort")).show(ctx, |ui| {
+        let modal = egui::Modal::new(egui::Id::unique("vestnav-study-abort")).show(ctx, |ui| {
             ui.label(RichText::new("Abort the session?").strong());
             ui.label(format!(
                 "Trial {} of {} ends as aborted; the trials so far stay in {}.",
@@ -519,15 +537,16 @@ impl StudyPanel {
         match &self.target {
             Target::Local => {
                 if let Some(e) = &self.refused {
-                    ui.label(RichText::new(format!("refused: {e}")).strong().color(ui.visuals().error_fg_color));
+                    ui.label(
+                        RichText::new(format!("refused: {e}")).strong().color(ui.visuals().error_fg_color),
+                    );
                 }
             }
             Target::Remote(name) => {
                 let r = remote?;
                 let view = r.fleet().station(name);
                 if let Some(s) = r.drive.sent.iter().rev().find(|s| s.to == *name) {
-                    let (text, bad) =
-                        crate::remote_drive::outcome(s, view.as_ref(), r.fleet().sender(), now);
+                    let (text, bad) = crate::remote_drive::outcome(s, view.as_ref(), r.fleet().sender(), now);
                     let line = RichText::new(format!("{}: {text}", s.what));
                     ui.label(if bad { line.color(ui.visuals().error_fg_color) } else { line });
                 }
@@ -539,7 +558,16 @@ impl StudyPanel {
     /// Sends `command` to the station driven.
     fn send(&mut self, command: StudyCommand, station: &mut Station, remote: Option<&mut RemotePanel>) {
         match &self.target {
-            Target::Local => self.refused = station.apply(Command::Study(command)).err(),
+            Target::Local => {
+                // The results folder named here is made here (the station writes into an existing one).
+                if let StudyCommand::Load { out_dir, .. } = &command
+                    && let Err(e) = std::fs::create_dir_all(out_dir)
+                {
+                    self.refused = Some(format!("results folder {}: {e}", out_dir.display()));
+                    return;
+                }
+                self.refused = station.apply(Command::Study(command)).err();
+            }
             Target::Remote(_) => {
                 if let Some(r) = remote {
                     r.send_to_driven(Command::Study(command));
@@ -611,7 +639,10 @@ fn feedback_ui(ui: &mut egui::Ui, v: &StudyView) {
         let (text, color) = if l.correct {
             (format!("CORRECT: {}", l.answer), Color32::from_rgb(40, 160, 60))
         } else {
-            (format!("INCORRECT: reported {}, the answer was {}", l.response, l.answer), ui.visuals().error_fg_color)
+            (
+                format!("INCORRECT: reported {}, the answer was {}", l.response, l.answer),
+                ui.visuals().error_fg_color,
+            )
         };
         ui.label(RichText::new(text).size(22.0).strong().color(color));
     } else {
