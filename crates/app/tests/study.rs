@@ -190,3 +190,84 @@ fn stop_all_acts_over_the_abort_question_and_the_trial_shows_as_stopped() {
     assert!(disabled(&h, "T6"), "no answer is taken while stopped");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// Eight answered test trials of four tactors, six of them correct (counted by hand: 75 %), response
+/// times 400..=1100 ms in 100 ms steps (median 750 ms).
+fn results_rows() -> Vec<vestnav_core::study::TrialRecord> {
+    use vestnav_core::study::{Outcome, Task, TrialRecord};
+    let answers = ["T1", "T2", "T3", "T4", "T1", "T2", "T3", "T4"];
+    let responses = ["T1", "T2", "T3", "T4", "T2", "T2", "T3", "T3"];
+    (0..8)
+        .map(|k| {
+            let mut r = TrialRecord::new("P01", "S1", "four", Task::Localization);
+            r.block_name = "test".into();
+            r.trial = k;
+            r.stimulus = answers[k].into();
+            r.answer = answers[k].into();
+            r.response = Some(responses[k].into());
+            r.correct = Some(answers[k] == responses[k]);
+            r.stimulus_on_s = Some(k as f64 * 3.0);
+            r.rt_ms = Some(400.0 + 100.0 * k as f64);
+            r.response_s = Some(k as f64 * 3.0 + r.rt_ms.unwrap() / 1000.0);
+            r.outcome = Outcome::Answered;
+            r
+        })
+        .collect()
+}
+
+#[test]
+fn the_analysis_view_shows_a_results_file_and_saves_the_same_figures_as_the_report() {
+    let fake = Fake::default();
+    let mut h = study_console(&fake);
+    let dir = test_dir("study-analysis");
+    let rows = results_rows();
+    let csv = write(&dir, "four.csv", &vestnav_core::study::write_csv(&rows));
+    h.get_by_label("Analysis").click();
+    h.run_steps(2);
+    h.state_mut().study.analysis.path = csv.display().to_string();
+    h.run_steps(1);
+    h.get_by_label("Analyse").click();
+    settle(&mut h, |c| !c.study.analysis.is_running());
+    h.run_steps(2);
+    assert!(h.state().study.analysis.error.is_none(), "{:?}", h.state().study.analysis.error);
+    assert!(
+        h.query_by_label_contains("Percent correct: 75.0 % (6 of 8 answered test trials)").is_some(),
+        "the numbers are shown"
+    );
+    assert!(h.query_by_label_contains("Information transfer:").is_some());
+    assert!(h.query_by_label_contains("median 750 ms").is_some());
+    // The report's own figures for the same rows, written independently of the console.
+    let reference = dir.join("reference");
+    std::fs::create_dir_all(&reference).unwrap();
+    let analysis = vestnav_core::study::analyze(&vestnav_core::study::record::read_csv_file(&csv).unwrap());
+    let mut expected: Vec<PathBuf> = vestnav_report::study::figures(&analysis, &reference).unwrap();
+    expected.sort();
+    let mut shown = h.state().study.analysis.figure_names();
+    shown.sort();
+    let names: Vec<String> =
+        expected.iter().map(|p| p.file_name().unwrap().to_string_lossy().into_owned()).collect();
+    assert!(!names.is_empty());
+    assert_eq!(shown, names, "every figure of the report is shown");
+    // Save figures… into a new folder: the same PNGs, byte for byte.
+    let saved = dir.join("saved");
+    h.state_mut().study.analysis.save_dir = saved.display().to_string();
+    h.run_steps(1);
+    h.get_by_label("Save figures…").click();
+    settle(&mut h, |c| !c.study.analysis.is_saving() && c.study.analysis.save_status.is_some());
+    assert!(
+        matches!(h.state().study.analysis.save_status, Some(Ok(_))),
+        "{:?}",
+        h.state().study.analysis.save_status
+    );
+    for (p, name) in expected.iter().zip(&names) {
+        assert_eq!(std::fs::read(p).unwrap(), std::fs::read(saved.join(name)).unwrap(), "{name}");
+    }
+    // A second save asks before it replaces them, and Cancel leaves them.
+    h.get_by_label("Save figures…").click();
+    h.run_steps(2);
+    assert!(h.query_by_label_contains("*.png?").is_some(), "asked before replacing");
+    h.get_by_label("Cancel").click();
+    h.run_steps(2);
+    assert!(h.query_by_label_contains("*.png?").is_none());
+    std::fs::remove_dir_all(&dir).unwrap();
+}

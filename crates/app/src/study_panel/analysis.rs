@@ -113,6 +113,16 @@ impl AnalysisView {
         }
     }
 
+    /// The names of the figures shown (the PNG files `vestnav_report::study::figures` wrote).
+    pub fn figure_names(&self) -> Vec<String> {
+        self.shown.iter().flat_map(|s| s.figures.iter().map(|(n, _)| n.clone())).collect()
+    }
+
+    /// Whether a save is being written.
+    pub fn is_saving(&self) -> bool {
+        self.saving.is_some()
+    }
+
     /// Whether an analysis is being made.
     pub fn is_running(&self) -> bool {
         self.running.is_some()
