@@ -737,3 +737,6 @@ fn send_stimulus(s: &Stimulus, pattern: Pattern, io: &mut dyn StudyIo) -> Result
     }
     io.send(vestnav_device::wtcu::VestCommand::Play(pattern))
 }
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,243 @@
+//! The runner's state machine on a scripted clock and vest: the markers of one trial in the documented
+//! vocabulary, pause and STOP ALL in each phase, a response timeout, a refusal, feedback's replay, and the
+//! rows written at once.
+
+use std::path::PathBuf;
+
+use vestnav_core::study::Outcome;
+use vestnav_device::wtcu::{CommandKind, CommandOrigin, Limits, VestCommand, VestEvent};
+
+use super::*;
+
+/// The station as a script: a clock the test moves, the markers and commands recorded.
+#[derive(Default)]
+struct Script {
+    now: f64,
+    markers: Vec<(String, f64)>,
+    sent: Vec<VestCommand>,
+    refuse: Option<String>,
+    stops: usize,
+}
+
+impl StudyIo for Script {
+    fn now_s(&self) -> f64 {
+        self.now
+    }
+    fn marker(&mut self, text: &str, at_s: f64) {
+        self.markers.push((text.to_owned(), at_s));
+    }
+    fn send(&mut self, command: VestCommand) -> Result<(), String> {
+        if let Some(r) = &self.refuse {
+            return Err(r.clone());
+        }
+        self.sent.push(command);
+        Ok(())
+    }
+    fn stop_vest(&mut self) {
+        self.stops += 1;
+    }
+    fn hold_guidance(&mut self) {}
+}
+
+impl Script {
+    fn names(&self) -> Vec<&str> {
+        self.markers.iter().map(|(m, _)| m.split(' ').next().unwrap_or("")).collect()
+    }
+    fn plays(&self) -> usize {
+        self.sent.iter().filter(|c| matches!(c, VestCommand::Play(_))).count()
+    }
+    /// Moves the clock by `dt_s` and gives the runner its turn.
+    fn after(&mut self, r: &mut StudyRunner, dt_s: f64) {
+        self.now += dt_s;
+        r.turn(self);
+    }
+}
+
+fn dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("vestnav-runner-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// T6 then T7, 300 ms each; `feedback` in the one block.
+fn runner(name: &str, feedback: bool, timing: Timing) -> (StudyRunner, PathBuf) {
+    let d = dir(name);
+    let p = d.join("p.toml");
+    std::fs::write(
+        &p,
+        format!(
+            "name = \"two\"\ntask = \"localization\"\norder = \"blocked\"\n[localization]\n\
+             stimuli = [\"T6\", \"T7\"]\non_ms = 300\n[[block]]\nname = \"b\"\nfeedback = {feedback}\n\
+             repetitions = 1\n"
+        ),
+    )
+    .unwrap();
+    let r = StudyRunner::load(&p, "P1", "S1", &d, &Limits::default(), timing).unwrap();
+    (r, d)
+}
+
+const TIMING: Timing = Timing { iti_s: 0.5, feedback_s: 0.4, response_timeout_s: None };
+
+#[test]
+fn one_trial_speaks_the_marker_vocabulary_and_writes_its_row_at_once() {
+    let (mut r, d) = runner("markers", false, TIMING);
+    let mut io = Script { now: 10.0, ..Script::default() };
+    assert!(r.command(StudyCommand::Respond { answer: "T6".into() }, &mut io).is_err(), "not started");
+    r.command(StudyCommand::Start, &mut io).unwrap();
+    assert_eq!(r.phase(), StudyPhase::Presenting);
+    assert_eq!(r.view().presented.as_deref(), Some("T6"));
+    io.after(&mut r, 0.31);
+    assert_eq!(r.phase(), StudyPhase::AwaitingResponse);
+    io.now += 0.2;
+    r.command(StudyCommand::Respond { answer: "t5".into() }, &mut io).unwrap();
+    let texts: Vec<&str> = io.markers.iter().map(|(m, _)| m.as_str()).collect();
+    assert_eq!(
+        texts,
+        [
+            "session_start two P1 S1",
+            "trial_start 1 b",
+            "stimulus_on T6 0x0020",
+            "stimulus_off T6",
+            "response T5 0 510.0",
+            "trial_end 1 answered",
+        ]
+    );
+    // The row is in the file before the next step.
+    let rows = vestnav_core::study::record::read_csv_file(&r.view().results_csv).unwrap();
+    assert_eq!(rows.len(), 1);
+    approx::assert_relative_eq!(rows[0].rt_ms.unwrap(), 510.0, epsilon = 1e-6);
+    approx::assert_relative_eq!(rows[0].stimulus_on_s.unwrap(), 10.0);
+    assert_eq!((rows[0].correct, rows[0].response.as_deref()), (Some(false), Some("T5")));
+    // The interval, then trial 2; its response ends the session.
+    assert_eq!(r.phase(), StudyPhase::Interval);
+    io.after(&mut r, 0.49);
+    assert_eq!(r.phase(), StudyPhase::Interval);
+    io.after(&mut r, 0.02);
+    assert_eq!(r.phase(), StudyPhase::Presenting);
+    r.command(StudyCommand::Respond { answer: "T7".into() }, &mut io).unwrap();
+    // Answered while it plays: the end waits for the stimulus.
+    assert_eq!(r.phase(), StudyPhase::Interval);
+    io.after(&mut r, 0.31);
+    assert_eq!(r.phase(), StudyPhase::Finished);
+    assert_eq!(&io.names()[io.names().len() - 3..], ["trial_end", "stimulus_off", "session_end"]);
+    assert_eq!(io.markers.last().unwrap().0, "session_end completed");
+    assert!(r.view().results_json.is_some_and(|p| p.exists()));
+    // Intensity, then the pattern, per stimulus.
+    assert!(matches!(io.sent[0], VestCommand::SetIntensity { level: 255, .. }));
+    assert_eq!(io.plays(), 2);
+    let _ = std::fs::remove_dir_all(d);
+}
+
+#[test]
+fn pause_during_a_trial_records_it_and_resume_presents_it_again() {
+    let (mut r, d) = runner("pause", false, TIMING);
+    let mut io = Script::default();
+    r.command(StudyCommand::Start, &mut io).unwrap();
+    io.now += 0.1;
+    r.command(StudyCommand::Pause, &mut io).unwrap();
+    assert_eq!(r.phase(), StudyPhase::Paused);
+    assert_eq!(r.rows()[0].outcome, Outcome::Aborted);
+    // Nothing is presented while paused, however long.
+    io.after(&mut r, 100.0);
+    assert_eq!((r.phase(), io.plays()), (StudyPhase::Paused, 1));
+    assert!(r.command(StudyCommand::Pause, &mut io).is_err());
+    r.command(StudyCommand::Resume, &mut io).unwrap();
+    io.after(&mut r, 0.6);
+    assert_eq!((r.phase(), io.plays()), (StudyPhase::Presenting, 2));
+    assert_eq!(r.current().unwrap().answer, "T6");
+    r.command(StudyCommand::Respond { answer: "T6".into() }, &mut io).unwrap();
+    assert_eq!(r.rows()[1].notes, "presented again after a pause");
+    assert_eq!(r.rows()[1].trial, 0);
+    let _ = std::fs::remove_dir_all(d);
+}
+
+#[test]
+fn stop_all_in_each_phase_pauses_and_only_a_trial_under_way_is_recorded_stopped() {
+    let (mut r, d) = runner("stop", false, TIMING);
+    let mut io = Script::default();
+    let halted = VestEvent::Halted { reason: "STOP ALL: automatic cues halted until resumed".into() };
+    r.command(StudyCommand::Start, &mut io).unwrap();
+    io.now += 0.1;
+    r.vest_event(&halted, &mut io);
+    assert_eq!(r.phase(), StudyPhase::Paused);
+    assert_eq!(r.rows()[0].outcome, Outcome::Stopped);
+    assert!(r.view().error.unwrap().contains("STOP ALL"));
+    assert_eq!(&io.names()[io.names().len() - 3..], ["stop_all", "stimulus_off", "trial_end"]);
+    // Another STOP while paused is marked, nothing more.
+    r.vest_event(&halted, &mut io);
+    assert_eq!((r.rows().len(), io.names().last().copied()), (1, Some("stop_all")));
+    r.command(StudyCommand::Resume, &mut io).unwrap();
+    io.after(&mut r, 0.6);
+    r.command(StudyCommand::Respond { answer: "T6".into() }, &mut io).unwrap();
+    // In the interval: paused, no row.
+    r.vest_event(&halted, &mut io);
+    assert_eq!((r.phase(), r.rows().len()), (StudyPhase::Paused, 2));
+    io.after(&mut r, 5.0);
+    assert_eq!(io.plays(), 2, "never presented again without Resume");
+    r.command(StudyCommand::Abort, &mut io).unwrap();
+    assert_eq!(r.phase(), StudyPhase::Aborted);
+    assert_eq!(io.markers.last().unwrap().0, "session_end aborted");
+    let _ = std::fs::remove_dir_all(d);
+}
+
+#[test]
+fn a_refused_stimulus_pauses_and_resume_goes_on_with_the_next() {
+    let (mut r, d) = runner("refuse", false, TIMING);
+    let mut io = Script::default();
+    r.command(StudyCommand::Start, &mut io).unwrap();
+    // The unit's NAK (no origin) for the PLAY.
+    let nak = VestEvent::Rejected { kind: CommandKind::Play, origin: None, reason: "duty cycle".into() };
+    // Guidance's refusals are not the study's.
+    let auto = VestEvent::Rejected {
+        kind: CommandKind::Play,
+        origin: Some(CommandOrigin::Guidance),
+        reason: "halted".into(),
+    };
+    r.vest_event(&auto, &mut io);
+    assert_eq!(r.phase(), StudyPhase::Presenting);
+    r.vest_event(&nak, &mut io);
+    assert_eq!(r.phase(), StudyPhase::Paused);
+    assert_eq!(r.rows()[0].outcome, Outcome::Refused);
+    assert!(r.view().error.unwrap().contains("duty cycle"));
+    r.command(StudyCommand::Resume, &mut io).unwrap();
+    io.after(&mut r, 0.6);
+    assert_eq!(r.current().unwrap().answer, "T7");
+    // Not sent at all (no vest): refused at once.
+    let (mut r, d2) = runner("refuse-now", false, TIMING);
+    let mut io = Script { refuse: Some("no vest connected".into()), ..Script::default() };
+    r.command(StudyCommand::Start, &mut io).unwrap();
+    assert_eq!((r.phase(), r.rows()[0].outcome), (StudyPhase::Paused, Outcome::Refused));
+    assert!(!io.names().contains(&"stimulus_on"));
+    let _ = std::fs::remove_dir_all(d);
+    let _ = std::fs::remove_dir_all(d2);
+}
+
+#[test]
+fn no_response_in_time_and_feedback_replays_the_correct_stimulus() {
+    let timing = Timing { response_timeout_s: Some(2.0), ..TIMING };
+    let (mut r, d) = runner("timeout", true, timing);
+    let mut io = Script::default();
+    r.command(StudyCommand::Start, &mut io).unwrap();
+    io.after(&mut r, 0.31);
+    io.after(&mut r, 1.0);
+    assert_eq!(r.phase(), StudyPhase::AwaitingResponse);
+    io.after(&mut r, 0.7);
+    assert_eq!(r.rows()[0].outcome, Outcome::NoResponse);
+    assert_eq!(r.phase(), StudyPhase::Interval);
+    io.after(&mut r, 0.5);
+    // Trial 2 (T7), answered wrongly while it plays: feedback, then the replay once it has ended.
+    r.command(StudyCommand::Respond { answer: "T3".into() }, &mut io).unwrap();
+    assert_eq!(r.phase(), StudyPhase::Feedback);
+    assert!(io.names().contains(&"feedback"));
+    assert_eq!(io.plays(), 2);
+    io.after(&mut r, 0.31);
+    assert_eq!(io.plays(), 3, "the replay");
+    assert!(matches!(io.sent.last(), Some(VestCommand::Play(p)) if p.frames[0].mask.contains(6)));
+    // Feedback lasts the replay's length and a margin (0.5 s), more than the feedback time (0.4 s).
+    io.after(&mut r, 0.45);
+    assert_eq!(r.phase(), StudyPhase::Feedback);
+    io.after(&mut r, 0.1);
+    assert_eq!(r.phase(), StudyPhase::Finished);
+    let _ = std::fs::remove_dir_all(d);
+}
