@@ -135,16 +135,19 @@ impl LabWindow {
             ui.checkbox(&mut self.lsl, "LSL streams (markers, position, heading, vest)");
             ui.horizontal(|ui| {
                 ui.checkbox(&mut self.osc_on, "OSC to");
+                let label = ui.label("HOST:PORT");
                 ui.add_enabled(
                     self.osc_on,
                     egui::TextEdit::singleline(&mut self.osc_text)
                         .hint_text("HOST:PORT")
                         .desired_width(160.0),
-                );
+                )
+                .labelled_by(label.id);
             });
             ui.horizontal(|ui| {
-                ui.label("Stream names start with");
-                ui.add(egui::TextEdit::singleline(&mut self.prefix).desired_width(140.0));
+                let label = ui.label("Stream names start with");
+                ui.add(egui::TextEdit::singleline(&mut self.prefix).desired_width(140.0))
+                    .labelled_by(label.id);
             });
             ui.horizontal(|ui| {
                 let on = station.lab_config().is_some();

@@ -22,13 +22,20 @@ fn the_window_starts_and_stops_the_stations_osc_output() {
     h.run_steps(2);
     assert!(h.query_by_label_contains("Lab outputs off").is_some());
     // LSL off (this test needs no liblsl), OSC on to the default 127.0.0.1:9000.
-    h.get_by_label("LSL streams (markers, position, heading, vest)").click();
-    h.get_by_label("OSC to").click();
+    h.get_by_label("LSL streams (markers, position, heading, vest)").click_accesskit();
     h.run_steps(2);
-    h.get_by_label("Start").click();
+    h.get_by_label("OSC to").click_accesskit();
+    h.run_steps(2);
+    h.get_by_label("Start").click_accesskit();
     let until = Instant::now() + Duration::from_secs(10);
     while h.state().1.lab_status().is_none() {
-        assert!(Instant::now() < until, "the outputs started");
+        assert!(
+            Instant::now() < until,
+            "the outputs started: {:?} starting {} error {}",
+            h.state().1.lab_config(),
+            h.query_by_label_contains("starting").is_some(),
+            h.query_by_label_contains("OSC target").is_some()
+        );
         h.run_steps(1);
         std::thread::sleep(Duration::from_millis(10));
     }
@@ -39,7 +46,7 @@ fn the_window_starts_and_stops_the_stations_osc_output() {
     assert!(h.query_by_label_contains("OSC to 127.0.0.1:9000").is_some());
     assert!(h.query_by_label_contains("1 markers").is_some());
     assert!(h.query_by_label_contains("LSL off").is_some());
-    h.get_by_label("Stop").click();
+    h.get_by_label("Stop").click_accesskit();
     h.run_steps(2);
     assert!(h.state().1.lab_status().is_none());
     assert!(h.query_by_label_contains("Lab outputs off").is_some());
