@@ -271,3 +271,53 @@ fn the_analysis_view_shows_a_results_file_and_saves_the_same_figures_as_the_repo
     assert!(h.query_by_label_contains("*.png?").is_none());
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// Pattern identification: two named cues, one block with feedback, blocked order.
+const TWO_PATTERNS: &str = r#"name = "two-cues"
+task = "pattern-id"
+participants = ["P02"]
+order = "blocked"
+seed = 3
+
+[[pattern]]
+name = "left"
+cue = "turn left"
+on_ms = 100
+
+[[pattern]]
+name = "right"
+cue = "turn right"
+on_ms = 100
+
+[[block]]
+name = "practice"
+training = true
+feedback = true
+repetitions = 1
+"#;
+
+#[test]
+fn a_pattern_study_takes_the_answer_clicked_in_the_pattern_list() {
+    let fake = Fake::default();
+    let mut h = study_console(&fake);
+    let dir = test_dir("study-patterns");
+    let protocol = write(&dir, "cues.toml", TWO_PATTERNS);
+    check(&mut h, &protocol);
+    h.state_mut().study.out_dir = dir.join("results").display().to_string();
+    h.run_steps(1);
+    h.get_by_label("Load").click();
+    settle(&mut h, |c| view(c).is_some());
+    h.run_steps(2);
+    h.get_by_label("Start").click();
+    settle(&mut h, |c| view(c).is_some_and(|v| v.phase == StudyPhase::AwaitingResponse));
+    h.run_steps(2);
+    assert!(fake.sent().iter().any(|r| matches!(r, Request::Play { .. })), "a pattern reached the unit");
+    // Blocked order: the first pattern is "left"; the wearer says so.
+    h.get_by_label("left").click();
+    settle(&mut h, |c| view(c).is_some_and(|v| v.last.is_some()));
+    let last = view(h.state()).unwrap().last.unwrap();
+    assert_eq!((last.response.as_str(), last.answer.as_str(), last.correct), ("left", "left", true));
+    h.run_steps(2);
+    assert!(h.query_by_label_contains("CORRECT: left").is_some());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
