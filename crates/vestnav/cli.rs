@@ -6,7 +6,7 @@ use clap::{Parser, Subcommand};
 
 use crate::{
     accuracy, analyze, completions, doctor, emulate_gps, emulate_vest, fieldtest, gps_configure, nav, nmea,
-    ntrip, route_plan, sim_tactor, sim_wave, station, tiles,
+    ntrip, route_plan, sim_tactor, sim_wave, station, study, tiles,
 };
 
 /// One line: `-h`, and the NAME of the man page.
@@ -151,9 +151,9 @@ pub enum Command {
     /// The offline map of an OpenStreetMap extract.
     #[command(subcommand)]
     Map(MapCommand),
-    /// Tactile-display studies: run a protocol's trials on the vest.
+    /// Tactile-display studies (docs/study.md): check a protocol, run a session on the vest, analyse results.
     #[command(subcommand)]
-    Study(StudyCommand),
+    Study(study::StudySubcommand),
     /// Print a shell completion script for vestnav to standard output.
     #[command(hide = true)]
     Completions(completions::CompletionsArgs),
@@ -254,12 +254,4 @@ pub enum MapCommand {
     /// Draw an .osm.pbf extract offline into a PNG (the tiles the console's map would show), optionally
     /// with a route over it.
     Render(route_plan::RenderArgs),
-}
-
-/// `vestnav study ...`
-#[derive(Debug, Subcommand)]
-pub enum StudyCommand {
-    /// Run one session of a protocol on the vest: prompts for each response (or a simulated wearer),
-    /// results appended to a new CSV after every trial, JSON at the end.
-    Run(crate::study_run::StudyRunArgs),
 }

@@ -20,6 +20,7 @@ mod route_plan;
 mod sim_tactor;
 mod sim_wave;
 mod station;
+mod study;
 mod study_run;
 mod tiles;
 
@@ -27,7 +28,7 @@ use clap::Parser;
 
 use cli::{
     AnalyzeCommand, Cli, Command, EmulateCommand, FieldtestCommand, GpsCommand, MapCommand, NavCommand,
-    NmeaCommand, RouteCommand, SimCommand, StudyCommand, TilesCommand,
+    NmeaCommand, RouteCommand, SimCommand, TilesCommand,
 };
 
 fn main() -> std::process::ExitCode {
@@ -174,10 +175,10 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Ntrip(a) => ntrip::run(&a),
         Command::Tiles(TilesCommand::Prefetch(a)) => tiles::run_prefetch(&a),
         Command::Station(a) => station::run(&a),
+        Command::Study(s) => study::run(&s),
         Command::Doctor(a) => doctor::run(&a),
         Command::Route(RouteCommand::Plan(a)) => route_plan::run_plan(&a),
         Command::Map(MapCommand::Render(a)) => route_plan::run_render(&a),
-        Command::Study(StudyCommand::Run(a)) => study_run::run(&a),
         Command::Completions(a) => completions::run_completions(&a),
         Command::Man => completions::run_man(),
     }

@@ -25,8 +25,9 @@ mod remote;
 mod safety;
 mod sim_tactor;
 mod sim_wave;
-#[cfg(unix)]
 mod study;
+#[cfg(unix)]
+mod study_run;
 mod tiles_cli;
 // Several tests of each serve the emulated unit on a PTY (`PtyEmulator::spawn` exists on Unix only), so
 // neither module compiles elsewhere. `doctor`, `latency` and `safety` gate themselves (`#![cfg(unix)]`).

@@ -375,7 +375,7 @@ impl LabOutputs {
     /// One marker (the vocabulary is in `docs/study.md`), timestamped `at` (from [`Self::now`]).
     pub fn marker(&self, text: &str, at: f64) {
         if let Ok(mut m) = self.inner.shared.last_marker.lock() {
-            *m = Some(vestnav_lsl_bounded(text).to_owned());
+            *m = Some(shortened(text).to_owned());
         }
         self.put(Item::Marker(text.to_owned(), at), &self.inner.shared.counts.markers);
     }
@@ -417,7 +417,8 @@ impl LabOutputs {
     }
 }
 
-fn vestnav_lsl_bounded(text: &str) -> &str {
+/// `text` cut to 200 bytes at a character boundary (the latest marker as a screen shows it).
+fn shortened(text: &str) -> &str {
     let mut end = text.len().min(200);
     while !text.is_char_boundary(end) {
         end -= 1;
