@@ -516,7 +516,7 @@ impl StudyAnalysis {
                     "  {} {}{}: {} %, {}, {} ms",
                     b.block,
                     b.block_name,
-                    if b.training { " (training)" } else { "" },
+                    if b.training && !b.block_name.contains("training") { " (training)" } else { "" },
                     f1(b.percent_correct),
                     b.answered,
                     f1(b.rt_median_ms)
