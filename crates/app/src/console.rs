@@ -54,6 +54,8 @@ pub enum Tab {
     FieldTests,
     /// Session log viewer and replay.
     SessionLog,
+    /// Study protocols run on the station's trial runner, and their results.
+    Study,
 }
 
 /// Devices named on the command line: they win over the saved settings for this run (and are not saved).
@@ -105,6 +107,8 @@ pub struct Console {
     pub field_panel: FieldTestPanel,
     /// Session log viewer / replay.
     pub log_viewer: crate::log_viewer::LogViewer,
+    /// The Study tab's widget state (the study's own state is the station's).
+    pub study: crate::study_panel::StudyPanel,
     /// The audible alarm on fix loss, vest loss and an unconfirmed stop (`console/frame.rs`).
     alarm: frame::AudibleAlarm,
     /// The window's logic step already pumped the station this frame (the frame then does not again).
@@ -221,6 +225,7 @@ impl Console {
             sim_panel: SimPanel::new(),
             field_panel: FieldTestPanel::new(),
             log_viewer: crate::log_viewer::LogViewer::default(),
+            study: crate::study_panel::StudyPanel::default(),
             alarm: frame::AudibleAlarm::default(),
             ticked: false,
             synced_auto: false,

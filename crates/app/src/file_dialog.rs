@@ -39,6 +39,10 @@ pub enum RecentKind {
     Patterns,
     /// NMEA logs replayed as the GPS source.
     Nmea,
+    /// Study protocols (TOML) loaded in the Study tab.
+    Protocols,
+    /// Study results (CSV) opened in the Study tab's analysis.
+    StudyResults,
 }
 
 /// The last files used, per kind, newest first, plus the folder of the very last file used.
@@ -53,6 +57,10 @@ pub struct RecentFiles {
     pub patterns: Vec<PathBuf>,
     /// NMEA replays.
     pub nmea: Vec<PathBuf>,
+    /// Study protocols.
+    pub protocols: Vec<PathBuf>,
+    /// Study results.
+    pub study_results: Vec<PathBuf>,
     /// Folder of the last file opened, saved or exported (any kind).
     pub last_dir: Option<PathBuf>,
 }
@@ -65,6 +73,8 @@ impl RecentFiles {
             RecentKind::Logs => &self.logs,
             RecentKind::Patterns => &self.patterns,
             RecentKind::Nmea => &self.nmea,
+            RecentKind::Protocols => &self.protocols,
+            RecentKind::StudyResults => &self.study_results,
         }
     }
 
@@ -74,6 +84,8 @@ impl RecentFiles {
             RecentKind::Logs => &mut self.logs,
             RecentKind::Patterns => &mut self.patterns,
             RecentKind::Nmea => &mut self.nmea,
+            RecentKind::Protocols => &mut self.protocols,
+            RecentKind::StudyResults => &mut self.study_results,
         }
     }
 
@@ -107,7 +119,14 @@ impl RecentFiles {
     /// Drops what a hand-edited config could hold beyond the limits (relative paths, long lists).
     #[must_use]
     pub fn sanitized(mut self) -> Self {
-        for kind in [RecentKind::Routes, RecentKind::Logs, RecentKind::Patterns, RecentKind::Nmea] {
+        for kind in [
+            RecentKind::Routes,
+            RecentKind::Logs,
+            RecentKind::Patterns,
+            RecentKind::Nmea,
+            RecentKind::Protocols,
+            RecentKind::StudyResults,
+        ] {
             let list = self.list_mut(kind);
             list.retain(|p| p.is_absolute());
             list.truncate(RECENT_MAX);

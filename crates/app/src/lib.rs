@@ -34,6 +34,7 @@ pub mod remote_drive;
 pub mod remote_panel;
 pub mod route_import;
 mod sim_panel;
+pub mod study_panel;
 pub mod tiles;
 pub mod vest_panel;
 

@@ -166,47 +166,86 @@ fn connection_ui(station: &mut Station, cfg: &mut Config, vest_ui: &mut VestUi, 
 }
 
 fn grid_ui(station: &mut Station, cfg: &Config, vest_ui: &mut VestUi, ui: &mut egui::Ui) {
+    let ctrl = ui.input(|i| i.modifiers.command);
+    // Firing needs a live unit; selecting does not.
+    let live = station.vest.is_live() || vest_ui.select_mode || ctrl;
+    let on = station.vest.tactors_on;
+    let selected = vest_ui.selected;
+    let clicked = back_view_grid(ui, "vest-grid", vec2(52.0, 40.0), live, |i| {
+        let lit = on.is_some_and(|m| m.contains(i));
+        GridCell {
+            text: format!("T{i}"),
+            fill: if lit {
+                Some(Color32::from_rgb(250, 170, 20))
+            } else if selected.contains(i) {
+                Some(Color32::from_rgb(70, 110, 190))
+            } else {
+                None
+            },
+            hover: format!("tactor {i}: row {}, column {}", i / GRID, i % GRID),
+        }
+    });
+    if let Some(i) = clicked {
+        if vest_ui.select_mode || ctrl {
+            vest_ui.selected = TactorMask(vest_ui.selected.0 ^ (1 << i));
+        } else if let Some(mask) = TactorMask::single(i) {
+            send_manual(station, VestCommand::Fire { mask, duration_ms: cfg.on_ms }, None);
+        }
+    }
+    // The live state comes from the unit's reports: each change wakes the window (the station's waker).
+}
+
+/// One cell of [`back_view_grid`]: its text, its fill (`None`: the theme's button fill, normal text; a
+/// fill is drawn with black text) and its hover text.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct GridCell {
+    /// The cell's label.
+    pub text: String,
+    /// A highlight colour, if any.
+    pub fill: Option<Color32>,
+    /// What hovering says.
+    pub hover: String,
+}
+
+/// The 4x4 tactor grid as worn, seen from behind the wearer (row-major from the wearer's upper left, the
+/// numbering of `vestnav_core::vest`), with its "wearer's left · back view · right" line above: one drawing
+/// for every view that shows or picks tactors on the back (the Vest panel, the Study tab). Cells are buttons
+/// of `size`, enabled when `enabled`, each drawn as `cell(index)` says. Returns the index clicked.
+pub fn back_view_grid(
+    ui: &mut egui::Ui,
+    id_salt: &str,
+    size: egui::Vec2,
+    enabled: bool,
+    cell: impl Fn(usize) -> GridCell,
+) -> Option<usize> {
     ui.horizontal(|ui| {
         ui.label(RichText::new("wearer's left").small());
         ui.label(RichText::new("· back view, as seen behind the wearer ·").small().weak());
         ui.label(RichText::new("right").small());
     });
-    let ctrl = ui.input(|i| i.modifiers.command);
-    egui::Grid::new("vest-grid").spacing(vec2(6.0, 6.0)).show(ui, |ui| {
+    let mut clicked = None;
+    let gap = (size.y * 0.15).clamp(4.0, 10.0);
+    egui::Grid::new(id_salt).spacing(vec2(gap, gap)).show(ui, |ui| {
         for row in 0..GRID {
             for col in 0..GRID {
                 let i = row * GRID + col;
-                let on = station.vest.tactors_on.is_some_and(|m| m.contains(i));
-                let selected = vest_ui.selected.contains(i);
-                let fill = if on {
-                    Color32::from_rgb(250, 170, 20)
-                } else if selected {
-                    Color32::from_rgb(70, 110, 190)
-                } else {
-                    ui.visuals().widgets.inactive.bg_fill
+                let c = cell(i);
+                let text = RichText::new(c.text).strong();
+                // Big cells (the Study tab's answer grid) get big labels; small ones the theme's size.
+                let text = if size.y > 48.0 { text.size(size.y * 0.3) } else { text };
+                let b = match c.fill {
+                    Some(fill) => egui::Button::new(text.color(Color32::BLACK)).fill(fill),
+                    None => egui::Button::new(text.color(ui.visuals().text_color()))
+                        .fill(ui.visuals().widgets.inactive.bg_fill),
                 };
-                let text = RichText::new(format!("T{i}")).strong().color(if on || selected {
-                    Color32::BLACK
-                } else {
-                    ui.visuals().text_color()
-                });
-                let b = egui::Button::new(text).fill(fill).min_size(vec2(52.0, 40.0));
-                // Firing needs a live unit; selecting does not.
-                let live = station.vest.is_live() || vest_ui.select_mode || ctrl;
-                let resp =
-                    ui.add_enabled(live, b).on_hover_text(format!("tactor {i}: row {row}, column {col}"));
-                if resp.clicked() {
-                    if vest_ui.select_mode || ctrl {
-                        vest_ui.selected = TactorMask(vest_ui.selected.0 ^ (1 << i));
-                    } else if let Some(mask) = TactorMask::single(i) {
-                        send_manual(station, VestCommand::Fire { mask, duration_ms: cfg.on_ms }, None);
-                    }
+                if ui.add_enabled(enabled, b.min_size(size)).on_hover_text(c.hover).clicked() {
+                    clicked = Some(i);
                 }
             }
             ui.end_row();
         }
     });
-    // The live state comes from the unit's reports: each change wakes the window (the station's waker).
+    clicked
 }
 
 fn patterns_ui(

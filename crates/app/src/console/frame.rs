@@ -301,6 +301,18 @@ impl Console {
                 let current = self.log_path().map(std::path::Path::to_path_buf);
                 self.log_viewer.ui(ui, &dir, current.as_deref(), &mut self.map, &mut self.cfg.recent);
             }
+            Tab::Study => {
+                let now = Instant::now();
+                let lab_open = &mut self.lab_window.open;
+                self.study.ui(
+                    ui,
+                    &mut self.station,
+                    self.remote.as_mut(),
+                    &mut self.cfg.recent,
+                    lab_open,
+                    now,
+                );
+            }
         }
     }
 
@@ -394,6 +406,7 @@ impl Console {
             ui.selectable_value(&mut self.tab, Tab::Simulation, "Simulation");
             ui.selectable_value(&mut self.tab, Tab::FieldTests, "Field tests");
             ui.selectable_value(&mut self.tab, Tab::SessionLog, "Session log");
+            ui.selectable_value(&mut self.tab, Tab::Study, "Study");
         });
     }
 

@@ -12,7 +12,8 @@
 //! Turns: the window draws when a device reports a change the operator must see (the station's wakers,
 //! `vestnav_station::view_wake`) and otherwise only as often as what it shows needs ([`Console::next_turn`]):
 //! once a second for the ages it shows, at the instant a fix turns stale or lost, and often enough for the
-//! vest worker's liveness check of this thread while a vest is connected.
+//! vest worker's liveness check of this thread while a vest is connected, and when the study runner's next
+//! timer is due (`Station::study_wake_in`).
 
 use std::time::{Duration, Instant};
 
@@ -81,6 +82,10 @@ impl Console {
         // shown in whole seconds.
         if self.remote.is_some() {
             at_most(AGE_STEP);
+        }
+        // The study runner's timers (stimulus end, feedback, the interval) advance in the station's pump.
+        if let Some(d) = self.station.study_wake_in() {
+            at_most(d);
         }
         // A fix turns stale, then lost, with no event at all: turn at the instant it does.
         if let Some(age) = self.position_age(now) {

@@ -1,0 +1,323 @@
+//! The console's Study tab driven with `egui_kittest` on the emulated vest (behind a transport that records
+//! every command the unit receives): a protocol checked and loaded, a trial started, the wearer's answer
+//! clicked on the back-view grid and the station's runner taking it; a broken protocol's line-numbered
+//! error, the file untouched; STOP ALL over the Abort question.
+#![allow(clippy::unwrap_used)]
+
+mod common;
+
+use common::click_at;
+use common::console::*;
+use egui_kittest::Harness;
+use egui_kittest::kittest::Queryable as _;
+use std::path::{Path, PathBuf};
+use vestnav_app::config::Config;
+use vestnav_app::console::{Console, Tab};
+use vestnav_device::wtcu::Request;
+use vestnav_station::study::{StudyPhase, StudyView};
+
+/// A localization protocol of two single tactors, blocked order, one block with feedback.
+const TWO_TACTORS: &str = r#"name = "two-tactors"
+task = "localization"
+participants = ["P07"]
+order = "blocked"
+seed = 1
+
+[localization]
+stimuli = ["T6", "T11"]
+on_ms = 60
+intensity = 255
+repeats = 1
+isi_ms = 0
+
+[[block]]
+name = "practice"
+training = true
+feedback = true
+repetitions = 1
+"#;
+
+fn study_console(fake: &Fake) -> Harness<'static, Console> {
+    let mut h = harness_with(fake, Config { map_tiles: false, guidance_auto: false, ..Config::default() });
+    // The side panel's own grid is out of the way: the labels T1..T16 are the Study grid's.
+    h.state_mut().side_open = false;
+    h.state_mut().tab = Tab::Study;
+    h.run_steps(2);
+    h
+}
+
+fn view(c: &Console) -> Option<StudyView> {
+    c.station.study_view()
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+/// Types the protocol's path and checks it with the tab's Check button.
+fn check(h: &mut Harness<'static, Console>, path: &Path) {
+    h.state_mut().study.protocol = path.display().to_string();
+    h.run_steps(1);
+    h.get_by_label("Check").click();
+    h.run_steps(2);
+}
+
+/// The tactor index of the one FIRE or pattern frame the unit was sent last (the vest's own truth of
+/// what was presented).
+fn presented_tactor(fake: &Fake) -> Option<usize> {
+    fake.sent().iter().rev().find_map(|r| match r {
+        Request::Fire { mask, .. } => mask.indices().next(),
+        Request::Play { frames, .. } => frames.iter().find_map(|f| f.mask.indices().next()),
+        _ => None,
+    })
+}
+
+#[test]
+fn a_loaded_protocol_runs_a_trial_and_takes_the_answer_clicked_on_the_grid() {
+    let fake = Fake::default();
+    let mut h = study_console(&fake);
+    let dir = test_dir("study-run");
+    let protocol = write(&dir, "two.toml", TWO_TACTORS);
+    check(&mut h, &protocol);
+    assert!(h.query_by_label_contains("OK: two-tactors").is_some(), "the check passed");
+    assert_eq!(h.state().study.participant, "P07", "the protocol's participant proposed");
+    h.state_mut().study.out_dir = dir.join("results").display().to_string();
+    h.run_steps(1);
+    h.get_by_label("Load").click();
+    settle(&mut h, |c| view(c).is_some());
+    h.run_steps(2);
+    let v = view(h.state()).unwrap_or_else(|| panic!("not loaded: {:?}", h.state().study.refused));
+    assert_eq!((v.phase, v.trials), (StudyPhase::Ready, 2));
+    assert!(h.query_by_label_contains("Trial 1/2").is_some());
+    assert!(h.query_by_label_contains("READY").is_some());
+    h.get_by_label("Start").click();
+    settle(&mut h, |c| view(c).is_some_and(|v| v.phase == StudyPhase::AwaitingResponse));
+    h.run_steps(2);
+    assert_eq!(view(h.state()).unwrap().phase, StudyPhase::AwaitingResponse);
+    // Blocked order: the protocol's first stimulus, T6 (index 5), reached the unit.
+    let presented = presented_tactor(&fake).expect("the unit was sent a stimulus");
+    assert_eq!(presented, 5, "{:?}", fake.sent());
+    // The wearer (wrongly) reports the tactor to the right of it: T7.
+    h.get_by_label("T7").click();
+    settle(&mut h, |c| view(c).is_some_and(|v| v.last.is_some()));
+    let v = view(h.state()).unwrap();
+    let last = v.last.clone().expect("the runner took the answer");
+    assert_eq!((last.response.as_str(), last.answer.as_str(), last.correct), ("T7", "T6", false));
+    assert!(last.rt_ms > 0.0);
+    h.run_steps(2);
+    assert!(
+        h.query_by_label_contains("INCORRECT: reported T7, the answer was T6").is_some(),
+        "feedback shown in a feedback block"
+    );
+    // The row is on disk at once.
+    let rows = vestnav_core::study::record::read_csv_file(&v.results_csv).unwrap();
+    assert_eq!(rows.len(), 1);
+    assert_eq!(rows[0].response.as_deref(), Some("T7"));
+    assert_eq!(rows[0].correct, Some(false));
+    assert!(v.results_csv.starts_with(dir.join("results")));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_broken_protocol_shows_its_line_and_is_not_touched() {
+    let fake = Fake::default();
+    let mut h = study_console(&fake);
+    let dir = test_dir("study-broken");
+    // Line 4 names an order that does not exist.
+    let broken = TWO_TACTORS.replace("order = \"blocked\"", "order = \"sideways\"");
+    assert_eq!(broken.lines().nth(3), Some("order = \"sideways\""));
+    let protocol = write(&dir, "broken.toml", &broken);
+    let before =
+        (std::fs::read(&protocol).unwrap(), std::fs::metadata(&protocol).unwrap().modified().unwrap());
+    check(&mut h, &protocol);
+    let at_line = format!("{}:4:", protocol.display());
+    assert!(
+        h.query_by_label_contains(&at_line).is_some(),
+        "the error names the file and line 4: {:?}",
+        h.state().study.checked.as_ref().map(|c| c.result.clone())
+    );
+    h.state_mut().study.participant = "P07".into();
+    h.run_steps(2);
+    assert!(disabled(&h, "Load"), "a broken protocol cannot be loaded");
+    let after =
+        (std::fs::read(&protocol).unwrap(), std::fs::metadata(&protocol).unwrap().modified().unwrap());
+    assert_eq!(before, after, "the file was only read");
+    assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1, "nothing written beside it");
+    assert!(view(h.state()).is_none());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn stop_all_acts_over_the_abort_question_and_the_trial_shows_as_stopped() {
+    let fake = Fake::default();
+    let mut h = study_console(&fake);
+    let dir = test_dir("study-stop");
+    let protocol = write(&dir, "two.toml", TWO_TACTORS);
+    check(&mut h, &protocol);
+    h.state_mut().study.out_dir = dir.join("results").display().to_string();
+    h.run_steps(1);
+    h.get_by_label("Load").click();
+    settle(&mut h, |c| view(c).is_some());
+    h.run_steps(2);
+    h.get_by_label("Start").click();
+    settle(&mut h, |c| view(c).is_some_and(|v| v.phase == StudyPhase::AwaitingResponse));
+    h.run_steps(2);
+    h.get_by_label("Abort…").click();
+    h.run_steps(2);
+    assert!(h.query_by_label("Abort the session?").is_some(), "the question is open");
+    fake.sent.lock().unwrap().clear();
+    // A real pointer click on STOP ALL while the modal's backdrop covers the window.
+    let stop = h.get_by_label("STOP ALL").rect().center();
+    click_at(&mut h, stop);
+    settle(&mut h, |c| view(c).is_some_and(|v| v.phase == StudyPhase::Paused));
+    assert!(fake.sent().contains(&Request::StopAll), "the unit was sent STOP ALL: {:?}", fake.sent());
+    let v = view(h.state()).unwrap();
+    assert_eq!(v.phase, StudyPhase::Paused);
+    let why = v.error.clone().unwrap_or_default();
+    assert!(why.contains("STOP ALL during trial 1") && why.contains("stopped"), "{why}");
+    h.get_by_label("Go on").click();
+    h.run_steps(2);
+    assert!(h.query_by_label("Abort the session?").is_none());
+    assert!(h.query_by_label_contains("PAUSED").is_some());
+    assert!(h.query_by_label_contains("STOP ALL during trial 1").is_some(), "the stopped trial is shown");
+    // The row of the stopped trial is on disk, as stopped.
+    let rows = vestnav_core::study::record::read_csv_file(&v.results_csv).unwrap();
+    assert_eq!(rows.len(), 1);
+    assert_eq!(rows[0].outcome, vestnav_core::study::Outcome::Stopped);
+    assert!(!disabled(&h, "Resume"), "Resume is the way on");
+    assert!(disabled(&h, "T6"), "no answer is taken while stopped");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Eight answered test trials of four tactors, six of them correct (counted by hand: 75 %), response
+/// times 400..=1100 ms in 100 ms steps (median 750 ms).
+fn results_rows() -> Vec<vestnav_core::study::TrialRecord> {
+    use vestnav_core::study::{Outcome, Task, TrialRecord};
+    let answers = ["T1", "T2", "T3", "T4", "T1", "T2", "T3", "T4"];
+    let responses = ["T1", "T2", "T3", "T4", "T2", "T2", "T3", "T3"];
+    (0..8)
+        .map(|k| {
+            let mut r = TrialRecord::new("P01", "S1", "four", Task::Localization);
+            r.block_name = "test".into();
+            r.trial = k;
+            r.stimulus = answers[k].into();
+            r.answer = answers[k].into();
+            r.response = Some(responses[k].into());
+            r.correct = Some(answers[k] == responses[k]);
+            r.stimulus_on_s = Some(k as f64 * 3.0);
+            r.rt_ms = Some(400.0 + 100.0 * k as f64);
+            r.response_s = Some(k as f64 * 3.0 + r.rt_ms.unwrap() / 1000.0);
+            r.outcome = Outcome::Answered;
+            r
+        })
+        .collect()
+}
+
+#[test]
+fn the_analysis_view_shows_a_results_file_and_saves_the_same_figures_as_the_report() {
+    let fake = Fake::default();
+    let mut h = study_console(&fake);
+    let dir = test_dir("study-analysis");
+    let rows = results_rows();
+    let csv = write(&dir, "four.csv", &vestnav_core::study::write_csv(&rows));
+    h.get_by_label("Analysis").click();
+    h.run_steps(2);
+    h.state_mut().study.analysis.path = csv.display().to_string();
+    h.run_steps(1);
+    h.get_by_label("Analyse").click();
+    settle(&mut h, |c| !c.study.analysis.is_running());
+    h.run_steps(2);
+    assert!(h.state().study.analysis.error.is_none(), "{:?}", h.state().study.analysis.error);
+    assert!(
+        h.query_by_label_contains("Percent correct: 75.0 % (6 of 8 answered test trials)").is_some(),
+        "the numbers are shown"
+    );
+    assert!(h.query_by_label_contains("Information transfer:").is_some());
+    assert!(h.query_by_label_contains("median 750 ms").is_some());
+    // The report's own figures for the same rows, written independently of the console.
+    let reference = dir.join("reference");
+    std::fs::create_dir_all(&reference).unwrap();
+    let analysis = vestnav_core::study::analyze(&vestnav_core::study::record::read_csv_file(&csv).unwrap());
+    let mut expected: Vec<PathBuf> = vestnav_report::study::figures(&analysis, &reference).unwrap();
+    expected.sort();
+    let mut shown = h.state().study.analysis.figure_names();
+    shown.sort();
+    let names: Vec<String> =
+        expected.iter().map(|p| p.file_name().unwrap().to_string_lossy().into_owned()).collect();
+    assert!(!names.is_empty());
+    assert_eq!(shown, names, "every figure of the report is shown");
+    // Save figures… into a new folder: the same PNGs, byte for byte.
+    let saved = dir.join("saved");
+    h.state_mut().study.analysis.save_dir = saved.display().to_string();
+    h.run_steps(1);
+    h.get_by_label("Save figures…").click();
+    settle(&mut h, |c| !c.study.analysis.is_saving() && c.study.analysis.save_status.is_some());
+    assert!(
+        matches!(h.state().study.analysis.save_status, Some(Ok(_))),
+        "{:?}",
+        h.state().study.analysis.save_status
+    );
+    for (p, name) in expected.iter().zip(&names) {
+        assert_eq!(std::fs::read(p).unwrap(), std::fs::read(saved.join(name)).unwrap(), "{name}");
+    }
+    // A second save asks before it replaces them, and Cancel leaves them.
+    h.get_by_label("Save figures…").click();
+    h.run_steps(2);
+    assert!(h.query_by_label_contains("*.png?").is_some(), "asked before replacing");
+    h.get_by_label("Cancel").click();
+    h.run_steps(2);
+    assert!(h.query_by_label_contains("*.png?").is_none());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Pattern identification: two named cues, one block with feedback, blocked order.
+const TWO_PATTERNS: &str = r#"name = "two-cues"
+task = "pattern-id"
+participants = ["P02"]
+order = "blocked"
+seed = 3
+
+[[pattern]]
+name = "left"
+cue = "turn left"
+on_ms = 100
+
+[[pattern]]
+name = "right"
+cue = "turn right"
+on_ms = 100
+
+[[block]]
+name = "practice"
+training = true
+feedback = true
+repetitions = 1
+"#;
+
+#[test]
+fn a_pattern_study_takes_the_answer_clicked_in_the_pattern_list() {
+    let fake = Fake::default();
+    let mut h = study_console(&fake);
+    let dir = test_dir("study-patterns");
+    let protocol = write(&dir, "cues.toml", TWO_PATTERNS);
+    check(&mut h, &protocol);
+    h.state_mut().study.out_dir = dir.join("results").display().to_string();
+    h.run_steps(1);
+    h.get_by_label("Load").click();
+    settle(&mut h, |c| view(c).is_some());
+    h.run_steps(2);
+    h.get_by_label("Start").click();
+    settle(&mut h, |c| view(c).is_some_and(|v| v.phase == StudyPhase::AwaitingResponse));
+    h.run_steps(2);
+    assert!(fake.sent().iter().any(|r| matches!(r, Request::Play { .. })), "a pattern reached the unit");
+    // Blocked order: the first pattern is "left"; the wearer says so.
+    h.get_by_label("left").click();
+    settle(&mut h, |c| view(c).is_some_and(|v| v.last.is_some()));
+    let last = view(h.state()).unwrap().last.unwrap();
+    assert_eq!((last.response.as_str(), last.answer.as_str(), last.correct), ("left", "left", true));
+    h.run_steps(2);
+    assert!(h.query_by_label_contains("CORRECT: left").is_some());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
