@@ -176,7 +176,7 @@ impl RemotePanel {
     /// Sends `command` to the station being driven (nothing when none is): the Study tab drives a remote
     /// station's study through this, and the outcome shows in the drive's list.
     pub fn send_to_driven(&mut self, command: vestnav_station::command::Command) {
-        self.drive.send(&self.fleet, command);
+        self.drive.send(&self.stations, command);
     }
 
     /// Every station's wearer as the map draws it (a fix older than `fix_stale_s` is drawn as stale).

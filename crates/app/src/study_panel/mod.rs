@@ -198,12 +198,12 @@ impl StudyPanel {
                     self.target = Target::Local;
                     return;
                 };
-                let view = r.fleet().station(name);
-                let stale = view.as_ref().is_none_or(|v| v.is_stale(now, r.fleet().options().stale_after));
+                let view = r.stations().station(name);
+                let stale = view.as_ref().is_none_or(|v| v.is_stale(now, r.stations().stale_after()));
                 let state = view.as_ref().and_then(|v| v.state.as_ref());
                 let age = view.as_ref().map_or_else(
                     || "no contact yet".to_owned(),
-                    |v| v.contact_label(now, r.fleet().options().stale_after),
+                    |v| v.contact_label(now, r.stations().stale_after()),
                 );
                 (
                     state.and_then(|m| m.station.study.clone()),
@@ -544,9 +544,10 @@ impl StudyPanel {
             }
             Target::Remote(name) => {
                 let r = remote?;
-                let view = r.fleet().station(name);
+                let view = r.stations().station(name);
                 if let Some(s) = r.drive.sent.iter().rev().find(|s| s.to == *name) {
-                    let (text, bad) = crate::remote_drive::outcome(s, view.as_ref(), r.fleet().sender(), now);
+                    let (text, bad) =
+                        crate::remote_drive::outcome(s, view.as_ref(), &r.stations().sender_for(name), now);
                     let line = RichText::new(format!("{}: {text}", s.what));
                     ui.label(if bad { line.color(ui.visuals().error_fg_color) } else { line });
                 }
