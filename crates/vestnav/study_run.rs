@@ -1,6 +1,6 @@
 //! `vestnav study run`: one session of a study protocol on a vest, from a terminal — the station's trial
 //! runner (`vestnav_station::study`) with no window. The operator types what the wearer reported after each
-//! stimulus (a label such as `T6` or a pattern's name), or `p` (pause), `r` (resume), `a` (abort), `stop`
+//! stimulus (a label such as `T5` or a pattern's name), or `p` (pause), `r` (resume), `a` (abort), `stop`
 //! (STOP ALL); a simulated wearer (`--wearer sim:P`) answers by itself for demos and tests.
 //!
 //! Every finished trial is already in the results CSV (fsynced) when the next starts; the JSON is written at

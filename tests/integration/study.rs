@@ -52,13 +52,13 @@ fn check_fails_with_the_lines_of_a_broken_protocol() {
     // Valid TOML, but a stimulus longer than the unit allows: refused by the device's limits.
     std::fs::write(
         &path,
-        "name = \"b\"\ntask = \"localization\"\n[localization]\nstimuli = [\"T1\"]\non_ms = 2500\n[[block]]\nname = \"t\"\nrepetitions = 1\n",
+        "name = \"b\"\ntask = \"localization\"\n[localization]\nstimuli = [\"T0\"]\non_ms = 2500\n[[block]]\nname = \"t\"\nrepetitions = 1\n",
     )
     .unwrap();
     let out = Command::new(bin()).args(["study", "check"]).arg(&path).output().unwrap();
     assert_eq!(out.status.code(), Some(1));
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("broken.toml:4: stimulus T1: "), "{err}");
+    assert!(err.contains("broken.toml:4: stimulus T0: "), "{err}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

@@ -231,7 +231,7 @@ fn stop_all_from_the_stop_path_is_recorded_pauses_and_abort_keeps_every_row() {
     let protocol = write(
         &dir,
         "long.toml",
-        "name = \"long\"\ntask = \"localization\"\norder = \"blocked\"\n[localization]\nstimuli = [\"T6\", \"T7\"]\n\
+        "name = \"long\"\ntask = \"localization\"\norder = \"blocked\"\n[localization]\nstimuli = [\"T5\", \"T6\"]\n\
          on_ms = 1500\n[[block]]\nname = \"test\"\nrepetitions = 2\n",
     );
     // A results file of the same name exists: it must survive untouched.
@@ -264,13 +264,13 @@ fn stop_all_from_the_stop_path_is_recorded_pauses_and_abort_keeps_every_row() {
     assert_eq!(presentations(&unit), played);
     let rows = vestnav_core::study::record::read_csv_file(&csv).unwrap();
     assert_eq!(rows.len(), 1);
-    assert_eq!((rows[0].outcome, rows[0].stimulus.as_str()), (Outcome::Stopped, "T6"));
+    assert_eq!((rows[0].outcome, rows[0].stimulus.as_str()), (Outcome::Stopped, "T5"));
     assert!(rows[0].stimulus_on_s.is_some() && rows[0].response.is_none());
 
     // Resume presents the stopped trial again; the wearer answers; then the operator aborts mid-trial.
     study(&mut s, StudyCommand::Resume).unwrap();
     assert!(pump_until(&mut s, Duration::from_secs(2), |s| phase(s) == Some(StudyPhase::Presenting)));
-    assert_eq!(s.study().unwrap().current().unwrap().answer, "T6");
+    assert_eq!(s.study().unwrap().current().unwrap().answer, "T5");
     assert!(study(&mut s, StudyCommand::Respond { answer: "nowhere".into() }).is_err());
     study(&mut s, StudyCommand::Respond { answer: "t7".into() }).unwrap();
     // The next trial waits for this stimulus's end (1.5 s) and the interval.
@@ -285,7 +285,7 @@ fn stop_all_from_the_stop_path_is_recorded_pauses_and_abort_keeps_every_row() {
         outcomes,
         vec![(0, Outcome::Stopped, None), (0, Outcome::Answered, Some(false)), (1, Outcome::Aborted, None)]
     );
-    assert_eq!(rows[1].response.as_deref(), Some("T7"));
+    assert_eq!(rows[1].response.as_deref(), Some("T6"));
     same_rows(&csv.with_extension("json"), &rows);
     assert_eq!(std::fs::read_to_string(&existing).unwrap(), "precious\n");
     drop(s);
@@ -300,7 +300,7 @@ fn a_stimulus_the_unit_refuses_at_run_time_is_recorded_as_refused() {
     let protocol = write(
         &dir,
         "duty.toml",
-        "name = \"duty\"\ntask = \"localization\"\norder = \"blocked\"\n[localization]\nstimuli = [\"T1\"]\n\
+        "name = \"duty\"\ntask = \"localization\"\norder = \"blocked\"\n[localization]\nstimuli = [\"T0\"]\n\
          on_ms = 200\n[[block]]\nname = \"test\"\nrepetitions = 3\n",
     );
     let limits = Limits { max_duty_on_ms: 300, ..Limits::default() };
@@ -309,7 +309,7 @@ fn a_stimulus_the_unit_refuses_at_run_time_is_recorded_as_refused() {
     load(&mut s, &protocol, &dir);
     study(&mut s, StudyCommand::Start).unwrap();
     assert!(pump_until(&mut s, Duration::from_secs(2), |s| phase(s) == Some(StudyPhase::Presenting)));
-    study(&mut s, StudyCommand::Respond { answer: "T1".into() }).unwrap();
+    study(&mut s, StudyCommand::Respond { answer: "T0".into() }).unwrap();
     let paused = pump_until(&mut s, Duration::from_secs(3), |s| phase(s) == Some(StudyPhase::Paused));
     assert!(paused, "{:?} {:?} {:?}", s.study_view(), s.vest.last_reply, unit.view().log);
     let view = s.study_view().unwrap();

@@ -355,7 +355,7 @@ impl PatternEditor {
                             egui::Role::Button,
                             ui.is_enabled(),
                             on,
-                            format!("Paint T{i}"),
+                            format!("Paint {}", vestnav_core::vest::tactor_label(i)),
                         )
                     });
                     let mut set = None;
@@ -383,7 +383,7 @@ impl PatternEditor {
                     ui.painter().text(
                         rect.center(),
                         egui::Align2::CENTER_CENTER,
-                        format!("T{i}"),
+                        vestnav_core::vest::tactor_label(i),
                         egui::TextStyle::Button.resolve(ui.style()),
                         text_color,
                     );
@@ -415,7 +415,7 @@ impl PatternEditor {
                         for col in 0..GRID {
                             let i = row * GRID + col;
                             if let Some(level) = self.levels.get_mut(i) {
-                                ui.label(format!("T{i}"));
+                                ui.label(vestnav_core::vest::tactor_label(i));
                                 ui.add(egui::DragValue::new(level).range(0..=255));
                             }
                         }

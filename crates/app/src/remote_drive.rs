@@ -165,7 +165,7 @@ impl Drive {
             (Some(m), false) if m.is_empty() => RichText::new("unit reports every tactor off"),
             (Some(m), false) => RichText::new(format!(
                 "unit reports on: {}",
-                m.indices().map(|i| format!("T{i}")).collect::<Vec<_>>().join(" ")
+                m.indices().map(vestnav_core::vest::tactor_label).collect::<Vec<_>>().join(" ")
             )),
         };
         ui.label(state_line);
@@ -181,7 +181,7 @@ impl Drive {
                         (true, false) => Color32::from_rgb(250, 170, 20),
                         (false, _) => ui.visuals().widgets.inactive.bg_fill,
                     };
-                    let text = RichText::new(format!("T{i}")).color(if on {
+                    let text = RichText::new(vestnav_core::vest::tactor_label(i)).color(if on {
                         Color32::BLACK
                     } else {
                         ui.visuals().text_color()

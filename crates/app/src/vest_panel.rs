@@ -174,7 +174,7 @@ fn grid_ui(station: &mut Station, cfg: &Config, vest_ui: &mut VestUi, ui: &mut e
     let clicked = back_view_grid(ui, "vest-grid", vec2(52.0, 40.0), live, |i| {
         let lit = on.is_some_and(|m| m.contains(i));
         GridCell {
-            text: format!("T{i}"),
+            text: vestnav_core::vest::tactor_label(i),
             fill: if lit {
                 Some(Color32::from_rgb(250, 170, 20))
             } else if selected.contains(i) {
@@ -356,7 +356,10 @@ pub fn mini_grid(ui: &mut egui::Ui, on: Option<TactorMask>, pt: f32) {
     }
     let text = match on {
         Some(m) if !m.is_empty() => {
-            format!("unit reports on: {}", m.indices().map(|i| format!("T{i}")).collect::<Vec<_>>().join(" "))
+            format!(
+                "unit reports on: {}",
+                m.indices().map(vestnav_core::vest::tactor_label).collect::<Vec<_>>().join(" ")
+            )
         }
         Some(_) => "unit reports every tactor off".to_owned(),
         None => "the unit reports no tactor state".to_owned(),

@@ -24,7 +24,7 @@ order = "blocked"
 seed = 1
 
 [localization]
-stimuli = ["T6", "T11"]
+stimuli = ["T5", "T10"]
 on_ms = 60
 intensity = 255
 repeats = 1
@@ -39,7 +39,7 @@ repetitions = 1
 
 fn study_console(fake: &Fake) -> Harness<'static, Console> {
     let mut h = harness_with(fake, Config { map_tiles: false, guidance_auto: false, ..Config::default() });
-    // The side panel's own grid is out of the way: the labels T1..T16 are the Study grid's.
+    // The side panel's own grid is out of the way: the labels T0..T15 are the Study grid's.
     h.state_mut().side_open = false;
     h.state_mut().tab = Tab::Study;
     h.run_steps(2);
@@ -96,25 +96,25 @@ fn a_loaded_protocol_runs_a_trial_and_takes_the_answer_clicked_on_the_grid() {
     settle(&mut h, |c| view(c).is_some_and(|v| v.phase == StudyPhase::AwaitingResponse));
     h.run_steps(2);
     assert_eq!(view(h.state()).unwrap().phase, StudyPhase::AwaitingResponse);
-    // Blocked order: the protocol's first stimulus, T6 (index 5), reached the unit.
+    // Blocked order: the protocol's first stimulus, T5 (index 5), reached the unit.
     let presented = presented_tactor(&fake).expect("the unit was sent a stimulus");
     assert_eq!(presented, 5, "{:?}", fake.sent());
-    // The wearer (wrongly) reports the tactor to the right of it: T7.
-    h.get_by_label("T7").click();
+    // The wearer (wrongly) reports the tactor to the right of it: T6.
+    h.get_by_label("T6").click();
     settle(&mut h, |c| view(c).is_some_and(|v| v.last.is_some()));
     let v = view(h.state()).unwrap();
     let last = v.last.clone().expect("the runner took the answer");
-    assert_eq!((last.response.as_str(), last.answer.as_str(), last.correct), ("T7", "T6", false));
+    assert_eq!((last.response.as_str(), last.answer.as_str(), last.correct), ("T6", "T5", false));
     assert!(last.rt_ms > 0.0);
     h.run_steps(2);
     assert!(
-        h.query_by_label_contains("INCORRECT: reported T7, the answer was T6").is_some(),
+        h.query_by_label_contains("INCORRECT: reported T6, the answer was T5").is_some(),
         "feedback shown in a feedback block"
     );
     // The row is on disk at once.
     let rows = vestnav_core::study::record::read_csv_file(&v.results_csv).unwrap();
     assert_eq!(rows.len(), 1);
-    assert_eq!(rows[0].response.as_deref(), Some("T7"));
+    assert_eq!(rows[0].response.as_deref(), Some("T6"));
     assert_eq!(rows[0].correct, Some(false));
     assert!(v.results_csv.starts_with(dir.join("results")));
     std::fs::remove_dir_all(&dir).unwrap();
@@ -187,7 +187,7 @@ fn stop_all_acts_over_the_abort_question_and_the_trial_shows_as_stopped() {
     assert_eq!(rows.len(), 1);
     assert_eq!(rows[0].outcome, vestnav_core::study::Outcome::Stopped);
     assert!(!disabled(&h, "Resume"), "Resume is the way on");
-    assert!(disabled(&h, "T6"), "no answer is taken while stopped");
+    assert!(disabled(&h, "T5"), "no answer is taken while stopped");
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
@@ -195,8 +195,8 @@ fn stop_all_acts_over_the_abort_question_and_the_trial_shows_as_stopped() {
 /// times 400..=1100 ms in 100 ms steps (median 750 ms).
 fn results_rows() -> Vec<vestnav_core::study::TrialRecord> {
     use vestnav_core::study::{Outcome, Task, TrialRecord};
-    let answers = ["T1", "T2", "T3", "T4", "T1", "T2", "T3", "T4"];
-    let responses = ["T1", "T2", "T3", "T4", "T2", "T2", "T3", "T3"];
+    let answers = ["T0", "T1", "T2", "T3", "T0", "T1", "T2", "T3"];
+    let responses = ["T0", "T1", "T2", "T3", "T1", "T1", "T2", "T2"];
     (0..8)
         .map(|k| {
             let mut r = TrialRecord::new("P01", "S1", "four", Task::Localization);

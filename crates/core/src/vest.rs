@@ -27,6 +27,21 @@ pub const DEFAULT_ON_MS: u16 = 500;
 /// Current drawn by one running tactor [A] (thesis §4: ~70 mA at 200 Hz drive).
 pub const TACTOR_CURRENT_A: f64 = 0.070;
 
+/// The label of tactor `index` everywhere a person reads one (the Vest panel's grid, the drive controls,
+/// a study's stimuli, responses and results): `T0`..`T15`, the tactor's bit in a [`TactorMask`].
+pub fn tactor_label(index: usize) -> String {
+    format!("T{index}")
+}
+
+/// Parses a tactor label (`T0`..`T15`, case-insensitive, surrounding blanks allowed) to its index.
+pub fn parse_tactor_label(label: &str) -> Option<usize> {
+    let digits = label.trim().strip_prefix(['T', 't'])?;
+    if digits.is_empty() || !digits.bytes().all(|b| b.is_ascii_digit()) {
+        return None;
+    }
+    digits.parse().ok().filter(|&n| n < TACTOR_COUNT)
+}
+
 /// A set of tactors: bit `i` is tactor `i` (see the module doc for the numbering).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
 pub struct TactorMask(pub u16);

@@ -5,6 +5,7 @@
 use std::path::{Path, PathBuf};
 
 use vestnav_core::study::StudyAnalysis;
+use vestnav_core::vest::tactor_label;
 use vestnav_plot::{Chart, Figure, Heatmap, Marker, PlotError, Series};
 
 /// One study figure: its file name (without folder) and the figure.
@@ -66,7 +67,7 @@ pub fn confusion_figure(a: &StudyAnalysis) -> Option<Figure> {
     let fractions = m.row_fractions();
     let values: Vec<f64> = fractions.iter().flat_map(|r| r.iter().map(|f| 100.0 * f)).collect();
     let key = if m.responses.iter().all(|r| vestnav_core::study::protocol::parse_tactor_label(r).is_some()) {
-        "numbers are tactors T1..T16".to_owned()
+        "numbers are tactors T0..T15".to_owned()
     } else {
         let names: Vec<String> =
             m.responses.iter().enumerate().map(|(i, r)| format!("{} {r}", i + 1)).collect();
@@ -98,7 +99,8 @@ pub fn localization_map_figure(a: &StudyAnalysis) -> Option<Figure> {
     let points = (0..16)
         .map(|i| {
             let (r, c) = (i / 4, i % 4);
-            let text = map[r][c].map_or_else(|| format!("T{} -", i + 1), |p| format!("T{} {p:.0}%", i + 1));
+            let text = map[r][c]
+                .map_or_else(|| format!("{} -", tactor_label(i)), |p| format!("{} {p:.0}%", tactor_label(i)));
             (c as f64 + 0.2, 3.0 - r as f64 + 0.5, text)
         })
         .collect();

@@ -233,7 +233,7 @@ fn median(values: impl IntoIterator<Item = f64>) -> Option<f64> {
     RtStats::of(&v).map(|s| s.median_ms)
 }
 
-/// Orders stimulus labels: tactor labels by tactor (T1..T16), then the rest by first appearance.
+/// Orders stimulus labels: tactor labels by tactor (T0..T15), then the rest by first appearance.
 fn ordered_labels<'a>(labels: impl IntoIterator<Item = &'a str>) -> Vec<String> {
     let mut seen: Vec<String> = Vec::new();
     for l in labels {

@@ -41,11 +41,11 @@ fn rt_quartiles_follow_type_7() {
 #[test]
 fn scoring_counts_test_answers_only() {
     let rows = vec![
-        trial("A", 0, true, "T1", Some("T2"), Some(900.0)),
-        trial("A", 1, false, "T1", Some("T1"), Some(400.0)),
-        trial("A", 1, false, "T2", Some("T3"), Some(600.0)),
-        trial("A", 1, false, "T3", None, None),
-        trial("B", 1, false, "T3", Some("T3"), Some(500.0)),
+        trial("A", 0, true, "T0", Some("T1"), Some(900.0)),
+        trial("A", 1, false, "T0", Some("T0"), Some(400.0)),
+        trial("A", 1, false, "T1", Some("T2"), Some(600.0)),
+        trial("A", 1, false, "T2", None, None),
+        trial("B", 1, false, "T2", Some("T2"), Some(500.0)),
     ];
     let a = analyze(&rows);
     assert_eq!(a.answered, 3);
@@ -59,16 +59,16 @@ fn scoring_counts_test_answers_only() {
     assert_eq!(a.learning[0].percent_correct, Some(0.0));
     assert!(a.learning[0].training);
     assert_relative_eq!(a.learning[1].percent_correct.unwrap(), 200.0 / 3.0);
-    // Map: T1 100 %, T2 0 %, T3 100 %, never presented: None.
+    // Map: T0 100 %, T1 0 %, T2 100 %, never presented: None.
     let map = a.localization_map.unwrap();
     assert_eq!(map[0][..3], [Some(100.0), Some(0.0), Some(100.0)]);
     assert_eq!(map[3][3], None);
     // Per participant.
     assert_eq!(a.per_participant.len(), 2);
     assert_eq!(a.per_participant[1].percent_correct, Some(100.0));
-    // Rows in tactor order; the stray response T3 to T2 is a column.
+    // Rows in tactor order; the stray response T2 to T1 is a column.
     let m = a.confusion.as_ref().unwrap();
-    assert_eq!(m.stimuli, ["T1", "T2", "T3"]);
+    assert_eq!(m.stimuli, ["T0", "T1", "T2"]);
     assert_eq!(m.counts[1], [0, 0, 1]);
     assert!(a.summary_lines().iter().any(|l| l.contains("percent correct: 66.7 %")));
 }
@@ -123,8 +123,8 @@ fn a_simulated_wearer_gives_the_channels_values() {
             let nb = neighbours(i);
             let u = (rng.next_u64() >> 11) as f64 / (1u64 << 53) as f64;
             let j = if u < p_correct { i } else { nb[rng.below(nb.len() as u64) as usize] };
-            let label = format!("T{}", i + 1);
-            rows.push(trial("sim", 1, false, &label, Some(&format!("T{}", j + 1)), Some(500.0)));
+            let label = crate::vest::tactor_label(i);
+            rows.push(trial("sim", 1, false, &label, Some(&crate::vest::tactor_label(j)), Some(500.0)));
         }
     }
     // Through the CSV, as a real results file.

@@ -19,7 +19,7 @@
 //! participants = ["P1", "P2"]
 //! order = "latin-square"
 //! [localization]
-//! stimuli = ["T1", "T4", "T13", "T16"]
+//! stimuli = ["T0", "T3", "T12", "T15"]
 //! [[block]]
 //! name = "test"
 //! repetitions = 2

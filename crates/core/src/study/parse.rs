@@ -398,7 +398,7 @@ fn localization(c: &mut Checker<'_>, raw: Option<&Spanned<RawLocalization>>) -> 
                 lines.push(c.line(s));
             }
             None => {
-                c.fail(s, format!("stimulus {:?}: a tactor T1..T16 or a set such as \"T1+T4\"", s.get_ref()));
+                c.fail(s, format!("stimulus {:?}: a tactor T0..T15 or a set such as \"T0+T3\"", s.get_ref()));
             }
         }
     }
@@ -493,7 +493,7 @@ fn inline_frames(c: &mut Checker<'_>, frames: &Spanned<Vec<Spanned<RawFrame>>>) 
     for f in frames.get_ref().iter().take(MAX_FRAMES + 1) {
         let r = f.get_ref();
         let Some(mask) = parse_mask_label(&r.tactors) else {
-            c.fail(f, format!("frame tactors {:?}: tactors such as \"T1+T4\" (\"\" for a pause)", r.tactors));
+            c.fail(f, format!("frame tactors {:?}: tactors such as \"T0+T3\" (\"\" for a pause)", r.tactors));
             ok = false;
             continue;
         };

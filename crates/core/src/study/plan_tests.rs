@@ -85,7 +85,7 @@ fn williams_squares_2_to_8_are_balanced() {
 
 fn protocol(order: &str, participants: &str, reps: u32) -> Protocol {
     let text = format!(
-        "name = \"p\"\ntask = \"localization\"\nseed = 99\norder = \"{order}\"\nparticipants = [{participants}]\n[localization]\nstimuli = [\"T1\", \"T2\", \"T3\", \"T4\"]\n[[block]]\nname = \"training\"\ntraining = true\nrepetitions = 1\n[[block]]\nname = \"test\"\nrepetitions = {reps}\n"
+        "name = \"p\"\ntask = \"localization\"\nseed = 99\norder = \"{order}\"\nparticipants = [{participants}]\n[localization]\nstimuli = [\"T0\", \"T1\", \"T2\", \"T3\"]\n[[block]]\nname = \"training\"\ntraining = true\nrepetitions = 1\n[[block]]\nname = \"test\"\nrepetitions = {reps}\n"
     );
     Protocol::parse(&text, "p.toml").unwrap()
 }
@@ -100,7 +100,7 @@ fn a_seed_reproduces_the_order_and_participants_differ() {
     assert_ne!(a1, b);
     // Every stimulus appears `repetitions` times per block.
     assert_eq!(a1.len(), 4 + 20);
-    for s in ["T1", "T2", "T3", "T4"] {
+    for s in ["T0", "T1", "T2", "T3"] {
         assert_eq!(a1.iter().filter(|t| t.block == 1 && t.answer == s).count(), 5);
     }
     // Indices run 0.. and blocks come in order with their flags.
@@ -135,7 +135,7 @@ fn a_random_order_follows_the_documented_shuffle() {
         order.swap(i, j);
     }
     let got: Vec<String> = plan(&p, "A").unwrap()[4..].iter().map(|t| t.answer.clone()).collect();
-    let want: Vec<String> = order.iter().map(|i| format!("T{}", i + 1)).collect();
+    let want: Vec<String> = order.iter().map(|&i| crate::vest::tactor_label(i)).collect();
     assert_eq!(got, want);
 }
 
@@ -144,7 +144,7 @@ fn blocked_order_repeats_each_stimulus_in_a_row() {
     let p = protocol("blocked", "", 3);
     let t = plan(&p, "anyone").unwrap();
     let test: Vec<&str> = t[4..].iter().map(|t| t.answer.as_str()).collect();
-    assert_eq!(test, ["T1", "T1", "T1", "T2", "T2", "T2", "T3", "T3", "T3", "T4", "T4", "T4"]);
+    assert_eq!(test, ["T0", "T0", "T0", "T1", "T1", "T1", "T2", "T2", "T2", "T3", "T3", "T3"]);
 }
 
 #[test]
@@ -153,7 +153,7 @@ fn latin_square_rows_follow_the_participants_list() {
     let square = williams(4);
     for (k, who) in ["A", "B", "C", "D", "E"].iter().enumerate() {
         let t = plan(&p, who).unwrap();
-        let row: Vec<String> = square[k % 4].iter().map(|i| format!("T{}", i + 1)).collect();
+        let row: Vec<String> = square[k % 4].iter().map(|&i| crate::vest::tactor_label(i)).collect();
         let test: Vec<String> = t[4..].iter().map(|t| t.answer.clone()).collect();
         assert_eq!(test[..4], row[..]);
         assert_eq!(test[4..], row[..]);

@@ -159,27 +159,20 @@ pub enum Stimulus {
 
 /// Every tactor's label, by tactor index (row-major on the back view).
 pub const GRID_LABELS: [&str; TACTOR_COUNT] =
-    ["T1", "T2", "T3", "T4", "T5", "T6", "T7", "T8", "T9", "T10", "T11", "T12", "T13", "T14", "T15", "T16"];
+    ["T0", "T1", "T2", "T3", "T4", "T5", "T6", "T7", "T8", "T9", "T10", "T11", "T12", "T13", "T14", "T15"];
 
-/// The label of a tactor: `T1`..`T16`, tactor index + 1 (row-major from the wearer's upper left as seen on
-/// the back view, [`crate::vest`]).
-pub fn tactor_label(index: usize) -> String {
-    format!("T{}", index + 1)
-}
+/// The label of a tactor (one home for every view: [`crate::vest::tactor_label`]).
+pub use crate::vest::tactor_label;
 
-/// The label of a set of tactors: the tactor labels joined by `+` (`T1+T4`), ascending.
+/// The label of a set of tactors: the tactor labels joined by `+` (`T0+T3`), ascending.
 pub fn mask_label(mask: TactorMask) -> String {
     mask.indices().map(tactor_label).collect::<Vec<_>>().join("+")
 }
 
-/// Parses a tactor label (`T1`..`T16`, case-insensitive) to its index.
-pub fn parse_tactor_label(label: &str) -> Option<usize> {
-    let digits = label.trim().strip_prefix(['T', 't'])?;
-    let n: usize = digits.parse().ok()?;
-    (1..=TACTOR_COUNT).contains(&n).then(|| n - 1)
-}
+/// Parses a tactor label ([`crate::vest::parse_tactor_label`]).
+pub use crate::vest::parse_tactor_label;
 
-/// Parses a set label (`T1+T4`; one tactor alone is a set of one; an empty string is the empty set).
+/// Parses a set label (`T0+T3`; one tactor alone is a set of one; an empty string is the empty set).
 pub fn parse_mask_label(label: &str) -> Option<TactorMask> {
     if label.trim().is_empty() {
         return Some(TactorMask::NONE);
@@ -195,7 +188,7 @@ pub fn label_cell(label: &str) -> Option<(usize, usize)> {
 }
 
 impl Stimulus {
-    /// The label of this stimulus: `T3` / `T1+T4`, a pattern's name, `ROUTE/CONDITION` (route file stem).
+    /// The label of this stimulus: `T2` / `T0+T3`, a pattern's name, `ROUTE/CONDITION` (route file stem).
     pub fn label(&self) -> String {
         match self {
             Self::Tactors { tactors, .. } => mask_label(*tactors),
@@ -387,7 +380,7 @@ impl Protocol {
         }
     }
 
-    /// The answers the operator can click: the 16 tactor labels `T1`..`T16` for localization (followed by
+    /// The answers the operator can click: the 16 tactor labels `T0`..`T15` for localization (followed by
     /// the label of each tactor set the protocol presents), the pattern names for pattern identification,
     /// nothing for navigation.
     pub fn choices(&self) -> Vec<String> {

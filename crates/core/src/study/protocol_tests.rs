@@ -30,7 +30,7 @@ fn every_example_protocol_parses() {
     assert!(loc.blocks[1..].iter().all(|b| !b.training && !b.feedback && b.order == Order::LatinSquare));
     assert_eq!(loc.blocks[0].order, Order::Random);
     assert_eq!(loc.trials_per_participant(), 16 * 7);
-    assert_eq!(loc.choices()[0], "T1");
+    assert_eq!(loc.choices()[0], "T0");
     assert_eq!(loc.choices().len(), 16);
 
     let pat = Protocol::load(&docs().join("pattern-id.toml")).unwrap();
@@ -60,12 +60,13 @@ fn labels_round_trip() {
     for i in 0..16 {
         assert_eq!(parse_tactor_label(&tactor_label(i)), Some(i));
     }
-    assert_eq!(parse_mask_label("T1+T4"), Some(TactorMask::from_indices([0, 3])));
-    assert_eq!(mask_label(TactorMask::from_indices([15, 0])), "T1+T16");
-    assert_eq!(parse_tactor_label("T0"), None);
-    assert_eq!(parse_tactor_label("T17"), None);
-    assert_eq!(parse_mask_label("T1+"), None);
-    assert_eq!(label_cell("T7"), Some((1, 2)));
+    assert_eq!(parse_mask_label("T0+T3"), Some(TactorMask::from_indices([0, 3])));
+    assert_eq!(mask_label(TactorMask::from_indices([15, 0])), "T0+T15");
+    assert_eq!(parse_tactor_label("T-1"), None);
+    assert_eq!(parse_tactor_label("T+3"), None);
+    assert_eq!(parse_tactor_label("T16"), None);
+    assert_eq!(parse_mask_label("T0+"), None);
+    assert_eq!(label_cell("T6"), Some((1, 2)));
 }
 
 #[test]
@@ -81,7 +82,7 @@ fn a_tactor_stimulus_plays_its_on_time_repeats_and_pause() {
     assert_eq!(p.repeats, 3);
     assert_eq!(p.total_ms(), 3 * 500);
     assert_eq!(p.longest_on_ms(), 300);
-    assert_eq!(s.answer(), "T6");
+    assert_eq!(s.answer(), "T5");
 }
 
 #[test]
@@ -117,9 +118,9 @@ fn broken_files_name_their_line() {
         ),
         // A tactor that does not exist, on line 4.
         (
-            "name = \"x\"\ntask = \"localization\"\n[localization]\nstimuli = [\"T1\",\n  \"T17\"]\n[[block]]\nname = \"b\"\nrepetitions = 1\n",
+            "name = \"x\"\ntask = \"localization\"\n[localization]\nstimuli = [\"T0\",\n  \"T16\"]\n[[block]]\nname = \"b\"\nrepetitions = 1\n",
             5,
-            "T17",
+            "T16",
         ),
         // Zero repetitions on line 7.
         (
@@ -217,7 +218,7 @@ fn oversized_and_non_utf8_files_are_refused() {
 
 #[test]
 fn check_stimuli_names_the_refused_stimulus_line() {
-    let text = "name = \"x\"\ntask = \"pattern-id\"\n[[pattern]]\nname = \"short\"\nframes = [{ tactors = \"T1\", ms = 100 }]\n[[pattern]]\nname = \"long\"\nframes = [{ tactors = \"T1\", ms = 3000 }]\n[[block]]\nname = \"b\"\nrepetitions = 1\n";
+    let text = "name = \"x\"\ntask = \"pattern-id\"\n[[pattern]]\nname = \"short\"\nframes = [{ tactors = \"T0\", ms = 100 }]\n[[pattern]]\nname = \"long\"\nframes = [{ tactors = \"T0\", ms = 3000 }]\n[[block]]\nname = \"b\"\nrepetitions = 1\n";
     let p = Protocol::parse(text, "x.toml").unwrap();
     let limit = |pat: &Pattern| {
         if pat.longest_on_ms() > 2000 { Err(format!("on for {} ms", pat.longest_on_ms())) } else { Ok(()) }

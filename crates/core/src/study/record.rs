@@ -162,7 +162,7 @@ pub const CSV_COLUMNS: [(&str, &str); 25] = [
     ("trial", "0-based trial index in the session"),
     ("training", "1 for a training trial, 0 for a test trial"),
     ("feedback", "1 when the wearer was told the answer after responding"),
-    ("stimulus", "what was presented: T1..T16, a set such as T1+T4, a pattern name, or ROUTE/CONDITION"),
+    ("stimulus", "what was presented: T0..T15, a set such as T0+T3, a pattern name, or ROUTE/CONDITION"),
     ("answer", "the correct answer (the stimulus's label)"),
     ("response", "the response entered; empty when none"),
     ("correct", "1 when response equals answer, 0 when not, empty without a response"),

@@ -5,9 +5,9 @@ fn sample() -> Vec<TrialRecord> {
     a.block_name = "test".into();
     a.trial = 3;
     a.block = 1;
-    a.stimulus = "T1+T4".into();
-    a.answer = "T1+T4".into();
-    a.response = Some("T1".into());
+    a.stimulus = "T0+T3".into();
+    a.answer = "T0+T3".into();
+    a.response = Some("T0".into());
     a.correct = Some(false);
     a.stimulus_on_s = Some(12_345.678_901_234_5);
     a.response_s = Some(12_346.1);

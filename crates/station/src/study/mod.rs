@@ -31,7 +31,7 @@ use results::ResultsFile;
 
 /// What an operator can ask of the study runner (through [`crate::command::Command::Study`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-// Inside `Command`'s own `type` tag: `{"type":"study","action":"respond","answer":"T3"}`.
+// Inside `Command`'s own `type` tag: `{"type":"study","action":"respond","answer":"T2"}`.
 #[serde(tag = "action", rename_all = "snake_case")]
 pub enum StudyCommand {
     /// Loads a protocol for one participant and session; results go in `out_dir`.

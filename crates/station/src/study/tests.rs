@@ -60,7 +60,7 @@ fn dir(name: &str) -> PathBuf {
     d
 }
 
-/// T6 then T7, 300 ms each; `feedback` in the one block.
+/// T5 then T6, 300 ms each; `feedback` in the one block.
 fn runner(name: &str, feedback: bool, timing: Timing) -> (StudyRunner, PathBuf) {
     let d = dir(name);
     let p = d.join("p.toml");
@@ -68,7 +68,7 @@ fn runner(name: &str, feedback: bool, timing: Timing) -> (StudyRunner, PathBuf) 
         &p,
         format!(
             "name = \"two\"\ntask = \"localization\"\norder = \"blocked\"\n[localization]\n\
-             stimuli = [\"T6\", \"T7\"]\non_ms = 300\n[[block]]\nname = \"b\"\nfeedback = {feedback}\n\
+             stimuli = [\"T5\", \"T6\"]\non_ms = 300\n[[block]]\nname = \"b\"\nfeedback = {feedback}\n\
              repetitions = 1\n"
         ),
     )
@@ -83,10 +83,10 @@ const TIMING: Timing = Timing { iti_s: 0.5, feedback_s: 0.4, response_timeout_s:
 fn one_trial_speaks_the_marker_vocabulary_and_writes_its_row_at_once() {
     let (mut r, d) = runner("markers", false, TIMING);
     let mut io = Script { now: 10.0, ..Script::default() };
-    assert!(r.command(StudyCommand::Respond { answer: "T6".into() }, &mut io).is_err(), "not started");
+    assert!(r.command(StudyCommand::Respond { answer: "T5".into() }, &mut io).is_err(), "not started");
     r.command(StudyCommand::Start, &mut io).unwrap();
     assert_eq!(r.phase(), StudyPhase::Presenting);
-    assert_eq!(r.view().presented.as_deref(), Some("T6"));
+    assert_eq!(r.view().presented.as_deref(), Some("T5"));
     io.after(&mut r, 0.31);
     assert_eq!(r.phase(), StudyPhase::AwaitingResponse);
     io.now += 0.2;
@@ -97,9 +97,9 @@ fn one_trial_speaks_the_marker_vocabulary_and_writes_its_row_at_once() {
         [
             "session_start two P1 S1",
             "trial_start 1 b",
-            "stimulus_on T6 0x0020",
-            "stimulus_off T6",
-            "response T5 0 510.0",
+            "stimulus_on T5 0x0020",
+            "stimulus_off T5",
+            "response T4 0 510.0",
             "trial_end 1 answered",
         ]
     );
@@ -108,14 +108,14 @@ fn one_trial_speaks_the_marker_vocabulary_and_writes_its_row_at_once() {
     assert_eq!(rows.len(), 1);
     approx::assert_relative_eq!(rows[0].rt_ms.unwrap(), 510.0, epsilon = 1e-6);
     approx::assert_relative_eq!(rows[0].stimulus_on_s.unwrap(), 10.0);
-    assert_eq!((rows[0].correct, rows[0].response.as_deref()), (Some(false), Some("T5")));
+    assert_eq!((rows[0].correct, rows[0].response.as_deref()), (Some(false), Some("T4")));
     // The interval, then trial 2; its response ends the session.
     assert_eq!(r.phase(), StudyPhase::Interval);
     io.after(&mut r, 0.49);
     assert_eq!(r.phase(), StudyPhase::Interval);
     io.after(&mut r, 0.02);
     assert_eq!(r.phase(), StudyPhase::Presenting);
-    r.command(StudyCommand::Respond { answer: "T7".into() }, &mut io).unwrap();
+    r.command(StudyCommand::Respond { answer: "T6".into() }, &mut io).unwrap();
     // Answered while it plays: the end waits for the stimulus.
     assert_eq!(r.phase(), StudyPhase::Interval);
     io.after(&mut r, 0.31);
@@ -145,8 +145,8 @@ fn pause_during_a_trial_records_it_and_resume_presents_it_again() {
     r.command(StudyCommand::Resume, &mut io).unwrap();
     io.after(&mut r, 0.6);
     assert_eq!((r.phase(), io.plays()), (StudyPhase::Presenting, 2));
-    assert_eq!(r.current().unwrap().answer, "T6");
-    r.command(StudyCommand::Respond { answer: "T6".into() }, &mut io).unwrap();
+    assert_eq!(r.current().unwrap().answer, "T5");
+    r.command(StudyCommand::Respond { answer: "T5".into() }, &mut io).unwrap();
     assert_eq!(r.rows()[1].notes, "presented again after a pause");
     assert_eq!(r.rows()[1].trial, 0);
     let _ = std::fs::remove_dir_all(d);
@@ -169,7 +169,7 @@ fn stop_all_in_each_phase_pauses_and_only_a_trial_under_way_is_recorded_stopped(
     assert_eq!((r.rows().len(), io.names().last().copied()), (1, Some("stop_all")));
     r.command(StudyCommand::Resume, &mut io).unwrap();
     io.after(&mut r, 0.6);
-    r.command(StudyCommand::Respond { answer: "T6".into() }, &mut io).unwrap();
+    r.command(StudyCommand::Respond { answer: "T5".into() }, &mut io).unwrap();
     // In the interval: paused, no row.
     r.vest_event(&halted, &mut io);
     assert_eq!((r.phase(), r.rows().len()), (StudyPhase::Paused, 2));
@@ -202,7 +202,7 @@ fn a_refused_stimulus_pauses_and_resume_goes_on_with_the_next() {
     assert!(r.view().error.unwrap().contains("duty cycle"));
     r.command(StudyCommand::Resume, &mut io).unwrap();
     io.after(&mut r, 0.6);
-    assert_eq!(r.current().unwrap().answer, "T7");
+    assert_eq!(r.current().unwrap().answer, "T6");
     // Not sent at all (no vest): refused at once.
     let (mut r, d2) = runner("refuse-now", false, TIMING);
     let mut io = Script { refuse: Some("no vest connected".into()), ..Script::default() };
@@ -226,8 +226,8 @@ fn no_response_in_time_and_feedback_replays_the_correct_stimulus() {
     assert_eq!(r.rows()[0].outcome, Outcome::NoResponse);
     assert_eq!(r.phase(), StudyPhase::Interval);
     io.after(&mut r, 0.5);
-    // Trial 2 (T7), answered wrongly while it plays: feedback, then the replay once it has ended.
-    r.command(StudyCommand::Respond { answer: "T3".into() }, &mut io).unwrap();
+    // Trial 2 (T6), answered wrongly while it plays: feedback, then the replay once it has ended.
+    r.command(StudyCommand::Respond { answer: "T2".into() }, &mut io).unwrap();
     assert_eq!(r.phase(), StudyPhase::Feedback);
     assert!(io.names().contains(&"feedback"));
     assert_eq!(io.plays(), 2);

@@ -102,10 +102,9 @@ fn parse_fields(spec: &str) -> Result<WearerSpec, String> {
     Ok(WearerSpec { p, seed, rt_ms: rt })
 }
 
-/// The tactor index of label `T1`..`T16`.
+/// The tactor index of a label.
 fn tactor_of(label: &str) -> Option<usize> {
-    let n: usize = label.strip_prefix('T')?.parse().ok()?;
-    (1..=GRID * GRID).contains(&n).then(|| n - 1)
+    vestnav_core::vest::parse_tactor_label(label)
 }
 
 /// The choices the wearer confuses `answer` with: its 4-neighbours among `choices` when it is a tactor,
@@ -127,7 +126,7 @@ fn confusable(answer: &str, choices: &[String]) -> Vec<String> {
             if c + 1 < GRID {
                 n.push(t + 1);
             }
-            n.into_iter().map(|i| format!("T{}", i + 1)).filter(|l| choices.contains(l)).collect()
+            n.into_iter().map(vestnav_core::vest::tactor_label).filter(|l| choices.contains(l)).collect()
         }
         None => choices.iter().filter(|c| *c != answer).cloned().collect(),
     }
@@ -155,18 +154,18 @@ mod tests {
     use super::*;
 
     fn labels() -> Vec<String> {
-        (1..=16).map(|i| format!("T{i}")).collect()
+        (0..16).map(vestnav_core::vest::tactor_label).collect()
     }
 
     #[test]
     fn neighbours_on_the_grid() {
         let c = labels();
-        // Corner T1 (row 0, col 0): T5 below, T2 right.
-        assert_eq!(confusable("T1", &c), vec!["T5", "T2"]);
-        // Inner T6 (row 1, col 1): T2 up, T10 down, T5 left, T7 right.
-        assert_eq!(confusable("T6", &c), vec!["T2", "T10", "T5", "T7"]);
-        // Edge T16 (row 3, col 3): T12 up, T15 left.
-        assert_eq!(confusable("T16", &c), vec!["T12", "T15"]);
+        // Corner T0 (row 0, col 0): T4 below, T1 right.
+        assert_eq!(confusable("T0", &c), vec!["T4", "T1"]);
+        // Inner T5 (row 1, col 1): T1 up, T9 down, T4 left, T6 right.
+        assert_eq!(confusable("T5", &c), vec!["T1", "T9", "T4", "T6"]);
+        // Edge T15 (row 3, col 3): T11 up, T14 left.
+        assert_eq!(confusable("T15", &c), vec!["T11", "T14"]);
         let m = confusion_model(0.2, &c);
         for row in &m {
             approx::assert_relative_eq!(row.iter().sum::<f64>(), 1.0, epsilon = 1e-12);
