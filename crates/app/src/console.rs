@@ -149,6 +149,8 @@ pub fn station_settings(cfg: &Config) -> StationSettings {
             loop_route: cfg.loop_route,
             strategy: StrategyKind::from_name(&cfg.strategy).unwrap_or(StrategyKind::Pursuit),
             heading_mode: cfg.heading_mode,
+            off_path_m: cfg.off_path_m,
+            reroute_after_s: cfg.reroute_after_s,
         },
         lost_after_s: cfg.lost_after_s,
     }

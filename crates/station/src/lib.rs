@@ -38,6 +38,7 @@ pub mod fieldtests;
 pub mod guidance;
 pub mod hardware;
 pub mod pinned;
+mod reroute;
 pub mod route;
 pub mod sources;
 pub mod state;
@@ -98,6 +99,8 @@ impl Default for StationSettings {
                 loop_route: true,
                 strategy: vestnav_core::guidance::StrategyKind::Pursuit,
                 heading_mode: vestnav_core::guidance::HeadingMode::Auto,
+                off_path_m: guidance::default_off_path_m(),
+                reroute_after_s: guidance::default_reroute_after_s(),
             },
             lost_after_s: 10.0,
         }
@@ -193,6 +196,7 @@ pub struct Station {
     /// Set-up findings of a failed port, from the thread that looked (it reads files and runs programs,
     /// which the view's thread never waits for).
     port_findings: (std::sync::mpsc::Sender<PortFindings>, std::sync::mpsc::Receiver<PortFindings>),
+    rerouter: reroute::Rerouter,
     /// The drift and cone tests, fed with every fix of whatever source runs.
     pub field_tests: FieldTests,
     /// The origin of the field tests' and the pin detector's times.
@@ -270,6 +274,7 @@ impl Station {
             log_health: vestnav_device::session_log::LogHealth::Ok,
             diagnosed: Vec::new(),
             port_findings: std::sync::mpsc::channel(),
+            rerouter: reroute::Rerouter::default(),
             field_tests: FieldTests::new(),
             epoch: Instant::now(),
             pin: PinDetector::default(),
@@ -678,6 +683,7 @@ impl Station {
             }
             self.guidance = Some(st);
         }
+        self.reroute_turn();
         if self.route_sent != Some(self.route.revision()) {
             self.push_route();
         }
@@ -715,6 +721,7 @@ impl Station {
     fn push_route(&mut self) {
         let msg = GuidanceInput::Route {
             waypoints: self.route.waypoints().to_vec(),
+            path: self.route.path().cloned(),
             next: self.route.next(),
             revision: self.route.revision(),
         };
@@ -728,7 +735,7 @@ impl Station {
     pub fn autosave_route(&mut self, now_or_never: bool) {
         let Some(a) = &mut self.autosave else { return };
         let r = &self.route;
-        if let Some(e) = a.poll(r.name(), r.waypoints(), r.next(), Instant::now(), now_or_never) {
+        if let Some(e) = a.poll(r, Instant::now(), now_or_never) {
             self.notices.raise(Severity::Alarm, Subject::Route, e);
         }
     }
@@ -962,12 +969,15 @@ fn load_route(start: &RouteStart, notices: &mut Notices) -> (RouteModel, Option<
             None => route::parse_gpx(route::DEMO_GPX).map_err(|e| format!("demo route: {e}")),
         };
         match content {
-            Ok(c) => {
-                RouteState { name: c.name.unwrap_or_else(|| "route".into()), waypoints: c.waypoints, next: 0 }
-            }
+            Ok(c) => RouteState {
+                name: c.name.unwrap_or_else(|| "route".into()),
+                waypoints: c.waypoints,
+                next: 0,
+                path: c.path,
+            },
             Err(e) => {
                 notices.raise(Severity::Alarm, Subject::Route, format!("route unreadable: {e}"));
-                RouteState { name: "route".into(), waypoints: Vec::new(), next: 0 }
+                RouteState { name: "route".into(), ..RouteState::default() }
             }
         }
     });

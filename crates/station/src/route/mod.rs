@@ -1,6 +1,9 @@
 //! The route: the one owner of the waypoints, the next waypoint, the edit history and the autosave
 //! ([`RouteModel`]), and the wearer's track ([`Track`]).
 //!
+//! A route planned along paths also holds its path ([`RouteModel::path`]); an edit that moves, adds,
+//! removes or reorders waypoints drops it (straight legs again), a re-route replaces it.
+//!
 //! Every edit (add, move, drag, delete, reorder, rename, typed coordinates, clear, import) is one step of
 //! a bounded undo history ([`UNDO_STEPS`]). A route never holds more than [`MAX_WAYPOINTS`] waypoints:
 //! an edit or an import beyond it is refused with a message, never slowly accepted, so that everything
@@ -8,6 +11,8 @@
 //! hands the new route to guidance and the autosave once per revision.
 
 use std::collections::VecDeque;
+
+use vestnav_core::guidance::RoutePath;
 
 mod files;
 mod track;
@@ -93,6 +98,9 @@ pub struct RouteModel {
     name: String,
     waypoints: Vec<Waypoint>,
     next: usize,
+    /// The path between the waypoints (a planned walk); dropped by an edit that moves, adds, removes or
+    /// reorders waypoints (its vertices would no longer be theirs).
+    path: Option<RoutePath>,
     undo: VecDeque<UndoStep>,
     redo: Vec<UndoStep>,
     /// "Deleted WP3": shown with an **Undo delete** button after a delete or a clear, until the next edit.
@@ -104,7 +112,7 @@ pub struct RouteModel {
 
 impl Default for RouteModel {
     fn default() -> Self {
-        Self::new(RouteState { name: "route".to_owned(), waypoints: Vec::new(), next: 0 })
+        Self::new(RouteState { name: "route".to_owned(), waypoints: Vec::new(), next: 0, path: None })
     }
 }
 
@@ -112,13 +120,15 @@ impl RouteModel {
     /// A model holding `state` (its next index clamped, its waypoints cut to [`MAX_WAYPOINTS`]: use
     /// [`Self::check_len`] first to refuse a longer one).
     pub fn new(state: RouteState) -> Self {
-        let RouteState { name, mut waypoints, next } = state;
+        let RouteState { name, mut waypoints, next, path } = state;
         waypoints.truncate(MAX_WAYPOINTS);
         let next = next.min(waypoints.len());
+        let path = path.filter(|p| p.waypoint_vertices().len() == waypoints.len());
         Self {
             name,
             waypoints,
             next,
+            path,
             undo: VecDeque::new(),
             redo: Vec::new(),
             undo_notice: None,
@@ -151,6 +161,11 @@ impl RouteModel {
         self.next
     }
 
+    /// The path the route follows between its waypoints, when it was planned along paths.
+    pub fn path(&self) -> Option<&RoutePath> {
+        self.path.as_ref()
+    }
+
     /// Bumped by every change (edits, undo, redo, a new next waypoint).
     pub fn revision(&self) -> u64 {
         self.revision
@@ -168,12 +183,17 @@ impl RouteModel {
 
     /// The route as it stands (name, waypoints, next).
     pub fn state(&self) -> RouteState {
-        RouteState { name: self.name.clone(), waypoints: self.waypoints.clone(), next: self.next }
+        RouteState {
+            name: self.name.clone(),
+            waypoints: self.waypoints.clone(),
+            next: self.next,
+            path: self.path.clone(),
+        }
     }
 
     /// Whether the route is `state` (compared without cloning).
     pub fn is(&self, state: &RouteState) -> bool {
-        state.is(&self.name, &self.waypoints, self.next)
+        state.is(&self.name, &self.waypoints, self.next, self.path.as_ref())
     }
 
     /// Sets the next waypoint (deliberate re-targeting, or guidance's arrival); not an undo step.
@@ -206,10 +226,12 @@ impl RouteModel {
             name: std::mem::take(&mut self.name),
             waypoints: std::mem::take(&mut self.waypoints),
             next: self.next,
+            path: self.path.take(),
         };
         let UndoStep { what, state, left_next } = step;
         self.name = state.name;
         self.waypoints = state.waypoints;
+        self.path = state.path;
         let next = if current.next == left_next { state.next } else { current.next };
         self.next = next.min(self.waypoints.len());
         self.undo_notice = None;
@@ -252,6 +274,7 @@ impl RouteModel {
         let before = self.state();
         let n = before.waypoints.len();
         self.waypoints.clear();
+        self.path = None;
         self.next = 0;
         self.commit("clear route".to_owned(), before);
         self.undo_notice = Some(format!("Cleared the route ({n} waypoints)"));
@@ -259,13 +282,40 @@ impl RouteModel {
 
     /// Replaces the route with an imported one (one undo step), heading for its first waypoint.
     pub fn replace(&mut self, name: String, waypoints: Vec<Waypoint>) -> Result<(), RouteError> {
+        self.replace_with_path(name, waypoints, None)
+    }
+
+    /// [`Self::replace`] with the path the route follows between its waypoints (a planned walk, a
+    /// planner's GPX); refused unless the path has one vertex per waypoint.
+    pub fn replace_with_path(
+        &mut self,
+        name: String,
+        waypoints: Vec<Waypoint>,
+        path: Option<RoutePath>,
+    ) -> Result<(), RouteError> {
         Self::check_len(waypoints.len())?;
+        if path.as_ref().is_some_and(|p| p.waypoint_vertices().len() != waypoints.len()) {
+            return Err(RouteError::Field("the path does not pass every waypoint".to_owned()));
+        }
         let before = self.state();
         let what = format!("import {name}");
         self.name = name;
         self.waypoints = waypoints;
+        self.path = path;
         self.next = 0;
         self.commit(what, before);
+        Ok(())
+    }
+
+    /// Replaces the path from the next waypoint on with `path` (a re-route from where the wearer is: its
+    /// vertices must be the same waypoints'): one undo step, the waypoints unchanged.
+    pub fn reroute(&mut self, path: RoutePath) -> Result<(), RouteError> {
+        if path.waypoint_vertices().len() != self.waypoints.len() {
+            return Err(RouteError::Field("the new path does not pass every waypoint".to_owned()));
+        }
+        let before = self.state();
+        self.path = Some(path);
+        self.commit("re-route from the wearer".to_owned(), before);
         Ok(())
     }
 
@@ -297,6 +347,9 @@ impl RouteModel {
         if let Some(w) = self.waypoints.get_mut(i) {
             *w = Waypoint { name: name.to_owned(), lat_deg, lon_deg, arrival_radius_m: radius_m };
         }
+        if moved {
+            self.path = None;
+        }
         self.commit(what, before);
         Ok(())
     }
@@ -307,6 +360,7 @@ impl RouteModel {
         if let Some(j) = j.filter(|&j| j < self.waypoints.len()) {
             let before = self.state();
             self.waypoints.swap(i, j);
+            self.path = None;
             let way = if dir < 0 { "earlier" } else { "later" };
             let name = self.waypoints.get(j).map_or_else(String::new, |w| w.name.clone());
             self.commit(format!("move {name} {way}"), before);
@@ -319,6 +373,7 @@ impl RouteModel {
         if i < self.waypoints.len() {
             let before = self.state();
             let w = self.waypoints.remove(i);
+            self.path = None;
             if i < self.next {
                 self.next -= 1;
             }
@@ -341,6 +396,7 @@ impl RouteModel {
         } else {
             self.waypoints.push(w);
         }
+        self.path = None;
         self.commit(what, before);
         Ok(())
     }
@@ -359,6 +415,7 @@ impl RouteModel {
         if let Some(w) = self.waypoints.get_mut(i) {
             w.lat_deg = lat_deg;
             w.lon_deg = lon_deg;
+            self.path = None;
             self.revision += 1;
         }
     }
