@@ -414,7 +414,7 @@ impl Station {
         self.pin.clear();
         // A new source: its first position must not be joined to the old source's last one.
         self.track.break_segment();
-        match self.factory.open_gps(&self.gps_source, self.route.waypoints(), outputs) {
+        match self.factory.open_gps(&self.gps_source, &self.route.walked(), outputs) {
             Ok(w) => self.gps_worker = Some(w),
             Err(e) => {
                 self.gps.state = Some(SourceState::Lost { reason: e.clone() });

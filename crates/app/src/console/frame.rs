@@ -638,6 +638,21 @@ impl Console {
         );
         ui.add(egui::Slider::new(&mut self.cfg.cue_interval_s, 1.0..=30.0).suffix(" s").text("Cue interval"));
         ui.add(egui::Slider::new(&mut self.cfg.manual_hold_s, 0.0..=60.0).suffix(" s").text("Manual hold"));
+        if self.station.route().path().is_some() {
+            use vestnav_station::command::ranges;
+            ui.add(
+                egui::Slider::new(&mut self.cfg.off_path_m, ranges::OFF_PATH_M)
+                    .suffix(" m")
+                    .text("Off the path"),
+            )
+            .on_hover_text("farther than this from the planned path counts as off it");
+            ui.add(
+                egui::Slider::new(&mut self.cfg.reroute_after_s, ranges::REROUTE_AFTER_S)
+                    .suffix(" s")
+                    .text("Re-route after"),
+            )
+            .on_hover_text("off the path this long: plan again from where the wearer is");
+        }
         match &self.station.guidance {
             None => {
                 ui.label("waiting for the first fix");
@@ -656,9 +671,10 @@ impl Console {
                 ui.label(&st.reason);
                 let n = |v: Option<f64>, u: &str| v.map_or_else(|| "—".to_owned(), |v| format!("{v:.0}{u}"));
                 ui.label(format!(
-                    "distance {} · bearing error {} · cross-track {} · heading from {}",
+                    "distance {} · bearing error {} · cross-track{} {} · heading from {}",
                     n(st.distance_m, " m"),
                     n(st.bearing_error_deg, "°"),
+                    if self.station.route().path().is_some() { " from the path" } else { "" },
                     st.cross_track_m.map_or_else(|| "—".to_owned(), |x| format!("{x:+.1} m")),
                     st.heading_source.name()
                 ));
@@ -674,6 +690,18 @@ impl Console {
                             .color(Color32::from_rgb(230, 150, 0))
                             .strong(),
                     );
+                }
+                if let Some(off_s) = st.off_path_s {
+                    ui.label(
+                        RichText::new(format!(
+                            "off the path for {off_s:.0} s (re-route after {:.0} s)",
+                            self.cfg.reroute_after_s
+                        ))
+                        .color(Color32::from_rgb(230, 150, 0)),
+                    );
+                }
+                if let Some(line) = self.station.reroute_line() {
+                    ui.label(line);
                 }
                 if st.finished {
                     ui.label(RichText::new("Route finished").color(Color32::from_rgb(40, 160, 60)));

@@ -166,6 +166,15 @@ impl RouteModel {
         self.path.as_ref()
     }
 
+    /// The points a wearer walks along the route (what the GPS simulator walks): the path's when it has
+    /// one, else the waypoints.
+    pub fn walked(&self) -> Vec<Waypoint> {
+        match &self.path {
+            Some(p) => p.points().iter().map(|q| Waypoint::at("path", *q)).collect(),
+            None => self.waypoints.clone(),
+        }
+    }
+
     /// Bumped by every change (edits, undo, redo, a new next waypoint).
     pub fn revision(&self) -> u64 {
         self.revision
