@@ -507,7 +507,41 @@ mod tests {
     fn model(n: usize) -> RouteModel {
         let wps =
             (0..n).map(|i| Waypoint::new(format!("WP{}", i + 1), 42.0 + i as f64 * 1e-3, -71.0)).collect();
-        RouteModel::new(RouteState { name: "r".into(), waypoints: wps, next: 0 })
+        RouteModel::new(RouteState { name: "r".into(), waypoints: wps, next: 0, path: None })
+    }
+
+    #[test]
+    fn a_path_survives_renames_and_undo_but_not_moves() {
+        use vestnav_core::geo::LatLon;
+        let mut m = model(0);
+        let pts: Vec<LatLon> = (0..5).map(|i| LatLon::new(42.0 + f64::from(i) * 1e-3, -71.0)).collect();
+        let wps = vec![Waypoint::at("A", pts[0]), Waypoint::at("B", pts[4])];
+        let path = RoutePath::new(pts.clone(), vec![0, 4]).unwrap();
+        assert!(
+            m.replace_with_path(
+                "walk".into(),
+                wps.clone(),
+                Some(RoutePath::new(pts.clone(), vec![0]).unwrap())
+            )
+            .is_err()
+        );
+        m.replace_with_path("walk".into(), wps, Some(path.clone())).unwrap();
+        assert_eq!(m.path(), Some(&path));
+        assert_eq!(m.walked().len(), 5, "the simulator walks the path");
+        m.edit(0, "Start", pts[0].lat_deg, pts[0].lon_deg, None).unwrap();
+        assert_eq!(m.path(), Some(&path), "a rename keeps it");
+        m.drag(1, 42.01, -71.0);
+        m.end_drag();
+        assert_eq!(m.path(), None, "a moved waypoint drops it");
+        assert!(m.undo());
+        assert_eq!(m.path(), Some(&path), "undo brings it back");
+        // A re-route replaces it as one undo step.
+        let detour = path.replaced_from(1, &[LatLon::new(42.002, -70.999), pts[4]], &[1]).unwrap();
+        m.reroute(detour.clone()).unwrap();
+        assert_eq!(m.path(), Some(&detour));
+        assert_eq!(m.undo_label(), Some("re-route from the wearer"));
+        // The autosave keeps it.
+        assert_eq!(parse_autosave(&autosave_gpx(&m.state())).unwrap().path, Some(detour));
     }
 
     #[test]
