@@ -496,9 +496,8 @@ impl PathGraph {
             points.push(to.pos);
         }
         let length_m = steps.iter().sum();
-        let last = points.len() - 1;
         Some(Route {
-            stops: vec![0, last],
+            stops: vec![0, points.len() - 1],
             points,
             length_m,
             cost: g[goal as usize],

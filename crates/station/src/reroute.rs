@@ -147,7 +147,7 @@ impl Station {
             return;
         };
         let mut points = vec![from];
-        points.extend(self.route.waypoints().iter().skip(next).map(|w| w.pos()));
+        points.extend(self.route.waypoints().iter().skip(next).map(vestnav_core::guidance::Waypoint::pos));
         let (graph, profile) = (Arc::clone(graph), self.rerouter.profile);
         let (tx, rx) = channel();
         let spawned = std::thread::Builder::new().name("osm-reroute".into()).spawn(move || {

@@ -282,6 +282,9 @@ impl NavState {
 }
 
 /// What guidance decided, and why (the app shows `reason` and the numbers).
+// Each flag is a separate fact the operator reads (stop, disturbed compass, standing, re-route), not a
+// state machine in disguise.
+#[allow(clippy::struct_excessive_bools)]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Decision {
     /// The cue to play now, if any.

@@ -150,6 +150,8 @@ fn offset_en(en: &[DVec2]) -> Option<PathOffset> {
 }
 
 /// Where the wearer stands relative to the path section `leg` and where to aim along it.
+// Units in names are the house style (`_m`), even when every field has the same one.
+#[allow(clippy::struct_field_names)]
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(super) struct PathAim {
     /// Signed cross-track distance from the section [m] (see [`PathOffset`]).
