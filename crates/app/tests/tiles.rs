@@ -674,8 +674,7 @@ fn route_to_here_follows_the_extracts_paths() {
         }
         std::thread::sleep(Duration::from_millis(10));
     }
-    let route = h.state().station.route();
-    let wps = route.waypoints().to_vec();
+    let (route, wps) = (h.state().station.route(), h.state().station.route().waypoints().to_vec());
     assert_eq!(wps.len(), 1, "one waypoint; notices: {:?}", h.state().station.notices.all());
     let pts = route.path().expect("a path").points().to_vec();
     assert!(pts.len() >= 3, "{} points", pts.len());
@@ -704,8 +703,7 @@ fn route_to_here_follows_the_extracts_paths() {
         std::thread::sleep(Duration::from_millis(10));
     }
     let route = h.state().station.route();
-    let names: Vec<&str> = route.waypoints().iter().map(|w| w.name.as_str()).collect();
-    assert_eq!(names, ["A", "M", "B"]);
+    assert_eq!(route.waypoints().iter().map(|w| w.name.as_str()).collect::<Vec<_>>(), ["A", "M", "B"]);
     let path = route.path().expect("a path");
     let legs = path.points();
     assert!(legs.len() >= 3 && legs[1..legs.len() - 1].iter().all(on_graph));
