@@ -4,8 +4,8 @@ use std::path::{Path, PathBuf};
 
 use clap::{Args, ValueEnum};
 use vestnav_core::gnss_sim::GnssErrorModel;
-use vestnav_core::guidance::{HeadingMode, StrategyKind, Waypoint};
-use vestnav_core::wearer::{HeadingSim, SimConfig, SimResult, SimSummary, simulate_many};
+use vestnav_core::guidance::{HeadingMode, RoutePath, StrategyKind, Waypoint};
+use vestnav_core::wearer::{HeadingSim, SimConfig, SimResult, SimSummary, simulate_many_along};
 use vestnav_report::nav::{NavReport, nav_figure};
 use vestnav_report::to_json;
 
@@ -55,7 +55,9 @@ impl HeadingArg {
 /// Arguments of `vestnav nav simulate`.
 #[derive(Debug, Args)]
 pub struct SimulateArgs {
-    /// Route: a GPX file (its first route, else its waypoints).
+    /// Route: a GPX file (its first route, else its waypoints). A route with a track through its points
+    /// (`route plan --gpx`) follows that track as its path: guidance steers along it and the cross-track
+    /// error is measured from it.
     #[arg(long)]
     pub route: PathBuf,
     /// Guidance strategy.
@@ -100,15 +102,16 @@ pub struct SimulateArgs {
 }
 
 /// Reads the waypoints of a GPX route file: its first route with points, else its waypoints, else its first
-/// track.
-pub fn load_route(path: &Path) -> anyhow::Result<Vec<Waypoint>> {
+/// track; and the path the route follows when the file has one (a planner's GPX: a track through the
+/// route's points, `RouteFile::route_path`).
+pub fn load_route(path: &Path) -> anyhow::Result<(Vec<Waypoint>, Option<RoutePath>)> {
     // The reader's error names the file already.
     let file = vestnav_device::route_file::read_gpx(path)?;
     let Some(route) = file.default_route().filter(|r| !r.waypoints.is_empty()) else {
         anyhow::bail!("{}: no route points or waypoints", path.display());
     };
     // Each waypoint's own arrival radius (a vestnav GPX extension) is kept.
-    Ok(route.waypoints.clone())
+    Ok((route.waypoints, route.path))
 }
 
 fn strategies(arg: StrategyArg) -> Vec<StrategyKind> {
@@ -152,9 +155,10 @@ pub fn run_simulate(args: &SimulateArgs) -> anyhow::Result<()> {
     if args.runs == 0 || args.runs > 10_000 {
         anyhow::bail!("--runs must be between 1 and 10000");
     }
-    let mut waypoints = load_route(&args.route)?;
+    let (mut waypoints, mut path) = load_route(&args.route)?;
     if let Some(osm) = &args.osm {
-        waypoints = crate::route_plan::follow_paths(osm, &waypoints, args.profile.into())?;
+        let (w, p) = crate::route_plan::follow_paths(osm, &waypoints, args.profile.into())?;
+        (waypoints, path) = (w, Some(p));
     }
     let mut all: Vec<(SimSummary, Vec<SimResult>)> = Vec::new();
     let headings: Vec<Option<HeadingArg>> =
@@ -162,7 +166,7 @@ pub fn run_simulate(args: &SimulateArgs) -> anyhow::Result<()> {
     for kind in strategies(args.strategy) {
         for &heading in &headings {
             let cfg = config(args, kind, heading)?;
-            let (runs, summary) = simulate_many(&waypoints, &cfg, args.runs, args.seed)?;
+            let (runs, summary) = simulate_many_along(&waypoints, path.as_ref(), &cfg, args.runs, args.seed)?;
             all.push((summary, runs));
         }
     }
@@ -170,6 +174,7 @@ pub fn run_simulate(args: &SimulateArgs) -> anyhow::Result<()> {
         let mut report =
             NavReport::new(args.route.display().to_string(), waypoints.len(), args.runs, args.seed, &all);
         report.pace_m_s = Some(args.pace_m_s);
+        report.path_points = path.as_ref().map(|p| p.points().len());
         print!("{}", to_json(&report)?);
     } else {
         println!(
@@ -181,6 +186,13 @@ pub fn run_simulate(args: &SimulateArgs) -> anyhow::Result<()> {
             args.pace_m_s,
             args.gnss
         );
+        match &path {
+            Some(p) => println!(
+                "cross-track measured from the path ({} points) between the waypoints; guidance follows it",
+                p.points().len()
+            ),
+            None => println!("cross-track measured from the straight legs between the waypoints"),
+        }
         println!(
             "{:<9} {:<8} {:>8} {:>18} {:>16} {:>16} {:>14} {:>10}",
             "strategy",

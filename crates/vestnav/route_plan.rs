@@ -9,6 +9,7 @@ use std::time::Instant;
 use anyhow::{Context as _, bail};
 use clap::{Args, ValueEnum};
 use vestnav_core::geo::{Earth, LatLon};
+use vestnav_core::guidance::RoutePath;
 use vestnav_device::route_file::{RouteFile, Waypoint, write_gpx};
 use vestnav_osm::tile::{TILE_SIZE, TileId, mercator_from_wgs84};
 use vestnav_osm::{ATTRIBUTION, Extract, Profile, Renderer, Route};
@@ -57,8 +58,9 @@ pub struct PlanArgs {
     /// How ways are weighed.
     #[arg(long, value_enum, default_value = "shortest")]
     pub profile: ProfileArg,
-    /// Write the route as a GPX 1.1 route (`<rte>`, one point per node), which `nav simulate --route` and
-    /// the console read.
+    /// Write the walk as GPX 1.1: the points planned through as the route (`<rte>`: Start, Via 1, …, Goal,
+    /// each where the walk passes it) and the path along the ways as a track (`<trk>` "path", one point per
+    /// node), which `nav simulate --route` and the console read back as a route following that path.
     #[arg(long, value_name = "FILE.gpx")]
     pub gpx: Option<PathBuf>,
     /// Print one JSON object (points, length, ways, timings) instead of the summary.
@@ -98,51 +100,42 @@ fn load(path: &Path) -> anyhow::Result<(Extract, f64)> {
     Ok((extract, t0.elapsed().as_secs_f64()))
 }
 
-/// The route as GPX waypoints: `P1`, `P2`, ... (the goal named `Goal`).
-pub fn route_waypoints(route: &Route) -> Vec<Waypoint> {
-    let n = route.points.len();
-    route
-        .points
+/// The points a walk was planned through as its waypoints, where it passes them: `Start`, `Via 1`, …,
+/// `Goal`; and its path.
+pub fn planned_waypoints(route: &Route, points: &[LatLon]) -> anyhow::Result<(Vec<Waypoint>, RoutePath)> {
+    let n = points.len();
+    let named: Vec<Waypoint> = points
         .iter()
         .enumerate()
         .map(|(i, p)| {
-            let name = if i + 1 == n { "Goal".to_owned() } else { format!("P{}", i + 1) };
-            Waypoint::new(name, p.lat_deg, p.lon_deg)
+            let name = match i {
+                0 => "Start".to_owned(),
+                i if i + 1 == n => "Goal".to_owned(),
+                i => format!("Via {i}"),
+            };
+            Waypoint::at(name, *p)
         })
-        .collect()
+        .collect();
+    Ok(route.guided(&named)?)
 }
 
-/// "Follow paths": the route through `waypoints` planned leg by leg along the extract's paths, as dense
-/// guidance waypoints (the given waypoints keep their names; the points between are `name·k`).
+/// "Follow paths": the route through `waypoints` planned leg by leg along the extract's paths: the same
+/// waypoints (names and radii kept) moved onto the paths where the walk passes them, and the path.
 pub fn follow_paths(
     osm: &Path,
-    waypoints: &[vestnav_core::guidance::Waypoint],
+    waypoints: &[Waypoint],
     profile: Profile,
-) -> anyhow::Result<Vec<vestnav_core::guidance::Waypoint>> {
-    let (extract, _) = load(osm)?;
-    let mut out: Vec<vestnav_core::guidance::Waypoint> = Vec::new();
-    for (i, pair) in waypoints.windows(2).enumerate() {
-        let [a, b] = pair else { continue };
-        let leg = extract
-            .graph
-            .plan(a.pos(), b.pos(), profile)
-            .with_context(|| format!("{}: leg {} ({} to {})", osm.display(), i + 1, a.name, b.name))?;
-        let n = leg.points.len();
-        for (k, p) in leg.points.iter().enumerate().skip(usize::from(!out.is_empty())) {
-            let name = if k + 1 == n {
-                b.name.clone()
-            } else if k == 0 {
-                a.name.clone()
-            } else {
-                format!("{}·{k}", a.name)
-            };
-            out.push(vestnav_core::guidance::Waypoint::at(name, *p));
-        }
-    }
-    if out.is_empty() {
+) -> anyhow::Result<(Vec<Waypoint>, RoutePath)> {
+    if waypoints.len() < 2 {
         bail!("--osm needs a route of at least two points");
     }
-    Ok(out)
+    let (extract, _) = load(osm)?;
+    let points: Vec<LatLon> = waypoints.iter().map(Waypoint::pos).collect();
+    let route = extract
+        .graph
+        .plan_via(&points, profile)
+        .with_context(|| format!("{}: following the route's paths", osm.display()))?;
+    Ok(route.guided(waypoints)?)
 }
 
 /// Runs `vestnav route plan`.
@@ -160,7 +153,8 @@ pub fn run_plan(args: &PlanArgs) -> anyhow::Result<()> {
     let plan_s = t0.elapsed().as_secs_f64();
     let geodesic_m = Earth::Wgs84.distance_m(args.from, args.to);
     if let Some(path) = &args.gpx {
-        let file = RouteFile::from_route("Planned walk", route_waypoints(&route));
+        let (waypoints, walk) = planned_waypoints(&route, &points)?;
+        let file = RouteFile::with_path("Planned walk", waypoints, Some(&walk));
         write_gpx(path, &file).with_context(|| format!("writing {}", path.display()))?;
     }
     if args.json {
@@ -216,7 +210,10 @@ pub fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
         LatLon::new(f64::midpoint(sw.lat_deg, ne.lat_deg), f64::midpoint(sw.lon_deg, ne.lon_deg))
     };
     let route = match &args.route {
-        Some(p) => crate::nav::load_route(p)?.into_iter().map(|w| w.pos()).collect(),
+        Some(p) => match crate::nav::load_route(p)? {
+            (_, Some(path)) => path.points().to_vec(),
+            (waypoints, None) => waypoints.iter().map(Waypoint::pos).collect(),
+        },
         None => Vec::new(),
     };
     let renderer = Renderer::new(Arc::new(extract.map));

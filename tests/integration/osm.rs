@@ -1,6 +1,7 @@
 //! The offline OpenStreetMap through the binary: `route plan` on the Helsinki extract (© OpenStreetMap
-//! contributors, `ODbL`; tests/data/osm) writes a GPX that `nav simulate` walks to the end in every run;
-//! `nav simulate --osm` plans the legs itself; `map render` draws a PNG; bad input is refused by name.
+//! contributors, `ODbL`; tests/data/osm) writes a GPX (the route and its path) that `nav simulate` walks to
+//! the end in every run, guided along the path; `nav simulate --osm` plans the path itself; `map render`
+//! draws a PNG; bad input is refused by name.
 
 use std::path::PathBuf;
 use std::process::Command;
@@ -78,6 +79,11 @@ fn a_planned_walk_is_written_as_gpx_and_every_simulated_run_arrives() {
     ]);
     assert!(ok, "{err}");
     all_runs_arrive(&out);
+    // The GPX holds the walk's points as its route and the path as a track: guidance follows the path and
+    // the cross-track error is measured from it.
+    let sim: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(sim["waypoints"].as_u64(), Some(2), "Start and Goal");
+    assert_eq!(sim["path_points"].as_u64(), Some(v["points"].as_array().unwrap().len() as u64));
     // The map of the same area with the route over it.
     let png = dir.join("map.png");
     let (ok, _, err) = vestnav(&[
@@ -123,7 +129,8 @@ fn nav_simulate_follows_paths_between_sparse_waypoints() {
     ]);
     assert!(ok, "{err}");
     let v: serde_json::Value = serde_json::from_str(&out).unwrap();
-    assert!(v["waypoints"].as_u64().unwrap() > 20, "dense route expected: {}", v["waypoints"]);
+    assert_eq!(v["waypoints"].as_u64(), Some(3), "the route's own waypoints A, B, C");
+    assert!(v["path_points"].as_u64().unwrap() > 20, "a dense path expected: {}", v["path_points"]);
     all_runs_arrive(&out);
     let _ = std::fs::remove_dir_all(&dir);
 }

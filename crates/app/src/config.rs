@@ -72,6 +72,10 @@ pub struct Config {
     pub log_dir: Option<PathBuf>,
     /// Which heading steers guidance: auto (a fresh, good compass, else COG), compass only, or COG only.
     pub heading_mode: vestnav_core::guidance::HeadingMode,
+    /// On a route planned along paths: farther than this from the path is off it [m].
+    pub off_path_m: f64,
+    /// Off the path this long re-plans the route from where the wearer is [s].
+    pub reroute_after_s: f64,
     /// Compass calibrations by unit (its port, or "emulated"), sent to the unit when it connects.
     pub compass_calibrations: std::collections::BTreeMap<String, vestnav_core::compass::Calibration>,
     /// Light, high-contrast theme (for sunlight) instead of the dark one (View menu).
@@ -119,6 +123,8 @@ impl Default for Config {
             user_patterns: Vec::new(),
             log_dir: None,
             heading_mode: vestnav_core::guidance::HeadingMode::Auto,
+            off_path_m: vestnav_station::guidance::default_off_path_m(),
+            reroute_after_s: vestnav_station::guidance::default_reroute_after_s(),
             compass_calibrations: std::collections::BTreeMap::new(),
             light_theme: false,
             large_text: false,
@@ -264,6 +270,8 @@ impl Config {
         self.arrival_radius_m = fix(self.arrival_radius_m, ranges::ARRIVAL_RADIUS_M, d.arrival_radius_m);
         self.cue_interval_s = fix(self.cue_interval_s, ranges::CUE_INTERVAL_S, d.cue_interval_s);
         self.manual_hold_s = fix(self.manual_hold_s, ranges::MANUAL_HOLD_S, d.manual_hold_s);
+        self.off_path_m = fix(self.off_path_m, ranges::OFF_PATH_M, d.off_path_m);
+        self.reroute_after_s = fix(self.reroute_after_s, ranges::REROUTE_AFTER_S, d.reroute_after_s);
         self.walking_speed_m_s = fix(self.walking_speed_m_s, 0.2..=5.0, d.walking_speed_m_s);
         self.stale_after_s = fix(self.stale_after_s, ranges::STALE_AFTER_S, d.stale_after_s);
         self.lost_after_s =

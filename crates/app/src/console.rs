@@ -98,6 +98,8 @@ pub struct Console {
     pub vest_ui: VestUi,
     /// The map's view state (centre, zoom, tiles, editor, tools).
     pub map: MapView,
+    /// The extract's path network handed to the station for re-routing (graph and profile).
+    network_shared: Option<(usize, vestnav_osm::Profile)>,
     /// The compass calibration wizard.
     pub compass_wizard: crate::compass_panel::Wizard,
     /// The pattern editor (Vest panel), kept while its window is closed.
@@ -156,6 +158,8 @@ pub fn station_settings(cfg: &Config) -> StationSettings {
             loop_route: cfg.loop_route,
             strategy: StrategyKind::from_name(&cfg.strategy).unwrap_or(StrategyKind::Pursuit),
             heading_mode: cfg.heading_mode,
+            off_path_m: cfg.off_path_m,
+            reroute_after_s: cfg.reroute_after_s,
         },
         lost_after_s: cfg.lost_after_s,
     }
@@ -209,6 +213,7 @@ impl Console {
             gps_ui: GpsUi::from_config(&cfg.gps),
             vest_ui: VestUi::from_config(&cfg.vest),
             map: MapView::new(cfg.follow),
+            network_shared: None,
             cfg_saved: cfg.clone(),
             cfg,
             cfg_path,
@@ -363,6 +368,7 @@ impl Console {
         if identified {
             crate::compass_panel::on_identified(&mut self.station, &self.cfg);
         }
+        crate::map_panel::walk::share_network(&self.map, &mut self.station, &mut self.network_shared);
         self.sync_settings_from_station();
     }
 

@@ -20,6 +20,8 @@ pub struct ImportChoice {
     pub name: String,
     /// The waypoints it gives.
     pub waypoints: Vec<Waypoint>,
+    /// The path it follows between them (a planned walk; a route with a track through its points).
+    pub path: Option<vestnav_core::guidance::RoutePath>,
 }
 
 /// Indices of the points of `pts` (east/north [m]) that the Ramer–Douglas–Peucker algorithm keeps with
@@ -81,10 +83,15 @@ pub fn choices(file: &RouteFile) -> Vec<ImportChoice> {
     let mut out = Vec::new();
     for (k, r) in file.routes.iter().enumerate().filter(|(_, r)| !r.points.is_empty()) {
         let name = r.name.clone().unwrap_or_else(|| format!("route {}", k + 1));
+        let path = file.route_path(&r.points);
+        let along = path
+            .as_ref()
+            .map_or_else(String::new, |p| format!(", along a path of {} points", p.points().len()));
         out.push(ImportChoice {
-            label: format!("route '{name}' ({} points)", r.points.len()),
+            label: format!("route '{name}' ({} points{along})", r.points.len()),
             name,
             waypoints: r.points.clone(),
+            path,
         });
     }
     if !file.waypoints.is_empty() {
@@ -93,6 +100,7 @@ pub fn choices(file: &RouteFile) -> Vec<ImportChoice> {
             label: format!("{n} waypoint{}", if n == 1 { "" } else { "s" }),
             name: file_name.clone(),
             waypoints: file.waypoints.clone(),
+            path: None,
         });
     }
     for (k, t) in file.tracks.iter().enumerate() {
@@ -106,6 +114,7 @@ pub fn choices(file: &RouteFile) -> Vec<ImportChoice> {
             label: format!("track '{name}' ({} points, simplified to {})", pts.len(), waypoints.len()),
             name,
             waypoints,
+            path: None,
         });
     }
     out

@@ -621,9 +621,10 @@ fn broken_osm_extract_is_refused_naming_the_file() {
 }
 
 /// "Route to here" on the Helsinki extract in the console: planned off the UI thread, the route replaced
-/// in one undo step by a dense route whose every point between the two ends is a node of the extract's
-/// path network, ending at the clicked point, and no shorter than the geodesic (geographiclib); a point
-/// far from any path gives a notice, not a route.
+/// in one undo step by one waypoint at the clicked point and a dense path to it whose every point between
+/// the two ends is a node of the extract's path network, no shorter than the geodesic (geographiclib);
+/// "Follow paths" keeps the route's waypoints, with the path through them; a point far from any path
+/// gives a notice, not a route. The station has the console's network for re-routing.
 #[test]
 fn route_to_here_follows_the_extracts_paths() {
     use geographiclib_rs::{Geodesic, InverseGeodesic as _};
@@ -632,7 +633,7 @@ fn route_to_here_follows_the_extracts_paths() {
     let path = osm_data("helsinki.osm.pbf");
     let extract = vestnav_osm::Extract::read(&path).unwrap();
     let nodes: Vec<LatLon> = extract.graph.nodes().map(|(_, p)| p).collect();
-    let on_graph = |p: &vestnav_station::route::Waypoint| {
+    let on_graph = |p: &LatLon| {
         nodes.iter().any(|n| (n.lat_deg - p.lat_deg).abs() < 1e-9 && (n.lon_deg - p.lon_deg).abs() < 1e-9)
     };
     let geo = Geodesic::wgs84();
@@ -673,13 +674,16 @@ fn route_to_here_follows_the_extracts_paths() {
         }
         std::thread::sleep(Duration::from_millis(10));
     }
-    let wps = h.state().station.route().waypoints().to_vec();
-    assert!(wps.len() >= 3, "{} points; notices: {:?}", wps.len(), h.state().station.notices.all());
-    assert!(wps[1..wps.len() - 1].iter().all(on_graph), "a point off the network");
-    let last = wps.last().unwrap();
+    let (route, wps) = (h.state().station.route(), h.state().station.route().waypoints().to_vec());
+    assert_eq!(wps.len(), 1, "one waypoint; notices: {:?}", h.state().station.notices.all());
+    let pts = route.path().expect("a path").points().to_vec();
+    assert!(pts.len() >= 3, "{} points", pts.len());
+    assert!(pts[1..pts.len() - 1].iter().all(on_graph), "a point off the network");
+    let last = pts.last().unwrap();
     assert!(dist((last.lat_deg, last.lon_deg), (to.lat_deg, to.lon_deg)) < 0.01);
+    assert!(dist((wps[0].lat_deg, wps[0].lon_deg), (to.lat_deg, to.lon_deg)) < 0.01);
     let along: f64 =
-        wps.windows(2).map(|w| dist((w[0].lat_deg, w[0].lon_deg), (w[1].lat_deg, w[1].lon_deg))).sum();
+        pts.windows(2).map(|w| dist((w[0].lat_deg, w[0].lon_deg), (w[1].lat_deg, w[1].lon_deg))).sum();
     assert!(along >= dist((from.lat_deg, from.lon_deg), (to.lat_deg, to.lon_deg)) - 0.01);
     // One undo step brings the route before back.
     assert!(h.state_mut().station.route_mut().undo());
@@ -687,9 +691,10 @@ fn route_to_here_follows_the_extracts_paths() {
 
     // Follow paths through from, a node of the walk just planned, and to: every leg along the network,
     // so the route passes through that middle node.
-    let mid = LatLon::new(wps[wps.len() / 2].lat_deg, wps[wps.len() / 2].lon_deg);
+    let mid = pts[pts.len() / 2];
     let revision = h.state().station.route().revision();
-    plan(&mut h, WalkRequest::FollowPaths(vec![from, mid, to]));
+    let named = |n: &str, p: LatLon| vestnav_station::route::Waypoint::at(n, p);
+    plan(&mut h, WalkRequest::FollowPaths(vec![named("A", from), named("M", mid), named("B", to)]));
     for _ in 0..300 {
         h.step();
         if h.state().station.route().revision() != revision {
@@ -697,9 +702,14 @@ fn route_to_here_follows_the_extracts_paths() {
         }
         std::thread::sleep(Duration::from_millis(10));
     }
-    let legs = h.state().station.route().waypoints().to_vec();
+    let route = h.state().station.route();
+    assert_eq!(route.waypoints().iter().map(|w| w.name.as_str()).collect::<Vec<_>>(), ["A", "M", "B"]);
+    let path = route.path().expect("a path");
+    let legs = path.points();
     assert!(legs.len() >= 3 && legs[1..legs.len() - 1].iter().all(on_graph));
-    assert!(legs.iter().any(|w| dist((w.lat_deg, w.lon_deg), (mid.lat_deg, mid.lon_deg)) < 0.01));
+    let m = legs[path.waypoint_vertices()[1]];
+    assert!(dist((m.lat_deg, m.lon_deg), (mid.lat_deg, mid.lon_deg)) < 0.01, "M sits on its vertex");
+    assert!(h.state().station.has_path_network(), "the console shared its network with the station");
 
     // 5 km out to sea: no path, said as a notice; the route is untouched.
     let revision = h.state().station.route().revision();

@@ -25,9 +25,9 @@
 //! way they face (the only way COG-only guidance gets a heading). Without it (the default) the wearer walks
 //! from the start exactly as described above.
 //!
-//! Metrics: cross-track RMSE of the **true** path to the route polyline (from leaving the first waypoint to
-//! the finish), time to finish, cues per minute, waypoints reached and missed (passed abeam or never
-//! reached), time to face the first waypoint (true heading within the standing forward cone,
+//! Metrics: cross-track RMSE of the **true** path to the route polyline (the route's path when it follows
+//! one, [`simulate_along`]), from leaving the first waypoint to the finish; time to finish, cues per
+//! minute, waypoints reached and missed (passed abeam or never reached), time to face the first waypoint (true heading within the standing forward cone,
 //! [`crate::guidance::CueThresholds::in_place_cone_deg`], of the true bearing from the true position), time
 //! per heading source and with "compass disturbed?" raised, and both paths for plotting.
 //!
@@ -55,7 +55,7 @@ use crate::geo::{LatLon, LocalFrame, bearing_of_enu_deg, normalize_deg, wrap_deg
 use crate::gnss_sim::{GnssErrorModel, GnssErrorState};
 use crate::guidance::{
     Guidance, GuidanceConfig, HeadingMode, NavInput, NavState, Route, RouteConfig, RouteError, RouteEvent,
-    StrategyKind, Waypoint,
+    RoutePath, StrategyKind, Waypoint,
 };
 use crate::vest::Cue;
 
@@ -370,13 +370,27 @@ fn normal(rng: &mut StdRng) -> f64 {
 }
 
 /// Runs one closed-loop walk along `waypoints` (see the module doc). Deterministic for a given `seed`.
+pub fn simulate(waypoints: &[Waypoint], config: &SimConfig, seed: u64) -> Result<SimResult, RouteError> {
+    simulate_along(waypoints, None, config, seed)
+}
+
+/// [`simulate`] on a route that follows `path` between its waypoints (a planner's dense route): guidance
+/// steers along the path ([`Route::with_path`]) and the cross-track metric is measured from the path.
 // One simulation step reads top to bottom (sense, decide, react, walk, score); splitting it would scatter
 // the shared state over many parameters.
 #[allow(clippy::too_many_lines)]
-pub fn simulate(waypoints: &[Waypoint], config: &SimConfig, seed: u64) -> Result<SimResult, RouteError> {
-    let route = Route::new(waypoints.to_vec(), config.route)?;
+pub fn simulate_along(
+    waypoints: &[Waypoint],
+    path: Option<&RoutePath>,
+    config: &SimConfig,
+    seed: u64,
+) -> Result<SimResult, RouteError> {
+    let route = Route::new(waypoints.to_vec(), config.route)?.with_path(path.cloned())?;
     let frame = LocalFrame::new(waypoints[0].pos(), config.guidance.earth);
     let wps_en: Vec<DVec2> = waypoints.iter().map(|w| frame.enu_from_wgs84(w.pos())).collect();
+    // The line the wearer should walk: the path when there is one, else the straight legs.
+    let line_en: Vec<DVec2> = path
+        .map_or_else(|| wps_en.clone(), |p| p.points().iter().map(|q| frame.enu_from_wgs84(*q)).collect());
     let hs = config.heading;
     let mut guidance_config = config.guidance;
     let mut compass = match &hs {
@@ -397,8 +411,8 @@ pub fn simulate(waypoints: &[Waypoint], config: &SimConfig, seed: u64) -> Result
     let mut sensor_rng = StdRng::seed_from_u64(seed ^ 0xC0FF_EE00_D15E_A5E5);
     let face_cone_deg = config.guidance.thresholds.in_place_cone_deg();
     // The cross-track metric runs every step: an index keeps a walk linear in the route's length.
-    let route_line = PolylineIndex::new(&wps_en);
-    let length_m: f64 = wps_en.windows(2).map(|w| (w[1] - w[0]).length()).sum();
+    let route_line = PolylineIndex::new(&line_en);
+    let length_m: f64 = line_en.windows(2).map(|w| (w[1] - w[0]).length()).sum();
     let w = config.wearer;
     let pace = w.pace_m_s.max(0.1);
     let nominal_time_s = length_m / pace;
@@ -413,14 +427,14 @@ pub fn simulate(waypoints: &[Waypoint], config: &SimConfig, seed: u64) -> Result
 
     let mut rng = StdRng::seed_from_u64(seed);
     let mut gnss = GnssErrorState::new(config.gnss, seed.wrapping_mul(0x9E37_79B9_7F4A_7C15).wrapping_add(1));
-    let first_leg = wps_en.get(1).map_or(DVec2::Y, |b| *b - wps_en[0]);
+    let first_leg = line_en.get(1).map_or(DVec2::Y, |b| *b - line_en[0]);
     let spread = w.initial_heading_error_deg.abs();
     let mut heading = normalize_deg(bearing_of_enu_deg(first_leg) + rng.random_range(-spread..=spread));
     if hs.is_some() {
         heading = sensor_rng.random_range(0.0..360.0);
     }
     let mut target_heading = heading;
-    let mut pos = wps_en[0];
+    let mut pos = line_en[0];
     let mut walking = hs.is_none();
     let mut stopped = false;
     let mut last_directional_s = 0.0;
@@ -570,7 +584,7 @@ pub fn simulate(waypoints: &[Waypoint], config: &SimConfig, seed: u64) -> Result
             pos += stepv;
             result.walked_m += stepv.length();
         }
-        if left_start || (pos - wps_en[0]).length() > config.route.arrival_radius_m {
+        if left_start || (pos - line_en[0]).length() > config.route.arrival_radius_m {
             left_start = true;
             let xt = route_line.distance_m(pos);
             xt_sum2 += xt * xt;
@@ -688,8 +702,19 @@ pub fn simulate_many(
     runs: usize,
     seed: u64,
 ) -> Result<(Vec<SimResult>, SimSummary), RouteError> {
+    simulate_many_along(waypoints, None, config, runs, seed)
+}
+
+/// [`simulate_many`] along a path ([`simulate_along`]).
+pub fn simulate_many_along(
+    waypoints: &[Waypoint],
+    path: Option<&RoutePath>,
+    config: &SimConfig,
+    runs: usize,
+    seed: u64,
+) -> Result<(Vec<SimResult>, SimSummary), RouteError> {
     let results = (0..runs as u64)
-        .map(|i| simulate(waypoints, config, seed.wrapping_add(i)))
+        .map(|i| simulate_along(waypoints, path, config, seed.wrapping_add(i)))
         .collect::<Result<Vec<_>, _>>()?;
     let summary = SimSummary::of(&results);
     Ok((results, summary))

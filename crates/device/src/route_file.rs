@@ -3,7 +3,8 @@
 //! This is the one place vestnav reads and writes GPX (the console, `nav simulate` and the GPS simulator
 //! all use it). [`parse_gpx`] keeps everything the file held in a [`RouteFile`] and says which kinds it
 //! had; [`RouteFile::default_route`] picks what to walk: the first route, else the waypoints, else the first
-//! track. Every coordinate is checked at this boundary: a non-finite or out-of-range position (latitude in
+//! track; a route with a track through its points in order follows that track as its path
+//! ([`RouteFile::route_path`]: how a planner's dense footway route travels, [`RouteFile::with_path`]). Every coordinate is checked at this boundary: a non-finite or out-of-range position (latitude in
 //! [-90, 90], longitude in [-180, 180) as the GPX 1.1 schema says) is an error naming the point (its element,
 //! its number and its line). [`read_gpx`] refuses files over [`MAX_GPX_BYTES`] before reading them.
 //!
@@ -25,6 +26,8 @@ use std::path::{Path, PathBuf};
 
 use chrono::{DateTime, Utc};
 use serde::{Deserialize, Serialize};
+use vestnav_core::geo::{Earth, LatLon};
+use vestnav_core::guidance::{MAX_PATH_POINTS, RoutePath};
 
 /// The demo route shipped with vestnav (Briggs Field loop, MIT), loaded when nothing else is.
 pub const DEMO_GPX: &str = include_str!("../../../assets/routes/demo.gpx");
@@ -117,9 +120,48 @@ pub struct DefaultRoute {
     pub name: Option<String>,
     /// The points (track points are named `T1`, `T2`, ...).
     pub waypoints: Vec<Waypoint>,
+    /// The path the route follows between its points, when the file has one (see
+    /// [`RouteFile::route_path`]).
+    pub path: Option<RoutePath>,
 }
 
+/// How far a route point may be from the track that is its path [m] (a planner puts them on it; 25 m lets
+/// another tool's points sit beside the way they name).
+pub const PATH_MATCH_M: f64 = 25.0;
+
+/// Name of the track [`RouteFile::with_path`] writes.
+pub const PATH_TRACK_NAME: &str = "path";
+
 impl RouteFile {
+    /// A file holding one route that follows `path` (a planner's dense route): the route's points as the
+    /// `<rte>`, the path as a `<trk>` named [`PATH_TRACK_NAME`] with one segment, which
+    /// [`RouteFile::route_path`] reads back as the route's path.
+    pub fn with_path(name: &str, points: Vec<Waypoint>, path: Option<&RoutePath>) -> Self {
+        let mut file = Self::from_route(name, points);
+        if let Some(p) = path {
+            let segment = p
+                .points()
+                .iter()
+                .map(|q| TrackPoint { lat_deg: q.lat_deg, lon_deg: q.lon_deg, ele_m: None, time: None })
+                .collect();
+            file.tracks.push(Track { name: Some(PATH_TRACK_NAME.to_owned()), segments: vec![segment] });
+        }
+        file
+    }
+
+    /// The path a route of `waypoints` follows: the file's first track with points, when it passes every
+    /// route point in order within [`PATH_MATCH_M`] of one of its vertices (a planner's GPX: the route and
+    /// the footway path drawn through it; [`RoutePath::along`] finds the vertices). `None` otherwise, and
+    /// for a track over [`MAX_PATH_POINTS`] points.
+    pub fn route_path(&self, waypoints: &[Waypoint]) -> Option<RoutePath> {
+        let track = self.tracks.iter().find(|t| t.points().next().is_some())?;
+        if waypoints.is_empty() || track.points().count() > MAX_PATH_POINTS {
+            return None;
+        }
+        let points = track.points().map(|p| LatLon::new(p.lat_deg, p.lon_deg)).collect();
+        RoutePath::along(points, waypoints, Earth::Wgs84, PATH_MATCH_M)
+    }
+
     /// A file holding one route.
     pub fn from_route(name: &str, points: Vec<Waypoint>) -> Self {
         Self {
@@ -144,6 +186,7 @@ impl RouteFile {
                 source: RouteSource::Route(i),
                 name: r.name.clone().or_else(|| self.name.clone()),
                 waypoints: r.points.clone(),
+                path: self.route_path(&r.points),
             });
         }
         if !self.waypoints.is_empty() {
@@ -151,6 +194,7 @@ impl RouteFile {
                 source: RouteSource::Waypoints,
                 name: self.name.clone(),
                 waypoints: self.waypoints.clone(),
+                path: self.route_path(&self.waypoints),
             });
         }
         let (i, t) = self.tracks.iter().enumerate().find(|(_, t)| t.points().next().is_some())?;
@@ -162,6 +206,7 @@ impl RouteFile {
                 .enumerate()
                 .map(|(k, p)| Waypoint::new(format!("T{}", k + 1), p.lat_deg, p.lon_deg))
                 .collect(),
+            path: None,
         })
     }
 }
@@ -798,5 +843,24 @@ mod tests {
         std::fs::remove_file(&path).unwrap();
         let e = read_gpx(&path).unwrap_err();
         assert!(matches!(e, RouteFileError::Io { .. }) && e.to_string().contains("vestnav-route-big"));
+    }
+
+    #[test]
+    fn a_route_with_its_path_round_trips_and_a_track_elsewhere_is_no_path() {
+        // A path of 11 vertices 50 m apart eastward; the route's points on vertices 0, 4 and 10.
+        let e = Earth::Wgs84;
+        let o = LatLon::new(60.17, 24.94);
+        let pts: Vec<LatLon> = (0..=10).map(|i| e.direct(o, 90.0, 50.0 * f64::from(i))).collect();
+        let wps: Vec<Waypoint> = [0, 4, 10].iter().map(|&i| Waypoint::at(format!("V{i}"), pts[i])).collect();
+        let path = RoutePath::new(pts.clone(), vec![0, 4, 10]).unwrap();
+        let text = to_gpx(&RouteFile::with_path("walk", wps.clone(), Some(&path)));
+        let back = parse_gpx(&text).unwrap().default_route().unwrap();
+        assert_eq!(back.waypoints, wps);
+        assert_eq!(back.path.as_ref(), Some(&path));
+        // A recorded track that does not pass the route's points is not its path.
+        let far: Vec<Waypoint> =
+            wps.iter().map(|w| Waypoint::at(&w.name, e.direct(w.pos(), 0.0, 60.0))).collect();
+        let text = to_gpx(&RouteFile::with_path("walk", far, Some(&path)));
+        assert_eq!(parse_gpx(&text).unwrap().default_route().unwrap().path, None);
     }
 }

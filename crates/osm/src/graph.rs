@@ -16,6 +16,7 @@ use std::cmp::Ordering;
 use std::collections::{BinaryHeap, HashMap, HashSet};
 
 use vestnav_core::geo::{Earth, LatLon, haversine_m};
+use vestnav_core::guidance::{RouteError, RoutePath, Waypoint};
 
 use crate::rules::WayClass;
 use crate::tile::mercator_from_wgs84;
@@ -123,6 +124,29 @@ pub struct Route {
     pub from_snap_m: f64,
     /// How far the goal was from the network [m].
     pub to_snap_m: f64,
+    /// For each point planned through (start, vias, goal), the index in `points` where the route passes
+    /// it (its snapped position): where a guided route puts its waypoints ([`Route::guided`]).
+    pub stops: Vec<usize>,
+}
+
+impl Route {
+    /// The route for guidance: `waypoints` (one per point planned through, in order) moved onto the path
+    /// where the route passes them, keeping their names and radii, and the path itself with each on its
+    /// vertex. Refused when the counts differ.
+    pub fn guided(&self, waypoints: &[Waypoint]) -> Result<(Vec<Waypoint>, RoutePath), RouteError> {
+        if waypoints.len() != self.stops.len() {
+            return Err(RouteError::BadConfig("one waypoint per point planned through"));
+        }
+        let moved = waypoints
+            .iter()
+            .zip(&self.stops)
+            .map(|(w, &i)| {
+                let p = self.points.get(i).copied().unwrap_or_else(|| w.pos());
+                Waypoint { lat_deg: p.lat_deg, lon_deg: p.lon_deg, ..w.clone() }
+            })
+            .collect();
+        Ok((moved, RoutePath::new(self.points.clone(), self.stops.clone())?))
+    }
 }
 
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -338,6 +362,7 @@ impl PathGraph {
             ways: Vec::new(),
             from_snap_m: snaps.first().map_or(0.0, |s| s.distance_m),
             to_snap_m: snaps.last().map_or(0.0, |s| s.distance_m),
+            stops: vec![0],
         };
         for (i, pair) in snaps.windows(2).enumerate() {
             let [a, b] = pair else { continue };
@@ -346,6 +371,7 @@ impl PathGraph {
                 .ok_or_else(|| PlanError::NoRoute { from: name(i), to: name(i + 1) })?;
             let skip = usize::from(!route.points.is_empty());
             route.points.extend(leg.points.into_iter().skip(skip));
+            route.stops.push(route.points.len() - 1);
             route.length_m += leg.length_m;
             route.cost += leg.cost;
             for w in leg.ways {
@@ -471,6 +497,7 @@ impl PathGraph {
         }
         let length_m = steps.iter().sum();
         Some(Route {
+            stops: vec![0, points.len() - 1],
             points,
             length_m,
             cost: g[goal as usize],

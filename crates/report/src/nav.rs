@@ -27,6 +27,10 @@ pub struct NavReport {
     /// Walking pace of the simulated wearer [m/s] (absent in reports written before it was recorded).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub pace_m_s: Option<f64>,
+    /// Points of the path the route follows, when it follows one (its cross-track errors are measured
+    /// from that path, not from the straight legs).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub path_points: Option<usize>,
     /// One entry per strategy simulated, and per heading source when `--heading` named several (each
     /// summary says its `heading_mode`).
     pub strategies: Vec<StrategyReport>,
@@ -43,7 +47,7 @@ impl NavReport {
     ) -> Self {
         let strategies =
             all.iter().map(|(s, rs)| StrategyReport { summary: s.clone(), runs: rs.clone() }).collect();
-        Self { route, waypoints, runs, seed, pace_m_s: None, strategies }
+        Self { route, waypoints, runs, seed, pace_m_s: None, path_points: None, strategies }
     }
 }
 

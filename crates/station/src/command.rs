@@ -107,6 +107,10 @@ pub mod ranges {
     pub const LOST_AFTER_MAX_S: f64 = 600.0;
     /// A cue's on-time [ms].
     pub const ON_MS: RangeInclusive<u16> = 20..=2000;
+    /// Farther than this from a planned path is off it [m] (above GPS noise, below a block's width).
+    pub const OFF_PATH_M: RangeInclusive<f64> = 5.0..=100.0;
+    /// Off the path this long re-plans from the wearer [s].
+    pub const REROUTE_AFTER_S: RangeInclusive<f64> = 3.0..=300.0;
 }
 
 impl StationSettings {
@@ -126,6 +130,8 @@ impl StationSettings {
         within("manual hold [s]", g.manual_hold_s, ranges::MANUAL_HOLD_S)?;
         within("stale after [s]", g.stale_after_s, ranges::STALE_AFTER_S)?;
         within("lost after [s]", self.lost_after_s, g.stale_after_s..=ranges::LOST_AFTER_MAX_S)?;
+        within("off the path [m]", g.off_path_m, ranges::OFF_PATH_M)?;
+        within("re-route after [s]", g.reroute_after_s, ranges::REROUTE_AFTER_S)?;
         if !ranges::ON_MS.contains(&g.on_ms) {
             let r = ranges::ON_MS;
             return Err(format!("on-time [ms]: {} is outside [{}, {}]", g.on_ms, r.start(), r.end()));

@@ -21,7 +21,7 @@ use chrono::Datelike as _;
 use vestnav_core::geo::LatLon;
 use vestnav_core::guidance::{
     CompassReading, Decision, Guidance, GuidanceConfig, HeadingMode, HeadingSource, NavInput, NavState,
-    Route, RouteConfig, StrategyKind,
+    Route, RouteConfig, RoutePath, StrategyKind,
 };
 use vestnav_core::vest::Cue;
 use vestnav_device::gps::{Fix, GpsEvent};
@@ -62,6 +62,24 @@ pub struct GuidanceSettings {
     pub strategy: StrategyKind,
     /// Which heading steers: auto (a fresh, good compass, else COG), compass only, or COG only.
     pub heading_mode: HeadingMode,
+    /// On a route planned along paths: farther than this from the path counts as off it [m]
+    /// (`command::ranges::OFF_PATH_M`).
+    #[serde(default = "default_off_path_m")]
+    pub off_path_m: f64,
+    /// Off the path this long re-plans the route from where the wearer is [s]
+    /// (`command::ranges::REROUTE_AFTER_S`).
+    #[serde(default = "default_reroute_after_s")]
+    pub reroute_after_s: f64,
+}
+
+/// Guidance's default distance off a path [m] (settings saved before it existed still load).
+pub fn default_off_path_m() -> f64 {
+    GuidanceConfig::default().off_path_m
+}
+
+/// Guidance's default time off a path before a re-route [s].
+pub fn default_reroute_after_s() -> f64 {
+    GuidanceConfig::default().off_path_s
 }
 
 /// Messages to the guidance worker.
@@ -75,6 +93,8 @@ pub enum GuidanceInput {
     Route {
         /// The waypoints.
         waypoints: Vec<Waypoint>,
+        /// The path between them, when the route was planned along paths.
+        path: Option<RoutePath>,
         /// Index of the next waypoint.
         next: usize,
         /// The route's revision (`RouteModel::revision`), echoed in the statuses computed on it.
@@ -132,6 +152,12 @@ pub struct GuidanceStatus {
     pub state: NavState,
     /// The route is finished.
     pub finished: bool,
+    /// How long the wearer has been off the route's path [s] (farther than the settings' `off_path_m`).
+    #[serde(default)]
+    pub off_path_s: Option<f64>,
+    /// Off the path for the settings' `reroute_after_s`: the wearer's position to re-plan the route from.
+    #[serde(default)]
+    pub reroute_from: Option<LatLon>,
 }
 
 /// The engine's configuration for the operator's settings.
@@ -143,6 +169,8 @@ pub fn engine_config(s: &GuidanceSettings) -> (GuidanceConfig, RouteConfig) {
         repeat_s: s.cue_interval_s,
         forward_repeat_s: s.cue_interval_s.max(10.0),
         manual_hold_s: s.manual_hold_s,
+        off_path_m: s.off_path_m,
+        off_path_s: s.reroute_after_s,
         ..GuidanceConfig::default()
     };
     let r = RouteConfig {
@@ -187,6 +215,7 @@ pub fn spawn(
         let mut w = GuidanceWorker {
             settings,
             waypoints: Vec::new(),
+            path: None,
             route_revision: 0,
             engine: None,
             vest: None,
@@ -225,6 +254,7 @@ pub fn spawn(
 struct GuidanceWorker {
     settings: GuidanceSettings,
     waypoints: Vec<Waypoint>,
+    path: Option<RoutePath>,
     route_revision: u64,
     engine: Option<Guidance>,
     vest: Option<Arc<VestHandle>>,
@@ -268,8 +298,9 @@ impl GuidanceWorker {
                 VestEvent::Heading(a) => self.take_heading(a),
                 _ => {}
             },
-            GuidanceInput::Route { waypoints, next, revision } => {
+            GuidanceInput::Route { waypoints, path, next, revision } => {
                 self.waypoints = waypoints;
+                self.path = path;
                 self.route_revision = revision;
                 self.rebuild(next);
             }
@@ -321,7 +352,7 @@ impl GuidanceWorker {
         let (gcfg, rcfg) = engine_config(&self.settings);
         let wps: Vec<Waypoint> = self.waypoints.clone();
         let halted = self.engine.as_ref().is_some_and(Guidance::is_halted);
-        self.engine = match Route::new(wps, rcfg) {
+        self.engine = match Route::new(wps, rcfg).and_then(|r| r.with_path(self.path.clone())) {
             Ok(route) => {
                 let mut g = Guidance::new(route, gcfg, self.settings.strategy);
                 g.set_declination_deg(self.declination.map(|(d, _)| d));
@@ -352,6 +383,8 @@ impl GuidanceWorker {
                     declination_deg: None,
                     state: NavState::Hold,
                     finished: false,
+                    off_path_s: None,
+                    reroute_from: None,
                 });
                 None
             }
@@ -480,6 +513,7 @@ impl GuidanceWorker {
             g.not_played();
         }
         let mut st = status(&d, reason, sent, self.hold_reason());
+        st.reroute_from = input.position.filter(|_| d.reroute);
         st.declination_deg = declination;
         st.route_revision = self.route_revision;
         self.ui.try_send(st);
@@ -505,6 +539,8 @@ fn status(d: &Decision, reason: String, sent: bool, hold: Option<String>) -> Gui
         declination_deg: None,
         state: d.state,
         finished: d.state == NavState::Finished,
+        off_path_s: d.off_path_s,
+        reroute_from: None,
     }
 }
 
@@ -533,6 +569,8 @@ mod tests {
             loop_route: false,
             strategy: StrategyKind::BearingOnly,
             heading_mode: HeadingMode::Cog,
+            off_path_m: 20.0,
+            reroute_after_s: 15.0,
         };
         let _t = spawn(in_rx, settings, ui, None).unwrap();
         let vest =
@@ -541,7 +579,7 @@ mod tests {
         in_tx.send(GuidanceInput::VestLink(Some(vest), Duration::ZERO)).unwrap();
         // One waypoint 100 m due north; the wearer walks due east: a turn is wanted at once.
         let wp = Waypoint { name: "N".into(), lat_deg: 42.0009, lon_deg: -71.0, arrival_radius_m: None };
-        in_tx.send(GuidanceInput::Route { waypoints: vec![wp], next: 0, revision: 1 }).unwrap();
+        in_tx.send(GuidanceInput::Route { waypoints: vec![wp], path: None, next: 0, revision: 1 }).unwrap();
         let fix = Fix {
             lat_deg: Some(42.0),
             lon_deg: Some(-71.0),

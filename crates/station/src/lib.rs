@@ -40,6 +40,7 @@ pub mod hardware;
 pub mod lab;
 pub mod ntrip;
 pub mod pinned;
+mod reroute;
 pub mod route;
 pub mod sources;
 pub mod state;
@@ -101,6 +102,8 @@ impl Default for StationSettings {
                 loop_route: true,
                 strategy: vestnav_core::guidance::StrategyKind::Pursuit,
                 heading_mode: vestnav_core::guidance::HeadingMode::Auto,
+                off_path_m: guidance::default_off_path_m(),
+                reroute_after_s: guidance::default_reroute_after_s(),
             },
             lost_after_s: 10.0,
         }
@@ -201,6 +204,7 @@ pub struct Station {
     /// Set-up findings of a failed port, from the thread that looked (it reads files and runs programs,
     /// which the view's thread never waits for).
     port_findings: (std::sync::mpsc::Sender<PortFindings>, std::sync::mpsc::Receiver<PortFindings>),
+    rerouter: reroute::Rerouter,
     /// The drift and cone tests, fed with every fix of whatever source runs.
     pub field_tests: FieldTests,
     /// The origin of the field tests' and the pin detector's times.
@@ -288,6 +292,7 @@ impl Station {
             log_health: vestnav_device::session_log::LogHealth::Ok,
             diagnosed: Vec::new(),
             port_findings: std::sync::mpsc::channel(),
+            rerouter: reroute::Rerouter::default(),
             field_tests: FieldTests::new(),
             epoch: Instant::now(),
             pin: PinDetector::default(),
@@ -431,7 +436,7 @@ impl Station {
         self.pin.clear();
         // A new source: its first position must not be joined to the old source's last one.
         self.track.break_segment();
-        match self.factory.open_gps(&self.gps_source, self.route.waypoints(), outputs) {
+        match self.factory.open_gps(&self.gps_source, &self.route.walked(), outputs) {
             Ok(w) => self.gps_worker = Some(w),
             Err(e) => {
                 self.gps.state = Some(SourceState::Lost { reason: e.clone() });
@@ -714,6 +719,7 @@ impl Station {
             }
             self.guidance = Some(st);
         }
+        self.reroute_turn();
         if self.route_sent != Some(self.route.revision()) {
             self.push_route();
         }
@@ -751,6 +757,7 @@ impl Station {
     fn push_route(&mut self) {
         let msg = GuidanceInput::Route {
             waypoints: self.route.waypoints().to_vec(),
+            path: self.route.path().cloned(),
             next: self.route.next(),
             revision: self.route.revision(),
         };
@@ -764,7 +771,7 @@ impl Station {
     pub fn autosave_route(&mut self, now_or_never: bool) {
         let Some(a) = &mut self.autosave else { return };
         let r = &self.route;
-        if let Some(e) = a.poll(r.name(), r.waypoints(), r.next(), Instant::now(), now_or_never) {
+        if let Some(e) = a.poll(r, Instant::now(), now_or_never) {
             self.notices.raise(Severity::Alarm, Subject::Route, e);
         }
     }
@@ -998,12 +1005,15 @@ fn load_route(start: &RouteStart, notices: &mut Notices) -> (RouteModel, Option<
             None => route::parse_gpx(route::DEMO_GPX).map_err(|e| format!("demo route: {e}")),
         };
         match content {
-            Ok(c) => {
-                RouteState { name: c.name.unwrap_or_else(|| "route".into()), waypoints: c.waypoints, next: 0 }
-            }
+            Ok(c) => RouteState {
+                name: c.name.unwrap_or_else(|| "route".into()),
+                waypoints: c.waypoints,
+                next: 0,
+                path: c.path,
+            },
             Err(e) => {
                 notices.raise(Severity::Alarm, Subject::Route, format!("route unreadable: {e}"));
-                RouteState { name: "route".into(), waypoints: Vec::new(), next: 0 }
+                RouteState { name: "route".into(), ..RouteState::default() }
             }
         }
     });

@@ -31,7 +31,8 @@ pub fn vest_wakes(ev: &VestEvent) -> bool {
 
 /// What of a guidance status decides what the operator sees at once: a re-evaluation that changes none
 /// of it (a new distance, a heading a degree further) waits for the view's next turn.
-type Decision = (Option<Cue>, bool, Option<String>, usize, u64, NavState, bool, bool);
+/// A re-route wanted (off the path long enough) wakes the view: the station plans it in its turn.
+type Decision = (Option<Cue>, bool, Option<String>, usize, u64, NavState, bool, bool, bool);
 
 fn decision(st: &GuidanceStatus) -> Decision {
     (
@@ -43,6 +44,7 @@ fn decision(st: &GuidanceStatus) -> Decision {
         st.state,
         st.finished,
         st.compass_disturbed,
+        st.reroute_from.is_some(),
     )
 }
 
@@ -147,6 +149,8 @@ mod tests {
             declination_deg: None,
             state: NavState::Hold,
             finished: false,
+            off_path_s: None,
+            reroute_from: None,
         };
         assert!(out.send(st.clone(), &cancel));
         st.distance_m = Some(9.0);

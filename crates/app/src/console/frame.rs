@@ -635,6 +635,41 @@ impl Console {
         }
     }
 
+    /// The settings of a route with a path: how far off it and for how long before a re-route.
+    fn path_settings_ui(&mut self, ui: &mut egui::Ui) {
+        if self.station.route().path().is_some() {
+            use vestnav_station::command::ranges;
+            ui.add(
+                egui::Slider::new(&mut self.cfg.off_path_m, ranges::OFF_PATH_M)
+                    .suffix(" m")
+                    .text("Off the path"),
+            )
+            .on_hover_text("farther than this from the planned path counts as off it");
+            ui.add(
+                egui::Slider::new(&mut self.cfg.reroute_after_s, ranges::REROUTE_AFTER_S)
+                    .suffix(" s")
+                    .text("Re-route after"),
+            )
+            .on_hover_text("off the path this long: plan again from where the wearer is");
+        }
+    }
+
+    /// How long the wearer has been off the path, and the last re-route.
+    fn path_status_ui(&self, ui: &mut egui::Ui, off_path_s: Option<f64>) {
+        if let Some(off_s) = off_path_s {
+            ui.label(
+                RichText::new(format!(
+                    "off the path for {off_s:.0} s (re-route after {:.0} s)",
+                    self.cfg.reroute_after_s
+                ))
+                .color(Color32::from_rgb(230, 150, 0)),
+            );
+        }
+        if let Some(line) = self.station.reroute_line() {
+            ui.label(line);
+        }
+    }
+
     fn guidance_ui(&mut self, ui: &mut egui::Ui) {
         if let Some(why) = self.station.vest.halted.clone() {
             ui.label(
@@ -672,6 +707,7 @@ impl Console {
         );
         ui.add(egui::Slider::new(&mut self.cfg.cue_interval_s, 1.0..=30.0).suffix(" s").text("Cue interval"));
         ui.add(egui::Slider::new(&mut self.cfg.manual_hold_s, 0.0..=60.0).suffix(" s").text("Manual hold"));
+        self.path_settings_ui(ui);
         match &self.station.guidance {
             None => {
                 ui.label("waiting for the first fix");
@@ -690,9 +726,10 @@ impl Console {
                 ui.label(&st.reason);
                 let n = |v: Option<f64>, u: &str| v.map_or_else(|| "—".to_owned(), |v| format!("{v:.0}{u}"));
                 ui.label(format!(
-                    "distance {} · bearing error {} · cross-track {} · heading from {}",
+                    "distance {} · bearing error {} · cross-track{} {} · heading from {}",
                     n(st.distance_m, " m"),
                     n(st.bearing_error_deg, "°"),
+                    if self.station.route().path().is_some() { " from the path" } else { "" },
                     st.cross_track_m.map_or_else(|| "—".to_owned(), |x| format!("{x:+.1} m")),
                     st.heading_source.name()
                 ));
@@ -709,6 +746,7 @@ impl Console {
                             .strong(),
                     );
                 }
+                self.path_status_ui(ui, st.off_path_s);
                 if st.finished {
                     ui.label(RichText::new("Route finished").color(Color32::from_rgb(40, 160, 60)));
                 }

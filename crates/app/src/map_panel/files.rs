@@ -219,7 +219,7 @@ impl MapView {
     }
 
     fn replace_route(route: &mut RouteModel, c: ImportChoice, notices: &mut Notices) {
-        match route.replace(c.name, c.waypoints) {
+        match route.replace_with_path(c.name, c.waypoints, c.path) {
             Ok(()) => notices.raise(Severity::Info, Subject::Route, format!("imported {}", c.label)),
             Err(e) => notices.raise(Severity::Alarm, Subject::Route, format!("not imported: {e}")),
         }

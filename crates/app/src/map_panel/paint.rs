@@ -22,6 +22,9 @@ use super::{
     age_text, decimation_stride, nice_length_m, wearer_marker,
 };
 
+/// Most points of a route's path drawn in one frame (a longer path is drawn thinned).
+const PATH_DRAWN_MAX: usize = 20_000;
+
 /// A [`Tiles`] wrapper that counts tiles found and missing, to tell "offline" from "loading".
 struct CountingTiles<'a> {
     inner: &'a mut crate::tiles::SourceTiles,
@@ -156,10 +159,33 @@ impl MapView {
             // Route line, the leg to the next waypoint highlighted.
             let pts: Vec<Pos2> =
                 waypoints.iter().map(|w| to_pos2(projector.project(lat_lon(w.lat_deg, w.lon_deg)))).collect();
-            if pts.len() >= 2 {
+            // A route planned along paths is drawn along its path (the section ahead highlighted), at most
+            // PATH_DRAWN_MAX points a frame.
+            let path = route.path();
+            let project_all = |ps: &[vestnav_core::geo::LatLon]| -> Vec<Pos2> {
+                let stride = ps.len().div_ceil(PATH_DRAWN_MAX).max(1);
+                let mut v: Vec<Pos2> = ps
+                    .iter()
+                    .step_by(stride)
+                    .map(|q| to_pos2(projector.project(lat_lon(q.lat_deg, q.lon_deg))))
+                    .collect();
+                if let Some(q) = ps.last().filter(|_| ps.len() % stride != 1 && stride > 1) {
+                    v.push(to_pos2(projector.project(lat_lon(q.lat_deg, q.lon_deg))));
+                }
+                v
+            };
+            if let Some(path) = path {
+                painter.line(project_all(path.points()), Stroke::new(2.0, Color32::from_rgb(60, 120, 220)));
+                let ahead = project_all(path.leg(*next));
+                if ahead.len() >= 2 {
+                    painter.line(ahead, Stroke::new(3.0, Color32::from_rgb(240, 140, 0)));
+                }
+            } else if pts.len() >= 2 {
                 painter.line(pts.clone(), Stroke::new(2.0, Color32::from_rgb(60, 120, 220)));
             }
-            if let (Some(w), Some(p)) = (wearer, pts.get(*next)) {
+            if path.is_none()
+                && let (Some(w), Some(p)) = (wearer, pts.get(*next))
+            {
                 painter.line_segment(
                     [to_pos2(projector.project(w)), *p],
                     Stroke::new(2.5, Color32::from_rgb(240, 140, 0)),
@@ -462,9 +488,7 @@ impl MapView {
                         )
                         .on_disabled_hover_text("needs a route of two waypoints or more");
                     if follow.clicked() {
-                        walk_req = Some(WalkRequest::FollowPaths(
-                            waypoints.iter().map(|w| LatLon::new(w.lat_deg, w.lon_deg)).collect(),
-                        ));
+                        walk_req = Some(WalkRequest::FollowPaths(waypoints.to_vec()));
                     }
                     ui.horizontal(|ui| {
                         ui.label("Profile");

@@ -1,14 +1,17 @@
 //! Routing on foot in the console, over the path network of the OpenStreetMap extract shown on the map
 //! (`crate::tiles::MapExtract`): "Route to here" plans from the wearer's last fix to a clicked point, and
 //! "Follow paths" plans every leg of the route along the paths. The planner (`vestnav_osm::PathGraph`)
-//! runs on a worker thread (`osm-plan`); its dense route replaces the route through the same path as a
-//! GPX import — one undo step, and a question first while guidance is steering the wearer. "No path"
-//! and every other planning error is raised as a notice.
+//! runs on a worker thread (`osm-plan`); its result replaces the route through the same path as a GPX
+//! import — one undo step, and a question first while guidance is steering the wearer: the waypoints
+//! (the clicked goal; the route's own waypoints, moved onto the paths) with the dense path between them,
+//! which guidance follows (cross-track from the path) and the station re-plans when the wearer strays
+//! ([`share_network`]). "No path" and every other planning error is raised as a notice.
 
 use std::sync::Arc;
 use std::sync::mpsc::{Receiver, TryRecvError};
 
 use vestnav_core::geo::LatLon;
+use vestnav_core::guidance::RoutePath;
 use vestnav_osm::{PathGraph, Profile};
 use vestnav_station::route::{RouteModel, Waypoint};
 use vestnav_station::{Notices, Severity, Subject};
@@ -33,8 +36,8 @@ pub enum WalkRequest {
         /// The point clicked.
         to: LatLon,
     },
-    /// Every leg of the route, through its waypoints in order.
-    FollowPaths(Vec<LatLon>),
+    /// Every leg of the route, through its waypoints in order (they keep their names and radii).
+    FollowPaths(Vec<Waypoint>),
 }
 
 /// The planner's state in the map: the profile chosen and the plan running.
@@ -52,27 +55,57 @@ impl WalkPlanner {
     }
 }
 
-/// Plans `req` on `graph` under `profile` into the route to import (waypoints `P1`, `P2`, … along the
-/// paths), or the error to show.
+/// Plans `req` on `graph` under `profile` into the route to import, or the error to show: for "to here"
+/// one waypoint `Here` where the walk ends, for "follow paths" the route's waypoints moved onto the paths;
+/// with the planned path between them.
 pub fn plan(graph: &PathGraph, req: &WalkRequest, profile: Profile) -> Result<ImportChoice, String> {
     let name = PROFILES.iter().find(|(p, _)| *p == profile).map_or("shortest", |(_, n)| n);
     let (route, what) = match req {
         WalkRequest::ToHere { from, to } => (graph.plan(*from, *to, profile), "walk to here"),
-        WalkRequest::FollowPaths(points) => (graph.plan_via(points, profile), "route along paths"),
+        WalkRequest::FollowPaths(wps) => {
+            let points: Vec<LatLon> = wps.iter().map(Waypoint::pos).collect();
+            (graph.plan_via(&points, profile), "route along paths")
+        }
     };
     let route = route.map_err(|e| format!("{what}: {e}"))?;
-    let waypoints: Vec<Waypoint> = route
-        .points
-        .iter()
-        .enumerate()
-        .map(|(k, p)| Waypoint::new(format!("P{}", k + 1), p.lat_deg, p.lon_deg))
-        .collect();
+    let guided = match req {
+        WalkRequest::ToHere { from, to } => route
+            .guided(&[Waypoint::at("Start", *from), Waypoint::at("Here", *to)])
+            .and_then(|(wps, path)| {
+                // The walk starts where the wearer is: only its end is a waypoint.
+                let end = path.points().len() - 1;
+                Ok((wps[1..].to_vec(), RoutePath::new(path.points().to_vec(), vec![end])?))
+            }),
+        WalkRequest::FollowPaths(wps) => route.guided(wps),
+    };
+    let (waypoints, path) = guided.map_err(|e| format!("{what}: {e}"))?;
     RouteModel::check_len(waypoints.len()).map_err(|e| format!("{what}: {e}"))?;
     Ok(ImportChoice {
-        label: format!("{what} ({:.0} m along paths, {name}, {} points)", route.length_m, waypoints.len()),
+        label: format!(
+            "{what} ({:.0} m along paths, {name}, {} waypoint(s), a path of {} points)",
+            route.length_m,
+            waypoints.len(),
+            path.points().len()
+        ),
         name: format!("{what} ({name})"),
         waypoints,
+        path: Some(path),
     })
+}
+
+/// Hands the loaded extract's path network to the station for re-routing (once per extract; again when
+/// the profile changes), so it is read only once.
+pub fn share_network(
+    map: &MapView,
+    station: &mut vestnav_station::Station,
+    shared: &mut Option<(usize, Profile)>,
+) {
+    let Some(loaded) = map.tiles.extract.as_ref().and_then(|e| e.loaded()) else { return };
+    let key = (Arc::as_ptr(&loaded.graph) as usize, map.walk.profile);
+    if *shared != Some(key) {
+        station.set_path_network(Arc::clone(&loaded.graph), map.walk.profile);
+        *shared = Some(key);
+    }
 }
 
 impl MapView {

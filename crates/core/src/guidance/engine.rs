@@ -4,6 +4,7 @@ use crate::geo::{LatLon, LocalFrame, bearing_of_enu_deg, leg_offset, wrap_deg_18
 use crate::vest::Cue;
 
 use super::heading::{self, CompassReading, Disagreement, HeadingChoice};
+use super::path::aim_along;
 use super::{
     Decision, GuidanceConfig, HeadingSource, LegGeometry, NavInput, NavState, Route, RouteEvent, Strategy,
     StrategyKind,
@@ -26,6 +27,8 @@ pub struct Guidance {
     /// The rate limiter as it was before the cue of the last update was counted as played.
     undo: Option<RateState>,
     disagreement: Disagreement,
+    /// Fix time since which the wearer has been off the route's path.
+    off_path_since_s: Option<f64>,
 }
 
 /// What the rate limiter remembers, saved so a cue that never reached the wearer can be taken back.
@@ -59,6 +62,7 @@ impl Guidance {
             frozen: None,
             undo: None,
             disagreement: Disagreement::default(),
+            off_path_since_s: None,
         }
     }
 
@@ -163,6 +167,8 @@ impl Guidance {
             bearing_error_deg: None,
             distance_m: None,
             cross_track_m: None,
+            off_path_s: None,
+            reroute: false,
             waypoint_index: self.route.active_index(),
             waypoint_name: self.route.active().name.clone(),
             reason,
@@ -300,12 +306,27 @@ impl Guidance {
         let earth = self.config.earth;
         let target = self.route.active().pos();
         let distance_m = earth.distance_m(pos, target);
-        let cross_track_m =
-            self.route.previous().map(|w| leg_offset(earth, w.pos(), target, pos).cross_track_m);
+        let along = if self.route.is_finished() {
+            None
+        } else {
+            self.route.active_path().and_then(|leg| aim_along(earth, leg, pos, self.config.lookahead_m))
+        };
+        let cross_track_m = match &along {
+            Some(a) => Some(a.cross_track_m),
+            None => self.route.previous().map(|w| leg_offset(earth, w.pos(), target, pos).cross_track_m),
+        };
+        let off = along.is_some_and(|a| a.cross_track_m.abs() > self.config.off_path_m);
+        if !off {
+            self.off_path_since_s = None;
+        } else if self.off_path_since_s.is_none() {
+            self.off_path_since_s = Some(fix_time_s);
+        }
 
         let mut d = self.blank(NavState::Guiding, String::new());
         d.event = event;
         d.cross_track_m = cross_track_m;
+        d.off_path_s = self.off_path_since_s.map(|t| fix_time_s - t);
+        d.reroute = d.off_path_s.is_some_and(|s| s >= self.config.off_path_s);
         Self::show_heading(&mut d, choice);
 
         if self.route.is_finished() {
@@ -324,9 +345,14 @@ impl Guidance {
         }
 
         let frame = LocalFrame::new(pos, earth);
-        let leg = LegGeometry {
-            target_en_m: frame.enu_from_wgs84(target),
-            from_en_m: self.route.previous().map(|w| frame.enu_from_wgs84(w.pos())),
+        let leg = match along {
+            // Along a path every strategy aims at the point ahead on it: a straight line to the waypoint
+            // would cut through what the path goes round.
+            Some(a) => LegGeometry { target_en_m: a.aim_en_m, from_en_m: Some(a.foot_en_m) },
+            None => LegGeometry {
+                target_en_m: frame.enu_from_wgs84(target),
+                from_en_m: self.route.previous().map(|w| frame.enu_from_wgs84(w.pos())),
+            },
         };
         let aim = self.strategy.aim_en_m(&leg);
         let bearing = bearing_of_enu_deg(aim);

@@ -17,7 +17,8 @@
 //!    else true heading (HDT/THS), else a magnetic compass corrected by the declination; `Auto` prefers a
 //!    fresh, good compass ([`CompassReading`]); `Compass` uses nothing else. Compass and COG disagreeing
 //!    while walking fast raises "compass disturbed?" ([`Decision::compass_disturbed`]). None → `Attention`.
-//! 5. **Strategy.** A [`Strategy`] gives the point to aim at; the bearing error to it picks the cue
+//! 5. **Strategy.** A [`Strategy`] gives the point to aim at (on a route with a path, a point
+//!    [`GuidanceConfig::lookahead_m`] along the path past the wearer's nearest point on it); the bearing error to it picks the cue
 //!    ([`CueThresholds`]). Standing still (below `cog_min_speed_m_s`) with a heading, an aim outside the
 //!    forward cone gives a graded turn-in-place cue ([`Cue::RotateLeft`]/[`Cue::RotateRight`]) instead,
 //!    then `Forward` once faced ([`GuidanceConfig::turn_in_place`]).
@@ -40,6 +41,7 @@
 mod cue;
 mod engine;
 mod heading;
+mod path;
 mod route;
 mod strategy;
 #[cfg(test)]
@@ -55,6 +57,7 @@ use crate::vest::{Cue, DEFAULT_ON_MS, Pattern};
 pub use cue::CueThresholds;
 pub use engine::Guidance;
 pub use heading::{CompassReading, HeadingMode};
+pub use path::{MAX_PATH_POINTS, PathOffset, RoutePath, path_offset};
 pub use route::{Route, RouteConfig, RouteError, RouteEvent, Waypoint};
 pub use strategy::{BearingOnly, LegGeometry, Pursuit, Strategy, StrategyKind};
 
@@ -181,6 +184,14 @@ pub struct GuidanceConfig {
     /// spot with graded turn-in-place cues until the aim is within the forward cone (default true).
     #[serde(default = "defaults::turn_in_place")]
     pub turn_in_place: bool,
+    /// On a route with a path: farther than this from the path counts as off it [m] (default 20 m: beyond
+    /// a `SiRF` III's noise near buildings, about the width of a street).
+    #[serde(default = "defaults::off_path_m")]
+    pub off_path_m: f64,
+    /// Off the path this long asks for a new route from where the wearer is ([`Decision::reroute`]) [s]
+    /// (default 15 s: about 20 m at a walk, more than a detour round an obstacle).
+    #[serde(default = "defaults::off_path_s")]
+    pub off_path_s: f64,
 }
 
 /// Serde defaults of the settings added with the compass (files saved before them still load).
@@ -202,6 +213,12 @@ mod defaults {
     }
     pub fn turn_in_place() -> bool {
         true
+    }
+    pub fn off_path_m() -> f64 {
+        20.0
+    }
+    pub fn off_path_s() -> f64 {
+        15.0
     }
 }
 
@@ -230,6 +247,8 @@ impl Default for GuidanceConfig {
             disagree_s: defaults::disagree_s(),
             disagree_min_speed_m_s: defaults::disagree_min_speed_m_s(),
             turn_in_place: defaults::turn_in_place(),
+            off_path_m: defaults::off_path_m(),
+            off_path_s: defaults::off_path_s(),
         }
     }
 }
@@ -263,6 +282,9 @@ impl NavState {
 }
 
 /// What guidance decided, and why (the app shows `reason` and the numbers).
+// Each flag is a separate fact the operator reads (stop, disturbed compass, standing, re-route), not a
+// state machine in disguise.
+#[allow(clippy::struct_excessive_bools)]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Decision {
     /// The cue to play now, if any.
@@ -297,8 +319,17 @@ pub struct Decision {
     pub bearing_error_deg: Option<f64>,
     /// Distance to the active waypoint [m].
     pub distance_m: Option<f64>,
-    /// Cross-track error to the active leg [m], positive = right of the leg.
+    /// Cross-track error to the active leg [m], positive = right of the leg: from the route's path toward
+    /// the active waypoint when it has one ([`Route::active_path`]), else from the straight leg.
     pub cross_track_m: Option<f64>,
+    /// How long the wearer has been farther than [`GuidanceConfig::off_path_m`] from the path [s] (by fix
+    /// time); `None` on the path or without one.
+    #[serde(default)]
+    pub off_path_s: Option<f64>,
+    /// Off the path for [`GuidanceConfig::off_path_s`] or longer: plan a new route from here. Stays set
+    /// until the wearer is back within [`GuidanceConfig::off_path_m`] or the route changes.
+    #[serde(default)]
+    pub reroute: bool,
     /// Index of the active waypoint (after the update).
     pub waypoint_index: usize,
     /// Name of the active waypoint.

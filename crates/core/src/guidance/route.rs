@@ -2,6 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::RoutePath;
 use crate::geo::{Earth, LatLon, leg_offset};
 
 /// Errors building a route.
@@ -117,6 +118,9 @@ pub struct Route {
     inside_count: u32,
     armed: bool,
     laps: u32,
+    /// The path between the waypoints, when the route was planned along paths.
+    #[serde(default)]
+    path: Option<RoutePath>,
 }
 
 impl Route {
@@ -145,7 +149,41 @@ impl Route {
         if config.confirm_fixes == 0 {
             return Err(RouteError::BadConfig("confirm_fixes must be at least 1"));
         }
-        Ok(Self { waypoints, config, active: 0, finished: false, inside_count: 0, armed: true, laps: 0 })
+        Ok(Self {
+            waypoints,
+            config,
+            active: 0,
+            finished: false,
+            inside_count: 0,
+            armed: true,
+            laps: 0,
+            path: None,
+        })
+    }
+
+    /// The same route following `path` between its waypoints (a planner's dense route): guidance measures
+    /// the cross-track error from the path's section toward the active waypoint and aims along it. Refused
+    /// unless the path has one vertex per waypoint.
+    pub fn with_path(mut self, path: Option<RoutePath>) -> Result<Self, RouteError> {
+        if path.as_ref().is_some_and(|p| p.waypoint_vertices().len() != self.waypoints.len()) {
+            return Err(RouteError::BadConfig("the path must carry one vertex per waypoint"));
+        }
+        self.path = path;
+        Ok(self)
+    }
+
+    /// The path between the waypoints, if the route has one.
+    pub fn path(&self) -> Option<&RoutePath> {
+        self.path.as_ref()
+    }
+
+    /// The section of the path toward the active waypoint (at least two points), if the route has a path.
+    /// After the first lap of a looped route the leg into waypoint 0 has none (straight leg).
+    pub fn active_path(&self) -> Option<&[LatLon]> {
+        if self.active == 0 && self.laps > 0 {
+            return None;
+        }
+        self.path.as_ref().map(|p| p.leg(self.active)).filter(|l| l.len() >= 2)
     }
 
     /// The waypoints.

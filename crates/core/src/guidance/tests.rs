@@ -317,3 +317,77 @@ proptest::proptest! {
         proptest::prop_assert!(d.bearing_error_deg.is_none_or(f64::is_finite));
     }
 }
+
+/// An L-shaped path from `O`: 100 m east, then 100 m north, every 10 m a vertex; two waypoints, its ends.
+fn l_path_route(config: RouteConfig) -> Route {
+    let e = Earth::Wgs84;
+    let corner = e.direct(O, 90.0, 100.0);
+    let mut pts: Vec<LatLon> = (0..=10).map(|i| e.direct(O, 90.0, 10.0 * f64::from(i))).collect();
+    pts.extend((1..=10).map(|i| e.direct(corner, 0.0, 10.0 * f64::from(i))));
+    let wps = vec![Waypoint::at("start", pts[0]), Waypoint::at("end", pts[20])];
+    let path = RoutePath::new(pts, vec![0, 20]).unwrap();
+    let mut r = Route::new(wps, config).unwrap().with_path(Some(path)).unwrap();
+    let _ = r.skip(); // heading for "end"
+    r
+}
+
+#[test]
+fn a_wearer_beside_a_bent_path_is_steered_back_to_it_not_along_the_chord() {
+    // 50 m along the eastern arm and 10 m north of it (left of the path), walking east. The straight leg
+    // from start to end is the diagonal, which passes 28 m north-west of the wearer: measured from it the
+    // wearer is right of the route and would be told to turn left. Along the path the wearer is 10 m left
+    // of it: the aim 15 m ahead on the path is at bearing 90 + atan(10/15) = 123.7°, a turn to the right.
+    let e = Earth::Wgs84;
+    let p = e.direct(e.direct(O, 90.0, 50.0), 0.0, 10.0);
+    for kind in StrategyKind::ALL {
+        let mut g = Guidance::new(l_path_route(RouteConfig::default()), GuidanceConfig::default(), kind);
+        let d = g.update(&mv(p, 90.0, 0.0), 0.0);
+        assert_relative_eq!(d.cross_track_m.unwrap(), -10.0, max_relative = 1e-3);
+        assert_relative_eq!(
+            d.bearing_deg.unwrap(),
+            90.0 + (10.0f64 / 15.0).atan().to_degrees(),
+            epsilon = 0.05
+        );
+        assert!(matches!(d.cue, Some(Cue::TurnRight | Cue::SlightRight)), "{kind:?}: {d:?}");
+        // Without the path the straight leg says the opposite.
+        let straight = {
+            let mut r =
+                Route::new(l_path_route(RouteConfig::default()).waypoints().to_vec(), RouteConfig::default())
+                    .unwrap();
+            let _ = r.skip();
+            r
+        };
+        let mut g = Guidance::new(straight, GuidanceConfig::default(), kind);
+        let d = g.update(&mv(p, 90.0, 0.0), 0.0);
+        assert!(d.cross_track_m.unwrap() > 20.0, "{d:?}");
+        assert!(matches!(d.cue, Some(Cue::TurnLeft | Cue::SlightLeft)), "{kind:?}: {d:?}");
+    }
+    // On the northern arm, 6 m east of it (right of northward travel), walking north: steer left.
+    let q = e.direct(e.direct(e.direct(O, 90.0, 100.0), 0.0, 40.0), 90.0, 6.0);
+    let mut g =
+        Guidance::new(l_path_route(RouteConfig::default()), GuidanceConfig::default(), StrategyKind::Pursuit);
+    let d = g.update(&mv(q, 0.0, 0.0), 0.0);
+    assert_relative_eq!(d.cross_track_m.unwrap(), 6.0, max_relative = 1e-3);
+    assert!(matches!(d.cue, Some(Cue::SlightLeft | Cue::TurnLeft)), "{d:?}");
+}
+
+#[test]
+fn off_the_path_for_the_set_time_asks_for_a_new_route_once_per_excursion() {
+    let e = Earth::Wgs84;
+    let config = GuidanceConfig { off_path_m: 20.0, off_path_s: 15.0, ..GuidanceConfig::default() };
+    let mut g = Guidance::new(l_path_route(RouteConfig::default()), config, StrategyKind::Pursuit);
+    let on = e.direct(e.direct(O, 90.0, 30.0), 0.0, 5.0);
+    let off = e.direct(e.direct(O, 90.0, 30.0), 180.0, 30.0);
+    let d = g.update(&mv(on, 90.0, 0.0), 0.0);
+    assert_eq!((d.off_path_s, d.reroute), (None, false));
+    // Off from t = 1 s: asked at t = 16 s, not before.
+    for t in 1..=20 {
+        let t = f64::from(t);
+        let d = g.update(&mv(off, 90.0, t), t);
+        assert_relative_eq!(d.off_path_s.unwrap(), t - 1.0, epsilon = 1e-6);
+        assert_eq!(d.reroute, t >= 16.0, "t = {t}");
+    }
+    // Back on the path: the excursion is over.
+    let d = g.update(&mv(on, 90.0, 21.0), 21.0);
+    assert_eq!((d.off_path_s, d.reroute), (None, false));
+}

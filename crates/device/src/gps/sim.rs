@@ -30,8 +30,12 @@ pub fn demo_route() -> Result<Vec<(f64, f64)>, GpsError> {
     file.default_route().as_ref().map(points).ok_or_else(|| err("no route, track or waypoints".into()))
 }
 
+/// What the simulated walker walks: the route's path when it follows one (a planner's GPX), else its points.
 fn points(route: &DefaultRoute) -> Vec<(f64, f64)> {
-    route.waypoints.iter().map(|w| (w.lat_deg, w.lon_deg)).collect()
+    match &route.path {
+        Some(p) => p.points().iter().map(|q| (q.lat_deg, q.lon_deg)).collect(),
+        None => route.waypoints.iter().map(|w| (w.lat_deg, w.lon_deg)).collect(),
+    }
 }
 
 /// The current UTC time truncated to a whole second (receivers report epochs on the second).

@@ -13,6 +13,7 @@
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
+use vestnav_core::guidance::RoutePath;
 use vestnav_device::route_file::{self, RouteFile, Track, TrackPoint};
 
 pub use vestnav_device::route_file::{DEMO_GPX, Waypoint};
@@ -27,6 +28,8 @@ pub struct GpxContent {
     pub waypoints: Vec<Waypoint>,
     /// Track points of every track and segment, as `(lat_deg, lon_deg)`.
     pub track: Vec<(f64, f64)>,
+    /// The path the route follows between its points (a planner's GPX: a track through them in order).
+    pub path: Option<RoutePath>,
 }
 
 impl GpxContent {
@@ -34,6 +37,7 @@ impl GpxContent {
         let route = file.default_route();
         Self {
             name: route.as_ref().and_then(|r| r.name.clone()).or_else(|| file.name.clone()),
+            path: route.as_ref().and_then(|r| r.path.clone()),
             waypoints: route.map(|r| r.waypoints).unwrap_or_default(),
             track: file.tracks.iter().flat_map(Track::points).map(|p| (p.lat_deg, p.lon_deg)).collect(),
         }
@@ -213,12 +217,14 @@ pub struct RouteState {
     pub waypoints: Vec<Waypoint>,
     /// Index of the next waypoint (`waypoints.len()`: the route is finished).
     pub next: usize,
+    /// The path between the waypoints, when the route was planned along paths (one vertex per waypoint).
+    pub path: Option<RoutePath>,
 }
 
 impl RouteState {
-    /// Whether this is the route `name`, `waypoints`, `next` (compared without cloning them).
-    pub fn is(&self, name: &str, waypoints: &[Waypoint], next: usize) -> bool {
-        self.next == next && self.name == name && self.waypoints == waypoints
+    /// Whether this is the route `name`, `waypoints`, `next`, `path` (compared without cloning them).
+    pub fn is(&self, name: &str, waypoints: &[Waypoint], next: usize, path: Option<&RoutePath>) -> bool {
+        self.next == next && self.name == name && self.waypoints == waypoints && self.path.as_ref() == path
     }
 }
 
@@ -228,10 +234,11 @@ pub const AUTOSAVE_FILE: &str = "route-autosave.gpx";
 /// What the autosave's file-level `<metadata><name>` starts with; the next waypoint's index follows.
 const AUTOSAVE_NEXT_PREFIX: &str = "vestnav route autosave; next=";
 
-/// The autosave's GPX text: the route as the file's one `<rte>`, the next waypoint's index in the file's
-/// `<metadata><name>` (GPX has no element for it, and `route_file` is the one home of the format).
+/// The autosave's GPX text: the route as the file's one `<rte>` (its path, if any, as a `<trk>`:
+/// `RouteFile::with_path`), the next waypoint's index in the file's `<metadata><name>` (GPX has no element
+/// for it, and `route_file` is the one home of the format).
 pub fn autosave_gpx(state: &RouteState) -> String {
-    let mut file = RouteFile::from_route(&state.name, state.waypoints.clone());
+    let mut file = RouteFile::with_path(&state.name, state.waypoints.clone(), state.path.as_ref());
     file.name = Some(format!("{AUTOSAVE_NEXT_PREFIX}{}", state.next));
     route_file::to_gpx(&file)
 }
@@ -254,7 +261,8 @@ fn autosave_state(file: &RouteFile) -> RouteState {
         .and_then(|n| n.trim().parse::<usize>().ok())
         .unwrap_or(0)
         .min(waypoints.len());
-    RouteState { name: name.unwrap_or_else(|| "route".to_owned()), waypoints, next }
+    let path = file.route_path(&waypoints);
+    RouteState { name: name.unwrap_or_else(|| "route".to_owned()), waypoints, next, path }
 }
 
 /// Reads the autosave at `path`: `Ok(None)` when there is none, an error naming the file when it cannot
@@ -307,22 +315,15 @@ impl Autosave {
 
     /// Writes the route when it differs from the file, at most once per [`AUTOSAVE_MIN_INTERVAL`] unless
     /// `now_or_never` (exit). Returns a new error (each distinct failure once, for the operator).
-    pub fn poll(
-        &mut self,
-        name: &str,
-        waypoints: &[Waypoint],
-        next: usize,
-        now: Instant,
-        now_or_never: bool,
-    ) -> Option<String> {
-        if self.saved.is(name, waypoints, next) {
+    pub fn poll(&mut self, route: &super::RouteModel, now: Instant, now_or_never: bool) -> Option<String> {
+        if route.is(&self.saved) {
             return None;
         }
         if !now_or_never && self.last_attempt.is_some_and(|t| now.duration_since(t) < AUTOSAVE_MIN_INTERVAL) {
             return None;
         }
         self.last_attempt = Some(now);
-        let state = RouteState { name: name.to_owned(), waypoints: waypoints.to_vec(), next };
+        let state = route.state();
         let written = vestnav_files::ensure_parent(&self.path)
             .map_err(|e| format!("cannot create the folder of {}: {e}", self.path.display()))
             .and_then(|()| write_atomically(&self.path, &autosave_gpx(&state)));
@@ -377,18 +378,21 @@ mod tests {
                 },
             ],
             next: 1,
+            path: None,
         };
+        let model = |s: &RouteState| super::super::RouteModel::new(s.clone());
         let mut a = Autosave::new(path.clone(), RouteState::default());
         let t0 = Instant::now();
-        assert_eq!(a.poll(&state.name, &state.waypoints, state.next, t0, false), None);
+        assert_eq!(a.poll(&model(&state), t0, false), None);
         assert_eq!(read_autosave(&path), Ok(Some(state.clone())));
         // A change right after a write waits for the interval, unless it is the exit's.
-        a.poll(&state.name, &state.waypoints, 0, t0, false);
+        let first = RouteState { next: 0, ..state.clone() };
+        a.poll(&model(&first), t0, false);
         assert_eq!(read_autosave(&path).unwrap().unwrap().next, 1);
-        a.poll(&state.name, &state.waypoints, 0, t0, true);
+        a.poll(&model(&first), t0, true);
         assert_eq!(read_autosave(&path).unwrap().unwrap().next, 0);
         // An empty route stays empty, with its name.
-        a.poll("empty", &[], 0, t0, true);
+        a.poll(&model(&RouteState { name: "empty".into(), ..RouteState::default() }), t0, true);
         assert_eq!(
             read_autosave(&path),
             Ok(Some(RouteState { name: "empty".into(), ..RouteState::default() }))

@@ -1,6 +1,9 @@
 //! The route: the one owner of the waypoints, the next waypoint, the edit history and the autosave
 //! ([`RouteModel`]), and the wearer's track ([`Track`]).
 //!
+//! A route planned along paths also holds its path ([`RouteModel::path`]); an edit that moves, adds,
+//! removes or reorders waypoints drops it (straight legs again), a re-route replaces it.
+//!
 //! Every edit (add, move, drag, delete, reorder, rename, typed coordinates, clear, import) is one step of
 //! a bounded undo history ([`UNDO_STEPS`]). A route never holds more than [`MAX_WAYPOINTS`] waypoints:
 //! an edit or an import beyond it is refused with a message, never slowly accepted, so that everything
@@ -8,6 +11,8 @@
 //! hands the new route to guidance and the autosave once per revision.
 
 use std::collections::VecDeque;
+
+use vestnav_core::guidance::RoutePath;
 
 mod files;
 mod track;
@@ -93,6 +98,9 @@ pub struct RouteModel {
     name: String,
     waypoints: Vec<Waypoint>,
     next: usize,
+    /// The path between the waypoints (a planned walk); dropped by an edit that moves, adds, removes or
+    /// reorders waypoints (its vertices would no longer be theirs).
+    path: Option<RoutePath>,
     undo: VecDeque<UndoStep>,
     redo: Vec<UndoStep>,
     /// "Deleted WP3": shown with an **Undo delete** button after a delete or a clear, until the next edit.
@@ -104,7 +112,7 @@ pub struct RouteModel {
 
 impl Default for RouteModel {
     fn default() -> Self {
-        Self::new(RouteState { name: "route".to_owned(), waypoints: Vec::new(), next: 0 })
+        Self::new(RouteState { name: "route".to_owned(), waypoints: Vec::new(), next: 0, path: None })
     }
 }
 
@@ -112,13 +120,15 @@ impl RouteModel {
     /// A model holding `state` (its next index clamped, its waypoints cut to [`MAX_WAYPOINTS`]: use
     /// [`Self::check_len`] first to refuse a longer one).
     pub fn new(state: RouteState) -> Self {
-        let RouteState { name, mut waypoints, next } = state;
+        let RouteState { name, mut waypoints, next, path } = state;
         waypoints.truncate(MAX_WAYPOINTS);
         let next = next.min(waypoints.len());
+        let path = path.filter(|p| p.waypoint_vertices().len() == waypoints.len());
         Self {
             name,
             waypoints,
             next,
+            path,
             undo: VecDeque::new(),
             redo: Vec::new(),
             undo_notice: None,
@@ -151,6 +161,20 @@ impl RouteModel {
         self.next
     }
 
+    /// The path the route follows between its waypoints, when it was planned along paths.
+    pub fn path(&self) -> Option<&RoutePath> {
+        self.path.as_ref()
+    }
+
+    /// The points a wearer walks along the route (what the GPS simulator walks): the path's when it has
+    /// one, else the waypoints.
+    pub fn walked(&self) -> Vec<Waypoint> {
+        match &self.path {
+            Some(p) => p.points().iter().map(|q| Waypoint::at("path", *q)).collect(),
+            None => self.waypoints.clone(),
+        }
+    }
+
     /// Bumped by every change (edits, undo, redo, a new next waypoint).
     pub fn revision(&self) -> u64 {
         self.revision
@@ -168,12 +192,17 @@ impl RouteModel {
 
     /// The route as it stands (name, waypoints, next).
     pub fn state(&self) -> RouteState {
-        RouteState { name: self.name.clone(), waypoints: self.waypoints.clone(), next: self.next }
+        RouteState {
+            name: self.name.clone(),
+            waypoints: self.waypoints.clone(),
+            next: self.next,
+            path: self.path.clone(),
+        }
     }
 
     /// Whether the route is `state` (compared without cloning).
     pub fn is(&self, state: &RouteState) -> bool {
-        state.is(&self.name, &self.waypoints, self.next)
+        state.is(&self.name, &self.waypoints, self.next, self.path.as_ref())
     }
 
     /// Sets the next waypoint (deliberate re-targeting, or guidance's arrival); not an undo step.
@@ -206,10 +235,12 @@ impl RouteModel {
             name: std::mem::take(&mut self.name),
             waypoints: std::mem::take(&mut self.waypoints),
             next: self.next,
+            path: self.path.take(),
         };
         let UndoStep { what, state, left_next } = step;
         self.name = state.name;
         self.waypoints = state.waypoints;
+        self.path = state.path;
         let next = if current.next == left_next { state.next } else { current.next };
         self.next = next.min(self.waypoints.len());
         self.undo_notice = None;
@@ -252,6 +283,7 @@ impl RouteModel {
         let before = self.state();
         let n = before.waypoints.len();
         self.waypoints.clear();
+        self.path = None;
         self.next = 0;
         self.commit("clear route".to_owned(), before);
         self.undo_notice = Some(format!("Cleared the route ({n} waypoints)"));
@@ -259,13 +291,40 @@ impl RouteModel {
 
     /// Replaces the route with an imported one (one undo step), heading for its first waypoint.
     pub fn replace(&mut self, name: String, waypoints: Vec<Waypoint>) -> Result<(), RouteError> {
+        self.replace_with_path(name, waypoints, None)
+    }
+
+    /// [`Self::replace`] with the path the route follows between its waypoints (a planned walk, a
+    /// planner's GPX); refused unless the path has one vertex per waypoint.
+    pub fn replace_with_path(
+        &mut self,
+        name: String,
+        waypoints: Vec<Waypoint>,
+        path: Option<RoutePath>,
+    ) -> Result<(), RouteError> {
         Self::check_len(waypoints.len())?;
+        if path.as_ref().is_some_and(|p| p.waypoint_vertices().len() != waypoints.len()) {
+            return Err(RouteError::Field("the path does not pass every waypoint".to_owned()));
+        }
         let before = self.state();
         let what = format!("import {name}");
         self.name = name;
         self.waypoints = waypoints;
+        self.path = path;
         self.next = 0;
         self.commit(what, before);
+        Ok(())
+    }
+
+    /// Replaces the path from the next waypoint on with `path` (a re-route from where the wearer is: its
+    /// vertices must be the same waypoints'): one undo step, the waypoints unchanged.
+    pub fn reroute(&mut self, path: RoutePath) -> Result<(), RouteError> {
+        if path.waypoint_vertices().len() != self.waypoints.len() {
+            return Err(RouteError::Field("the new path does not pass every waypoint".to_owned()));
+        }
+        let before = self.state();
+        self.path = Some(path);
+        self.commit("re-route from the wearer".to_owned(), before);
         Ok(())
     }
 
@@ -297,6 +356,9 @@ impl RouteModel {
         if let Some(w) = self.waypoints.get_mut(i) {
             *w = Waypoint { name: name.to_owned(), lat_deg, lon_deg, arrival_radius_m: radius_m };
         }
+        if moved {
+            self.path = None;
+        }
         self.commit(what, before);
         Ok(())
     }
@@ -307,6 +369,7 @@ impl RouteModel {
         if let Some(j) = j.filter(|&j| j < self.waypoints.len()) {
             let before = self.state();
             self.waypoints.swap(i, j);
+            self.path = None;
             let way = if dir < 0 { "earlier" } else { "later" };
             let name = self.waypoints.get(j).map_or_else(String::new, |w| w.name.clone());
             self.commit(format!("move {name} {way}"), before);
@@ -319,6 +382,7 @@ impl RouteModel {
         if i < self.waypoints.len() {
             let before = self.state();
             let w = self.waypoints.remove(i);
+            self.path = None;
             if i < self.next {
                 self.next -= 1;
             }
@@ -341,6 +405,7 @@ impl RouteModel {
         } else {
             self.waypoints.push(w);
         }
+        self.path = None;
         self.commit(what, before);
         Ok(())
     }
@@ -359,6 +424,7 @@ impl RouteModel {
         if let Some(w) = self.waypoints.get_mut(i) {
             w.lat_deg = lat_deg;
             w.lon_deg = lon_deg;
+            self.path = None;
             self.revision += 1;
         }
     }
@@ -441,7 +507,41 @@ mod tests {
     fn model(n: usize) -> RouteModel {
         let wps =
             (0..n).map(|i| Waypoint::new(format!("WP{}", i + 1), 42.0 + i as f64 * 1e-3, -71.0)).collect();
-        RouteModel::new(RouteState { name: "r".into(), waypoints: wps, next: 0 })
+        RouteModel::new(RouteState { name: "r".into(), waypoints: wps, next: 0, path: None })
+    }
+
+    #[test]
+    fn a_path_survives_renames_and_undo_but_not_moves() {
+        use vestnav_core::geo::LatLon;
+        let mut m = model(0);
+        let pts: Vec<LatLon> = (0..5).map(|i| LatLon::new(42.0 + f64::from(i) * 1e-3, -71.0)).collect();
+        let wps = vec![Waypoint::at("A", pts[0]), Waypoint::at("B", pts[4])];
+        let path = RoutePath::new(pts.clone(), vec![0, 4]).unwrap();
+        assert!(
+            m.replace_with_path(
+                "walk".into(),
+                wps.clone(),
+                Some(RoutePath::new(pts.clone(), vec![0]).unwrap())
+            )
+            .is_err()
+        );
+        m.replace_with_path("walk".into(), wps, Some(path.clone())).unwrap();
+        assert_eq!(m.path(), Some(&path));
+        assert_eq!(m.walked().len(), 5, "the simulator walks the path");
+        m.edit(0, "Start", pts[0].lat_deg, pts[0].lon_deg, None).unwrap();
+        assert_eq!(m.path(), Some(&path), "a rename keeps it");
+        m.drag(1, 42.01, -71.0);
+        m.end_drag();
+        assert_eq!(m.path(), None, "a moved waypoint drops it");
+        assert!(m.undo());
+        assert_eq!(m.path(), Some(&path), "undo brings it back");
+        // A re-route replaces it as one undo step.
+        let detour = path.replaced_from(1, &[LatLon::new(42.002, -70.999), pts[4]], &[1]).unwrap();
+        m.reroute(detour.clone()).unwrap();
+        assert_eq!(m.path(), Some(&detour));
+        assert_eq!(m.undo_label(), Some("re-route from the wearer"));
+        // The autosave keeps it.
+        assert_eq!(parse_autosave(&autosave_gpx(&m.state())).unwrap().path, Some(detour));
     }
 
     #[test]
