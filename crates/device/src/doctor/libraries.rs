@@ -2,7 +2,6 @@
 //! gpsd, liblsl and the broker.
 
 use std::net::{TcpStream, ToSocketAddrs as _};
-use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use super::{Area, BROKER_TIMEOUT, Environment, Finding, Verdict};
@@ -104,11 +103,18 @@ pub fn optional_findings(env: &Environment, broker: Option<&str>) -> Vec<Finding
         )
         .fix("sudo apt install gpsd"),
     }];
-    out.push(match find_liblsl(env) {
-        Some(p) => finding("liblsl", Verdict::Ok, format!("{}", p.display())),
-        None => {
-            finding("liblsl", Verdict::Info, "liblsl not found (needed only for Lab Streaming Layer)".into())
-                .fix("install liblsl from its releases, or `pip install pylsl` (its wheel carries liblsl)")
+    // The one search `--lsl` and the console's lab outputs use (vestnav-lsl), loading the library as they
+    // would: a file found but unusable is said with its reason.
+    out.push(match vestnav_lsl::Lsl::load() {
+        Ok(lsl) => finding("liblsl", Verdict::Ok, format!("{} (liblsl {})", lsl.path(), lsl.version_text())),
+        Err(missing) => {
+            let why = missing.tried.iter().map(|(what, why)| format!("{what}: {why}")).collect::<Vec<_>>();
+            finding(
+                "liblsl",
+                Verdict::Info,
+                format!("liblsl not found (needed only for Lab Streaming Layer); tried {}", why.join("; ")),
+            )
+            .fix(vestnav_lsl::INSTALL_HINT)
         }
     });
     out.push(match broker {
@@ -120,32 +126,6 @@ pub fn optional_findings(env: &Environment, broker: Option<&str>) -> Vec<Finding
         },
     });
     out
-}
-
-/// `liblsl.so*` in the loader's folders, else in a pylsl install (`pylsl/lib/` in the system's, the
-/// user's or the active virtual environment's Python packages).
-pub(super) fn find_liblsl(env: &Environment) -> Option<PathBuf> {
-    let is_lsl = |n: &str| n.starts_with("liblsl") && n.contains(".so");
-    let mut dirs = env.library_dirs();
-    let mut site_parents = vec![PathBuf::from("/usr/lib/python3/dist-packages")];
-    let mut py_roots = vec![PathBuf::from("/usr/local/lib"), PathBuf::from("/usr/lib")];
-    if let Some(home) = env.var("HOME") {
-        py_roots.push(Path::new(home).join(".local/lib"));
-    }
-    if let Some(venv) = env.var("VIRTUAL_ENV") {
-        py_roots.push(Path::new(venv).join("lib"));
-    }
-    for root in py_roots {
-        for py in env.list(&root).unwrap_or_default().into_iter().filter(|n| n.starts_with("python3")) {
-            site_parents.push(root.join(&py).join("site-packages"));
-            site_parents.push(root.join(&py).join("dist-packages"));
-        }
-    }
-    for site in site_parents {
-        dirs.push(site.join("pylsl").join("lib"));
-        dirs.push(site.join("pylsl"));
-    }
-    dirs.into_iter().find_map(|d| env.list(&d).ok()?.into_iter().find(|n| is_lsl(n)).map(|n| d.join(n)))
 }
 
 /// Connects to the broker's host and port (`mqtt://host:1883`, `tcp://host:port`, `host:port`; the MQTT

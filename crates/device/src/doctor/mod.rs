@@ -696,22 +696,17 @@ mod tests {
         assert_eq!(dirs[0], Path::new("/custom/lib"));
         assert_eq!(dirs[1], Path::new("/opt/lsl/lib"));
         assert!(!dirs.iter().any(|d| d.starts_with("/not") || d.starts_with("relative")));
-        assert_eq!(find_liblsl(&env), None);
-        fake.file("/opt/lsl/lib/liblsl.so.1.16.2", "");
-        assert_eq!(find_liblsl(&env), Some(PathBuf::from("/opt/lsl/lib/liblsl.so.1.16.2")));
     }
 
     #[test]
-    fn liblsl_inside_a_pylsl_wheel_is_found() {
-        let fake = FakeRoot::new("pylsl");
-        fake.file("/home/alice/.local/lib/python3.12/site-packages/pylsl/lib/liblsl.so", "");
+    fn optional_parts_are_never_a_problem_when_absent() {
+        let fake = FakeRoot::new("optional");
         let env = fake.env(&[1000], &[("HOME", "/home/alice")]);
         let found = optional_findings(&env, None);
-        let lsl = found.iter().find(|f| f.check == "liblsl").unwrap();
-        assert_eq!(lsl.verdict, Verdict::Ok);
-        assert_eq!(lsl.detail, "/home/alice/.local/lib/python3.12/site-packages/pylsl/lib/liblsl.so");
-        // gpsd absent is only information; no broker configured is not a problem either.
-        assert!(found.iter().all(|f| f.verdict != Verdict::Problem));
+        // liblsl is looked for by vestnav-lsl's own search (its tests cover the places); found or not, it is
+        // never a problem. gpsd absent is only information; no broker configured is not a problem either.
+        assert!(found.iter().any(|f| f.check == "liblsl"));
+        assert!(found.iter().all(|f| f.verdict != Verdict::Problem), "{found:?}");
         fake.file("/usr/sbin/gpsd", "");
         std::fs::set_permissions(fake.dir.join("usr/sbin/gpsd"), std::fs::Permissions::from_mode(0o755))
             .unwrap();
