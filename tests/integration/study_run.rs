@@ -69,7 +69,7 @@ repetitions = 5
 
 /// The 16 tactor labels.
 fn tactors() -> Vec<String> {
-    (1..=16).map(|i| format!("T{i}")).collect()
+    (0..16).map(vestnav_core::vest::tactor_label).collect()
 }
 
 /// Information transfer [bits] of `pairs` (stimulus, response), maximum-likelihood, by core's estimator.
@@ -124,7 +124,7 @@ fn a_localization_session_gives_the_confusion_models_percent_correct_and_informa
             let mut w = SimulatedWearer::new(P, 10_000 + seed, 1.0).unwrap();
             let pairs: Vec<(String, String)> = (0..80)
                 .map(|i| {
-                    let s = format!("T{}", i % 16 + 1);
+                    let s = vestnav_core::vest::tactor_label(i % 16);
                     let r = w.respond(&s, &tactors()).0;
                     (s, r)
                 })
@@ -272,7 +272,7 @@ fn stop_all_from_the_stop_path_is_recorded_pauses_and_abort_keeps_every_row() {
     assert!(pump_until(&mut s, Duration::from_secs(2), |s| phase(s) == Some(StudyPhase::Presenting)));
     assert_eq!(s.study().unwrap().current().unwrap().answer, "T5");
     assert!(study(&mut s, StudyCommand::Respond { answer: "nowhere".into() }).is_err());
-    study(&mut s, StudyCommand::Respond { answer: "t7".into() }).unwrap();
+    study(&mut s, StudyCommand::Respond { answer: "t6".into() }).unwrap();
     // The next trial waits for this stimulus's end (1.5 s) and the interval.
     assert_eq!(phase(&s), Some(StudyPhase::Interval));
     assert!(pump_until(&mut s, Duration::from_secs(4), |s| phase(s) == Some(StudyPhase::Presenting)));

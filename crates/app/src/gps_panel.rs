@@ -383,9 +383,9 @@ pub fn show(station: &mut Station, cfg: &mut Config, gps_ui: &mut GpsUi, ui: &mu
         record_toggle(gps_ui, ui);
         ui.toggle_value(&mut gps_ui.monitor.open, "NMEA monitor");
         ui.toggle_value(&mut gps_ui.receiver.open, "Receiver")
-            .on_hover_text("Configure the receiver: rate, constellations, dynamic model, static hold");
-        ui.toggle_value(&mut gps_ui.ntrip.open, "RTK (NTRIP)")
-            .on_hover_text("RTK corrections from an NTRIP caster to the receiver's serial port");
+            .on_hover_text(
+                "Configure the receiver: rate, constellations, dynamic model, static hold; RTK corrections (NTRIP)",
+            );
     });
     if let Some(n) = &station.gps.notice {
         ui.label(RichText::new(n).small().weak());

@@ -145,15 +145,25 @@ pub fn availability(station: &Station, source: &GpsSourceConfig) -> Result<(), S
 /// frame, so it stays open when the GPS section is collapsed, and it takes no room above the vest grid.
 /// A run under way is followed whether or not the window is open. `r` is the window's own state; `station`
 /// runs the GPS source configured as `source`.
-pub fn window(station: &Station, source: &GpsSourceConfig, r: &mut ReceiverUi, ctx: &egui::Context) {
+/// `rtk_open` is the RTK (NTRIP) window's switch, offered at the top (it is the receiver's input; the GPS
+/// panel's row has no room for it without pushing the vest grid below the first screen).
+pub fn window(
+    station: &Station,
+    source: &GpsSourceConfig,
+    r: &mut ReceiverUi,
+    rtk_open: &mut bool,
+    ctx: &egui::Context,
+) {
     if r.poll() {
         ctx.request_repaint_after(Duration::from_millis(100));
     }
     let mut open = r.open;
-    egui::Window::new("GPS receiver configuration")
-        .open(&mut open)
-        .default_width(380.0)
-        .show(ctx, |ui| body(station, source, r, ui));
+    egui::Window::new("GPS receiver configuration").open(&mut open).default_width(380.0).show(ctx, |ui| {
+        ui.toggle_value(rtk_open, "RTK corrections (NTRIP)…")
+            .on_hover_text("Corrections from an NTRIP caster to the receiver's serial port");
+        ui.separator();
+        body(station, source, r, ui);
+    });
     r.open = open;
 }
 

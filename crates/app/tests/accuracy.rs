@@ -121,7 +121,7 @@ fn caster() -> String {
     addr
 }
 
-/// The console on a serial receiver (a PTY): the operator opens **RTK (NTRIP)**, types the caster and
+/// The console on a serial receiver (a PTY): the operator opens **Receiver → RTK corrections (NTRIP)…**, types the caster and
 /// mountpoint and starts the corrections; they reach the receiver's port (as many frames as gpsd decodes
 /// in the log, each whole), and the GPS panel's status line says connected, the message types, and the
 /// receiver's RTK float from its GGA quality 5. When the caster then goes silent, the line says the
@@ -141,7 +141,9 @@ fn ntrip_status_line_with_a_serial_receiver() {
         .with_size(egui::vec2(1400.0, 900.0))
         .build_ui_state(|ui, c: &mut Console| c.ui(ui), console);
     h.run_steps(3);
-    h.get_by_label("RTK (NTRIP)").click();
+    h.get_by_label("Receiver").click();
+    h.run_steps(2);
+    h.get_by_label("RTK corrections (NTRIP)…").click();
     h.run_steps(2);
     h.get_by_role_and_label(Role::TextInput, "caster").set_text_value_accesskit(&addr);
     h.get_by_role_and_label(Role::TextInput, "mountpoint").set_text_value_accesskit("RTCM32");

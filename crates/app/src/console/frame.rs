@@ -220,7 +220,13 @@ impl Console {
             });
         }
         self.pattern_editor.window(&mut self.station, &mut self.cfg, ui.ctx());
-        crate::gps_receiver::window(&self.station, &self.cfg.gps, &mut self.gps_ui.receiver, ui.ctx());
+        crate::gps_receiver::window(
+            &self.station,
+            &self.cfg.gps,
+            &mut self.gps_ui.receiver,
+            &mut self.gps_ui.ntrip.open,
+            ui.ctx(),
+        );
         let base = self.cfg.recent.base();
         crate::ntrip_panel::window(
             &mut self.station,

@@ -90,7 +90,7 @@ fn one_trial_speaks_the_marker_vocabulary_and_writes_its_row_at_once() {
     io.after(&mut r, 0.31);
     assert_eq!(r.phase(), StudyPhase::AwaitingResponse);
     io.now += 0.2;
-    r.command(StudyCommand::Respond { answer: "t5".into() }, &mut io).unwrap();
+    r.command(StudyCommand::Respond { answer: "t4".into() }, &mut io).unwrap();
     let texts: Vec<&str> = io.markers.iter().map(|(m, _)| m.as_str()).collect();
     assert_eq!(
         texts,
