@@ -14,7 +14,7 @@ use vestnav_station::hardware::Hardware;
 use vestnav_station::sources::{VestSourceConfig, parse_gps_spec};
 use vestnav_station::stop::StopPath;
 
-use crate::remote::{Unit, wait_for};
+use crate::remote::{Unit, run_until_shown, wait_for};
 
 fn config(name: &str, unit: &Unit) -> LocalStationConfig {
     LocalStationConfig {
@@ -73,12 +73,7 @@ fn two_local_stations_are_driven_alone_and_stopped_together() {
     wait_for("the FIRE at alpha's vest", Duration::from_secs(2), || {
         !a.received_after(CommandKind::Fire, t0).is_empty()
     });
-    let until = Instant::now() + Duration::from_secs(5);
-    while h.query_by_label_contains("applied").is_none() {
-        assert!(Instant::now() < until, "alpha's answer shown in the window");
-        std::thread::sleep(Duration::from_millis(20));
-        h.run_steps(1);
-    }
+    run_until_shown(&mut h, "applied", "alpha's answer shown in the window");
     std::thread::sleep(Duration::from_millis(200));
     assert!(b.received_after(CommandKind::Fire, t0).is_empty(), "bravo's vest got no FIRE");
 

@@ -312,6 +312,17 @@ pub(crate) fn wait_for(what: &str, timeout: Duration, mut ok: impl FnMut() -> bo
     }
 }
 
+/// Turns a window until a label containing `text` shows, for at most 5 s (`what` names the failure).
+pub(crate) fn run_until_shown<S>(h: &mut egui_kittest::Harness<'_, S>, text: &str, what: &str) {
+    use egui_kittest::kittest::Queryable as _;
+    let until = Instant::now() + Duration::from_secs(5);
+    while h.query_by_label_contains(text).is_none() {
+        assert!(Instant::now() < until, "{what}");
+        std::thread::sleep(Duration::from_millis(20));
+        h.run_steps(1);
+    }
+}
+
 fn percentile(sorted: &[f64], p: f64) -> f64 {
     let i = ((sorted.len() as f64 - 1.0) * p).round() as usize;
     sorted[i.min(sorted.len() - 1)]
@@ -744,12 +755,7 @@ fn driving_one_station_from_the_window_reaches_its_vest_only() {
     wait_for("the FIRE at alpha's vest", Duration::from_secs(2), || {
         !alpha.received_after(CommandKind::Fire, t0).is_empty()
     });
-    let until = Instant::now() + Duration::from_secs(5);
-    while h.query_by_label_contains("applied").is_none() {
-        assert!(Instant::now() < until, "alpha's answer shown in the window");
-        std::thread::sleep(Duration::from_millis(20));
-        h.run_steps(1);
-    }
+    run_until_shown(&mut h, "applied", "alpha's answer shown in the window");
     h.get_by_label("Play sweep").click();
     h.run_steps(1);
     wait_for("the pattern at alpha's vest", Duration::from_secs(2), || {
