@@ -64,6 +64,22 @@ fn check(h: &mut Harness<'static, Console>, path: &Path) {
     h.run_steps(2);
 }
 
+/// Sets the results folder under `dir` and loads the checked protocol with the tab's Load button.
+fn load(h: &mut Harness<'static, Console>, dir: &Path) {
+    h.state_mut().study.out_dir = dir.join("results").display().to_string();
+    h.run_steps(1);
+    h.get_by_label("Load").click();
+    settle(h, |c| view(c).is_some());
+    h.run_steps(2);
+}
+
+/// Starts the loaded study with the tab's Start button and turns until the first response is awaited.
+fn start(h: &mut Harness<'static, Console>) {
+    h.get_by_label("Start").click();
+    settle(h, |c| view(c).is_some_and(|v| v.phase == StudyPhase::AwaitingResponse));
+    h.run_steps(2);
+}
+
 /// The tactor index of the one FIRE or pattern frame the unit was sent last (the vest's own truth of
 /// what was presented).
 fn presented_tactor(fake: &Fake) -> Option<usize> {
@@ -83,18 +99,12 @@ fn a_loaded_protocol_runs_a_trial_and_takes_the_answer_clicked_on_the_grid() {
     check(&mut h, &protocol);
     assert!(h.query_by_label_contains("OK: two-tactors").is_some(), "the check passed");
     assert_eq!(h.state().study.participant, "P07", "the protocol's participant proposed");
-    h.state_mut().study.out_dir = dir.join("results").display().to_string();
-    h.run_steps(1);
-    h.get_by_label("Load").click();
-    settle(&mut h, |c| view(c).is_some());
-    h.run_steps(2);
+    load(&mut h, &dir);
     let v = view(h.state()).unwrap_or_else(|| panic!("not loaded: {:?}", h.state().study.refused));
     assert_eq!((v.phase, v.trials), (StudyPhase::Ready, 2));
     assert!(h.query_by_label_contains("Trial 1/2").is_some());
     assert!(h.query_by_label_contains("READY").is_some());
-    h.get_by_label("Start").click();
-    settle(&mut h, |c| view(c).is_some_and(|v| v.phase == StudyPhase::AwaitingResponse));
-    h.run_steps(2);
+    start(&mut h);
     assert_eq!(view(h.state()).unwrap().phase, StudyPhase::AwaitingResponse);
     // Blocked order: the protocol's first stimulus, T5 (index 5), reached the unit.
     let presented = presented_tactor(&fake).expect("the unit was sent a stimulus");
@@ -156,14 +166,8 @@ fn stop_all_acts_over_the_abort_question_and_the_trial_shows_as_stopped() {
     let dir = test_dir("study-stop");
     let protocol = write(&dir, "two.toml", TWO_TACTORS);
     check(&mut h, &protocol);
-    h.state_mut().study.out_dir = dir.join("results").display().to_string();
-    h.run_steps(1);
-    h.get_by_label("Load").click();
-    settle(&mut h, |c| view(c).is_some());
-    h.run_steps(2);
-    h.get_by_label("Start").click();
-    settle(&mut h, |c| view(c).is_some_and(|v| v.phase == StudyPhase::AwaitingResponse));
-    h.run_steps(2);
+    load(&mut h, &dir);
+    start(&mut h);
     h.get_by_label("Abort…").click();
     h.run_steps(2);
     assert!(h.query_by_label("Abort the session?").is_some(), "the question is open");
@@ -303,14 +307,8 @@ fn a_pattern_study_takes_the_answer_clicked_in_the_pattern_list() {
     let dir = test_dir("study-patterns");
     let protocol = write(&dir, "cues.toml", TWO_PATTERNS);
     check(&mut h, &protocol);
-    h.state_mut().study.out_dir = dir.join("results").display().to_string();
-    h.run_steps(1);
-    h.get_by_label("Load").click();
-    settle(&mut h, |c| view(c).is_some());
-    h.run_steps(2);
-    h.get_by_label("Start").click();
-    settle(&mut h, |c| view(c).is_some_and(|v| v.phase == StudyPhase::AwaitingResponse));
-    h.run_steps(2);
+    load(&mut h, &dir);
+    start(&mut h);
     assert!(fake.sent().iter().any(|r| matches!(r, Request::Play { .. })), "a pattern reached the unit");
     // Blocked order: the first pattern is "left"; the wearer says so.
     h.get_by_label("left").click();
