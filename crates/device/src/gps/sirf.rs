@@ -6,8 +6,10 @@
 //!
 //! `SirfDecoder` turns checksum-verified payloads into [`Fix`]es by the field tables of the manual's
 //! chapter 2 "Output Messages" (MID 2 Measured Navigation Data Out, MID 4 Measured Tracker Data Out,
-//! MID 41 Geodetic Navigation Data; see its doc for how a second's messages make one epoch). The framer
-//! (`framing`) finds the frames and checks their checksums.
+//! MID 41 Geodetic Navigation Data; see its doc for how a second's messages make one epoch), MID 67 SID 1
+//! GNSS Navigation Solution of the `SiRFstarV` ("`SiRFstarV` OSP Extensions", CS-303979-SP-9) and MID 98
+//! Extended Measured Navigation Data of u-blox receivers with `SiRF`-derived firmware (u-blox TIM,
+//! "Firmware Release 2.1 UBX 1.0"). The framer (`framing`) finds the frames and checks their checksums.
 
 use std::time::Instant;
 
@@ -103,6 +105,25 @@ pub(crate) enum SirfUnused {
 /// - from MID 41 only: altitude above MSL and the geoid separation, speed and course (MID 2's ECEF velocity
 ///   without it), EHPE/EVPE as the error estimate (the DOP model without it).
 ///
+/// # `SiRFstarV`: MID 67 SID 1
+/// The `SiRFstarV` replaces MID 41 by MID 67 SID 1 (GNSS Navigation Solution), stamped with the same
+/// time of week as MID 2 (milliseconds plus nanoseconds). When an epoch has a valid one (its solution
+/// validity word is 0), it gives the position (latitude/longitude ×10^7, where MID 2 has whole ECEF
+/// metres), the mode (solution info bits 0–2, MID 2's mode-1 values), altitudes, speed and course (unless
+/// solution info bit 12 says the velocity is invalid), EHPE/EVPE, HDOP/PDOP/VDOP and the satellites in
+/// the solution; MID 2 still gives the time when the epoch has one (10 ms resolution, where MID 67 has
+/// nanoseconds: gpsd's last report of each second carries MID 2's time with MID 67's position).
+/// A `SiRFstarV` also sends MID 41, which carries the *next* solution's time and position ahead of its
+/// MID 2 (gpsd's `sirfstarv.log`): grouped by time of week, it joins the epoch it describes.
+///
+/// # u-blox with `SiRF` firmware: MID 98
+/// A u-blox receiver running `SiRF`-derived firmware sends MID 98 (Extended Measured Navigation Data) after
+/// each MID 2: latitude, longitude and course in radians ×10^8, HAE altitude, speed and climb in
+/// millimetres, the MID 2 nav-type bits, the receiver's UTC date and time (valid when nav type bit 6 is
+/// set) and GDOP/PDOP/HDOP/VDOP/TDOP ×5. From the first MID 98 on, each MID 98 is a whole epoch and MID 2
+/// only supplies the satellites used (as gpsd, which skips MID 2 once it has seen MID 98). MID 98 has no
+/// altitude above MSL and no geoid separation, so its fixes carry no altitude.
+///
 /// Before the receiver's first fix its clock is a firmware default (2004 in gpsd's `sirf2.log`): no-fix
 /// epochs before the first fix carry no time.
 #[derive(Debug, Default)]
@@ -119,6 +140,10 @@ pub(crate) struct SirfDecoder {
     receiver_gps_utc_s: Option<i64>,
     /// True once the receiver has navigated: from then on its clock is set.
     clock_set: bool,
+    /// A u-blox MID 98 has been seen: MID 98 makes the epochs, MID 2 only the satellites used.
+    ublox: bool,
+    /// The satellites of the last MID 2 (count and channel PRNs): a MID 98 epoch's satellites used.
+    ublox_used: Option<(u8, [u8; 12])>,
 }
 
 /// Which solution messages an epoch has.
@@ -126,11 +151,12 @@ pub(crate) struct SirfDecoder {
 struct Kinds {
     nav: bool,
     geodetic: bool,
+    gnss: bool,
 }
 
 impl Kinds {
     fn covers(self, other: Self) -> bool {
-        (self.nav || !other.nav) && (self.geodetic || !other.geodetic)
+        (self.nav || !other.nav) && (self.geodetic || !other.geodetic) && (self.gnss || !other.gnss)
     }
 }
 
@@ -144,13 +170,16 @@ const MISSES_TO_FORGET: u8 = 3;
 struct Expected {
     nav_misses: Option<u8>,
     geodetic_misses: Option<u8>,
+    gnss_misses: Option<u8>,
 }
 
 impl Expected {
     fn learn(&mut self, seen: Kinds) {
-        for (misses, present) in
-            [(&mut self.nav_misses, seen.nav), (&mut self.geodetic_misses, seen.geodetic)]
-        {
+        for (misses, present) in [
+            (&mut self.nav_misses, seen.nav),
+            (&mut self.geodetic_misses, seen.geodetic),
+            (&mut self.gnss_misses, seen.gnss),
+        ] {
             *misses = if present {
                 Some(0)
             } else {
@@ -160,7 +189,11 @@ impl Expected {
     }
 
     fn kinds(self) -> Kinds {
-        Kinds { nav: self.nav_misses.is_some(), geodetic: self.geodetic_misses.is_some() }
+        Kinds {
+            nav: self.nav_misses.is_some(),
+            geodetic: self.geodetic_misses.is_some(),
+            gnss: self.gnss_misses.is_some(),
+        }
     }
 }
 
@@ -171,18 +204,33 @@ struct Epoch {
     tow_ms: i64,
     nav: Option<NavSolution>,
     geodetic: Option<Geodetic>,
+    gnss: Option<GnssNav>,
+    /// A u-blox MID 98: the whole epoch.
+    ublox: Option<UbloxNav>,
 }
 
 impl Epoch {
-    fn kinds(&self) -> Kinds {
-        Kinds { nav: self.nav.is_some(), geodetic: self.geodetic.is_some() }
+    fn new(tow_ms: i64) -> Self {
+        Self { tow_ms, nav: None, geodetic: None, gnss: None, ublox: None }
     }
+    fn kinds(&self) -> Kinds {
+        Kinds { nav: self.nav.is_some(), geodetic: self.geodetic.is_some(), gnss: self.gnss.is_some() }
+    }
+}
+
+/// One solution message of an epoch.
+enum Part {
+    Nav(NavSolution),
+    Geodetic(Geodetic),
+    Gnss(GnssNav),
 }
 
 /// A decoded message.
 enum Message {
     Nav(NavSolution),
     Geodetic(Geodetic),
+    Gnss(GnssNav),
+    Ublox(UbloxNav),
     Tracker(Vec<Satellite>),
     ClockStatus { extended_week: u16 },
     Unused,
@@ -201,13 +249,31 @@ impl SirfDecoder {
     pub(crate) fn handle(&mut self, payload: &[u8], now: Instant) -> Result<Option<Fix>, SirfUnused> {
         let message = decode(payload)?;
         // An epoch completed during the previous call but held back (see above) goes out first.
-        let mut out = match (&self.pending, self.expected) {
-            (Some(p), Some(e)) if p.kinds().covers(e.kinds()) => self.close(now),
+        let mut out = match &self.pending {
+            Some(p) if self.complete(p) => self.close(now),
             _ => None,
         };
         match message {
-            Message::Nav(n) => out = out.or(self.add(n.tow_ms(), Some(n), None, now)),
-            Message::Geodetic(g) => out = out.or(self.add(i64::from(g.tow_ms), None, Some(g), now)),
+            Message::Nav(n) => {
+                self.ublox_used = Some((n.sats_used, n.prns));
+                if !self.ublox {
+                    out = out.or(self.add(n.tow_ms(), Part::Nav(n), now));
+                }
+            }
+            Message::Geodetic(g) => out = out.or(self.add(i64::from(g.tow_ms), Part::Geodetic(g), now)),
+            Message::Gnss(g) => out = out.or(self.add(g.tow_ms, Part::Gnss(g), now)),
+            Message::Ublox(u) => {
+                self.ublox = true;
+                // A MID 2 epoch still open (the one before the first MID 98) goes out first.
+                if self.pending.is_some() {
+                    self.expected.get_or_insert_with(Expected::default);
+                    out = out.or(self.close(now));
+                }
+                self.pending = Some(Epoch { ublox: Some(u), ..Epoch::new(0) });
+                if out.is_none() {
+                    out = self.close(now);
+                }
+            }
             Message::Tracker(sky) => self.sky = sky,
             Message::ClockStatus { extended_week } => {
                 if extended_week > 0 {
@@ -224,37 +290,42 @@ impl SirfDecoder {
         self.close(now)
     }
 
+    /// Whether an epoch has every solution message it will get.
+    fn complete(&self, p: &Epoch) -> bool {
+        p.ublox.is_some() || self.expected.is_some_and(|e| p.kinds().covers(e.kinds()))
+    }
+
     /// Adds one solution message; returns a fix when it closes the pending epoch or completes the new one.
-    fn add(
-        &mut self,
-        tow_ms: i64,
-        nav: Option<NavSolution>,
-        geodetic: Option<Geodetic>,
-        now: Instant,
-    ) -> Option<Fix> {
+    fn add(&mut self, tow_ms: i64, part: Part, now: Instant) -> Option<Fix> {
         let mut out = None;
         if let Some(p) = &self.pending {
-            let repeat = (nav.is_some() && p.nav.is_some()) || (geodetic.is_some() && p.geodetic.is_some());
-            if repeat || tow_distance_ms(p.tow_ms, tow_ms) >= SAME_EPOCH_MS {
+            let repeat = match &part {
+                Part::Nav(_) => p.nav.is_some(),
+                Part::Geodetic(_) => p.geodetic.is_some(),
+                Part::Gnss(_) => p.gnss.is_some(),
+            };
+            if repeat || p.ublox.is_some() || tow_distance_ms(p.tow_ms, tow_ms) >= SAME_EPOCH_MS {
                 // The first epoch closed by the next one shows which solution messages to expect.
                 self.expected.get_or_insert_with(Expected::default);
                 out = self.close(now);
             }
         }
-        let p = self.pending.get_or_insert(Epoch { tow_ms, nav: None, geodetic: None });
-        if nav.is_some() {
-            p.nav = nav;
+        let p = self.pending.get_or_insert_with(|| Epoch::new(tow_ms));
+        match part {
+            Part::Nav(n) => p.nav = Some(n),
+            Part::Geodetic(g) => p.geodetic = Some(g),
+            Part::Gnss(g) => p.gnss = Some(g),
         }
-        if geodetic.is_some() {
-            p.geodetic = geodetic;
-        }
-        let complete = self.expected.is_some_and(|e| p.kinds().covers(e.kinds()));
+        let complete = self.pending.as_ref().is_some_and(|p| self.complete(p));
         if complete && out.is_none() { self.close(now) } else { out }
     }
 
     /// Turns the pending epoch into a fix.
     fn close(&mut self, now: Instant) -> Option<Fix> {
         let epoch = self.pending.take()?;
+        if let Some(u) = &epoch.ublox {
+            return Some(self.build_ublox(u, now));
+        }
         if let Some(e) = &mut self.expected {
             e.learn(epoch.kinds());
         }
@@ -264,13 +335,30 @@ impl SirfDecoder {
     fn build(&mut self, epoch: &Epoch, now: Instant) -> Fix {
         let nav = epoch.nav.as_ref();
         let geo = epoch.geodetic.as_ref();
-        let nav_type = nav.map_or_else(|| geo.map_or(0, |g| g.nav_type as u8), |n| n.mode1);
+        let gnss = epoch.gnss.as_ref();
+        let nav_type = match gnss {
+            // An invalid GNSS solution says "no fix" whatever the older messages say.
+            Some(g) => {
+                if g.valid {
+                    (g.solution_info & 0x07) as u8
+                } else {
+                    0
+                }
+            }
+            None => nav.map_or_else(|| geo.map_or(0, |g| g.nav_type as u8), |n| n.mode1),
+        };
         let (mode, quality) = mode_and_quality(nav_type);
         let has_fix = mode != FixMode::NoFix;
         if has_fix {
             self.clock_set = true;
             if let Some(offset) = geo.and_then(Geodetic::gps_minus_utc_s) {
                 self.receiver_gps_utc_s = Some(offset);
+            }
+            if let Some(g) = gnss {
+                self.receiver_gps_utc_s = Some(i64::from(g.leap_s));
+                if g.week > 0 {
+                    self.extended_week = Some(u32::from(g.week));
+                }
             }
             // Before a fix MID 41's week is the firmware's default; with one it is the real week.
             if let Some(g) = geo.filter(|g| g.extended_week > 0) {
@@ -281,10 +369,11 @@ impl SirfDecoder {
             Fix { mode: Some(mode), quality: Some(quality), received_at: Some(now), ..Fix::default() };
 
         if self.clock_set {
-            let gps = match (nav, geo) {
-                (Some(n), _) => Some((self.full_week(n.week, geo), i64::from(n.tow_cs) * 10)),
-                (None, Some(g)) => Some((u32::from(g.extended_week), i64::from(g.tow_ms))),
-                (None, None) => None,
+            let gps = match (nav, gnss, geo) {
+                (Some(n), _, _) => Some((self.full_week(n.week, geo), i64::from(n.tow_cs) * 10)),
+                (None, Some(g), _) if g.week > 0 => Some((u32::from(g.week), g.tow_ms)),
+                (None, _, Some(g)) => Some((u32::from(g.extended_week), i64::from(g.tow_ms))),
+                _ => None,
             };
             let leap_s = self.receiver_gps_utc_s.map_or(GPS_UTC_OFFSET_S, |r| r.max(GPS_UTC_OFFSET_S));
             fix.time = gps.and_then(|(week, tow_ms)| utc_from_gps(week, tow_ms, leap_s));
@@ -308,9 +397,77 @@ impl SirfDecoder {
             for &prn in &used {
                 *fix.sats_used_by.entry(Constellation::from_nmea_id(prn)).or_insert(0) += 1;
             }
-            fix.sats_used = nav.map(|n| n.sats_used).or(geo.map(|g| g.sats_used)).map(u32::from);
-            fix.hdop = nav.map(|n| n.hdop_x5).or(geo.map(|g| g.hdop_x5)).map(|h| f64::from(h) / 5.0);
-            Self::fill_position(&mut fix, nav, geo);
+            fix.sats_used = gnss
+                .map(|g| g.sats_used)
+                .or(nav.map(|n| n.sats_used))
+                .or(geo.map(|g| g.sats_used))
+                .map(u32::from);
+            fix.hdop = gnss
+                .map(|g| g.dop_x5[2])
+                .or(nav.map(|n| n.hdop_x5))
+                .or(geo.map(|g| g.hdop_x5))
+                .map(|h| f64::from(h) / 5.0);
+            if let Some(g) = gnss {
+                fix.pdop = Some(f64::from(g.dop_x5[1]) / 5.0);
+                fix.vdop = Some(f64::from(g.dop_x5[3]) / 5.0);
+                Self::fill_from_gnss(&mut fix, g);
+            } else {
+                Self::fill_position(&mut fix, nav, geo);
+            }
+        }
+        fix
+    }
+
+    /// Position, altitude, velocity and error estimate from a valid MID 67 SID 1.
+    fn fill_from_gnss(fix: &mut Fix, g: &GnssNav) {
+        fix.lat_deg = Some(f64::from(g.lat_e7) * 1e-7);
+        fix.lon_deg = Some(f64::from(g.lon_e7) * 1e-7);
+        fix.alt_m = Some(f64::from(g.alt_msl_cm) / 100.0);
+        fix.geoid_sep_m = Some((f64::from(g.alt_hae_cm) - f64::from(g.alt_msl_cm)) / 100.0);
+        if g.solution_info & GNSS_VELOCITY_INVALID == 0 {
+            fix.speed_m_s = Some(f64::from(g.speed_cm_s) / 100.0);
+            fix.course_deg = Some(f64::from(g.course_cdeg) / 100.0);
+        }
+        fix.error = (g.ehpe_cm > 0).then(|| ErrorEstimate {
+            horizontal_m: f64::from(g.ehpe_cm) / 100.0,
+            vertical_m: (g.evpe_cm > 0).then(|| f64::from(g.evpe_cm) / 100.0),
+            source: ErrorSource::Sirf,
+        });
+        Self::dop_model_error(fix);
+    }
+
+    /// The fix of a u-blox MID 98 epoch.
+    fn build_ublox(&mut self, u: &UbloxNav, now: Instant) -> Fix {
+        let (mode, quality) = mode_and_quality(u.nav_type);
+        let mut fix =
+            Fix { mode: Some(mode), quality: Some(quality), received_at: Some(now), ..Fix::default() };
+        // Nav type bit 6: the time is UTC (the receiver knows GPS - UTC).
+        if u.nav_type & 0x40 != 0 {
+            fix.time = u.utc;
+            fix.time_of_day = u.utc.map(|t| t.time());
+        }
+        let used: Vec<u16> = self
+            .ublox_used
+            .map(|(_, prns)| prns.iter().filter(|&&p| p != 0).map(|&p| u16::from(p)).collect())
+            .unwrap_or_default();
+        fix.satellites.clone_from(&self.sky);
+        for s in &mut fix.satellites {
+            s.used = used.contains(&s.prn);
+            *fix.sats_visible_by.entry(s.constellation).or_insert(0) += 1;
+        }
+        fix.sats_visible = Some(fix.satellites.len() as u32);
+        if mode != FixMode::NoFix {
+            for &prn in &used {
+                *fix.sats_used_by.entry(Constellation::from_nmea_id(prn)).or_insert(0) += 1;
+            }
+            fix.sats_used = self.ublox_used.map(|(n, _)| u32::from(n));
+            let [_gdop, pdop, hdop, vdop, _tdop] = u.dop_x5.map(|d| f64::from(d) / 5.0);
+            (fix.pdop, fix.hdop, fix.vdop) = (Some(pdop), Some(hdop), Some(vdop));
+            fix.lat_deg = Some((f64::from(u.lat_rad_e8) * 1e-8).to_degrees());
+            fix.lon_deg = Some((f64::from(u.lon_rad_e8) * 1e-8).to_degrees());
+            fix.speed_m_s = Some(f64::from(u.speed_mm_s) / 1000.0);
+            fix.course_deg = Some((f64::from(u.course_rad_e8) * 1e-8).to_degrees().rem_euclid(360.0));
+            Self::dop_model_error(&mut fix);
         }
         fix
     }
@@ -356,6 +513,11 @@ impl SirfDecoder {
             fix.speed_m_s = Some(east.hypot(north));
             fix.course_deg = Some(east.atan2(north).to_degrees().rem_euclid(360.0));
         }
+        Self::dop_model_error(fix);
+    }
+
+    /// Without the receiver's own error estimate: HDOP times the UERE.
+    fn dop_model_error(fix: &mut Fix) {
         if fix.error.is_none() {
             let differential = fix.quality.is_some_and(FixQuality::is_differential);
             let uere_m = if differential { super::UERE_DGPS_M } else { super::UERE_M };
@@ -502,6 +664,69 @@ impl Geodetic {
     }
 }
 
+/// MID 67 SID 1 solution info bit 12: the velocity is invalid.
+const GNSS_VELOCITY_INVALID: u32 = 0x1000;
+
+/// MID 67 SID 1, GNSS Navigation Solution (`SiRFstarV`, 126 bytes; byte 1 is the SID).
+#[derive(Debug, Clone)]
+struct GnssNav {
+    /// Solution validity (bytes 2–5) is 0: the solution is valid.
+    valid: bool,
+    /// Solution info (bytes 6–9): bits 0–2 as MID 2's mode 1, bit 12 velocity invalid.
+    solution_info: u32,
+    /// Extended GPS week (bytes 10–11).
+    week: u16,
+    /// GPS time of week [ms] (bytes 12–15 in ms plus 16–19 in ns, rounded to the millisecond).
+    tow_ms: i64,
+    /// GPS − UTC [s] (byte 32).
+    leap_s: u8,
+    /// Latitude, longitude ×10^7 [deg] (bytes 54–61).
+    lat_e7: i32,
+    lon_e7: i32,
+    /// Altitude above the ellipsoid and above MSL ×100 [m] (bytes 62–69).
+    alt_hae_cm: i32,
+    alt_msl_cm: i32,
+    /// Speed over ground ×100 [m/s], course over ground ×100 [deg] (bytes 70–73).
+    speed_cm_s: u16,
+    course_cdeg: u16,
+    /// Estimated horizontal and vertical position error ×100 [m] (bytes 86–93).
+    ehpe_cm: u32,
+    evpe_cm: u32,
+    /// GDOP, PDOP, HDOP, VDOP, TDOP ×5 (bytes 96–100).
+    dop_x5: [u8; 5],
+    /// Satellites in the solution (byte 101).
+    sats_used: u8,
+}
+
+/// MID 98, u-blox Extended Measured Navigation Data (39 bytes).
+#[derive(Debug, Clone)]
+struct UbloxNav {
+    /// Latitude, longitude [rad ×10^8] (bytes 1–8).
+    lat_rad_e8: i32,
+    lon_rad_e8: i32,
+    /// Speed over ground [mm/s] (bytes 13–16).
+    speed_mm_s: i32,
+    /// Course over ground [rad ×10^8] (bytes 21–24).
+    course_rad_e8: i32,
+    /// Nav type (byte 25): MID 2's mode 1 bits, bit 6 = the time is UTC.
+    nav_type: u8,
+    /// UTC date and time (bytes 26–33), when it is a date.
+    utc: Option<DateTime<Utc>>,
+    /// GDOP, PDOP, HDOP, VDOP, TDOP ×5 (bytes 34–38).
+    dop_x5: [u8; 5],
+}
+
+/// A UTC date and time from year (2 bytes), month, day, hour, minute (1 byte each) and milliseconds of
+/// the minute (2 bytes) at `at`, the layout of MID 41, 67 and 98; `None` when it is not a date.
+fn utc_fields(f: &Fields<'_>, at: usize) -> Result<Option<DateTime<Utc>>, SirfUnused> {
+    let (year, month, day) = (f.u16(at)?, f.u8(at + 2)?, f.u8(at + 3)?);
+    let (hour, minute, ms) = (f.u8(at + 4)?, f.u8(at + 5)?, f.u16(at + 6)?);
+    Ok(NaiveDate::from_ymd_opt(i32::from(year), u32::from(month), u32::from(day))
+        .and_then(|d| d.and_hms_milli_opt(u32::from(hour), u32::from(minute), 0, 0))
+        .filter(|_| ms < 60_000)
+        .map(|t| t.and_utc() + chrono::TimeDelta::milliseconds(i64::from(ms))))
+}
+
 /// Big-endian fields of a payload at byte offsets of the manual's tables (byte 0 = MID).
 struct Fields<'a>(&'a [u8]);
 
@@ -532,9 +757,13 @@ impl Fields<'_> {
 /// 5 raw tracker data, 6 software version, 8 50 bps subframe data, 9 CPU throughput, 10 error ID,
 /// 11 command acknowledgment, 12 command negative acknowledgment, 13 visible list, 14 almanac, 15 ephemeris,
 /// 17 differential corrections, 18 OK to send, 19 navigation parameters, 27 DGPS status, 28–31 navigation
-/// library data, 50 SBAS parameters, 52 1 PPS time, 255 development data.
-const KNOWN_UNUSED: [u8; 22] =
-    [5, 6, 8, 9, 10, 11, 12, 13, 14, 15, 17, 18, 19, 27, 28, 29, 30, 31, 50, 52, 225, 255];
+/// library data, 50 SBAS parameters, 51 navigation notification, 52 1 PPS time, 56 extended ephemeris,
+/// 64 navigation library, 71 hardware configuration request, 92 CW interference report, 93 TCXO learning,
+/// 225 statistics, 255 development data (51–93: `SiRFstarIV`/V One Socket Protocol).
+const KNOWN_UNUSED: [u8; 28] = [
+    5, 6, 8, 9, 10, 11, 12, 13, 14, 15, 17, 18, 19, 27, 28, 29, 30, 31, 50, 51, 52, 56, 64, 71, 92, 93, 225,
+    255,
+];
 
 /// Decodes one payload by its message id.
 fn decode(payload: &[u8]) -> Result<Message, SirfUnused> {
@@ -551,6 +780,10 @@ fn decode(payload: &[u8]) -> Result<Message, SirfUnused> {
             Message::ClockStatus { extended_week: f.u16(1)? }
         }
         41 => Message::Geodetic(decode_geodetic(&f)?),
+        // MID 67: SID 1 is the navigation solution; the others (16 satellites, 17 ...) repeat MID 4.
+        67 if f.u8(1)? == 1 => Message::Gnss(decode_gnss(&f)?),
+        67 => Message::Unused,
+        98 => Message::Ublox(decode_ublox(&f)?),
         m if KNOWN_UNUSED.contains(&m) => Message::Unused,
         _ => return Err(SirfUnused::Unsupported),
     })
@@ -581,12 +814,7 @@ fn decode_geodetic(f: &Fields<'_>) -> Result<Geodetic, SirfUnused> {
     if f.0.len() < 91 {
         return Err(SirfUnused::Malformed);
     }
-    let (year, month, day) = (f.u16(11)?, f.u8(13)?, f.u8(14)?);
-    let (hour, minute, ms) = (f.u8(15)?, f.u8(16)?, f.u16(17)?);
-    let utc = NaiveDate::from_ymd_opt(i32::from(year), u32::from(month), u32::from(day))
-        .and_then(|d| d.and_hms_milli_opt(u32::from(hour), u32::from(minute), 0, 0))
-        .filter(|_| ms < 60_000)
-        .map(|t| t.and_utc() + chrono::TimeDelta::milliseconds(i64::from(ms)));
+    let utc = utc_fields(f, 11)?;
     Ok(Geodetic {
         nav_type: f.u16(3)?,
         extended_week: f.u16(5)?,
@@ -603,6 +831,45 @@ fn decode_geodetic(f: &Fields<'_>) -> Result<Geodetic, SirfUnused> {
         evpe_cm: f.u32(54)?,
         sats_used: f.u8(88)?,
         hdop_x5: f.u8(89)?,
+    })
+}
+
+fn decode_gnss(f: &Fields<'_>) -> Result<GnssNav, SirfUnused> {
+    if f.0.len() < 126 {
+        return Err(SirfUnused::Malformed);
+    }
+    let sub_ms = i64::from(f.u32(16)?.min(999_999));
+    Ok(GnssNav {
+        valid: f.u32(2)? == 0,
+        solution_info: f.u32(6)?,
+        week: f.u16(10)?,
+        tow_ms: i64::from(f.u32(12)?) + (sub_ms + 500_000) / 1_000_000,
+        leap_s: f.u8(32)?,
+        lat_e7: f.i32(54)?,
+        lon_e7: f.i32(58)?,
+        alt_hae_cm: f.i32(62)?,
+        alt_msl_cm: f.i32(66)?,
+        speed_cm_s: f.u16(70)?,
+        course_cdeg: f.u16(72)?,
+        ehpe_cm: f.u32(86)?,
+        evpe_cm: f.u32(90)?,
+        dop_x5: f.bytes(96)?,
+        sats_used: f.u8(101)?,
+    })
+}
+
+fn decode_ublox(f: &Fields<'_>) -> Result<UbloxNav, SirfUnused> {
+    if f.0.len() < 39 {
+        return Err(SirfUnused::Malformed);
+    }
+    Ok(UbloxNav {
+        lat_rad_e8: f.i32(1)?,
+        lon_rad_e8: f.i32(5)?,
+        speed_mm_s: f.i32(13)?,
+        course_rad_e8: f.i32(21)?,
+        nav_type: f.u8(25)?,
+        utc: utc_fields(f, 26)?,
+        dop_x5: f.bytes(34)?,
     })
 }
 
@@ -1098,5 +1365,88 @@ mod tests {
         assert_eq!(payload.len(), 91);
         assert_eq!(checksum(payload), 0x079A);
         assert_eq!(frame(payload), bytes);
+    }
+
+    fn unhex(s: &str) -> Vec<u8> {
+        let s: String = s.split_whitespace().collect();
+        (0..s.len()).step_by(2).map(|i| u8::from_str_radix(&s[i..i + 2], 16).unwrap()).collect()
+    }
+
+    /// gpsd's `sirfstarv.log` (a `SiRFstarV`, 5xp 5.5.25), the payloads of its first solution: MID 2 and
+    /// MID 67 SID 1 of 02:17:14, then the MID 41 that already describes 02:17:15.
+    const SIRFSTARV_MID2: &str =
+        "02ffdb976fffc426e100435b9c000000000000040902000201981970060c191d050253000000000000000000000000";
+    const SIRFSTARV_MID67_1: &str = "4301000000000000000408020ff0fe5f000f420c0000020107e30418021136b0121574c0000041d53a7300000000001bfb\
+        38000000001a445c1cb7b0ee5b0001b5f80001bda300003122000000000000009b00000000000006cf000005e90001241c091b\
+        1606110008120000000000000008000000000000000000000318";
+    const SIRFSTARV_MID41: &str = "290000020408020ff1024807e3041802113a98110008121a445c0db7b0ee590001b5ef0001bd9a150007312200000000\
+        000000000694000005f100000000001d5505c9b200000000001bfb38000000000000009b00000000060918";
+
+    #[test]
+    fn sirfstarv_mid67_gives_the_position_gpsd_reports() {
+        let payloads = [unhex(SIRFSTARV_MID2), unhex(SIRFSTARV_MID67_1), unhex(SIRFSTARV_MID41)];
+        assert_eq!(payloads.iter().map(Vec::len).collect::<Vec<_>>(), [47, 126, 91]);
+        let fixes = decode_all(&payloads);
+        // gpsd's last TPV of 02:17:14 (sirfstarv.log.chk): lat 44.068764400, lon -121.314141300, mode 3,
+        // altMSL 1140.83; MID 2's whole ECEF metres alone would give 44.068762281, -121.314137599.
+        let f = &fixes[0];
+        assert_eq!(f.time.map(time_key).as_deref(), Some("2019-04-24T02:17:14.000Z"));
+        assert_eq!(f.mode, Some(FixMode::Fix3D));
+        assert!((f.lat_deg.unwrap() - 44.068_764_4).abs() < 1e-9);
+        assert!((f.lon_deg.unwrap() + 121.314_141_3).abs() < 1e-9);
+        assert!((f.alt_m.unwrap() - 1140.83).abs() < 1e-9);
+        assert_eq!(f.sats_used, Some(6));
+        // The MID 41 of 02:17:15 opens the next epoch instead of joining this one.
+        assert_eq!(fixes[1].time.map(time_key).as_deref(), Some("2019-04-24T02:17:15.000Z"));
+        assert!((fixes[1].lat_deg.unwrap() - 44.068_762_9).abs() < 1e-9);
+    }
+
+    #[test]
+    fn an_invalid_mid67_solution_is_no_fix() {
+        let mut mid2 = unhex(SIRFSTARV_MID2);
+        let mut mid67 = unhex(SIRFSTARV_MID67_1);
+        mid67[5] = 1; // solution validity: not 0
+        mid2[19] = 0; // MID 2 mode 1: no solution
+        let fixes = decode_all([mid2, mid67]);
+        assert_eq!(fixes.len(), 1);
+        assert_eq!(fixes[0].mode, Some(FixMode::NoFix));
+        assert_eq!(fixes[0].lat_deg, None);
+    }
+
+    /// gpsd's `ublox-sirf1.log` (a u-blox TIM with `SiRF`-derived firmware): MID 2 of the first second,
+    /// then two MID 98 (a MID 2 between them is left out).
+    const UBLOX_MID2: &str =
+        "02003bb7f700055ecc004c6735000000000000040902012e03490b6b080b171407010e191800000000";
+    const UBLOX_MID98_A: &str =
+        "62056a834e0088d97c00013d2d000000170000001805a9df426407d5060b090636af0a04090508";
+    const UBLOX_MID98_B: &str =
+        "62056a834d0088d97c00013d3d0000001b0000001b05bee42f6407d5060b09063a970a04090508";
+
+    #[test]
+    fn ublox_mid98_makes_the_epochs_gpsd_reports() {
+        let fixes =
+            decode_all([unhex(UBLOX_MID2), unhex(UBLOX_MID98_A), unhex(UBLOX_MID2), unhex(UBLOX_MID98_B)]);
+        // gpsd's TPVs (ublox-sirf1.log.chk): 09:06:08.990 from the first MID 2 (lat 52.062675883,
+        // lon 5.138600900), then 09:06:13.999 (52.062675221, 5.138613239) and 09:06:14.999 (52.062674648,
+        // 5.138613239) from MID 98; the second MID 2 makes no epoch of its own.
+        let got: Vec<(String, f64, f64)> = fixes
+            .iter()
+            .map(|f| (f.time.map(time_key).unwrap_or_default(), f.lat_deg.unwrap(), f.lon_deg.unwrap()))
+            .collect();
+        let want = [
+            ("09:06:08.990Z", 52.062_675_883, 5.138_600_900),
+            ("09:06:13.999Z", 52.062_675_221, 5.138_613_239),
+            ("09:06:14.999Z", 52.062_674_648, 5.138_613_239),
+        ];
+        assert_eq!(got.len(), want.len(), "{got:?}");
+        for ((t, lat, lon), (wt, wlat, wlon)) in got.iter().zip(want) {
+            assert!(t.ends_with(wt), "{t} vs {wt}");
+            assert!((lat - wlat).abs() < 1e-7 && (lon - wlon).abs() < 1e-7, "{t}: {lat},{lon}");
+        }
+        // MID 98's date is the receiver's UTC (2005-06-11); HDOP 9/5, satellites from the MID 2.
+        assert!(got[1].0.starts_with("2005-06-11"));
+        assert_eq!(fixes[1].hdop, Some(1.8));
+        assert_eq!(fixes[1].sats_used, Some(8));
+        assert_eq!(fixes[1].mode, Some(FixMode::Fix3D));
     }
 }
