@@ -960,7 +960,7 @@ pub(crate) fn wgs84_from_ecef([x, y, z]: [f64; 3]) -> Option<(f64, f64, f64)> {
 /// East, north, up velocity [m/s] of an ECEF velocity at geodetic latitude/longitude [rad]: the rows of
 /// the rotation ECEF → ENU, `e = (−sin λ, cos λ, 0)`, `n = (−sin φ cos λ, −sin φ sin λ, cos φ)`,
 /// `u = (cos φ cos λ, cos φ sin λ, sin φ)` (e.g. Misra & Enge, *Global Positioning System*, §4.2).
-fn enu_from_ecef_velocity([vx, vy, vz]: [f64; 3], lat: f64, lon: f64) -> [f64; 3] {
+pub(crate) fn enu_from_ecef_velocity([vx, vy, vz]: [f64; 3], lat: f64, lon: f64) -> [f64; 3] {
     let (sp, cp) = lat.sin_cos();
     let (sl, cl) = lon.sin_cos();
     [-sl * vx + cl * vy, -sp * cl * vx - sp * sl * vy + cp * vz, cp * cl * vx + cp * sl * vy + sp * vz]

@@ -10,6 +10,7 @@ use std::path::PathBuf;
 
 use super::{Fix, FixMode, decode_file, sentence};
 
+mod suite;
 mod table;
 
 fn logs_dir() -> PathBuf {
@@ -43,27 +44,31 @@ fn parse_chk(text: &str) -> BTreeMap<u32, GpsdSecond> {
             continue;
         }
         let (Some(key), Ok(v)) = (cur, serde_json::from_str::<serde_json::Value>(line)) else { continue };
-        let s = out.entry(key).or_default();
-        match v["class"].as_str() {
-            Some("TPV") => {
-                s.mode = v["mode"].as_u64();
-                s.lat = v["lat"].as_f64();
-                s.lon = v["lon"].as_f64();
-                if let Some(t) = v["time"].as_str() {
-                    s.time = Some(t.to_owned());
-                }
-            }
-            Some("SKY") => {
-                s.u_sat = v["uSat"].as_u64().or(s.u_sat);
-                s.n_sat = v["nSat"].as_u64().or(s.n_sat);
-                s.hdop = v["hdop"].as_f64().or(s.hdop);
-                s.pdop = v["pdop"].as_f64().or(s.pdop);
-                s.vdop = v["vdop"].as_f64().or(s.vdop);
-            }
-            _ => {}
-        }
+        absorb(out.entry(key).or_default(), &v);
     }
     out
+}
+
+/// One TPV or SKY report of gpsd's into the epoch it belongs to (the last TPV, the last SKY values).
+fn absorb(s: &mut GpsdSecond, v: &serde_json::Value) {
+    match v["class"].as_str() {
+        Some("TPV") => {
+            s.mode = v["mode"].as_u64();
+            s.lat = v["lat"].as_f64();
+            s.lon = v["lon"].as_f64();
+            if let Some(t) = v["time"].as_str() {
+                s.time = Some(t.to_owned());
+            }
+        }
+        Some("SKY") => {
+            s.u_sat = v["uSat"].as_u64().or(s.u_sat);
+            s.n_sat = v["nSat"].as_u64().or(s.n_sat);
+            s.hdop = v["hdop"].as_f64().or(s.hdop);
+            s.pdop = v["pdop"].as_f64().or(s.pdop);
+            s.vdop = v["vdop"].as_f64().or(s.vdop);
+        }
+        _ => {}
+    }
 }
 
 /// (log, field, why we differ). Field names: time, latlon, mode, used, visible, hdop, pdop, vdop.

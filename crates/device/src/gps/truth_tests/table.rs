@@ -12,7 +12,8 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use super::{Fix, decode_file, parse_chk, sentence};
+use super::suite::{gpsd_epochs, match_log};
+use super::{Fix, decode_file};
 use crate::gps::NmeaDecoder;
 use crate::gps::assembly::DecoderConfig;
 
@@ -193,48 +194,17 @@ fn dates_differ(judge: Judge) -> bool {
     matches!(judge, Judge::DateDiffers(_) | Judge::Exception { date_differs: true, .. })
 }
 
-/// (gpsd's epochs with a position, of those matched by ours; first few misses).
-fn match_epochs(fixes: &[Fix], chk: &str, date_differs: bool, tol_deg: f64) -> (usize, usize, Vec<String>) {
-    let ours: BTreeMap<u32, &Fix> =
-        fixes.iter().filter_map(|f| f.time_of_day.map(|tod| (sentence::tod_ms(tod), f))).collect();
-    let (mut n, mut matched, mut misses) = (0, 0, Vec::new());
-    for (key, g) in parse_chk(chk) {
-        let (Some(mode), Some(lat), Some(lon)) = (g.mode, g.lat, g.lon) else { continue };
-        if mode < 2 {
-            continue;
-        }
-        n += 1;
-        let why = match ours.get(&key) {
-            None => Some("no epoch".to_owned()),
-            Some(f) => {
-                let fmt = if date_differs { "T%H:%M:%S%.3fZ" } else { "%Y-%m-%dT%H:%M:%S%.3fZ" };
-                let time = f.time.map(|t| t.format(fmt).to_string());
-                let gpsd_time = if date_differs {
-                    g.time.as_deref().and_then(|t| t.find('T').map(|i| t[i..].to_owned()))
-                } else {
-                    g.time.clone()
-                };
-                let our_mode = f.mode.map_or(0, |m| u64::from(m.gpsd_number()));
-                let pos_ok = f.lat_deg.is_some_and(|a| (a - lat).abs() <= tol_deg)
-                    && f.lon_deg.is_some_and(|o| (o - lon).abs() <= tol_deg);
-                if gpsd_time.is_some() && time != gpsd_time {
-                    Some(format!("time gpsd {gpsd_time:?} ours {time:?}"))
-                } else if our_mode != mode {
-                    Some(format!("mode gpsd {mode} ours {our_mode}"))
-                } else if !pos_ok {
-                    Some(format!("pos gpsd {lat},{lon} ours {:?},{:?}", f.lat_deg, f.lon_deg))
-                } else {
-                    None
-                }
-            }
-        };
-        match why {
-            None => matched += 1,
-            Some(w) if misses.len() < 5 => misses.push(format!("t={key}ms {w}")),
-            Some(_) => {}
-        }
-    }
-    (n, matched, misses)
+/// (gpsd's epochs with a position, of those matched by ours; first few misses). gpsd's epochs are keyed
+/// by its echoed sentences, or for a binary log by its TPV times ([`super::suite::gpsd_epochs`]).
+fn match_epochs(
+    fixes: &[Fix],
+    chk: &str,
+    log: &[u8],
+    date_differs: bool,
+    tol_deg: f64,
+) -> (usize, usize, Vec<String>) {
+    let m = match_log(fixes, &gpsd_epochs(chk, log), date_differs, tol_deg);
+    (m.gpsd, m.matched, m.misses)
 }
 
 /// For a log with binary frames: what was decoded, and a failure when the real NMEA among the frames
@@ -298,9 +268,10 @@ fn every_log_matches_gpsd_epochs() {
             continue;
         };
         let tol_deg = if let Judge::PositionSource { tol_deg, .. } = judge { tol_deg } else { 1e-7 };
-        let (n, matched, misses) = match_epochs(&fixes, &chk, dates_differ(judge), tol_deg);
+        let bytes = std::fs::read(log).unwrap();
+        let (n, matched, misses) = match_epochs(&fixes, &chk, &bytes, dates_differ(judge), tol_deg);
         // The strict count too, for the table: how many also agree to 1e-7 deg.
-        let strict = match_epochs(&fixes, &chk, dates_differ(judge), 1e-7).1;
+        let strict = match_epochs(&fixes, &chk, &bytes, dates_differ(judge), 1e-7).1;
         all_n += n;
         all_strict += strict;
         let rate = if n == 0 { 1.0 } else { matched as f64 / n as f64 };

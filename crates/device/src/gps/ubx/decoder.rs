@@ -25,6 +25,7 @@ use chrono::{DateTime, NaiveDate, TimeDelta, Utc};
 
 use crate::gps::fix::{Constellation, ErrorEstimate, ErrorSource, Fix, FixMode, FixQuality, Satellite};
 use crate::gps::le::{i1, i2, i4, u1, u2, u4};
+use crate::gps::sirf::{enu_from_ecef_velocity, wgs84_from_ecef};
 
 /// Why a verified frame was not used.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -129,6 +130,12 @@ struct Epoch {
     hmsl_m: Option<f64>,
     h_acc_m: Option<f64>,
     v_acc_m: Option<f64>,
+    /// NAV-SOL / NAV-POSECEF: WGS-84 ECEF position [m] and its 3D accuracy estimate `pAcc` [m], used when
+    /// no geodetic position (NAV-PVT, NAV-POSLLH) came with the epoch.
+    ecef_m: Option<[f64; 3]>,
+    p_acc_m: Option<f64>,
+    /// NAV-SOL / NAV-VELECEF: ECEF velocity [m/s], for speed and course when NAV-VELNED is absent.
+    ecef_vel_m_s: Option<[f64; 3]>,
     speed_m_s: Option<f64>,
     course_deg: Option<f64>,
     num_sv: Option<u8>,
@@ -168,13 +175,17 @@ impl UbxDecoder {
     ) -> Result<Option<Fix>, UbxUnused> {
         match (class, id) {
             (HNR, 0x00) => return hnr_pvt(payload, now).map(Some),
-            (NAV, 0x02 | 0x03 | 0x04 | 0x06 | 0x07 | 0x12 | 0x20 | 0x21 | 0x30 | 0x35 | 0x61) => {}
+            (
+                NAV,
+                0x01 | 0x02 | 0x03 | 0x04 | 0x06 | 0x07 | 0x11 | 0x12 | 0x20 | 0x21 | 0x30 | 0x35 | 0x61,
+            ) => {}
             _ => return Err(UbxUnused::Unsupported),
         }
         // Every NAV message starts with iTOW; the length of each is checked before the epoch is touched.
         let need = match id {
             0x02 => 28,
             0x03 | 0x20 => 16,
+            0x01 | 0x11 => 20,
             0x04 => 18,
             0x06 => 52,
             0x07 => 84,
@@ -206,6 +217,8 @@ impl UbxDecoder {
             0x07 => apply_pvt(e, p),
             0x02 => apply_posllh(e, p),
             0x06 => apply_sol(e, p),
+            0x01 => apply_posecef(e, p),
+            0x11 => apply_velecef(e, p),
             0x03 => apply_status(e, p),
             0x04 => apply_dop(e, p),
             0x12 => apply_velned(e, p),
@@ -264,6 +277,27 @@ impl UbxDecoder {
             fix.error = e.h_acc_m.map(|h| ErrorEstimate {
                 horizontal_m: h,
                 vertical_m: e.v_acc_m,
+                source: ErrorSource::Ubx,
+            });
+        } else if mode != FixMode::NoFix
+            && let Some((lat, lon, _hae)) = e.ecef_m.and_then(wgs84_from_ecef)
+        {
+            // Only an ECEF solution (ANTARIS, u-blox 6 and timing receivers sending NAV-SOL without
+            // NAV-POSLLH): its geodetic position, as gpsd converts it. No altitude: the fix's is above mean
+            // sea level and the receiver sent only the ellipsoidal height (no geoid model here).
+            fix.lat_deg = Some(lat.to_degrees());
+            fix.lon_deg = Some(lon.to_degrees());
+            fix.speed_m_s = e.speed_m_s;
+            fix.course_deg = e.course_deg;
+            if let (None, Some(v)) = (e.speed_m_s, e.ecef_vel_m_s) {
+                let [east, north, _up] = enu_from_ecef_velocity(v, lat, lon);
+                fix.speed_m_s = Some(east.hypot(north));
+                fix.course_deg = Some(east.atan2(north).to_degrees().rem_euclid(360.0));
+            }
+            // pAcc is the 3D accuracy estimate: an upper bound of the horizontal one.
+            fix.error = e.p_acc_m.map(|p| ErrorEstimate {
+                horizontal_m: p,
+                vertical_m: None,
                 source: ErrorSource::Ubx,
             });
         }
@@ -332,8 +366,9 @@ fn apply_posllh(e: &mut Epoch, p: &[u8]) -> Option<()> {
     Some(())
 }
 
-/// NAV-SOL (0x01 0x06, 52 bytes): fix type, flags, satellites, PDOP (its ECEF position is not used: the
-/// receivers that send NAV-SOL send NAV-POSLLH too).
+/// NAV-SOL (0x01 0x06, 52 bytes): iTOW 0, fTOW 4, week 8, gpsFix 10, flags 11 (bit 1 diffSoln), ecefX/Y/Z
+/// 12/16/20 (I4 cm), pAcc 24 (U4 cm), ecefVX/VY/VZ 28/32/36 (I4 cm/s), sAcc 40, pDOP 44 (x 0.01), numSV
+/// 47. The ECEF position is the fix's when no NAV-POSLLH comes with it.
 fn apply_sol(e: &mut Epoch, p: &[u8]) -> Option<()> {
     e.nav = true;
     if e.pvt {
@@ -344,6 +379,32 @@ fn apply_sol(e: &mut Epoch, p: &[u8]) -> Option<()> {
     e.diff = flags & 0x02 != 0;
     e.num_sv = Some(u1(p, 47)?);
     e.pdop = e.pdop.or(Some(f64::from(u2(p, 44)?) * 0.01));
+    e.ecef_m = Some(cm3(p, 12)?);
+    e.p_acc_m = Some(f64::from(u4(p, 24)?) * 0.01);
+    e.ecef_vel_m_s = Some(cm3(p, 28)?);
+    Some(())
+}
+
+/// Three I4 centimetre values from `o` as metres.
+fn cm3(p: &[u8], o: usize) -> Option<[f64; 3]> {
+    Some([f64::from(i4(p, o)?) * 0.01, f64::from(i4(p, o + 4)?) * 0.01, f64::from(i4(p, o + 8)?) * 0.01])
+}
+
+/// NAV-POSECEF (0x01 0x01, 20 bytes): ecefX/Y/Z 4/8/12 (I4 cm), pAcc 16 (U4 cm).
+fn apply_posecef(e: &mut Epoch, p: &[u8]) -> Option<()> {
+    e.nav = true;
+    if !e.pvt {
+        e.ecef_m = Some(cm3(p, 4)?);
+        e.p_acc_m = Some(f64::from(u4(p, 16)?) * 0.01);
+    }
+    Some(())
+}
+
+/// NAV-VELECEF (0x01 0x11, 20 bytes): ecefVX/VY/VZ 4/8/12 (I4 cm/s), sAcc 16.
+fn apply_velecef(e: &mut Epoch, p: &[u8]) -> Option<()> {
+    if !e.pvt {
+        e.ecef_vel_m_s = Some(cm3(p, 4)?);
+    }
     Some(())
 }
 
