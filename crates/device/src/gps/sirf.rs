@@ -165,21 +165,20 @@ impl Kinds {
 const MISSES_TO_FORGET: u8 = 3;
 
 /// The solution messages the receiver has been sending: a message is expected from the first epoch that
-/// had it until [`MISSES_TO_FORGET`] epochs in a row lacked it.
+/// had it until [`MISSES_TO_FORGET`] epochs in a row lacked it. Per message: `None` = not expected, else
+/// the epochs in a row that lacked it.
 #[derive(Debug, Clone, Copy, Default)]
 struct Expected {
-    nav_misses: Option<u8>,
-    geodetic_misses: Option<u8>,
-    gnss_misses: Option<u8>,
+    nav: Option<u8>,
+    geodetic: Option<u8>,
+    gnss: Option<u8>,
 }
 
 impl Expected {
     fn learn(&mut self, seen: Kinds) {
-        for (misses, present) in [
-            (&mut self.nav_misses, seen.nav),
-            (&mut self.geodetic_misses, seen.geodetic),
-            (&mut self.gnss_misses, seen.gnss),
-        ] {
+        for (misses, present) in
+            [(&mut self.nav, seen.nav), (&mut self.geodetic, seen.geodetic), (&mut self.gnss, seen.gnss)]
+        {
             *misses = if present {
                 Some(0)
             } else {
@@ -189,11 +188,7 @@ impl Expected {
     }
 
     fn kinds(self) -> Kinds {
-        Kinds {
-            nav: self.nav_misses.is_some(),
-            geodetic: self.geodetic_misses.is_some(),
-            gnss: self.gnss_misses.is_some(),
-        }
+        Kinds { nav: self.nav.is_some(), geodetic: self.geodetic.is_some(), gnss: self.gnss.is_some() }
     }
 }
 
