@@ -312,6 +312,12 @@ impl UbxDecoder {
                 source: ErrorSource::Ubx,
             });
         }
+        if mode != FixMode::NoFix && fix.lat_deg.is_none() {
+            // A fix type with no position to go with it (NAV-PVT's invalidLlh, an ECEF point that is no
+            // place on earth, a NAV-SOL whose stream sends no position): no fix, as for SiRF.
+            fix.mode = Some(FixMode::NoFix);
+            fix.quality = Some(FixQuality::Invalid);
+        }
         fix.sats_used = e.num_sv.map(u32::from);
         fix.pdop = e.pdop;
         fix.hdop = e.hdop;

@@ -627,4 +627,16 @@ mod without_nav_pvt {
         approx::assert_relative_eq!(f.speed_m_s.unwrap(), 1.0, epsilon = 1e-12);
         approx::assert_relative_eq!(f.course_deg.unwrap(), 90.0, epsilon = 1e-9);
     }
+
+    #[test]
+    fn a_fix_type_without_a_position_is_no_fix() {
+        // NAV-SOL says 3D but its ECEF point is the earth's centre (no place on earth), no NAV-POSLLH.
+        let mut sol = vec![0u8; 52];
+        sol[10] = 3;
+        sol[11] = 0x01;
+        sol[47] = 9;
+        let (fixes, _) = crate::gps::decode_reader(frame(0x01, 0x06, &sol).as_slice()).unwrap();
+        assert_eq!(fixes.len(), 1);
+        assert_eq!((fixes[0].mode, fixes[0].lat_deg), (Some(FixMode::NoFix), None));
+    }
 }
