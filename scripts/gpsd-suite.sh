@@ -9,6 +9,7 @@
 #
 #   scripts/gpsd-suite.sh                  # download (once), extract, run
 #   scripts/gpsd-suite.sh /path/to/daemon  # an already extracted test/daemon folder (or any folder of logs)
+#   VESTNAV_GPSD_SUITE_ONLY=ublox VESTNAV_GPSD_SUITE_MISSES=50 scripts/gpsd-suite.sh   # some logs, more misses
 set -euo pipefail
 cd "$(dirname "$0")/.."
 

@@ -120,6 +120,10 @@ struct Epoch {
     time: Option<DateTime<Utc>>,
     /// From NAV-TIMEGPS: UTC computed from week, time of week and valid leap seconds.
     gps_time: Option<DateTime<Utc>>,
+    /// NAV-TIMEGPS's leap seconds (GPS - UTC) when it says they are valid.
+    leap_s: Option<i8>,
+    /// NAV-SOL's GPS time when it says week and time of week are valid: (week, time of week in ns).
+    sol_gps: Option<(i16, i64)>,
     fix_type: Option<u8>,
     /// `diffSoln`: differential corrections applied.
     diff: bool,
@@ -150,6 +154,9 @@ pub(crate) struct UbxDecoder {
     epoch: Option<Epoch>,
     /// The last satellite list (NAV-SAT or NAV-SVINFO).
     sky: Option<Vec<Satellite>>,
+    /// The receiver's last valid leap seconds (NAV-TIMEGPS): dates an epoch whose NAV-SOL came without
+    /// NAV-TIMEGPS or NAV-TIMEUTC.
+    leap_s: Option<i8>,
 }
 
 impl UbxDecoder {
@@ -185,12 +192,11 @@ impl UbxDecoder {
         let need = match id {
             0x02 => 28,
             0x03 | 0x20 => 16,
-            0x01 | 0x11 => 20,
             0x04 => 18,
             0x06 => 52,
             0x07 => 84,
             0x12 => 36,
-            0x21 => 20,
+            0x01 | 0x11 | 0x21 => 20,
             0x30 | 0x35 => 8,
             _ => 4, // 0x61 EOE
         };
@@ -243,11 +249,16 @@ impl UbxDecoder {
 
     fn close(&mut self, now: Instant) -> Option<Fix> {
         let e = self.epoch.take()?;
+        self.leap_s = e.leap_s.or(self.leap_s);
         e.nav.then(|| self.build(&e, now))
     }
 
     fn build(&self, e: &Epoch, now: Instant) -> Fix {
-        let time = e.time.or(e.gps_time);
+        let from_sol = || {
+            let (week, tow_ns) = e.sol_gps?;
+            utc_from_gps(week, tow_ns, self.leap_s?)
+        };
+        let time = e.time.or(e.gps_time).or_else(from_sol);
         let mode = e.fix_type.map_or(FixMode::NoFix, mode_of);
         let mut fix = Fix {
             time,
@@ -300,6 +311,12 @@ impl UbxDecoder {
                 vertical_m: None,
                 source: ErrorSource::Ubx,
             });
+        }
+        if mode != FixMode::NoFix && fix.lat_deg.is_none() {
+            // A fix type with no position to go with it (NAV-PVT's invalidLlh, an ECEF point that is no
+            // place on earth, a NAV-SOL whose stream sends no position): no fix, as for SiRF.
+            fix.mode = Some(FixMode::NoFix);
+            fix.quality = Some(FixQuality::Invalid);
         }
         fix.sats_used = e.num_sv.map(u32::from);
         fix.pdop = e.pdop;
@@ -379,6 +396,10 @@ fn apply_sol(e: &mut Epoch, p: &[u8]) -> Option<()> {
     e.diff = flags & 0x02 != 0;
     e.num_sv = Some(u1(p, 47)?);
     e.pdop = e.pdop.or(Some(f64::from(u2(p, 44)?) * 0.01));
+    // flags bit 2 WKNSET, bit 3 TOWSET: week and time of week valid.
+    if flags & 0x0C == 0x0C {
+        e.sol_gps = Some((i2(p, 8)?, i64::from(u4(p, 0)?) * 1_000_000 + i64::from(i4(p, 4)?)));
+    }
     e.ecef_m = Some(cm3(p, 12)?);
     e.p_acc_m = Some(f64::from(u4(p, 24)?) * 0.01);
     e.ecef_vel_m_s = Some(cm3(p, 28)?);
@@ -437,20 +458,27 @@ fn apply_velned(e: &mut Epoch, p: &[u8]) -> Option<()> {
 }
 
 /// NAV-TIMEGPS (0x01 0x20, 16 bytes): UTC = GPS epoch + week + iTOW + fTOW - leap seconds, used when
-/// towValid, weekValid and leapSValid (bits 0-2) are all set.
+/// towValid, weekValid and leapSValid (bits 0-2) are all set; the leap seconds alone when leapSValid is.
 fn apply_timegps(e: &mut Epoch, p: &[u8]) -> Option<()> {
     let (itow, ftow, week, leap, valid) = (u4(p, 0)?, i4(p, 4)?, i2(p, 8)?, i1(p, 10)?, u1(p, 11)?);
-    if valid & 0x07 == 0x07 && week >= 0 {
-        let ns = i64::from(itow) * 1_000_000 + i64::from(ftow);
-        let ms = (ns + 500_000).div_euclid(1_000_000);
-        e.gps_time = gps_epoch().and_then(|t0| {
-            t0.checked_add_signed(
-                TimeDelta::weeks(i64::from(week)) + TimeDelta::milliseconds(ms)
-                    - TimeDelta::seconds(leap.into()),
-            )
-        });
+    if valid & 0x04 != 0 {
+        e.leap_s = Some(leap);
+    }
+    if valid & 0x07 == 0x07 {
+        e.gps_time = utc_from_gps(week, i64::from(itow) * 1_000_000 + i64::from(ftow), leap);
     }
     Some(())
+}
+
+/// UTC of a GPS week and time of week [ns] with the receiver's leap seconds, rounded to the millisecond.
+fn utc_from_gps(week: i16, tow_ns: i64, leap_s: i8) -> Option<DateTime<Utc>> {
+    if week < 0 {
+        return None;
+    }
+    let ms = (tow_ns + 500_000).div_euclid(1_000_000);
+    gps_epoch()?.checked_add_signed(
+        TimeDelta::weeks(i64::from(week)) + TimeDelta::milliseconds(ms) - TimeDelta::seconds(leap_s.into()),
+    )
 }
 
 /// NAV-TIMEUTC (0x01 0x21, 20 bytes): UTC when validUTC (bit 2) is set.

@@ -548,4 +548,95 @@ mod without_nav_pvt {
         approx::assert_relative_eq!(f.vdop.unwrap(), 1.21);
         approx::assert_relative_eq!(f.error.unwrap().horizontal_m, 2.5);
     }
+
+    /// NAV-SOL of the LEA-4T log's second epoch (gpsd 3.27.5 `test/daemon/ublox-lea-4t.log`): iTOW, fTOW,
+    /// week 1516, 3D, flags 0x9D, ECEF cm, pAcc 5.44 m, pDOP 2.42, 8 satellites.
+    fn lea_4t_sol(itow: u32) -> Vec<u8> {
+        let mut sol = vec![0u8; 52];
+        put(&mut sol, 0, &itow.to_le_bytes());
+        put(&mut sol, 4, &192_920i32.to_le_bytes());
+        put(&mut sol, 8, &1516i16.to_le_bytes());
+        sol[10] = 3;
+        sol[11] = 0x9D;
+        put(&mut sol, 12, &(-151_029_962i32).to_le_bytes());
+        put(&mut sol, 16, &(-348_349_812i32).to_le_bytes());
+        put(&mut sol, 20, &510_853_310i32.to_le_bytes());
+        put(&mut sol, 24, &544u32.to_le_bytes());
+        put(&mut sol, 44, &242u16.to_le_bytes());
+        sol[47] = 8;
+        frame(0x01, 0x06, &sol)
+    }
+
+    /// NAV-TIMEGPS with leap seconds `leap` flagged valid with time of week and week.
+    fn timegps(itow: u32, leap: i8) -> Vec<u8> {
+        let mut t = vec![0u8; 16];
+        put(&mut t, 0, &itow.to_le_bytes());
+        put(&mut t, 4, &192_920i32.to_le_bytes());
+        put(&mut t, 8, &1516i16.to_le_bytes());
+        t[10] = leap.to_le_bytes()[0];
+        t[11] = 0x07;
+        frame(0x01, 0x20, &t)
+    }
+
+    #[test]
+    fn nav_sol_alone_gives_gpsds_position_and_time() {
+        // gpsd's report for this epoch (ublox-lea-4t.log.chk): 2009-01-28T20:35:44.001Z, 53.563254092,
+        // -113.439545157, mode 3. The next epoch has no NAV-TIMEGPS: the receiver's 15 leap seconds carry.
+        let data = [lea_4t_sol(333_359_001), timegps(333_359_001, 15), lea_4t_sol(333_360_001)].concat();
+        let (fixes, stats) = crate::gps::decode_reader(data.as_slice()).unwrap();
+        assert_eq!(fixes.len(), 2, "{stats}");
+        let f = &fixes[0];
+        assert_eq!(f.time.unwrap().format("%Y-%m-%dT%H:%M:%S%.3fZ").to_string(), "2009-01-28T20:35:44.001Z");
+        assert_eq!(
+            fixes[1].time.unwrap().format("%Y-%m-%dT%H:%M:%S%.3fZ").to_string(),
+            "2009-01-28T20:35:45.001Z"
+        );
+        assert_eq!(f.mode, Some(FixMode::Fix3D));
+        assert!((f.lat_deg.unwrap() - 53.563_254_092).abs() < 1e-9);
+        assert!((f.lon_deg.unwrap() - -113.439_545_157).abs() < 1e-9);
+        assert_eq!(f.alt_m, None, "only an ellipsoidal height was sent; the fix's altitude is MSL");
+        assert_eq!(f.sats_used, Some(8));
+        approx::assert_relative_eq!(f.pdop.unwrap(), 2.42);
+        approx::assert_relative_eq!(f.error.unwrap().horizontal_m, 5.44);
+        approx::assert_relative_eq!(f.speed_m_s.unwrap(), 0.0);
+    }
+
+    #[test]
+    fn without_any_leap_seconds_the_epoch_has_no_time() {
+        // No NAV-TIMEGPS ever: GPS time cannot be turned into UTC, and no default is guessed.
+        let data = [lea_4t_sol(333_359_001), lea_4t_sol(333_360_001)].concat();
+        let (fixes, _) = crate::gps::decode_reader(data.as_slice()).unwrap();
+        assert_eq!(fixes.len(), 2);
+        assert!(fixes.iter().all(|f| f.time.is_none() && f.lat_deg.is_some()));
+    }
+
+    #[test]
+    fn ecef_velocity_gives_speed_and_course() {
+        // On the equator at longitude 0 east is +Y: 1 m/s along +Y is 1 m/s towards 90 deg.
+        let mut sol = vec![0u8; 52];
+        sol[10] = 3;
+        sol[11] = 0x01;
+        put(&mut sol, 12, &637_813_700i32.to_le_bytes());
+        sol[47] = 6;
+        let mut vel = vec![0u8; 20];
+        put(&mut vel, 8, &100i32.to_le_bytes());
+        let data = [frame(0x01, 0x06, &sol), frame(0x01, 0x11, &vel)].concat();
+        let (fixes, _) = crate::gps::decode_reader(data.as_slice()).unwrap();
+        let f = &fixes[0];
+        assert!(f.lat_deg.unwrap().abs() < 1e-9 && f.lon_deg.unwrap().abs() < 1e-9);
+        approx::assert_relative_eq!(f.speed_m_s.unwrap(), 1.0, epsilon = 1e-12);
+        approx::assert_relative_eq!(f.course_deg.unwrap(), 90.0, epsilon = 1e-9);
+    }
+
+    #[test]
+    fn a_fix_type_without_a_position_is_no_fix() {
+        // NAV-SOL says 3D but its ECEF point is the earth's centre (no place on earth), no NAV-POSLLH.
+        let mut sol = vec![0u8; 52];
+        sol[10] = 3;
+        sol[11] = 0x01;
+        sol[47] = 9;
+        let (fixes, _) = crate::gps::decode_reader(frame(0x01, 0x06, &sol).as_slice()).unwrap();
+        assert_eq!(fixes.len(), 1);
+        assert_eq!((fixes[0].mode, fixes[0].lat_deg), (Some(FixMode::NoFix), None));
+    }
 }
