@@ -182,7 +182,7 @@ impl MapTiles {
         match &cfg.osm_map {
             None => self.extract = None,
             Some(p) if self.extract.as_ref().is_none_or(|e| e.path() != p) => {
-                self.extract = Some(MapExtract::open(p, ctx));
+                self.extract = Some(MapExtract::open(p, &cache_root(cfg), ctx));
             }
             Some(_) => {}
         }
