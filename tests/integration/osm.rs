@@ -178,7 +178,7 @@ fn station_map_refuses_a_bad_extract_and_reroutes_on_a_good_one() {
             "0",
             "--json",
             "--for",
-            "3",
+            "5",
             "--map",
             map,
         ])
