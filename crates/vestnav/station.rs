@@ -110,23 +110,7 @@ pub fn run(a: &StationArgs) -> anyhow::Result<()> {
     a.lab.start(&mut station, a.name.as_deref())?;
     station.connect_vest();
     station.connect_gps(Vec::new());
-    let mut bridge = match a.broker.config() {
-        Some(config) => {
-            let name = a.name.as_deref().context("--broker needs --name")?;
-            if !(a.link_bound.is_finite() && (0.5..=600.0).contains(&a.link_bound)) {
-                anyhow::bail!("--link-bound {}: between 0.5 and 600 seconds", a.link_bound);
-            }
-            let opts = vestnav_remote::BridgeOptions {
-                link_bound: Duration::from_secs_f64(a.link_bound),
-                ..vestnav_remote::BridgeOptions::default()
-            };
-            let b = vestnav_remote::StationBridge::start(&config, name, station.stop_path().clone(), opts)
-                .context("broker")?;
-            eprintln!("vestnav station: station {name} on {}", config.url);
-            Some(b)
-        }
-        None => None,
-    };
+    let mut bridge = start_bridge(a, &station)?;
     if let Some(p) = station.log_path() {
         eprintln!("vestnav station: session log {}", p.display());
     }
@@ -188,6 +172,27 @@ pub fn run(a: &StationArgs) -> anyhow::Result<()> {
     }
     println!("{}", status_line(&station, Instant::now(), start, a.json));
     Ok(())
+}
+
+/// The station's MQTT bridge when `--broker` names one (`None` without).
+fn start_bridge(a: &StationArgs, station: &Station) -> anyhow::Result<Option<vestnav_remote::StationBridge>> {
+    Ok(match a.broker.config() {
+        Some(config) => {
+            let name = a.name.as_deref().context("--broker needs --name")?;
+            if !(a.link_bound.is_finite() && (0.5..=600.0).contains(&a.link_bound)) {
+                anyhow::bail!("--link-bound {}: between 0.5 and 600 seconds", a.link_bound);
+            }
+            let opts = vestnav_remote::BridgeOptions {
+                link_bound: Duration::from_secs_f64(a.link_bound),
+                ..vestnav_remote::BridgeOptions::default()
+            };
+            let b = vestnav_remote::StationBridge::start(&config, name, station.stop_path().clone(), opts)
+                .context("broker")?;
+            eprintln!("vestnav station: station {name} on {}", config.url);
+            Some(b)
+        }
+        None => None,
+    })
 }
 
 /// Lines of standard input, read on their own thread (a closed input just ends the thread).

@@ -645,7 +645,7 @@ fn osm_extract_tiles_come_back_from_the_disk_cache_of_that_extract_only() {
     // The same bytes again, only a newer modification time: still not the old folder.
     std::fs::copy(osm_data("helsinki.osm.pbf"), &pbf).unwrap();
     let f = std::fs::File::options().write(true).open(&pbf).unwrap();
-    f.set_modified(std::time::SystemTime::now() + Duration::from_secs(60)).unwrap();
+    f.set_modified(std::time::SystemTime::now() + Duration::from_mins(1)).unwrap();
     drop(f);
     assert_ne!(extract_cache_dir(&root, &pbf).unwrap(), cache_dir);
 
