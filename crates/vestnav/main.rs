@@ -113,7 +113,7 @@ fn check_console_files(
     map: Option<&std::path::Path>,
 ) -> anyhow::Result<()> {
     if let Some(path) = map {
-        vestnav_osm::Extract::check_file(path).map_err(|e| anyhow::anyhow!("--map {e}"))?;
+        check_map_file(path)?;
     }
     if let Some(spec) = gps {
         spec.check_files().map_err(|e| anyhow::anyhow!("--gps {spec}: {e}"))?;
@@ -130,6 +130,12 @@ fn check_console_files(
             .map_err(|e| anyhow::anyhow!("--tiles: {e}"))?;
     }
     Ok(())
+}
+
+/// `--map`'s file (the console's and `vestnav station`'s): a regular file within the size limit that starts
+/// as an OSM extract, else a clear error naming it. The full read comes later, off the command thread.
+pub(crate) fn check_map_file(path: &std::path::Path) -> anyhow::Result<()> {
+    vestnav_osm::Extract::check_file(path).map_err(|e| anyhow::anyhow!("--map {e}"))
 }
 
 fn run(cli: Cli) -> anyhow::Result<()> {

@@ -5,6 +5,9 @@
 //! standard input, one per line: `stop` (STOP ALL), `resume` (automatic cues again), `status`, `quit`.
 //! SIGTERM, SIGINT and SIGHUP stop the vest first and end the process within the stop path's deadline;
 //! `quit`, `--for` and the end of a replay (`--exit-when-done`) stop it the same way.
+//!
+//! With `--map AREA.osm.pbf` the station re-routes a wearer who strays off a route's path, on the extract's
+//! footways: the file is checked before anything starts, then read on the station's `osm-graph` thread.
 #![allow(clippy::print_stdout)] // the status lines on stdout are this command's interface for scripts
 
 use std::fmt::Write as _;
@@ -33,6 +36,10 @@ pub struct StationArgs {
     /// The route to guide along (GPX); default: the one named by --gps sim:ROUTE, else the demo route.
     #[arg(long, value_name = "FILE.gpx")]
     pub route: Option<PathBuf>,
+    /// An OpenStreetMap extract (.osm.pbf) whose footways the station re-routes on when the wearer stays
+    /// off a route's path (checked as the console's --map; read on a thread of its own).
+    #[arg(long, value_name = "AREA.osm.pbf")]
+    pub map: Option<PathBuf>,
     /// Where the session log goes (a new JSON Lines file per run).
     #[arg(long, value_name = "DIR")]
     pub log_dir: Option<PathBuf>,
@@ -78,6 +85,9 @@ pub fn run(a: &StationArgs) -> anyhow::Result<()> {
         // Checked before anything starts: a missing route file is the operator's to fix now.
         std::fs::metadata(r).with_context(|| format!("route {}", r.display()))?;
     }
+    if let Some(m) = &a.map {
+        crate::check_map_file(m)?;
+    }
     let mut station = Station::new(
         Box::new(Hardware::default()),
         StationOptions {
@@ -94,26 +104,13 @@ pub fn run(a: &StationArgs) -> anyhow::Result<()> {
     for n in station.notices.all() {
         eprintln!("vestnav station: {}", n.text);
     }
+    if let Some(m) = &a.map {
+        station.load_path_network(m.clone());
+    }
     a.lab.start(&mut station, a.name.as_deref())?;
     station.connect_vest();
     station.connect_gps(Vec::new());
-    let mut bridge = match a.broker.config() {
-        Some(config) => {
-            let name = a.name.as_deref().context("--broker needs --name")?;
-            if !(a.link_bound.is_finite() && (0.5..=600.0).contains(&a.link_bound)) {
-                anyhow::bail!("--link-bound {}: between 0.5 and 600 seconds", a.link_bound);
-            }
-            let opts = vestnav_remote::BridgeOptions {
-                link_bound: Duration::from_secs_f64(a.link_bound),
-                ..vestnav_remote::BridgeOptions::default()
-            };
-            let b = vestnav_remote::StationBridge::start(&config, name, station.stop_path().clone(), opts)
-                .context("broker")?;
-            eprintln!("vestnav station: station {name} on {}", config.url);
-            Some(b)
-        }
-        None => None,
-    };
+    let mut bridge = start_bridge(a, &station)?;
     if let Some(p) = station.log_path() {
         eprintln!("vestnav station: session log {}", p.display());
     }
@@ -122,9 +119,16 @@ pub fn run(a: &StationArgs) -> anyhow::Result<()> {
     let every = Duration::from_secs_f64(a.status_every.max(0.0));
     let mut next_status = start + every;
     let mut said = station.notices.revision();
+    let mut network_said = false;
     loop {
         station.pump(|_| {});
         let now = Instant::now();
+        if !network_said && station.has_path_network() {
+            network_said = true;
+            if let Some(m) = &a.map {
+                eprintln!("vestnav station: re-routing on the paths of {}", m.display());
+            }
+        }
         if station.notices.revision() != said {
             said = station.notices.revision();
             if let Some(n) = station.notices.all().last() {
@@ -170,6 +174,27 @@ pub fn run(a: &StationArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The station's MQTT bridge when `--broker` names one (`None` without).
+fn start_bridge(a: &StationArgs, station: &Station) -> anyhow::Result<Option<vestnav_remote::StationBridge>> {
+    Ok(match a.broker.config() {
+        Some(config) => {
+            let name = a.name.as_deref().context("--broker needs --name")?;
+            if !(a.link_bound.is_finite() && (0.5..=600.0).contains(&a.link_bound)) {
+                anyhow::bail!("--link-bound {}: between 0.5 and 600 seconds", a.link_bound);
+            }
+            let opts = vestnav_remote::BridgeOptions {
+                link_bound: Duration::from_secs_f64(a.link_bound),
+                ..vestnav_remote::BridgeOptions::default()
+            };
+            let b = vestnav_remote::StationBridge::start(&config, name, station.stop_path().clone(), opts)
+                .context("broker")?;
+            eprintln!("vestnav station: station {name} on {}", config.url);
+            Some(b)
+        }
+        None => None,
+    })
+}
+
 /// Lines of standard input, read on their own thread (a closed input just ends the thread).
 fn stdin_commands() -> mpsc::Receiver<String> {
     let (tx, rx) = mpsc::channel();
@@ -204,7 +229,7 @@ fn status_line(s: &Station, now: Instant, start: Instant, json: bool) -> String 
             "t_s": t_s, "gps": gps, "position_age_s": age_s, "lat_deg": pos.map(|p| p.0), "lon_deg": pos.map(|p| p.1),
             "fixes": s.gps.fixes, "vest": vest, "tactors_on": on, "halted": s.vest.halted, "cue": cue, "hold": hold,
             "next_waypoint": next, "waypoints": s.route().waypoints().len(), "gps_alarm": alarm,
-            "stop_not_confirmed": stop, "lab": s.lab_status(),
+            "stop_not_confirmed": stop, "lab": s.lab_status(), "path_network": s.has_path_network(),
         })
         .to_string()
     } else {

@@ -158,3 +158,41 @@ fn bad_extracts_and_unreachable_points_are_refused_by_name() {
     assert!(err.contains("no walkable way within 300 m"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `vestnav station --map`: a file that is no extract (or a folder) is refused before the station starts,
+/// naming it, with a non-zero exit; the Helsinki extract is read off the command thread and the station
+/// says it re-routes on it (and its status says the network is there).
+#[test]
+fn station_map_refuses_a_bad_extract_and_reroutes_on_a_good_one() {
+    let dir = temp_dir("station-map");
+    let junk = dir.join("junk.osm.pbf");
+    std::fs::write(&junk, b"not a pbf").unwrap();
+    let station = |map: &str| {
+        vestnav(&[
+            "station",
+            "--gps",
+            "sim",
+            "--vest",
+            "emulated",
+            "--status-every",
+            "0",
+            "--json",
+            "--for",
+            "5",
+            "--map",
+            map,
+        ])
+    };
+    for bad in [junk.to_str().unwrap(), dir.to_str().unwrap()] {
+        let (ok, out, err) = station(bad);
+        assert!(!ok, "{bad} accepted: {out}");
+        assert!(err.contains("--map") && err.contains(bad), "{err}");
+        assert!(out.is_empty(), "the station started: {out}");
+    }
+    let (ok, out, err) = station(&helsinki());
+    assert!(ok, "{err}");
+    assert!(err.contains(&format!("re-routing on the paths of {}", helsinki())), "{err}");
+    let last: serde_json::Value = serde_json::from_str(out.lines().last().unwrap()).unwrap();
+    assert_eq!(last["path_network"], serde_json::Value::Bool(true), "{out}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

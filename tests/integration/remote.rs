@@ -576,6 +576,89 @@ fn refused_with(fleet: &Fleet, name: &str, text: &str) -> bool {
         .is_some_and(|v| v.events.iter().any(|(_, e)| e.kind == EventKind::Refused && e.text.contains(text)))
 }
 
+/// A route with a path sent by an operator through a real Mosquitto: the `vestnav station` process guides
+/// along the path and its route topic carries the path back; a path over the broker's limit is refused by
+/// the operator's side before sending and, sent raw, by the station, which keeps its route.
+///
+/// The path is bent around the wearer `W` (as the station's own state reports it): from `A`, 1 km north of
+/// `W`, 1 km east, 2 km south, 1 km west to `B`, 1 km south of `W`. The straight leg A→B passes through
+/// `W` (cross-track about 0); the path is about 1 km away from `W` everywhere (A, the eastern side and B
+/// are all 1 km off).
+#[test]
+fn a_route_with_a_path_reaches_a_remote_station_and_an_oversized_one_is_refused() {
+    use vestnav_core::geo::{Earth, LatLon};
+    use vestnav_core::guidance::RoutePath;
+    use vestnav_remote::wire::MAX_WIRE_PATH_POINTS;
+    use vestnav_station::route::Waypoint;
+
+    let dir = temp_dir("path");
+    let broker = Broker::start(&dir);
+    let alpha = StationProc::spawn(&broker, "alpha");
+    let fleet = Fleet::connect(&broker.client("operator"), FleetOptions::operator("operator")).unwrap();
+    wait_for("alpha in contact", Duration::from_secs(30), || in_contact(&fleet, "alpha"));
+    let fix = || {
+        let st = fleet.station("alpha")?.state?;
+        let f = st.station.fix?;
+        Some(LatLon::new(f.lat_deg?, f.lon_deg?))
+    };
+    wait_for("alpha's position", Duration::from_secs(10), || fix().is_some());
+    let w = fix().unwrap();
+    let e = Earth::Wgs84;
+    let (a, b) = (e.direct(w, 0.0, 1000.0), e.direct(w, 180.0, 1000.0));
+    let pts = vec![a, e.direct(a, 90.0, 1000.0), e.direct(b, 90.0, 1000.0), b];
+    let path = RoutePath::new(pts, vec![0, 3]).unwrap();
+    let waypoints = vec![Waypoint::at("A", a), Waypoint::at("B", b)];
+    let route = |path: RoutePath| StationCommand::SetRoute {
+        name: "bent".into(),
+        waypoints: waypoints.clone(),
+        next: 1,
+        path: Some(path),
+    };
+    fleet.send("alpha", route(path.clone())).unwrap();
+    wait_for("the route with its path back on alpha's route topic", Duration::from_secs(5), || {
+        fleet.station("alpha").and_then(|v| v.route).is_some_and(|r| r.path.as_ref() == Some(&path))
+    });
+    let revision = fleet.station("alpha").and_then(|v| v.route).unwrap().revision;
+    assert_eq!(fleet.station("alpha").and_then(|v| v.route).unwrap().path_points, 4);
+    // Guidance at the station measures the cross-track from the path, not from the straight leg.
+    let mut cross_track_m = None;
+    wait_for("guidance along the new route", Duration::from_secs(10), || {
+        let g = fleet.station("alpha").and_then(|v| v.state).and_then(|s| s.station.guidance);
+        cross_track_m =
+            g.filter(|g| g.route_revision == revision && g.next == 1).and_then(|g| g.cross_track_m);
+        cross_track_m.is_some()
+    });
+    let xt = cross_track_m.unwrap().abs();
+    assert!((950.0..1050.0).contains(&xt), "cross-track {xt} m: not measured from the path");
+
+    // One point over the limit: refused by the operator's side, nothing sent.
+    let long: Vec<LatLon> = (0..=MAX_WIRE_PATH_POINTS)
+        .map(|i| e.direct(a, 180.0, 2000.0 * i as f64 / MAX_WIRE_PATH_POINTS as f64))
+        .collect();
+    let too_long = RoutePath::new(long, vec![0, MAX_WIRE_PATH_POINTS]).unwrap();
+    let err = fleet.send("alpha", route(too_long.clone())).unwrap_err().to_string();
+    assert!(
+        err.contains(&format!("its path has {} points, more than the 40000", MAX_WIRE_PATH_POINTS + 1)),
+        "{err}"
+    );
+    // Sent raw (as another tool might): the station refuses it with the same words and keeps its route.
+    let (raw, _rt, _) = raw_client(&broker, "operator");
+    let me = Sender { operator: "operator".into(), session: 99 };
+    let env = Envelope { to: "alpha".into(), from: me, seq: 1, sent_ms: now_ms(), command: route(too_long) };
+    let bytes = serde_json::to_vec(&env).unwrap();
+    assert!(bytes.len() < vestnav_remote::wire::MAX_PAYLOAD, "{} bytes", bytes.len());
+    raw.publish(StationTopic::Cmd.of("alpha"), rumqttc::QoS::AtLeastOnce, false, bytes).unwrap();
+    wait_for("the oversized path refused by the station", Duration::from_secs(5), || {
+        refused_with(&fleet, "alpha", "more than the 40000 a route over the broker may carry")
+    });
+    let r = fleet.station("alpha").and_then(|v| v.route).unwrap();
+    assert_eq!((r.revision, r.path.as_ref()), (revision, Some(&path)));
+    alpha.quit();
+    drop(fleet);
+    drop(broker);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// What is refused: a wrong password, a plaintext client, an observer's command, a station commanding
 /// another (by the ACL and by the station), a late FIRE; a repeated command plays once.
 #[test]

@@ -230,7 +230,12 @@ impl Drive {
         let n = route.waypoints().len();
         if let Some(r) = view.and_then(|v| v.route.as_ref()) {
             let next = r.waypoints.get(r.next).map_or_else(|| "none".to_owned(), |w| w.name.clone());
-            ui.label(format!("its route: {} ({} waypoints), next {next}", r.name, r.waypoints.len()));
+            let along = if r.path_points > 0 {
+                format!(", along a path of {} points", r.path_points)
+            } else {
+                String::new()
+            };
+            ui.label(format!("its route: {} ({} waypoints{along}), next {next}", r.name, r.waypoints.len()));
         } else {
             ui.label(RichText::new("its route: not heard yet").weak());
         }
@@ -247,6 +252,7 @@ impl Drive {
                     name: route.name().to_owned(),
                     waypoints: route.waypoints().to_vec(),
                     next: route.next().min(n),
+                    path: route.path().cloned(),
                 },
             );
         }

@@ -593,6 +593,77 @@ fn osm_extract_is_drawn_as_tiles_with_its_attribution() {
     }
 }
 
+/// The extract's drawn tiles go to the disk tile cache and come back from it: a tile drawn once is read
+/// the second time from disk — by a store whose renderer has nothing to draw, so only the disk can answer
+/// — pixel for pixel the osm crate's `render_tile`, and the file byte for byte its PNG. The same file with
+/// other content (another extract written over it) or only touched misses the cache; a cache that cannot
+/// be written is said once and the tile is drawn all the same.
+#[test]
+fn osm_extract_tiles_come_back_from_the_disk_cache_of_that_extract_only() {
+    use vestnav_app::tiles::extract::{LoadedExtract, extract_cache_dir, read_extract};
+    use vestnav_core::geo::LatLon;
+    use vestnav_tiles::loader::{Loaded, load};
+    use vestnav_tiles::store::Origin;
+
+    let dir = temp_dir("osmcache");
+    let pbf = dir.join("area.osm.pbf");
+    std::fs::copy(osm_data("helsinki.osm.pbf"), &pbf).unwrap();
+    let root = dir.join("cache");
+    let (extract, cache_dir) = read_extract(&pbf, &root).unwrap();
+    let cache_dir = cache_dir.unwrap();
+    assert!(cache_dir.starts_with(&root), "{}", cache_dir.display());
+    let (sw, ne) = extract.map.bounds().unwrap();
+    let centre = LatLon::new(f64::midpoint(sw.lat_deg, ne.lat_deg), f64::midpoint(sw.lon_deg, ne.lon_deg));
+    let id = vestnav_osm::TileId::containing(centre, 17).unwrap();
+    let key = TileKey::new(17, id.x, id.y).unwrap();
+    let want = vestnav_osm::render_tile(&extract.map, id);
+    let want_png = vestnav_osm::Renderer::new(Arc::new(extract.map.clone())).tile_png(id).unwrap();
+    let image = |l: Loaded, origin: Origin| match l {
+        Loaded::Image(img, o) if o == origin => img.rgba,
+        other => panic!("expected a tile from {origin:?}, got {other:?}"),
+    };
+
+    let first = LoadedExtract::new(extract, Ok(cache_dir.clone()));
+    let mut store = (first.store_opener())().unwrap();
+    assert_eq!(image(load(store.as_mut(), key), Origin::Local), want.rgba);
+    assert_eq!(std::fs::read(cache::tile_path(&cache_dir, key)).unwrap(), want_png);
+    // A store over an empty map, on the same cache folder: the tile can only come from the disk.
+    let empty = vestnav_osm::Extract::from_elements(&[], vec![], vec![]);
+    let blind = LoadedExtract::new(empty, Ok(cache_dir.clone()));
+    let mut store = (blind.store_opener())().unwrap();
+    assert_eq!(image(load(store.as_mut(), key), Origin::Cache), want.rgba);
+    assert!(first.cache_problem().is_none() && blind.cache_problem().is_none());
+
+    // Another extract written over the file: another folder, so the old tile is not seen.
+    std::fs::copy(osm_data("rules.osm.pbf"), &pbf).unwrap();
+    let (changed, changed_dir) = read_extract(&pbf, &root).unwrap();
+    let changed_dir = changed_dir.unwrap();
+    assert_ne!(changed_dir, cache_dir);
+    let changed = LoadedExtract::new(changed, Ok(changed_dir));
+    let mut store = (changed.store_opener())().unwrap();
+    assert!(!matches!(load(store.as_mut(), key), Loaded::Image(_, Origin::Cache)));
+    // The same bytes again, only a newer modification time: still not the old folder.
+    std::fs::copy(osm_data("helsinki.osm.pbf"), &pbf).unwrap();
+    let f = std::fs::File::options().write(true).open(&pbf).unwrap();
+    f.set_modified(std::time::SystemTime::now() + Duration::from_mins(1)).unwrap();
+    drop(f);
+    assert_ne!(extract_cache_dir(&root, &pbf).unwrap(), cache_dir);
+
+    // A cache folder that cannot be made (a file stands where it would go): drawn all the same, said once.
+    let blocked = dir.join("blocked");
+    std::fs::write(&blocked, b"not a folder").unwrap();
+    let (extract, _) = read_extract(&pbf, &root).unwrap();
+    let unwritable = LoadedExtract::new(extract, Ok(blocked.join("rendered")));
+    let mut store = (unwritable.store_opener())().unwrap();
+    assert_eq!(image(load(store.as_mut(), key), Origin::Local), want.rgba);
+    let said = unwritable.cache_problem().unwrap().to_owned();
+    assert!(said.contains("not written") && said.contains("blocked"), "{said}");
+    let other = TileKey::new(17, id.x + 1, id.y).unwrap();
+    assert!(matches!(load(store.as_mut(), other), Loaded::Image(_, Origin::Local)));
+    assert_eq!(unwritable.cache_problem(), Some(said.as_str()));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 /// A broken extract is refused with the file named, shown where the map's state is shown; nothing panics.
 #[test]
 fn broken_osm_extract_is_refused_naming_the_file() {

@@ -216,6 +216,10 @@ pub struct SimResult {
     /// Waypoints, east/north about the first waypoint [m] (for figures; not in JSON).
     #[serde(skip)]
     pub waypoints_en_m: Vec<DVec2>,
+    /// The line the wearer should walk — the route's path when it has one, else the straight legs through
+    /// the waypoints — east/north about the first waypoint [m] (for figures; not in JSON).
+    #[serde(skip)]
+    pub route_line_en_m: Vec<DVec2>,
     /// Steel objects disturbing the compass, east/north about the first waypoint [m] (for figures; not in
     /// JSON).
     #[serde(skip)]
@@ -463,6 +467,7 @@ pub fn simulate_along(
         path_true_en_m: Vec::new(),
         path_fix_en_m: Vec::new(),
         waypoints_en_m: wps_en.clone(),
+        route_line_en_m: line_en.clone(),
         steel_en_m: compass.as_ref().map_or_else(Vec::new, |c| c.steel_en_m.clone()),
     };
     let (mut xt_sum2, mut xt_n) = (0.0, 0usize);

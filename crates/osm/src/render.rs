@@ -18,6 +18,11 @@ use crate::map::{AreaKind, FeatureRef, LineKind, MapData};
 use crate::rules::WayClass;
 use crate::tile::{TILE_SIZE, TileId};
 
+/// The version of the drawing: part of the name of the disk cache of drawn tiles, so tiles drawn by
+/// another version are never shown. The crate's version, and a counter raised whenever colours, widths,
+/// layers or labels change between releases.
+pub const RENDER_VERSION: &str = concat!(env!("CARGO_PKG_VERSION"), "+draw1");
+
 /// The attribution OpenStreetMap's licence (`ODbL`) requires wherever the map is shown.
 pub const ATTRIBUTION: &str = "© OpenStreetMap contributors";
 

@@ -362,6 +362,10 @@ impl StationBridge {
             self.event(EventKind::Refused, answers, text);
             return;
         }
+        if let Err(e) = crate::wire::check_command(&env.command) {
+            self.event(EventKind::Refused, answers, e);
+            return;
+        }
         match station.apply(env.command) {
             Ok(()) => self.event(EventKind::Applied, answers, format!("{what} (#{})", env.seq)),
             Err(e) => self.event(EventKind::Refused, answers, e),
@@ -496,12 +500,7 @@ impl StationBridge {
         if self.route_sent == Some(r.revision()) {
             return;
         }
-        let msg = RouteMsg {
-            name: r.name().to_owned(),
-            waypoints: r.waypoints().to_vec(),
-            next: r.next(),
-            revision: r.revision(),
-        };
+        let msg = RouteMsg::of(r);
         if let Ok(bytes) = serde_json::to_vec(&msg)
             && self
                 .client

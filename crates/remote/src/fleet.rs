@@ -65,6 +65,10 @@ pub enum FleetError {
     /// The connection thread could not start.
     #[error("cannot start the MQTT thread: {0}")]
     Thread(std::io::Error),
+    /// A command the broker link does not carry (a route's path over
+    /// [`crate::wire::MAX_WIRE_PATH_POINTS`], a message over [`crate::wire::MAX_PAYLOAD`]); not sent.
+    #[error("{0}")]
+    TooLarge(String),
 }
 
 /// Events kept per station.
@@ -244,9 +248,18 @@ impl Fleet {
         if !self.lock().connected {
             return Err(FleetError::NotConnected(String::new()));
         }
+        crate::wire::check_command(&command).map_err(FleetError::TooLarge)?;
         let seq = self.next_seq();
         let env = Envelope { to: name.to_owned(), from: self.from.clone(), seq, sent_ms: now_ms(), command };
         let bytes = serde_json::to_vec(&env).map_err(|e| FleetError::Queue(e.to_string()))?;
+        if bytes.len() > crate::wire::MAX_PAYLOAD {
+            return Err(FleetError::TooLarge(format!(
+                "{} refused: {} bytes, more than the {} a message over the broker may have",
+                env.command.describe(),
+                bytes.len(),
+                crate::wire::MAX_PAYLOAD
+            )));
+        }
         self.publish(StationTopic::Cmd.of(name), false, bytes)?;
         Ok(seq)
     }

@@ -336,12 +336,7 @@ impl Turn {
         let mut s = self.shared.lock().unwrap_or_else(PoisonError::into_inner);
         let Some(v) = s.views.get_mut(&self.name) else { return };
         if route_due {
-            v.route = Some(RouteMsg {
-                name: route.name().to_owned(),
-                waypoints: route.waypoints().to_vec(),
-                next: route.next(),
-                revision: route.revision(),
-            });
+            v.route = Some(RouteMsg::of(route));
             self.route_sent = Some(route.revision());
         }
         if due {

@@ -2,8 +2,9 @@
 //! other tools. Every payload is one JSON object; every field a reader needs is here, nothing is implied.
 
 use serde::{Deserialize, Serialize};
+use vestnav_core::guidance::RoutePath;
 use vestnav_station::command::{Command, Snapshot};
-use vestnav_station::route::Waypoint;
+use vestnav_station::route::{RouteModel, Waypoint};
 
 /// The schema's version, the second level of every topic.
 pub const SCHEMA: &str = "v1";
@@ -11,8 +12,28 @@ pub const SCHEMA: &str = "v1";
 pub const ROOT: &str = "vestnav/v1";
 /// Longest station or operator name [bytes] (a topic level).
 pub const MAX_NAME: usize = 64;
-/// Largest payload a client accepts [bytes]: a route of 10,000 waypoints fits.
+/// Largest payload a client accepts [bytes]: a route of 10,000 waypoints with a path of
+/// [`MAX_WIRE_PATH_POINTS`] fits.
 pub const MAX_PAYLOAD: usize = 4 << 20;
+/// Most points of a route's path carried over the broker (a route command, a station's route topic).
+/// About 56 bytes of JSON each: 40,000 points are 2.2 MB, leaving room under [`MAX_PAYLOAD`] for 10,000
+/// named waypoints; a walk planned node by node (a few metres apart) of 100 km and more fits.
+pub const MAX_WIRE_PATH_POINTS: usize = 40_000;
+
+/// Checks what the broker carries beyond what the station itself checks: a route's path of at most
+/// [`MAX_WIRE_PATH_POINTS`]. `Err` says why, naming the limit.
+pub fn check_command(command: &Command) -> Result<(), String> {
+    if let Command::SetRoute { path: Some(p), .. } = command
+        && p.points().len() > MAX_WIRE_PATH_POINTS
+    {
+        return Err(format!(
+            "route refused: its path has {} points, more than the {MAX_WIRE_PATH_POINTS} a route over the \
+             broker may carry (docs/remote.md)",
+            p.points().len()
+        ));
+    }
+    Ok(())
+}
 
 /// The global STOP ALL (retained, `QoS` 1): every station obeys it until it is resumed.
 pub const STOP_ALL_TOPIC: &str = "vestnav/v1/stop";
@@ -219,7 +240,7 @@ pub struct EventMsg {
     pub text: String,
 }
 
-/// A station's `route` (retained): the waypoints guidance follows.
+/// A station's `route` (retained): the waypoints guidance follows, and their path when it has one.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct RouteMsg {
     /// The route's name.
@@ -230,6 +251,29 @@ pub struct RouteMsg {
     pub next: usize,
     /// The route's revision on the station.
     pub revision: u64,
+    /// The path between the waypoints, when the route has one of at most [`MAX_WIRE_PATH_POINTS`] points
+    /// (checked as it is read). Absent from older stations.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub path: Option<RoutePath>,
+    /// How many points the station's path has (0: straight legs); more than [`MAX_WIRE_PATH_POINTS`]
+    /// means it is guided along a path this message does not carry.
+    #[serde(default)]
+    pub path_points: usize,
+}
+
+impl RouteMsg {
+    /// The message for `route` (its path left out when longer than [`MAX_WIRE_PATH_POINTS`]).
+    pub fn of(route: &RouteModel) -> Self {
+        let path_points = route.path().map_or(0, |p| p.points().len());
+        Self {
+            name: route.name().to_owned(),
+            waypoints: route.waypoints().to_vec(),
+            next: route.next(),
+            revision: route.revision(),
+            path: route.path().filter(|_| path_points <= MAX_WIRE_PATH_POINTS).cloned(),
+            path_points,
+        }
+    }
 }
 
 /// Now [ms since 1970] on this machine's clock.

@@ -51,8 +51,23 @@ impl NavReport {
     }
 }
 
-/// One panel per strategy: the route, the waypoints with their arrival circles, the first run's true path
-/// and its GPS fixes, in east/north metres.
+/// The line the wearer was guided along: the route's path when it has one, else the straight legs.
+fn route_line(r: &SimResult) -> &[vestnav_core::wave::DVec2] {
+    if r.route_line_en_m.is_empty() { &r.waypoints_en_m } else { &r.route_line_en_m }
+}
+
+/// The legend of [`route_line`].
+fn route_label(r: &SimResult) -> String {
+    if r.route_line_en_m.len() > r.waypoints_en_m.len() {
+        format!("route path ({} points)", r.route_line_en_m.len())
+    } else {
+        "route".to_owned()
+    }
+}
+
+/// One panel per strategy: the route (along its path when it has one: a planned walk's dense polyline,
+/// not the straight legs), the waypoints with their arrival circles, the first run's true path and its GPS
+/// fixes, in east/north metres.
 pub fn nav_figure(all: &[(SimSummary, Vec<SimResult>)], arrival_radius_m: f64) -> Figure {
     let mut fig = Figure::new()
         .title("Closed-loop guidance: simulated wearer (first run)")
@@ -71,7 +86,8 @@ pub fn nav_figure(all: &[(SimSummary, Vec<SimResult>)], arrival_radius_m: f64) -
         .y_label("north [m]")
         .equal_aspect()
         .series(
-            Series::line("route", xs(&r.waypoints_en_m), ys(&r.waypoints_en_m))
+            // The line guidance follows: the route's path (a planned walk) when it has one.
+            Series::line(route_label(r), xs(route_line(r)), ys(route_line(r)))
                 .dashed()
                 .width(2.0)
                 .color(Color::rgb(90, 90, 90)),
@@ -100,4 +116,40 @@ pub fn nav_figure(all: &[(SimSummary, Vec<SimResult>)], arrival_radius_m: f64) -
         fig = fig.push(chart);
     }
     fig
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use vestnav_core::geo::{Earth, LatLon, LocalFrame};
+    use vestnav_core::guidance::{RoutePath, StrategyKind, Waypoint};
+    use vestnav_core::wearer::{SimConfig, simulate_many_along};
+
+    /// The figure of a route with a path draws the path — every point of it, where a local frame about the
+    /// first waypoint puts it — not the straight leg between the two waypoints.
+    #[test]
+    fn a_route_with_a_path_is_drawn_along_the_path() {
+        let e = Earth::Wgs84;
+        let o = LatLon::new(60.17, 24.94);
+        let corner = e.direct(o, 90.0, 80.0);
+        let mut pts: Vec<LatLon> = (0..=8).map(|i| e.direct(o, 90.0, 10.0 * f64::from(i))).collect();
+        pts.extend((1..=8).map(|i| e.direct(corner, 0.0, 10.0 * f64::from(i))));
+        let wps = vec![Waypoint::at("start", pts[0]), Waypoint::at("end", pts[16])];
+        let path = RoutePath::new(pts.clone(), vec![0, 16]).unwrap();
+        let cfg = SimConfig::new(StrategyKind::Pursuit);
+        let (runs, summary) = simulate_many_along(&wps, Some(&path), &cfg, 1, 7).unwrap();
+        let fig = nav_figure(&[(summary, runs)], 4.0);
+        let vestnav_plot::Panel::Chart(chart) = &fig.panels[0] else { panic!("not a chart") };
+        let route = &chart.series[0];
+        assert_eq!(route.label, "route path (17 points)");
+        let frame = LocalFrame::new(o, e);
+        assert_eq!(route.x.len(), 17);
+        for (i, p) in pts.iter().enumerate() {
+            let want = frame.enu_from_wgs84(*p);
+            assert!((route.x[i] - want.x).abs() < 1e-6 && (route.y[i] - want.y).abs() < 1e-6, "point {i}");
+        }
+        // The corner is drawn: 80 m east, on the ground, where the straight leg would be 57 m off it.
+        assert!((route.x[8] - 80.0).abs() < 0.01 && route.y[8].abs() < 0.01);
+        fig.render_png().unwrap();
+    }
 }

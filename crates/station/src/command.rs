@@ -45,6 +45,11 @@ pub enum Command {
         /// Index of the waypoint to head for.
         #[serde(default)]
         next: usize,
+        /// The path the route follows between its waypoints (a walk planned along footways): guidance
+        /// then measures the cross-track error from it. Each waypoint must sit within
+        /// [`vestnav_device::route_file::PATH_MATCH_M`] of its vertex. Absent: straight legs.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        path: Option<vestnav_core::guidance::RoutePath>,
     },
     /// Heads for waypoint `index` next.
     NextWaypoint {
@@ -78,7 +83,12 @@ impl Command {
             Self::StopAll => "STOP ALL".to_owned(),
             Self::Resume => "resume".to_owned(),
             Self::Manual { command, .. } => command.describe(),
-            Self::SetRoute { name, waypoints, .. } => format!("route {name} ({} waypoints)", waypoints.len()),
+            Self::SetRoute { name, waypoints, path: None, .. } => {
+                format!("route {name} ({} waypoints)", waypoints.len())
+            }
+            Self::SetRoute { name, waypoints, path: Some(p), .. } => {
+                format!("route {name} ({} waypoints, path of {} points)", waypoints.len(), p.points().len())
+            }
             Self::NextWaypoint { index } => format!("next waypoint {}", index + 1),
             Self::Settings(_) => "settings".to_owned(),
             Self::Mark { label } => format!("mark {label}"),
@@ -148,7 +158,7 @@ impl Station {
             Command::StopAll => self.stop_all(),
             Command::Resume => self.resume_guidance(),
             Command::Manual { command, cue } => self.send_manual(command, cue)?,
-            Command::SetRoute { name, waypoints, next } => {
+            Command::SetRoute { name, waypoints, next, path } => {
                 if waypoints.len() > MAX_WAYPOINTS {
                     return Err(format!("route refused: more than {MAX_WAYPOINTS} waypoints"));
                 }
@@ -159,10 +169,17 @@ impl Station {
                 if next > waypoints.len() {
                     return Err(format!("route refused: next waypoint {} of {}", next + 1, waypoints.len()));
                 }
+                if let Some(p) = &path {
+                    let (earth, gap_m) =
+                        (vestnav_core::geo::Earth::Wgs84, vestnav_device::route_file::PATH_MATCH_M);
+                    p.fits(&waypoints, earth, gap_m).map_err(|e| format!("route refused: {e}"))?;
+                }
                 let name = name.trim();
                 let name =
                     if name.is_empty() { "route".to_owned() } else { name.chars().take(200).collect() };
-                self.route_mut().replace(name, waypoints).map_err(|e| format!("route refused: {e}"))?;
+                self.route_mut()
+                    .replace_with_path(name, waypoints, path)
+                    .map_err(|e| format!("route refused: {e}"))?;
                 self.route_mut().set_next(next);
             }
             Command::NextWaypoint { index } => {
@@ -406,6 +423,28 @@ mod tests {
                     arrival_radius_m: Some(5.0),
                 }],
                 next: 0,
+                path: None,
+            },
+            Command::SetRoute {
+                name: "walk".into(),
+                waypoints: vec![Waypoint {
+                    name: "B".into(),
+                    lat_deg: 51.5,
+                    lon_deg: -0.1,
+                    arrival_radius_m: None,
+                }],
+                next: 0,
+                path: Some(
+                    vestnav_core::guidance::RoutePath::new(
+                        vec![
+                            vestnav_core::geo::LatLon::new(51.499, -0.1),
+                            vestnav_core::geo::LatLon::new(51.4995, -0.1005),
+                            vestnav_core::geo::LatLon::new(51.5, -0.1),
+                        ],
+                        vec![2],
+                    )
+                    .unwrap(),
+                ),
             },
             Command::NextWaypoint { index: 3 },
             Command::Settings(StationSettings::default()),
@@ -430,6 +469,11 @@ mod tests {
             serde_json::from_str(r#"{"type":"study","action":"respond","answer":"T6"}"#).unwrap();
         assert_eq!(c, Command::Study(StudyCommand::Respond { answer: "T6".into() }));
         assert!(serde_json::from_str::<Command>(r#"{"type":"self_destruct"}"#).is_err());
+        // A path is checked as it is read: a waypoint vertex past its end is refused.
+        let bad = r#"{"type":"set_route","name":"x","waypoints":[{"name":"A","lat_deg":51.5,"lon_deg":-0.1}],
+            "path":{"points":[{"lat_deg":51.5,"lon_deg":-0.1},{"lat_deg":51.6,"lon_deg":-0.1}],"at":[5]}}"#;
+        let e = serde_json::from_str::<Command>(bad).unwrap_err().to_string();
+        assert!(e.contains("waypoints must sit on the path"), "{e}");
     }
 
     #[test]

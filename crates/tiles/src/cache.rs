@@ -5,11 +5,18 @@
 //! A tile's modification time is when it was downloaded (it decides staleness); its access time is set
 //! explicitly whenever the map uses it, so pruning can drop the least recently used files first when the
 //! cache is over its size limit ([`prune`]).
+//!
+//! Tiles a store draws itself (the console's OpenStreetMap extract) are kept beside them, in a folder named
+//! by the drawing's identity ([`rendered_dir`]: the source file's [`file_identity`] and the renderer's
+//! version), through [`DiskCachedStore`]; the same pruning bounds them.
 
+use std::io::Read;
 use std::path::{Path, PathBuf};
+use std::sync::{Arc, OnceLock};
 use std::time::SystemTime;
 
-use super::{TileKey, TileSourceConfig, stable_hash};
+use super::store::{FoundTile, Origin, StoreInfo, TileStore};
+use super::{TileError, TileKey, TileSourceConfig, stable_hash, tile_what};
 
 /// Default size limit of the tile cache [MB].
 pub const DEFAULT_LIMIT_MB: u64 = 500;
@@ -50,6 +57,73 @@ pub fn touch(path: &Path) {
 pub fn store(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     vestnav_files::ensure_parent(path)?;
     vestnav_files::write_atomic(path, bytes)
+}
+
+/// Bytes of a source file hashed into its [`file_identity`] (an extract's header and first blocks).
+pub const IDENTITY_HEAD_BYTES: u64 = 64 * 1024;
+
+/// The identity of a file whose drawing is cached: its size, its modification time (ns) and an FNV-1a
+/// hash of its first [`IDENTITY_HEAD_BYTES`]. A file rewritten, replaced or touched gets another identity,
+/// so tiles drawn from its old content are never shown for the new one. Regular files only.
+pub fn file_identity(path: &Path) -> std::io::Result<String> {
+    let f = vestnav_files::open_regular(path)?;
+    let meta = f.metadata()?;
+    let mtime_ns = meta.modified()?.duration_since(SystemTime::UNIX_EPOCH).map_or(0, |d| d.as_nanos());
+    let mut head = Vec::new();
+    f.take(IDENTITY_HEAD_BYTES).read_to_end(&mut head)?;
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for b in &head {
+        h ^= u64::from(*b);
+        h = h.wrapping_mul(0x0100_0000_01b3);
+    }
+    Ok(format!("{}-{mtime_ns}-{h:016x}", meta.len()))
+}
+
+/// The cache folder of tiles drawn from one source (`identity`: the file's [`file_identity`] and the
+/// renderer's version, so a changed file or a changed drawing never meets old tiles):
+/// `rendered-<hash of identity>`.
+pub fn rendered_dir(root: &Path, identity: &str) -> PathBuf {
+    root.join(format!("rendered-{}", stable_hash(identity)))
+}
+
+/// A store whose tiles are kept in the disk cache: a tile is read back from `dir` when there (checked like
+/// any tile file; a damaged one is drawn again and replaced), otherwise taken from the inner store and
+/// written to `dir`. A write that fails (full disk, read-only folder) never costs the tile: the first
+/// failure is kept in `write_error` for the operator (later ones are the same story and not repeated).
+pub struct DiskCachedStore {
+    inner: Box<dyn TileStore>,
+    dir: PathBuf,
+    write_error: Arc<OnceLock<String>>,
+}
+
+impl DiskCachedStore {
+    /// `inner` cached in `dir` (from [`rendered_dir`]); the first write failure goes to `write_error`.
+    pub fn new(inner: Box<dyn TileStore>, dir: PathBuf, write_error: Arc<OnceLock<String>>) -> Self {
+        Self { inner, dir, write_error }
+    }
+}
+
+impl TileStore for DiskCachedStore {
+    fn info(&self) -> StoreInfo {
+        self.inner.info()
+    }
+
+    fn get(&mut self, key: TileKey) -> Result<Option<FoundTile>, TileError> {
+        let path = tile_path(&self.dir, key);
+        let what = tile_what(key, &path.display().to_string());
+        if let Ok(Some(bytes)) = super::store::read_capped(&path, &what) {
+            touch(&path);
+            return Ok(Some(FoundTile { bytes, origin: Origin::Cache, what }));
+        }
+        let found = self.inner.get(key)?;
+        if let Some(t) = &found
+            && let Err(e) = store(&path, &t.bytes)
+        {
+            // Only the first failure is kept: a full disk fails every tile the same way.
+            let _ = self.write_error.set(format!("tile cache {} not written: {e}", self.dir.display()));
+        }
+        Ok(found)
+    }
 }
 
 /// One cached file.

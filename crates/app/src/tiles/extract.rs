@@ -3,12 +3,18 @@
 //! map is drawn into tiles on demand by `vestnav_osm::Renderer` on the tile loader threads — the same
 //! `TileLoader` and [`SourceTiles`] every raster source uses, through an [`OsmStore`] — and its path
 //! network is kept for routing on foot. Nothing here reads or draws on the UI thread.
+//!
+//! Drawn tiles go to the disk tile cache (the raster sources' cache, pruned with it) in a folder named by
+//! the extract's identity and the renderer's version ([`extract_cache_dir`]), and are read back from there
+//! before drawing; a cache that cannot be written is said once in the extract's status and never stops
+//! the drawing.
 
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
 use std::sync::mpsc::{Receiver, TryRecvError};
+use std::sync::{Arc, OnceLock};
 
-use vestnav_osm::{ATTRIBUTION, Extract, ExtractStats, PathGraph, Renderer};
+use vestnav_osm::{ATTRIBUTION, Extract, ExtractStats, PathGraph, RENDER_VERSION, Renderer};
+use vestnav_tiles::cache::{self, DiskCachedStore};
 use vestnav_tiles::loader::{OpenStore, TileLoader};
 use vestnav_tiles::store::{FoundTile, Origin, StoreInfo, TileStore};
 use vestnav_tiles::{TileError, TileKey, tile_what};
@@ -56,6 +62,27 @@ impl TileStore for OsmStore {
     }
 }
 
+/// The disk cache folder for tiles drawn from the extract at `path` under the tile cache `root`: named by
+/// the file's identity (size, modification time, a hash of its first blocks) and [`RENDER_VERSION`].
+pub fn extract_cache_dir(root: &Path, path: &Path) -> std::io::Result<PathBuf> {
+    let id = cache::file_identity(path)?;
+    Ok(cache::rendered_dir(root, &format!("osm-extract {id} {RENDER_VERSION}")))
+}
+
+/// Reads the extract at `path` and names its tile cache folder under `cache_root`: the file's identity
+/// taken before and after the read, so a file replaced while being read is not cached under either.
+/// `Err` names the file; the folder is `Err` (why) when the drawing cannot be cached.
+pub fn read_extract(path: &Path, cache_root: &Path) -> Result<(Extract, Result<PathBuf, String>), String> {
+    let before = extract_cache_dir(cache_root, path);
+    let extract = Extract::read(path).map_err(|e| e.to_string())?;
+    let dir = match (before, extract_cache_dir(cache_root, path)) {
+        (Ok(a), Ok(b)) if a == b => Ok(a),
+        (Ok(_), Ok(_)) => Err(format!("{}: changed while being read; tiles not cached", path.display())),
+        (Err(e), _) | (_, Err(e)) => Err(format!("{}: tiles not cached: {e}", path.display())),
+    };
+    Ok((extract, dir))
+}
+
 /// A loaded extract: what the map draws and what the planner walks.
 pub struct LoadedExtract {
     /// The file.
@@ -66,18 +93,54 @@ pub struct LoadedExtract {
     pub graph: Arc<PathGraph>,
     /// What was in the file.
     pub stats: ExtractStats,
+    /// The disk cache folder of its drawn tiles, or why they are not cached.
+    pub cache_dir: Result<PathBuf, String>,
+    /// The first failure to write a tile into that folder (the map is drawn all the same).
+    pub cache_error: Arc<OnceLock<String>>,
 }
 
 impl LoadedExtract {
-    /// Splits an extract read from its file into the shared renderer and graph.
-    pub fn new(e: Extract) -> Self {
+    /// Splits an extract read from its file into the shared renderer and graph; its tiles are cached in
+    /// `cache_dir` (from [`read_extract`]).
+    pub fn new(e: Extract, cache_dir: Result<PathBuf, String>) -> Self {
         let Extract { path, map, graph, stats } = e;
-        Self { path, renderer: Arc::new(Renderer::new(Arc::new(map))), graph: Arc::new(graph), stats }
+        Self {
+            path,
+            renderer: Arc::new(Renderer::new(Arc::new(map))),
+            graph: Arc::new(graph),
+            stats,
+            cache_dir,
+            cache_error: Arc::default(),
+        }
+    }
+
+    /// How each loader thread opens its store: the shared renderer behind the disk cache (the renderer
+    /// alone when the tiles cannot be cached).
+    pub fn store_opener(&self) -> OpenStore {
+        let (renderer, path) = (self.renderer.clone(), self.path.clone());
+        let (cache_dir, cache_error) = (self.cache_dir.clone(), self.cache_error.clone());
+        Arc::new(move || -> Result<Box<dyn TileStore>, TileError> {
+            let drawn = Box::new(OsmStore { renderer: renderer.clone(), path: path.clone() });
+            Ok(match &cache_dir {
+                Ok(dir) => Box::new(DiskCachedStore::new(drawn, dir.clone(), cache_error.clone())),
+                Err(_) => drawn,
+            })
+        })
+    }
+
+    /// Why its tiles are not (all) in the disk cache, if they are not.
+    pub fn cache_problem(&self) -> Option<&str> {
+        match &self.cache_dir {
+            Err(e) => Some(e),
+            Ok(_) => self.cache_error.get().map(String::as_str),
+        }
     }
 }
 
+type ReadOutcome = Result<(Extract, Result<PathBuf, String>), String>;
+
 enum State {
-    Reading(Receiver<Result<Extract, String>>),
+    Reading(Receiver<ReadOutcome>),
     Ready(Box<(LoadedExtract, SourceTiles)>),
     Failed(String),
 }
@@ -94,13 +157,14 @@ fn file_name(p: &Path) -> String {
 }
 
 impl MapExtract {
-    /// Starts reading `path` on a worker thread; `ctx` is woken when it is done.
-    pub fn open(path: &Path, ctx: &egui::Context) -> Self {
+    /// Starts reading `path` on a worker thread; `ctx` is woken when it is done. Its drawn tiles are
+    /// cached under the tile cache folder `cache_root`.
+    pub fn open(path: &Path, cache_root: &Path, ctx: &egui::Context) -> Self {
         let (tx, rx) = std::sync::mpsc::channel();
-        let (p, ctx2) = (path.to_path_buf(), ctx.clone());
+        let (p, root, ctx2) = (path.to_path_buf(), cache_root.to_path_buf(), ctx.clone());
         let spawned = std::thread::Builder::new().name("osm-read".into()).spawn(move || {
             // The receiver is gone when the setting changed meanwhile: nothing left to tell.
-            let _ = tx.send(Extract::read(&p).map_err(|e| e.to_string()));
+            let _ = tx.send(read_extract(&p, &root));
             ctx2.request_repaint();
         });
         let state = match spawned {
@@ -124,8 +188,8 @@ impl MapExtract {
                 State::Failed(format!("{}: the reading thread ended without an answer", self.path.display()))
             }
             Ok(Err(e)) => State::Failed(e),
-            Ok(Ok(e)) => {
-                let loaded = LoadedExtract::new(e);
+            Ok(Ok((e, cache_dir))) => {
+                let loaded = LoadedExtract::new(e, cache_dir);
                 let tiles = extract_tiles(&loaded, ctx);
                 State::Ready(Box::new((loaded, tiles)))
             }
@@ -162,23 +226,26 @@ impl MapExtract {
         match &self.state {
             State::Reading(_) => format!("map {name}: reading…"),
             State::Failed(e) => format!("map: {e}"),
-            State::Ready(r) => format!(
-                "map {name}: {:.1} MB, {} path nodes",
-                r.0.stats.bytes as f64 / 1e6,
-                r.0.graph.node_count()
-            ),
+            State::Ready(r) => {
+                let mut s = format!(
+                    "map {name}: {:.1} MB, {} path nodes",
+                    r.0.stats.bytes as f64 / 1e6,
+                    r.0.graph.node_count()
+                );
+                if let Some(why) = r.0.cache_problem() {
+                    s.push_str(" · ");
+                    s.push_str(why);
+                }
+                s
+            }
         }
     }
 }
 
 /// The tiles of a loaded extract: the loader threads draw them with the shared renderer.
 pub fn extract_tiles(loaded: &LoadedExtract, ctx: &egui::Context) -> SourceTiles {
-    let (renderer, path) = (loaded.renderer.clone(), loaded.path.clone());
     let repaint = ctx.clone();
     let waker: vestnav_tiles::Waker = Arc::new(move || repaint.request_repaint());
-    let open: OpenStore = Arc::new(move || -> Result<Box<dyn TileStore>, TileError> {
-        Ok(Box::new(OsmStore { renderer: renderer.clone(), path: path.clone() }))
-    });
-    let loader = TileLoader::start_with(RENDER_THREADS, &open, &waker);
+    let loader = TileLoader::start_with(RENDER_THREADS, &loaded.store_opener(), &waker);
     SourceTiles::with_loader(format!("OSM extract {}", file_name(&loaded.path)), None, loader, ctx.clone())
 }

@@ -162,6 +162,15 @@ impl MapTiles {
         if self.active.as_ref().is_none_or(|t| t.source() != Some(&cfg.tiles)) {
             self.active = Some(SourceTiles::new(cfg.tiles.clone(), &cache_root(cfg), ctx.clone()));
         }
+        self.prune_once(cfg);
+        let t = self.active.as_mut()?;
+        t.begin_frame();
+        Some(t)
+    }
+
+    /// Prunes the disk cache (raster tiles and the extract's drawn ones) to its limit, once per run, on a
+    /// worker thread.
+    fn prune_once(&mut self, cfg: &Config) {
         if !self.pruned {
             self.pruned = true;
             let (root, limit) = (cache_root(cfg), cfg.tile_cache_mb.saturating_mul(1_000_000));
@@ -171,9 +180,6 @@ impl MapTiles {
                 .name("tiles-prune".into())
                 .spawn(move || cache::prune(&root, limit));
         }
-        let t = self.active.as_mut()?;
-        t.begin_frame();
-        Some(t)
     }
 
     /// The extract the settings name, opened (read on its thread) when the setting changed; its outcome
@@ -182,7 +188,9 @@ impl MapTiles {
         match &cfg.osm_map {
             None => self.extract = None,
             Some(p) if self.extract.as_ref().is_none_or(|e| e.path() != p) => {
-                self.extract = Some(MapExtract::open(p, ctx));
+                self.extract = Some(MapExtract::open(p, &cache_root(cfg), ctx));
+                // Its drawn tiles go to the disk cache: bounded with the raster tiles' even with tiles off.
+                self.prune_once(cfg);
             }
             Some(_) => {}
         }
@@ -282,9 +290,10 @@ impl MapTiles {
             .unwrap_or_else(|| "where the map's tiles come from".into());
         ui.label(RichText::new(text).color(colour).small()).on_hover_text(hover);
         if let Some(e) = &self.extract {
+            let cache_problem = e.loaded().and_then(|l| l.cache_problem()).is_some();
             let colour = if e.error().is_some() {
                 Color32::from_rgb(220, 80, 60)
-            } else if e.loaded().is_some() {
+            } else if e.loaded().is_some() && !cache_problem {
                 Color32::from_rgb(70, 170, 90)
             } else {
                 Color32::from_rgb(220, 170, 40)

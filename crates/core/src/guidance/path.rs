@@ -15,10 +15,28 @@ pub const MAX_PATH_POINTS: usize = 200_000;
 ///
 /// The section the wearer follows toward waypoint `k` runs from waypoint `k - 1`'s vertex to waypoint `k`'s
 /// (from the path's first point for `k = 0`): see [`RoutePath::leg`].
+///
+/// Read from JSON (`{"points": [...], "at": [...]}`) through [`RoutePath::new`], so a path from a file or
+/// the network is checked like one built here.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "RawPath")]
 pub struct RoutePath {
     points: Vec<LatLon>,
     at: Vec<usize>,
+}
+
+/// A path as read, before [`RoutePath::new`] checks it.
+#[derive(Deserialize)]
+struct RawPath {
+    points: Vec<LatLon>,
+    at: Vec<usize>,
+}
+
+impl TryFrom<RawPath> for RoutePath {
+    type Error = RouteError;
+    fn try_from(r: RawPath) -> Result<Self, RouteError> {
+        Self::new(r.points, r.at)
+    }
 }
 
 /// Where a point is relative to a polyline: the nearest point of its nearest segment.
@@ -75,6 +93,29 @@ impl RoutePath {
         Self::new(points, at).ok()
     }
 
+    /// Whether `waypoints` are the ones this path was made for: one per waypoint vertex, each within
+    /// `max_gap_m` of its vertex. `Err` names the first that is not.
+    pub fn fits(&self, waypoints: &[Waypoint], earth: Earth, max_gap_m: f64) -> Result<(), String> {
+        if waypoints.len() != self.at.len() {
+            return Err(format!(
+                "the path passes {} waypoints, the route has {}",
+                self.at.len(),
+                waypoints.len()
+            ));
+        }
+        for (k, (w, &i)) in waypoints.iter().zip(&self.at).enumerate() {
+            let d = self.points.get(i).map_or(f64::INFINITY, |p| earth.distance_m(*p, w.pos()));
+            if d.is_nan() || d > max_gap_m {
+                return Err(format!(
+                    "waypoint {} ({}) is {d:.0} m from its point of the path (at most {max_gap_m:.0} m)",
+                    k + 1,
+                    w.name
+                ));
+            }
+        }
+        Ok(())
+    }
+
     /// The polyline.
     pub fn points(&self) -> &[LatLon] {
         &self.points
@@ -91,6 +132,34 @@ impl RoutePath {
         let Some(&end) = self.at.get(k) else { return &[] };
         let start = if k == 0 { 0 } else { self.at.get(k - 1).copied().unwrap_or(0) };
         self.points.get(start..=end).unwrap_or(&[])
+    }
+
+    /// Whether `p` is past waypoint `k` along the path (the "passed without arriving" test of
+    /// [`super::Route::observe`] where the route has a path); `None` when the section toward `k` has fewer
+    /// than two points (the straight leg decides then).
+    ///
+    /// With a section after `k` (toward `k + 1`): the nearest point of the two sections joined lies beyond
+    /// `k`'s vertex (position along the polyline `segment + t` greater than the vertex's index, as in
+    /// [`path_offset`]). At the last waypoint: `p` is beyond the vertex along the section's final segment
+    /// `a -> b`, `(p - b)·(b - a) > 0`. Planar geometry in the frame centred on `p` ([`LocalFrame`]).
+    pub fn passed(&self, earth: Earth, k: usize, p: LatLon) -> Option<bool> {
+        let section = self.leg(k);
+        if section.len() < 2 {
+            return None;
+        }
+        let frame = LocalFrame::new(p, earth);
+        let after = self.leg(k + 1);
+        let vertex = section.len() - 1;
+        if after.len() >= 2 {
+            let en: Vec<DVec2> =
+                section.iter().chain(&after[1..]).map(|q| frame.enu_from_wgs84(*q)).collect();
+            let off = offset_en(&en)?;
+            return Some(off.segment as f64 + off.t > vertex as f64);
+        }
+        let b = frame.enu_from_wgs84(section[vertex]);
+        // The last point before the vertex that is not on it gives the direction of arrival.
+        let a = section[..vertex].iter().rev().map(|q| frame.enu_from_wgs84(*q)).find(|a| *a != b)?;
+        Some((-b).dot(b - a) > 0.0)
     }
 
     /// Replaces the path from waypoint `k` on (re-routing): the path up to waypoint `k - 1`'s vertex is

@@ -294,7 +294,8 @@ impl Route {
     /// Feeds one fix: arrival with confirmation and re-arming, or passing abeam. Returns what happened.
     ///
     /// Arrival: `d <= arrival_radius` for `confirm_fixes` consecutive fixes while armed. Passing: the fix is
-    /// past the waypoint along the active leg (`along > leg length`) and within `pass_radius`. Re-arming:
+    /// within `pass_radius` and past the waypoint — along the route's path where it has one
+    /// ([`RoutePath::passed`]), else along the straight active leg (`along > leg length`). Re-arming:
     /// `d > rearm_radius`. The radii are the active waypoint's ([`Route::active_radii_m`]).
     pub fn observe(&mut self, earth: Earth, pos: LatLon) -> Option<RouteEvent> {
         if self.finished {
@@ -318,11 +319,18 @@ impl Route {
             return None;
         }
         self.inside_count = 0;
-        if let Some(prev) = self.previous().map(Waypoint::pos) {
+        let along_path = if self.active_path().is_some() {
+            self.path.as_ref().and_then(|p| p.passed(earth, index, pos))
+        } else {
+            None
+        };
+        let past = along_path.or_else(|| {
+            let prev = self.previous()?.pos();
             let off = leg_offset(earth, prev, target, pos);
-            if off.leg_length_m > 0.0 && off.along_track_m > off.leg_length_m && d <= pass_m {
-                return Some(self.advance().map_or(RouteEvent::Passed(index), |_| RouteEvent::Finished));
-            }
+            Some(off.leg_length_m > 0.0 && off.along_track_m > off.leg_length_m)
+        });
+        if past == Some(true) && d <= pass_m {
+            return Some(self.advance().map_or(RouteEvent::Passed(index), |_| RouteEvent::Finished));
         }
         None
     }

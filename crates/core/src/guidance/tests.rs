@@ -391,3 +391,54 @@ fn off_the_path_for_the_set_time_asks_for_a_new_route_once_per_excursion() {
     let d = g.update(&mv(on, 90.0, 21.0), 21.0);
     assert_eq!((d.off_path_s, d.reroute), (None, false));
 }
+
+/// Passing a waypoint without arriving is judged along the path where the route has one. Positions are
+/// east/north metres from `O` on the L-shaped path (east arm to the corner at (100, 0), north arm to the end
+/// at (100, 100)); arrival radius 5 m, pass radius 16 m, so none of these positions arrives.
+#[test]
+fn passing_a_waypoint_is_judged_along_a_bent_path_not_the_straight_leg() {
+    let e = Earth::Wgs84;
+    let en = |east: f64, north: f64| e.direct(e.direct(O, 90.0, east), 0.0, north);
+    let config = RouteConfig {
+        arrival_radius_m: 5.0,
+        rearm_radius_m: 7.5,
+        pass_radius_m: 16.0,
+        ..RouteConfig::default()
+    };
+    // The last waypoint, reached up the north arm. (110, 97): beside it, 3 m short of it along the arm,
+    // though past it along the diagonal chord (146 m of 141 m). (88, 108): 8 m past it along the arm,
+    // though short of it along the chord (139 m of 141 m).
+    let straight = |p: LatLon| {
+        let mut r = Route::new(l_path_route(config).waypoints().to_vec(), config).unwrap();
+        let _ = r.skip();
+        r.observe(e, p)
+    };
+    let along = |p: LatLon| l_path_route(config).observe(e, p);
+    assert_eq!(straight(en(110.0, 97.0)), Some(RouteEvent::Finished));
+    assert_eq!(along(en(110.0, 97.0)), None);
+    assert_eq!(straight(en(88.0, 108.0)), None);
+    assert_eq!(along(en(88.0, 108.0)), Some(RouteEvent::Finished));
+
+    // A waypoint at the corner, with the north arm after it. (95, 8): 5 m from the north arm, 8 m from the
+    // east one, so past the corner along the path, though 5 m short of it along the straight leg from the
+    // start. (106, -5): past the corner along the straight (eastward) leg, but its nearest point of the path
+    // is the corner itself: not past it.
+    let corner_route = |with_path: bool| {
+        let l = l_path_route(config);
+        let path = l.path().unwrap().clone();
+        let pts = path.points().to_vec();
+        let wps = vec![
+            Waypoint::at("start", pts[0]),
+            Waypoint::at("corner", pts[10]),
+            Waypoint::at("end", pts[20]),
+        ];
+        let path = with_path.then(|| RoutePath::new(pts, vec![0, 10, 20]).unwrap());
+        let mut r = Route::new(wps, config).unwrap().with_path(path).unwrap();
+        let _ = r.skip(); // heading for the corner
+        r
+    };
+    assert_eq!(corner_route(false).observe(e, en(95.0, 8.0)), None);
+    assert_eq!(corner_route(true).observe(e, en(95.0, 8.0)), Some(RouteEvent::Passed(1)));
+    assert_eq!(corner_route(false).observe(e, en(106.0, -5.0)), Some(RouteEvent::Passed(1)));
+    assert_eq!(corner_route(true).observe(e, en(106.0, -5.0)), None);
+}
