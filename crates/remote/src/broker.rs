@@ -149,7 +149,7 @@ impl BrokerConfig {
         let mut o = MqttOptions::new(client_id, url.host.clone(), url.port);
         o.set_keep_alive(KEEP_ALIVE);
         o.set_clean_session(true);
-        o.set_max_packet_size(crate::wire::MAX_PAYLOAD, crate::wire::MAX_PAYLOAD);
+        o.set_max_packet_size(crate::wire::MAX_PACKET, crate::wire::MAX_PACKET);
         if let Some(w) = will {
             o.set_last_will(w);
         }

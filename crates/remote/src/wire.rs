@@ -15,6 +15,10 @@ pub const MAX_NAME: usize = 64;
 /// Largest payload a client accepts [bytes]: a route of 10,000 waypoints with a path of
 /// [`MAX_WIRE_PATH_POINTS`] fits.
 pub const MAX_PAYLOAD: usize = 4 << 20;
+/// Largest MQTT packet a client sends or accepts [bytes]: [`MAX_PAYLOAD`] plus room for the fixed header
+/// and the topic (under 200 bytes: [`ROOT`], a name of at most [`MAX_NAME`] and a sub-topic), so a payload
+/// that passes the [`MAX_PAYLOAD`] check is never refused by the client for its headers.
+pub const MAX_PACKET: usize = MAX_PAYLOAD + 1024;
 /// Most points of a route's path carried over the broker (a route command, a station's route topic).
 /// About 56 bytes of JSON each: 40,000 points are 2.2 MB, leaving room under [`MAX_PAYLOAD`] for 10,000
 /// named waypoints; a walk planned node by node (a few metres apart) of 100 km and more fits.
