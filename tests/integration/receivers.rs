@@ -150,3 +150,107 @@ fn identical_receivers_differ_by_nothing() {
     assert_same(&live, &cli_compare(&rx1, &rx2), "the station's recordings");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// The console: the operator opens Field tests → Compare receivers, types the second receiver in `--gps`'s
+/// form and adds it, then the primary starts. The table's numbers are those `vestnav fieldtest compare`
+/// prints for the recordings the console wrote beside its session log, and each receiver's status is said
+/// once, in its row.
+#[test]
+fn console_compare_receivers_table_shows_what_fieldtest_compare_prints() {
+    use egui::accesskit::Role;
+    use egui_kittest::kittest::Queryable as _;
+    use vestnav_app::config::Config;
+    use vestnav_app::console::{Console, ConsoleOptions};
+
+    let dir = tempdir("console");
+    let a = data("gpsd-logs/skytraq-dgps.log");
+    let b = dir.join("skytraq-north.log");
+    shifted_copy(&a, &b);
+    let cfg = Config {
+        gps: replay(&a),
+        auto_connect: false,
+        map_tiles: false,
+        guidance_auto: false,
+        ..Config::default()
+    };
+    let console = Console::new(
+        Box::new(Hardware::default()),
+        ConsoleOptions { cfg, log_dir: Some(dir.clone()), ..ConsoleOptions::default() },
+    );
+    let mut h = egui_kittest::Harness::builder()
+        .with_size(egui::vec2(1400.0, 900.0))
+        .build_ui_state(|ui, c: &mut Console| c.ui(ui), console);
+    h.run_steps(2);
+    h.get_by_label("Field tests").click();
+    h.run_steps(2);
+    h.get_by_label("Compare receivers").click();
+    h.run_steps(2);
+    assert!(h.query_by_label("No receiver beside the primary: add one above.").is_some());
+    h.get_by_role_and_label(Role::TextInput, "source")
+        .set_text_value_accesskit(&format!("replay:{}@40", b.display()));
+    h.run_steps(1);
+    h.get_by_label("Add receiver").click();
+    h.run_steps(2);
+    assert_eq!(
+        h.state().station.receivers().sources().len(),
+        1,
+        "{:?}",
+        h.state().field_panel.receivers.error
+    );
+    h.state_mut().connect_gps();
+    let until = Instant::now() + Duration::from_secs(30);
+    let done = |c: &Console| {
+        matches!(c.station.gps.state, Some(SourceState::Finished))
+            && matches!(c.station.receivers().sources()[0].state, Some(SourceState::Finished))
+    };
+    while !done(h.state()) && Instant::now() < until {
+        h.step();
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    assert!(done(h.state()), "both replays must end");
+    for _ in 0..10 {
+        h.step();
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    h.state_mut().station.recompute_receivers(Instant::now());
+    h.run_steps(2);
+    let rx1 = h.state().station.receivers().primary_recording().unwrap().path;
+    let rx2 = h.state().station.receivers().sources()[0].recording().unwrap().path;
+    assert_eq!(rx1.parent(), h.state().log_path().and_then(Path::parent), "recorded beside the session log");
+    let cli = cli_compare(&rx1, &rx2);
+    let d = &cli["differences"][0];
+    let f = |k: &str| d[k].as_f64().unwrap();
+    let mean = format!(
+        "{:+.3} / {:+.3} m",
+        d["mean_en_m"][0].as_f64().unwrap(),
+        d["mean_en_m"][1].as_f64().unwrap()
+    );
+    let spread = format!("{:.3} / {:.3} / {:.3} m", f("rms_m"), f("p95_m"), f("max_m"));
+    let matched = format!("{} epochs matched within 0.1 s", cli["matched_epochs"]);
+    let live = h.state().station.receivers().comparison().cloned().unwrap().unwrap();
+    eprintln!(
+        "live matched {} primary fixes {} other {}",
+        live.matched_epochs,
+        h.state().station.receivers().primary_fixes(),
+        h.state().station.receivers().sources()[0].fixes()
+    );
+    for text in [&mean, &spread, &matched] {
+        assert!(h.query_by_label(text).is_some(), "the table shows {text}");
+    }
+    // Each source's state once: the primary's in the GPS panel, the second receiver's in its row.
+    // Each source's state once where it belongs: the primary's in the GPS panel (and the top bar's line),
+    // the second receiver's in its row only: no notice repeats it.
+    assert_eq!(h.query_all_by_label("end of input").count(), 2, "the GPS panel's and the row's");
+    let name = format!("2: replay:{}@40", b.display());
+    assert!(
+        !h.state().station.notices.all().iter().any(|n| n.text.contains(&name)),
+        "no notice repeats the receiver's state"
+    );
+    // Removing it ends the comparison and both recordings.
+    h.get_by_label("Remove receiver 2").click();
+    h.run_steps(2);
+    assert!(h.state().station.receivers().sources().is_empty());
+    assert!(!h.state().station.receivers().active());
+    drop(h);
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -63,6 +63,8 @@ impl Samples {
 
 /// A comparison source: its reader thread, its state as last reported, its fixes and its recording.
 pub struct ComparedSource {
+    /// Its number in this session (the primary is 1; numbers are not reused).
+    pub number: usize,
     /// Its label in the table and the figure (`2: replay:walk.nmea@1`).
     pub name: String,
     /// Where its fixes come from.
@@ -154,10 +156,10 @@ impl Receivers {
 
     /// Takes a primary fix while a comparison runs.
     pub(crate) fn primary_event(&mut self, ev: &GpsEvent) {
-        if let (true, GpsEvent::Fix(f)) = (self.active, ev)
-            && self.primary.push(f)
-        {
-            self.changed = true;
+        match (self.active, ev) {
+            (true, GpsEvent::Fix(f)) => self.changed |= self.primary.push(f),
+            (true, GpsEvent::State(s)) if ends(s) => self.primary_tap.flush(),
+            _ => {}
         }
     }
 }
@@ -235,6 +237,7 @@ impl Station {
             text: format!("receiver {name} added for comparison"),
         });
         self.receivers.sources.push(ComparedSource {
+            number,
             name,
             spec,
             worker,
@@ -310,7 +313,12 @@ impl Station {
                     // A worker's last word is Stopped: after "end of input" or "lost" it says less.
                     GpsEvent::State(SourceState::Stopped)
                         if matches!(s.state, Some(SourceState::Finished | SourceState::Lost { .. })) => {}
-                    GpsEvent::State(state) => s.state = Some(state),
+                    GpsEvent::State(state) => {
+                        if ends(&state) {
+                            s.tap.flush();
+                        }
+                        s.state = Some(state);
+                    }
                     _ => {}
                 }
             }
@@ -359,6 +367,11 @@ impl Station {
             self.remove_receiver(self.receivers.sources.len() - 1);
         }
     }
+}
+
+/// Whether a source state ends its input for now (its recording is flushed: a reader gets all of it).
+fn ends(s: &SourceState) -> bool {
+    matches!(s, SourceState::Finished | SourceState::Lost { .. } | SourceState::Stopped | SourceState::Stale)
 }
 
 /// Whether two sources would open the same device (a serial port or a gpsd daemon read twice).

@@ -131,28 +131,32 @@ fn table(station: &Station, ui: &mut egui::Ui) -> Option<usize> {
     egui::Grid::new("receivers-table").striped(true).show(ui, |ui| {
         for h in [
             "receiver",
+            "",
             "status",
             "fixes",
             "recording",
             "mean east / north from 1",
             "RMS / P95 / max from 1",
             "CEP50 / CEP95 against the reference",
-            "",
         ] {
             ui.strong(h);
         }
         ui.end_row();
         ui.label(primary_name(station.gps_source()));
-        ui.label(format!("primary: {}", vestnav_station::source_state_label(station.gps.state.as_ref())));
+        ui.label("");
+        // The primary's state is the GPS panel's: said there, not twice.
+        ui.weak("primary (state: GPS panel)");
         ui.label(r.primary_fixes().to_string());
         ui.label(recorded(r.primary_recording()));
         ui.label("—");
         ui.label("—");
         ui.label(against(0));
-        ui.label("");
         ui.end_row();
         for (k, s) in r.sources().iter().enumerate() {
             ui.label(&s.name);
+            if ui.button(format!("Remove receiver {}", s.number)).clicked() {
+                remove = Some(k);
+            }
             let status = station.receiver_status(k, now).unwrap_or_default();
             if status.starts_with("failed") || status.starts_with("lost") {
                 ui.colored_label(ui.visuals().error_fg_color, status);
@@ -174,9 +178,6 @@ fn table(station: &Station, ui: &mut egui::Ui) -> Option<usize> {
                 }
             }
             ui.label(against(k + 1));
-            if ui.button(format!("Remove {}", s.name)).clicked() {
-                remove = Some(k);
-            }
             ui.end_row();
         }
     });
