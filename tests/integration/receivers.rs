@@ -3,6 +3,7 @@
 //! `vestnav fieldtest compare` prints for the same logs — the recordings the station wrote beside its session
 //! log, and the original files — and two identical logs differ by nothing.
 
+use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::{Duration, Instant};
@@ -38,7 +39,7 @@ fn shifted_copy(src: &Path, dst: &Path) {
             Some((body, _)) if body.contains(",4404.1") => {
                 let body = body.replace(",4404.1", ",4404.2");
                 let sum = body.bytes().fold(0u8, |a, b| a ^ b);
-                out.push_str(&format!("${body}*{sum:02X}\r\n"));
+                write!(out, "${body}*{sum:02X}\r\n").unwrap();
             }
             _ => {
                 out.push_str(line);
@@ -115,7 +116,7 @@ fn assert_same(live: &Comparison, cli: &serde_json::Value, what: &str) {
     }
 }
 
-/// A real log (gpsd's SkyTraq DGPS, 96 fixes) as the primary and its copy moved 0.1' north as the second
+/// A real log (gpsd's `SkyTraq` DGPS, 96 fixes) as the primary and its copy moved 0.1' north as the second
 /// receiver: the station's live numbers equal what `fieldtest compare` prints on the recordings the station
 /// wrote and on the original files; every epoch matches; the difference is due north, about 185 m.
 #[test]

@@ -171,7 +171,7 @@ pub fn primary_name(spec: &GpsSourceSpec) -> String {
 
 /// `<session log>.rx<k>.nmea` beside the session log.
 fn recording_path(log: &std::path::Path, k: usize) -> PathBuf {
-    let mut name = log.file_stem().map(|s| s.to_os_string()).unwrap_or_default();
+    let mut name = log.file_stem().map(std::ffi::OsStr::to_os_string).unwrap_or_default();
     name.push(format!(".rx{k}.nmea"));
     log.with_file_name(name)
 }
