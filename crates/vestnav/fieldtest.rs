@@ -21,10 +21,11 @@ use vestnav_core::fieldtest::{
     ConeConfig, ConeMark, TimedFix, cones, drift, position_at, unwrap_time_of_day,
 };
 use vestnav_core::geo::{Earth, LatLon, declination_deg, true_from_magnetic_deg};
-use vestnav_device::gps::{Fix, decode_reader_with_marks};
+use vestnav_device::gps::decode_reader_with_marks;
 use vestnav_device::session_log::{LogEntry, ReadMode, read_log_with};
 use vestnav_report::fieldtest::{ConesReport, DriftReport, Source};
 use vestnav_report::to_json;
+use vestnav_station::fieldtests::receiver_sample;
 
 /// Earth model on the command line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -210,20 +211,16 @@ fn load_nmea(path: &Path) -> anyhow::Result<Log> {
     let (mut fixes, mut heights, mut good) = (Vec::new(), Vec::new(), Vec::new());
     let mut prev: Option<f64> = None;
     let mut date = None;
-    for f in raw.iter().filter(|f| f.has_position()) {
-        let t = match f.time_of_day {
-            Some(tod) => unwrap_time_of_day(seconds_of_day(tod), prev),
-            None => prev.map_or(0.0, |p| p + 1.0),
-        };
-        prev = Some(t);
+    for f in &raw {
+        // The station's receivers side by side take their fixes by the same rule.
+        let Some(s) = receiver_sample(f, prev) else { continue };
+        prev = Some(s.t_s);
         if date.is_none() {
             date = f.time.map(|d| (d.year(), d.month() as u8, d.day() as u8));
         }
-        if let Some(pos) = position(f) {
-            fixes.push(TimedFix { t_s: t, pos });
-            heights.push(f.alt_m.filter(|h| h.is_finite()));
-            good.push(f.good_for_reference());
-        }
+        fixes.push(TimedFix { t_s: s.t_s, pos: s.pos });
+        heights.push(s.height_m);
+        good.push(f.good_for_reference());
     }
     let first_t = fixes.first().map(|f| f.t_s);
     let marks = marks
@@ -304,10 +301,6 @@ fn load_session(path: &Path) -> anyhow::Result<Log> {
     log.good = vec![true; log.fixes.len()];
     log.marks.sort_by(|a, b| a.t_s.unwrap_or(0.0).total_cmp(&b.t_s.unwrap_or(0.0)));
     Ok(log)
-}
-
-fn position(f: &Fix) -> Option<LatLon> {
-    LatLon::new(f.lat_deg?, f.lon_deg?).validated().ok()
 }
 
 /// Runs `vestnav fieldtest drift`.

@@ -23,6 +23,7 @@ mod latency;
 mod local_stations;
 mod nav;
 mod osm;
+mod receivers;
 mod remote;
 mod safety;
 mod sim_tactor;

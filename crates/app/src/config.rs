@@ -95,6 +95,8 @@ pub struct Config {
     pub broker_at_start: bool,
     /// The NTRIP caster of the RTK window (the credentials file's name only, never the password).
     pub ntrip: vestnav_station::ntrip::NtripSettings,
+    /// The field tests' reference (the truth) set last, restored at start-up; `None`: none.
+    pub field_reference: Option<vestnav_core::accuracy::Reference>,
 }
 
 impl Default for Config {
@@ -133,6 +135,7 @@ impl Default for Config {
             recent: crate::file_dialog::RecentFiles::default(),
             broker: vestnav_remote::BrokerConfig::default(),
             broker_at_start: false,
+            field_reference: None,
             ntrip: vestnav_station::ntrip::NtripSettings::default(),
         }
     }

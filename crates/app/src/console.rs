@@ -237,6 +237,13 @@ impl Console {
             side_open: true,
         };
         console.synced_auto = console.station.settings().guidance.auto;
+        if let Some(r) = console.cfg.field_reference.clone()
+            && let Err(e) = console.station.field_tests.set_reference(Some(r))
+        {
+            // A saved reference that is out of range is dropped (and the file rewritten without it).
+            console.cfg.field_reference = None;
+            console.say(NoticeSeverity::Warning, Subject::Settings, format!("saved {e}: not restored"));
+        }
         if connect_now {
             console.connect_vest();
             console.connect_gps();
@@ -393,6 +400,11 @@ impl Console {
 
     /// Hands every settings change of the frame to the station (once) and saves the file.
     fn settings_changed(&mut self) {
+        // The field tests' reference is kept with the settings (restored at start-up).
+        let reference = self.station.field_tests.reference();
+        if self.cfg.field_reference.as_ref() != reference {
+            self.cfg.field_reference = reference.cloned();
+        }
         if self.cfg == self.cfg_saved {
             return;
         }

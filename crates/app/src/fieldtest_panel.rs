@@ -43,8 +43,10 @@ use vestnav_report::fieldtest::{ConesReport, DriftReport, Source, drift_rows};
 use crate::export::{ExportFormat, ExportRequest, Exporter};
 use crate::sim_panel::figure_grid;
 
+mod receivers;
 mod reference;
 
+pub use receivers::ReceiversView;
 pub use reference::ReferenceForm;
 
 /// Default export path of the drift test (the extension follows the format).
@@ -79,6 +81,10 @@ pub struct FieldTestPanel {
     accuracy_exporter: Exporter,
     /// The reference being entered.
     pub reference: ReferenceForm,
+    /// Compare receivers is shown instead of a procedure.
+    pub comparing: bool,
+    /// Compare receivers: the source being typed and the cached sheet.
+    pub receivers: ReceiversView,
     /// Where a relative export path is taken (the console sets `cfg.recent.base()` each frame).
     pub base: PathBuf,
 }
@@ -116,14 +122,19 @@ impl FieldTestPanel {
             cones_exporter: Exporter::new(CONES_EXPORT_PATH, "Export the cone test to"),
             accuracy_exporter: Exporter::new(ACCURACY_EXPORT_PATH, "Export the accuracy test to"),
             reference: ReferenceForm::default(),
+            comparing: false,
+            receivers: ReceiversView::default(),
             base: crate::file_dialog::documents_dir(),
         }
     }
 
-    /// What the map draws while a test runs: the cone test's marks, the drift test's newest fixes (at most
-    /// [`MAP_DRIFT_POINTS`]). Nothing for a test that is not running.
+    /// What the map draws: the reference whenever one is set, and while a test runs the cone test's marks
+    /// and the drift test's newest fixes (at most [`MAP_DRIFT_POINTS`]).
     pub fn map_overlay(t: &FieldTests) -> crate::map_tools::FieldOverlay {
-        let mut o = crate::map_tools::FieldOverlay::default();
+        let mut o = crate::map_tools::FieldOverlay {
+            reference: t.reference().map(crate::map_tools::ReferenceMark::of),
+            ..crate::map_tools::FieldOverlay::default()
+        };
         if t.cones.phase == Phase::Running {
             o.cones = t.cones.marks.iter().map(|m| (m.label.clone(), m.pos)).collect();
         }
@@ -139,9 +150,19 @@ impl FieldTestPanel {
     pub fn ui(&mut self, t: &mut FieldTests, ui: &mut egui::Ui) -> Option<FieldTestAction> {
         let mut action = None;
         ui.horizontal(|ui| {
-            ui.selectable_value(&mut self.procedure, Procedure::Drift, "Drift test");
-            ui.selectable_value(&mut self.procedure, Procedure::Cones, "Cone test");
-            ui.selectable_value(&mut self.procedure, Procedure::Accuracy, "Accuracy test");
+            for (p, label) in [
+                (Procedure::Drift, "Drift test"),
+                (Procedure::Cones, "Cone test"),
+                (Procedure::Accuracy, "Accuracy test"),
+            ] {
+                if ui.selectable_label(!self.comparing && self.procedure == p, label).clicked() {
+                    self.procedure = p;
+                    self.comparing = false;
+                }
+            }
+            if ui.selectable_label(self.comparing, "Compare receivers").clicked() {
+                self.comparing = true;
+            }
             ui.separator();
             ui.label("distances:");
             let before = t.earth;
@@ -173,6 +194,10 @@ impl FieldTestPanel {
         let base = self.base.clone();
         self.reference.ui(t, ui, &base);
         ui.separator();
+        if self.comparing {
+            // The console draws the receivers (`ReceiversView::ui`): they are the station's, not the tests'.
+            return action;
+        }
         match self.procedure {
             Procedure::Drift => self.drift_ui(t, ui),
             Procedure::Cones => action = self.cones_ui(t, ui),

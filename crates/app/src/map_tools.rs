@@ -45,12 +45,58 @@ pub struct FieldOverlay {
     pub cones: Vec<(String, LatLon)>,
     /// Fixes of a running drift test.
     pub drift: Vec<LatLon>,
+    /// The field tests' reference (the truth), drawn whenever one is set.
+    pub reference: Option<ReferenceMark>,
 }
+
+/// The reference on the map: a marker, its stated uncertainty as a circle, and a label.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ReferenceMark {
+    /// Where it is.
+    pub pos: LatLon,
+    /// Its stated horizontal uncertainty (1 sigma) [m]: the circle's radius.
+    pub uncertainty_m: f64,
+    /// The label beside the marker (`reference ±0.020 m`).
+    pub label: String,
+}
+
+impl ReferenceMark {
+    /// The mark of `r`.
+    pub fn of(r: &vestnav_core::accuracy::Reference) -> Self {
+        Self {
+            pos: r.pos,
+            uncertainty_m: r.uncertainty_m,
+            label: format!("reference ±{:.3} m", r.uncertainty_m),
+        }
+    }
+
+    /// Draws the marker (a diamond), the uncertainty circle (radius `uncertainty_m * px_per_m`, at least a
+    /// few pixels so a centimetre circle stays visible around the marker) and the label at screen point `c`.
+    pub fn draw(&self, painter: &egui::Painter, c: Pos2, px_per_m: f64, font: egui::FontId, ink: Color32) {
+        let color = REFERENCE_COLOR;
+        let r = (self.uncertainty_m * px_per_m).clamp(0.0, 1.0e5) as f32;
+        painter.circle(c, r.max(9.0), color.gamma_multiply(0.15), Stroke::new(1.5, color));
+        let d = 6.0;
+        let diamond = vec![c + vec2(0.0, -d), c + vec2(d, 0.0), c + vec2(0.0, d), c + vec2(-d, 0.0)];
+        painter.add(egui::Shape::convex_polygon(diamond, color, Stroke::new(1.0, Color32::WHITE)));
+        let at = c + vec2(
+            r.max(9.0) * std::f32::consts::FRAC_1_SQRT_2 + 4.0,
+            -r.max(9.0) * std::f32::consts::FRAC_1_SQRT_2 - 4.0,
+        );
+        let galley = painter.layout_no_wrap(self.label.clone(), font, ink);
+        let rect = egui::Align2::LEFT_BOTTOM.anchor_size(at, galley.size());
+        painter.rect_filled(rect.expand(2.0), 3.0, Color32::from_black_alpha(60));
+        painter.galley(rect.min, galley, ink);
+    }
+}
+
+/// The reference's colour on the map and in the legend.
+pub const REFERENCE_COLOR: Color32 = Color32::from_rgb(200, 0, 160);
 
 impl FieldOverlay {
     /// Whether there is nothing to draw.
     pub fn is_empty(&self) -> bool {
-        self.cones.is_empty() && self.drift.is_empty()
+        self.cones.is_empty() && self.drift.is_empty() && self.reference.is_none()
     }
 }
 

@@ -195,3 +195,80 @@ fn ntrip_status_line_with_a_serial_receiver() {
     h.run_steps(2);
     assert!(!h.state().station.ntrip().unwrap().running());
 }
+
+/// The console with its settings saved to (and restored from) `cfg_path`.
+fn console_saving(fake: &Fake, cfg_path: &std::path::Path) -> egui_kittest::Harness<'static, Console> {
+    let (cfg, problem) = Config::load(cfg_path);
+    assert!(problem.is_none(), "{problem:?}");
+    let cfg = Config { map_tiles: false, guidance_auto: false, ..cfg };
+    let console = Console::new(
+        Box::new(fake.clone()),
+        ConsoleOptions { cfg, cfg_path: Some(cfg_path.to_path_buf()), ..ConsoleOptions::default() },
+    );
+    let mut h = egui_kittest::Harness::builder()
+        .with_size(egui::vec2(1400.0, 900.0))
+        .build_ui_state(|ui, c: &mut Console| c.ui(ui), console);
+    h.run_steps(2);
+    h
+}
+
+/// A reference set in the Field tests tab is drawn on the map (its marker, its uncertainty as the circle's
+/// radius, its label) and is there again after a restart: it is kept in the console's settings file.
+#[test]
+fn reference_is_on_the_map_and_survives_a_restart() {
+    let dir = test_dir("reference-restart");
+    let cfg_path = dir.join("console.json");
+    let fake = Fake::default();
+    let mut h = console_saving(&fake, &cfg_path);
+    assert!(h.state().map.tools.field.reference.is_none(), "no reference, nothing drawn");
+    h.get_by_label("Field tests").click();
+    h.run_steps(2);
+    h.get_by_role_and_label(Role::TextInput, "position")
+        .set_text_value_accesskit("45 52 39.333 S 170 30 0.4554 E");
+    h.run_steps(1);
+    h.state_mut().field_panel.reference.uncertainty_m = 0.25;
+    h.get_by_label("Set reference").click();
+    h.run_steps(2);
+    let set = h.state().station.field_tests.reference().cloned().expect("reference set");
+    h.get_by_label("Map").click();
+    h.run_steps(2);
+    let mark = h.state().map.tools.field.reference.clone().expect("the reference is drawn on the map");
+    assert_eq!((mark.pos, mark.uncertainty_m), (set.pos, 0.25));
+    assert_eq!(mark.label, "reference ±0.250 m");
+    drop(h);
+    let h = console_saving(&fake, &cfg_path);
+    let restored = h.state().station.field_tests.reference().cloned().expect("restored at start");
+    assert_eq!(restored, set);
+    assert!((restored.pos.lat_deg + 45.877_592_5).abs() < 1e-7, "DMS read as published");
+    drop(h);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A FIFO given as the GPX file of a waypoint reference is refused with its name, read on its own thread:
+/// the view keeps turning (no frame waits on the file) and the reference stays unset.
+#[cfg(unix)]
+#[test]
+fn a_fifo_as_gpx_is_refused_without_blocking_the_view() {
+    let dir = test_dir("reference-fifo");
+    let fifo = dir.join("marker.gpx");
+    assert!(std::process::Command::new("mkfifo").arg(&fifo).status().unwrap().success());
+    let fake = Fake::default();
+    let mut h = harness(&fake);
+    h.get_by_label("Field tests").click();
+    h.run_steps(2);
+    h.get_by_label("GPX waypoint").click();
+    h.run_steps(1);
+    h.state_mut().field_panel.reference.gpx_path = fifo.display().to_string();
+    h.run_steps(1);
+    let started = Instant::now();
+    h.get_by_label("Set reference").click();
+    h.run_steps(1);
+    // A frame that waited on the FIFO would never come back (nobody writes to it).
+    assert!(started.elapsed() < Duration::from_secs(2), "the click's frame returned");
+    settle(&mut h, |c| c.field_panel.reference.error.is_some());
+    let e = h.state().field_panel.reference.error.clone().expect("refused");
+    assert!(e.contains("marker.gpx"), "{e}");
+    assert!(!h.state().field_panel.reference.reading());
+    assert!(h.state().station.field_tests.reference().is_none());
+    std::fs::remove_dir_all(&dir).unwrap();
+}

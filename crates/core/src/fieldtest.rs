@@ -436,6 +436,23 @@ pub fn unwrap_time_of_day(tod_s: f64, prev_s: Option<f64>) -> f64 {
     tod_s + DAY_S * k
 }
 
+/// The receiver-time line of a stream of positioned fixes, the one rule of `fieldtest compare` on logs and
+/// of the console's receivers side by side: a fix with a UTC time of day `tod_s` is placed by
+/// [`unwrap_time_of_day`] after the previous fix's time `prev_s`; a fix without one counts one second after
+/// the previous (0 for the first), the rate of the receivers that omit it.
+///
+/// ```
+/// use vestnav_core::fieldtest::receiver_time_s;
+/// assert!((receiver_time_s(Some(0.5), Some(86_399.5)) - 86_400.5).abs() < 1e-9);
+/// assert!((receiver_time_s(None, Some(10.0)) - 11.0).abs() < 1e-9);
+/// ```
+pub fn receiver_time_s(tod_s: Option<f64>, prev_s: Option<f64>) -> f64 {
+    match tod_s {
+        Some(tod) => unwrap_time_of_day(tod, prev_s),
+        None => prev_s.map_or(0.0, |p| p + 1.0),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -614,8 +614,15 @@ pub struct NtripStatus {
     pub last_error: Option<String>,
 }
 
+impl Default for NtripStatus {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
 impl NtripStatus {
-    fn new() -> Self {
+    /// A client connecting, nothing received yet (also what a client being started shows).
+    pub fn new() -> Self {
         Self {
             state: NtripState::Connecting,
             connects: 0,

@@ -8,7 +8,8 @@ use std::path::Path;
 use std::time::Instant;
 
 use chrono::Timelike as _;
-use vestnav_core::accuracy::{Reference, ReferenceOrigin};
+use vestnav_core::accuracy::{Reference, ReferenceOrigin, Sample};
+use vestnav_core::fieldtest::receiver_time_s;
 use vestnav_core::fieldtest_live::{FieldTests, LiveFix};
 use vestnav_core::geo::LatLon;
 use vestnav_core::guidance::Waypoint;
@@ -32,6 +33,20 @@ pub fn feed(tests: &mut FieldTests, epoch: Instant, fix: &Fix) {
         height_m: fix.alt_m,
         good: fix.good_for_reference(),
     });
+}
+
+/// One fix of a receiver on its receiver-time line, for the accuracy statistics and receivers side by side
+/// (`vestnav fieldtest compare` reads its logs by this rule, and the station's comparison takes its live
+/// fixes by it): `None` without a valid position (2-D or 3-D mode, latitude and longitude in range); its time
+/// is [`receiver_time_s`] of its UTC time of day after `prev_s`, its height the GGA altitude when finite.
+pub fn receiver_sample(fix: &Fix, prev_s: Option<f64>) -> Option<Sample> {
+    if !fix.has_position() {
+        return None;
+    }
+    let pos = LatLon::new(fix.lat_deg?, fix.lon_deg?).validated().ok()?;
+    let tod_s =
+        fix.time_of_day.map(|t| f64::from(t.num_seconds_from_midnight()) + f64::from(t.nanosecond()) * 1e-9);
+    Some(Sample { t_s: receiver_time_s(tod_s, prev_s), pos, height_m: fix.alt_m.filter(|h| h.is_finite()) })
 }
 
 /// A typed reference: `text` in any form of [`vestnav_core::coords::parse_position`] (decimal, DMS,

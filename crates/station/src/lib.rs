@@ -40,6 +40,7 @@ pub mod hardware;
 pub mod lab;
 pub mod ntrip;
 pub mod pinned;
+pub mod receivers;
 mod reroute;
 pub mod route;
 pub mod sources;
@@ -217,6 +218,8 @@ pub struct Station {
     lab: lab::LabTap,
     /// RTK corrections to the receiver, once started (see [`ntrip`]).
     ntrip: Option<ntrip::Corrections>,
+    /// More receivers beside the primary, compared with it (see [`receivers`]).
+    receivers: receivers::Receivers,
 }
 
 impl Station {
@@ -299,6 +302,7 @@ impl Station {
             study: study::StudySlot::default(),
             lab,
             ntrip: None,
+            receivers: receivers::Receivers::default(),
         }
     }
 
@@ -428,6 +432,7 @@ impl Station {
             }));
         }
         outputs.push(self.lab.gps_sink());
+        outputs.push(self.receivers.primary_outbox());
         outputs.extend(taps);
         self.gps = GpsState::default();
         self.diagnosed.clear();
@@ -524,6 +529,7 @@ impl Station {
         self.disconnect_vest();
         self.study_exit();
         self.disconnect_gps();
+        self.stop_receivers();
         self.autosave_route(true);
     }
 
@@ -687,8 +693,10 @@ impl Station {
         drain_within(&self.gps_rx, DRAIN_BUDGET, |ev| gps_events.push(ev));
         for ev in &gps_events {
             self.gps_event(ev);
+            self.receivers.primary_event(ev);
             view(StationEvent::Gps(ev));
         }
+        self.pump_receivers(Instant::now());
         let mut vest_events = Vec::new();
         drain_within(&self.vest_rx, DRAIN_BUDGET, |ev| vest_events.push(ev));
         for ev in &vest_events {

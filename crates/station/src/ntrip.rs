@@ -6,9 +6,12 @@
 //! everything else go on.
 //!
 //! Credentials come from a file (`user:password`, private: see `vestnav_device::ntrip::read_credentials`);
-//! the settings hold only the file's name.
+//! the settings hold only the file's name. The file is read on a short-lived `ntrip-start` thread, which then
+//! starts the client: a slow or hostile file (a FIFO is refused by `vestnav-files`, the size is limited)
+//! never holds the view's turn; its error shows as the corrections' failed state.
 
 use std::path::PathBuf;
+use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, Instant};
 
 use serde::{Deserialize, Serialize};
@@ -53,6 +56,21 @@ impl Default for NtripSettings {
 impl NtripSettings {
     /// The client's configuration, with the credentials read from their file. Errors name what is wrong.
     pub fn config(&self) -> Result<NtripConfig, String> {
+        let mut c = self.checked()?;
+        c.credentials = self.credentials()?;
+        Ok(c)
+    }
+
+    /// The credentials read from their file (`None` without a file).
+    fn credentials(&self) -> Result<Option<vestnav_device::ntrip::Credentials>, String> {
+        match &self.credentials_file {
+            Some(p) if !p.as_os_str().is_empty() => Ok(Some(read_credentials(p).map_err(|e| e.to_string())?)),
+            _ => Ok(None),
+        }
+    }
+
+    /// The client's configuration without the credentials: the settings checked, no file read.
+    fn checked(&self) -> Result<NtripConfig, String> {
         let caster = self.caster.trim();
         if caster.is_empty() || !caster.contains(':') {
             return Err("NTRIP: give the caster as HOST:PORT".into());
@@ -69,10 +87,6 @@ impl NtripSettings {
         let gga = seconds("the GGA interval", self.gga_every_s)?;
         c.gga_every = (!gga.is_zero()).then_some(gga);
         c.stall_after = seconds("the stall time", self.stall_s)?.max(Duration::from_millis(200));
-        c.credentials = match &self.credentials_file {
-            Some(p) if !p.as_os_str().is_empty() => Some(read_credentials(p).map_err(|e| e.to_string())?),
-            _ => None,
-        };
         Ok(c)
     }
 }
@@ -80,6 +94,8 @@ impl NtripSettings {
 /// The corrections as the station holds them: the running (or ending) client and its latest status.
 pub struct Corrections {
     handle: Option<NtripHandle>,
+    /// The client being started on the `ntrip-start` thread (credentials read, then spawned).
+    starting: Option<Arc<Starting>>,
     /// What it was started with.
     pub settings: NtripSettings,
     /// The client's status at the last pump.
@@ -99,12 +115,47 @@ impl Drop for Corrections {
     /// The client's thread is told to stop and released on a thread of its own: dropping never waits on
     /// the network (a connection attempt in progress ends by its own timeout).
     fn drop(&mut self) {
+        if let Some(s) = self.starting.take() {
+            s.cancel();
+        }
         if let Some(h) = self.handle.take() {
             h.request_stop();
             let released = std::thread::Builder::new().name("ntrip-stop".into()).spawn(move || drop(h));
             if let Err(e) = released {
                 tracing::warn!("ntrip: not released on a thread: {e}");
             }
+        }
+    }
+}
+
+/// The client being started on the `ntrip-start` thread: its result, or that nobody wants it any more.
+#[derive(Default)]
+struct Starting(Mutex<(bool, Option<Result<NtripHandle, String>>)>);
+
+impl Starting {
+    /// The starting thread's result; a client nobody wants any more is stopped at once.
+    fn put(&self, started: Result<NtripHandle, String>) {
+        let mut s = self.0.lock().unwrap_or_else(PoisonError::into_inner);
+        if s.0 {
+            if let Ok(h) = started {
+                h.request_stop();
+            }
+        } else {
+            s.1 = Some(started);
+        }
+    }
+
+    /// The result, once there.
+    fn take(&self) -> Option<Result<NtripHandle, String>> {
+        self.0.lock().unwrap_or_else(PoisonError::into_inner).1.take()
+    }
+
+    /// Nobody wants the client any more: a started one is stopped, one still starting stops when it is.
+    fn cancel(&self) {
+        let mut s = self.0.lock().unwrap_or_else(PoisonError::into_inner);
+        s.0 = true;
+        if let Some(Ok(h)) = s.1.take() {
+            h.request_stop();
         }
     }
 }
@@ -116,24 +167,44 @@ impl Station {
     /// Starts RTK corrections to the running GPS source's receiver (a direct serial source only). Replaces a
     /// running client. Errors say what is missing (the source, the settings, the credentials file).
     pub fn start_ntrip(&mut self, settings: NtripSettings) -> Result<(), String> {
-        let config = settings.config()?;
+        let mut config = settings.checked()?;
         let writer = match self.gps_worker.as_deref() {
             Some(w) => w.corrections_writer()?,
             None => return Err("NTRIP: connect the GPS receiver's serial port first".into()),
         };
         self.stop_ntrip();
-        let handle = vestnav_device::ntrip::spawn(config, Box::new(writer))
-            .map_err(|e| format!("NTRIP: cannot start its thread: {e}"))?;
-        let status = handle.status();
-        self.ntrip = Some(Corrections { handle: Some(handle), settings, status, ended: None });
+        let starting = Arc::new(Starting::default());
+        let slot = starting.clone();
+        let reader = settings.clone();
+        std::thread::Builder::new()
+            .name("ntrip-start".into())
+            .spawn(move || {
+                let started = reader.credentials().and_then(|credentials| {
+                    config.credentials = credentials;
+                    vestnav_device::ntrip::spawn(config, Box::new(writer))
+                        .map_err(|e| format!("NTRIP: cannot start its thread: {e}"))
+                });
+                slot.put(started);
+            })
+            .map_err(|e| format!("NTRIP: cannot start: {e}"))?;
+        self.ntrip = Some(Corrections {
+            handle: None,
+            starting: Some(starting),
+            settings,
+            status: NtripStatus::new(),
+            ended: None,
+        });
         Ok(())
     }
 
     /// Stops the corrections (without waiting: the thread ends by itself within a moment).
     pub fn stop_ntrip(&mut self) {
-        if let Some(c) = &mut self.ntrip
-            && let Some(h) = &c.handle
-        {
+        let Some(c) = &mut self.ntrip else { return };
+        if let Some(s) = c.starting.take() {
+            s.cancel();
+            c.status.state = NtripState::Stopped;
+        }
+        if let Some(h) = &c.handle {
             h.request_stop();
             c.status.state = NtripState::Stopped;
         }
@@ -175,6 +246,13 @@ impl Station {
     /// released once it has ended.
     pub(crate) fn pump_ntrip(&mut self) {
         let Some(c) = &mut self.ntrip else { return };
+        if let Some(started) = c.starting.as_ref().and_then(|s| s.take()) {
+            c.starting = None;
+            match started {
+                Ok(h) => c.handle = Some(h),
+                Err(reason) => c.status.state = NtripState::Failed { reason },
+            }
+        }
         let Some(h) = &c.handle else { return };
         let stopping = c.status.state == NtripState::Stopped;
         let mut status = h.status();

@@ -301,6 +301,9 @@ impl Console {
                 {
                     self.mark(&label);
                 }
+                if self.field_panel.comparing {
+                    self.field_panel.receivers.ui(&mut self.station, ui);
+                }
             }
             Tab::SessionLog => {
                 let dir = self.log_dir();

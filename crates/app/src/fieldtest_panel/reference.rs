@@ -5,9 +5,10 @@
 //! what the station computed: the rows are `vestnav_report::accuracy::accuracy_rows`, the sheet
 //! `AccuracyReport::figure`, the CLI's own.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex, PoisonError};
 
-use vestnav_core::accuracy::AccuracyStats;
+use vestnav_core::accuracy::{AccuracyStats, Reference};
 use vestnav_core::fieldtest_live::{FieldTests, MAX_ACCURACY_TARGET_S, MAX_AVERAGING_S, Phase};
 use vestnav_report::accuracy::{AccuracyReport, accuracy_rows};
 use vestnav_report::fieldtest::Source;
@@ -51,7 +52,12 @@ pub struct ReferenceForm {
     pub height_m: f64,
     /// Why the last reference was refused.
     pub error: Option<String>,
+    /// The GPX file being read on its own thread (`fieldtest-gpx`): the file and, once read, the result.
+    pending: Option<(PathBuf, PendingReference)>,
 }
+
+/// A waypoint reference being read: filled by the reading thread, taken by the view.
+type PendingReference = Arc<Mutex<Option<Result<Reference, String>>>>;
 
 impl Default for ReferenceForm {
     fn default() -> Self {
@@ -65,6 +71,7 @@ impl Default for ReferenceForm {
             use_height: false,
             height_m: 0.0,
             error: None,
+            pending: None,
         }
     }
 }
@@ -75,6 +82,7 @@ const GPX: DialogSpec =
 impl ReferenceForm {
     /// The reference section: what is set, and the form to set another.
     pub fn ui(&mut self, t: &mut FieldTests, ui: &mut egui::Ui, base: &Path) {
+        self.take_pending(t);
         egui::CollapsingHeader::new("Reference (the truth)").default_open(true).show(ui, |ui| {
             ui.horizontal_wrapped(|ui| match t.reference() {
                 Some(r) => {
@@ -118,13 +126,15 @@ impl ReferenceForm {
                         .labelled_by(name.id);
                     });
                     self.stated_ui(ui);
-                    if ui.button("Set reference").clicked() {
-                        let h = self.use_height.then_some(self.height_m);
-                        let r = match resolve(&self.gpx_path, base) {
-                            Some(path) => waypoint_reference(&path, Some(&self.waypoint), self.uncertainty_m, h),
-                            None => Err("give the GPX file".to_string()),
-                        };
-                        self.apply(t, r);
+                    let reading = self.pending.is_some();
+                    if ui.add_enabled(!reading, egui::Button::new("Set reference")).clicked() {
+                        match resolve(&self.gpx_path, base) {
+                            Some(path) => self.read_waypoint(path, ui.ctx().clone()),
+                            None => self.error = Some("give the GPX file".to_string()),
+                        }
+                    }
+                    if let Some((path, _)) = &self.pending {
+                        ui.weak(format!("reading {}…", path.display()));
                     }
                 }
                 Form::Averaged => averaging_ui(t, ui),
@@ -149,6 +159,44 @@ impl ReferenceForm {
                 egui::DragValue::new(&mut self.height_m).range(-500.0..=9000.0).speed(0.01).suffix(" m"),
             );
         });
+    }
+
+    /// Reads the waypoint of the GPX file at `path` on a short-lived thread (`fieldtest-gpx`): the file may
+    /// be large, slow or hostile (its size limit and the FIFO refusal are `vestnav-files`'), and the view
+    /// never waits for it. The result is applied by [`Self::take_pending`] at a later frame.
+    fn read_waypoint(&mut self, path: PathBuf, ctx: egui::Context) {
+        let h = self.use_height.then_some(self.height_m);
+        let (name, u) = (self.waypoint.clone(), self.uncertainty_m);
+        let slot: PendingReference = Arc::default();
+        let filled = slot.clone();
+        let file = path.clone();
+        let spawned = std::thread::Builder::new().name("fieldtest-gpx".into()).spawn(move || {
+            let r = waypoint_reference(&file, Some(&name), u, h);
+            *filled.lock().unwrap_or_else(PoisonError::into_inner) = Some(r);
+            ctx.request_repaint();
+        });
+        match spawned {
+            Ok(_) => {
+                self.error = None;
+                self.pending = Some((path, slot));
+            }
+            Err(e) => self.error = Some(format!("cannot start reading {}: {e}", path.display())),
+        }
+    }
+
+    /// Applies the waypoint read on its thread, once it is there (every frame; never waits).
+    pub fn take_pending(&mut self, t: &mut FieldTests) {
+        let Some((_, slot)) = &self.pending else { return };
+        let done = slot.lock().unwrap_or_else(PoisonError::into_inner).take();
+        if let Some(r) = done {
+            self.pending = None;
+            self.apply(t, r);
+        }
+    }
+
+    /// Whether a GPX file is being read.
+    pub fn reading(&self) -> bool {
+        self.pending.is_some()
     }
 
     fn apply(&mut self, t: &mut FieldTests, r: Result<vestnav_core::accuracy::Reference, String>) {

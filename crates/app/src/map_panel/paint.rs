@@ -407,6 +407,11 @@ impl MapView {
                 );
             }
 
+            if let Some(r) = &field.reference {
+                let c = to_pos2(projector.project(lat_lon(r.pos.lat_deg, r.pos.lon_deg)));
+                r.draw(&painter, c, px_per_m, font.clone(), ui.visuals().strong_text_color());
+            }
+
             // North arrow (the map is always north up) and the legend of what is drawn.
             let panel = ui.visuals().panel_fill.gamma_multiply(0.85);
             let ink = ui.visuals().strong_text_color();
@@ -425,6 +430,9 @@ impl MapView {
             }
             if !field.drift.is_empty() {
                 legend.push((drift_color, "drift-test fixes"));
+            }
+            if field.reference.is_some() {
+                legend.push((map_tools::REFERENCE_COLOR, "reference (circle: its uncertainty)"));
             }
             if !measure_points.is_empty() {
                 legend.push((accent, "measured line"));

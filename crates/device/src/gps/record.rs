@@ -213,6 +213,20 @@ impl RecordingTap {
         st.status.clone()
     }
 
+    /// Writes what is buffered to the file (a source that ended leaves nothing half-written for a reader);
+    /// a write error ends the recording and is kept in the status.
+    pub fn flush(&self) {
+        let mut st = self.lock();
+        let st = &mut *st;
+        let (Some(a), Some(status)) = (st.active.as_mut(), st.status.as_mut()) else { return };
+        a.last_flush = Instant::now();
+        if let Err(e) = a.rec.flush() {
+            status.error = Some(format!("{}: {e}", status.path.display()));
+            status.active = false;
+            st.active = None;
+        }
+    }
+
     /// True while recording.
     pub fn is_recording(&self) -> bool {
         self.lock().active.is_some()

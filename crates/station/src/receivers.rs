@@ -1,0 +1,384 @@
+//! Receivers side by side: more GPS sources beside the primary one, in one session. Each comparison source
+//! is the same [`GpsSourceConfig`] the primary takes (serial, gpsd, replay, simulator), opened by the same
+//! [`DeviceFactory`](crate::devices::DeviceFactory) on a reader thread of its own; its events reach only this
+//! comparison (never guidance, which keeps the primary). The station takes every receiver's fixes on the
+//! receiver-time line ([`crate::fieldtests::receiver_sample`], the rule `vestnav fieldtest compare` reads its
+//! logs by) and compares them with core's one [`compare`] (epochs matched by receiver time with the primary,
+//! their horizontal differences, each against the field tests' reference when one is set), at most once a
+//! second on the view's turn.
+//!
+//! **Recordings.** While a comparison runs, each receiver's sentences (the primary's too) are recorded next
+//! to the session log as `<session log>.rx<k>.nmea` (the recording format of
+//! [`vestnav_device::gps::record`]), so `vestnav fieldtest compare` can read the same session afterwards.
+//! A gpsd source delivers JSON, not sentences: its recording stays empty, and its status says so.
+//!
+//! **Limits.** At most [`MAX_COMPARED`] comparison sources, and [`MAX_SAMPLES`] fixes per receiver (the
+//! newest beyond are not compared, said once in the warnings; the recordings go on).
+
+use std::path::PathBuf;
+use std::sync::mpsc::Receiver;
+use std::time::{Duration, Instant};
+
+use vestnav_core::accuracy::{Comparison, Receiver as CompareReceiver, Sample, compare};
+use vestnav_device::gps::record::{RecordingStatus, RecordingTap};
+use vestnav_device::gps::{GpsEvent, GpsSourceSpec, SourceState};
+use vestnav_device::outbox::{Outbox, drain_within};
+
+use crate::devices::GpsWorker;
+use crate::fieldtests::receiver_sample;
+use crate::sources::GpsSourceConfig;
+use crate::{DRAIN_BUDGET, Station, source_state_label};
+
+/// Comparison sources at most (beside the primary).
+pub const MAX_COMPARED: usize = 4;
+/// Fixes kept per receiver (a day at 1 Hz).
+pub const MAX_SAMPLES: usize = 86_400;
+/// Epochs of two receivers match when their receiver times differ by at most this [s] (the CLI's default).
+pub const TOLERANCE_S: f64 = 0.1;
+/// The comparison is recomputed at most this often.
+const RECOMPUTE_EVERY: Duration = Duration::from_secs(1);
+/// Capacity of a comparison source's event channel (its sentences go to its recording, not here).
+const CHANNEL: usize = 4096;
+
+/// One receiver's fixes on its receiver-time line.
+#[derive(Debug, Default)]
+struct Samples {
+    samples: Vec<Sample>,
+    /// Fixes beyond [`MAX_SAMPLES`], not compared.
+    over: u64,
+}
+
+impl Samples {
+    fn push(&mut self, fix: &vestnav_device::gps::Fix) -> bool {
+        let prev = self.samples.last().map(|s| s.t_s);
+        let Some(s) = receiver_sample(fix, prev) else { return false };
+        if self.samples.len() >= MAX_SAMPLES {
+            self.over += 1;
+            return false;
+        }
+        self.samples.push(s);
+        true
+    }
+}
+
+/// A comparison source: its reader thread, its state as last reported, its fixes and its recording.
+pub struct ComparedSource {
+    /// Its number in this session (the primary is 1; numbers are not reused).
+    pub number: usize,
+    /// Its label in the table and the figure (`2: replay:walk.nmea@1`).
+    pub name: String,
+    /// Where its fixes come from.
+    pub spec: GpsSourceConfig,
+    worker: Option<Box<dyn GpsWorker>>,
+    rx: Option<Receiver<GpsEvent>>,
+    /// The source's state as it last reported it (`None` before its first report).
+    pub state: Option<SourceState>,
+    /// Why it could not be opened, if it could not.
+    pub failed: Option<String>,
+    /// When its latest positioned fix arrived.
+    pub last_fix_at: Option<Instant>,
+    samples: Samples,
+    tap: RecordingTap,
+}
+
+impl ComparedSource {
+    /// Fixes taken for the comparison.
+    pub fn fixes(&self) -> usize {
+        self.samples.samples.len()
+    }
+
+    /// Its recording's status (`None`: not recorded, no session log).
+    pub fn recording(&self) -> Option<RecordingStatus> {
+        self.tap.status()
+    }
+}
+
+/// The receivers side by side of one session: the primary's fixes and recording, the comparison sources,
+/// and the latest comparison.
+#[derive(Default)]
+pub struct Receivers {
+    /// Whether the primary's fixes are being taken (while there is a comparison source).
+    active: bool,
+    primary: Samples,
+    primary_tap: RecordingTap,
+    sources: Vec<ComparedSource>,
+    /// The numbering of the next source (1 is the primary).
+    next_number: usize,
+    comparison: Option<Result<Comparison, String>>,
+    /// The reference and Earth model the comparison was computed with (a change recomputes it).
+    computed_with: Option<(Option<vestnav_core::accuracy::Reference>, vestnav_core::geo::Earth)>,
+    changed: bool,
+    computed_at: Option<Instant>,
+}
+
+impl Receivers {
+    /// The comparison sources, in the order they were added.
+    pub fn sources(&self) -> &[ComparedSource] {
+        &self.sources
+    }
+
+    /// Whether a comparison runs (at least one comparison source was added and not all were removed).
+    pub fn active(&self) -> bool {
+        self.active
+    }
+
+    /// Fixes of the primary taken for the comparison.
+    pub fn primary_fixes(&self) -> usize {
+        self.primary.samples.len()
+    }
+
+    /// The primary's recording status.
+    pub fn primary_recording(&self) -> Option<RecordingStatus> {
+        self.primary_tap.status()
+    }
+
+    /// The latest comparison (or why there is none: too few fixes).
+    pub fn comparison(&self) -> Option<&Result<Comparison, String>> {
+        self.comparison.as_ref()
+    }
+
+    /// Every receiver's fixes, the primary first, named as in the comparison.
+    pub fn receivers(&self, primary_name: &str) -> Vec<CompareReceiver> {
+        let mut all =
+            vec![CompareReceiver { name: primary_name.to_owned(), samples: self.primary.samples.clone() }];
+        all.extend(
+            self.sources
+                .iter()
+                .map(|s| CompareReceiver { name: s.name.clone(), samples: s.samples.samples.clone() }),
+        );
+        all
+    }
+
+    /// The primary's recording tap, for the primary source's outputs.
+    pub(crate) fn primary_outbox(&self) -> Outbox<GpsEvent> {
+        self.primary_tap.outbox()
+    }
+
+    /// Takes a primary fix while a comparison runs.
+    pub(crate) fn primary_event(&mut self, ev: &GpsEvent) {
+        match (self.active, ev) {
+            (true, GpsEvent::Fix(f)) => self.changed |= self.primary.push(f),
+            (true, GpsEvent::State(s)) if ends(s) => self.primary_tap.flush(),
+            _ => {}
+        }
+    }
+}
+
+/// The label of the primary receiver in the comparison.
+pub fn primary_name(spec: &GpsSourceSpec) -> String {
+    format!("1: {spec}")
+}
+
+/// `<session log>.rx<k>.nmea` beside the session log.
+fn recording_path(log: &std::path::Path, k: usize) -> PathBuf {
+    let mut name = log.file_stem().map(std::ffi::OsStr::to_os_string).unwrap_or_default();
+    name.push(format!(".rx{k}.nmea"));
+    log.with_file_name(name)
+}
+
+impl Station {
+    /// The receivers side by side (see [`crate::receivers`]).
+    pub fn receivers(&self) -> &Receivers {
+        &self.receivers
+    }
+
+    /// Adds a comparison source: `spec` is opened beside the primary on a reader thread of its own; the
+    /// first one starts the comparison (the primary's fixes are taken from now on) and the recordings.
+    /// Refused beyond [`MAX_COMPARED`] sources, or when the source is the primary's own device. A source
+    /// that cannot be opened is kept, shown failed with the reason.
+    pub fn add_receiver(&mut self, spec: GpsSourceConfig) -> Result<(), String> {
+        let r = &mut self.receivers;
+        if r.sources.len() >= MAX_COMPARED {
+            return Err(format!("at most {MAX_COMPARED} receivers beside the primary"));
+        }
+        if same_device(&spec, &self.gps_source) || r.sources.iter().any(|s| same_device(&spec, &s.spec)) {
+            return Err(format!("{spec} is already a receiver of this session"));
+        }
+        if !r.active {
+            r.active = true;
+            r.primary = Samples::default();
+            r.next_number = 2;
+            r.comparison = None;
+            if let Some(log) = self.log.as_ref().map(|l| l.path().to_path_buf())
+                && let Err(e) = r.primary_tap.start(&recording_path(&log, 1))
+            {
+                self.notices.raise(
+                    crate::Severity::Warning,
+                    crate::Subject::Gps,
+                    format!("receiver 1 not recorded: {e}"),
+                );
+            }
+        }
+        let r = &mut self.receivers;
+        let number = r.next_number;
+        r.next_number += 1;
+        let tap = RecordingTap::default();
+        let log_path = self.log.as_ref().map(|l| l.path().to_path_buf());
+        let mut failed = None;
+        if let Some(log) = &log_path
+            && let Err(e) = tap.start(&recording_path(log, number))
+        {
+            let text = format!("receiver {number} not recorded: {e}");
+            self.notices.raise(crate::Severity::Warning, crate::Subject::Gps, text);
+        }
+        let (tx, rx) = std::sync::mpsc::sync_channel(CHANNEL);
+        let events = Outbox::mapped(tx, |ev: GpsEvent| (!matches!(ev, GpsEvent::Raw(_))).then_some(ev), None);
+        let outputs = vec![events, tap.outbox()];
+        let (worker, rx) = match self.factory.open_gps(&spec, &self.route.walked(), outputs) {
+            Ok(w) => (Some(w), Some(rx)),
+            Err(e) => {
+                tap.stop();
+                failed = Some(e);
+                (None, None)
+            }
+        };
+        let name = format!("{number}: {spec}");
+        self.log(vestnav_device::session_log::LogEntry::Note {
+            text: format!("receiver {name} added for comparison"),
+        });
+        self.receivers.sources.push(ComparedSource {
+            number,
+            name,
+            spec,
+            worker,
+            rx,
+            state: None,
+            failed,
+            last_fix_at: None,
+            samples: Samples::default(),
+            tap,
+        });
+        self.receivers.changed = true;
+        Ok(())
+    }
+
+    /// Removes comparison source `index` (stops its reader and its recording). Removing the last one ends
+    /// the comparison and the primary's recording.
+    pub fn remove_receiver(&mut self, index: usize) {
+        let r = &mut self.receivers;
+        if index >= r.sources.len() {
+            return;
+        }
+        let mut s = r.sources.remove(index);
+        if let Some(mut w) = s.worker.take() {
+            w.stop();
+        }
+        s.tap.stop();
+        if r.sources.is_empty() {
+            r.active = false;
+            r.primary_tap.stop();
+            r.comparison = None;
+        }
+        r.changed = true;
+        let text = format!("receiver {} removed from the comparison", s.name);
+        self.log(vestnav_device::session_log::LogEntry::Note { text });
+    }
+
+    /// Each comparison source's state in words: `live`, `stale: no fix for 4 s`, `failed: …`, the
+    /// source's own states otherwise (`lost: …`, `end of input`).
+    pub fn receiver_status(&self, index: usize, now: Instant) -> Option<String> {
+        let s = self.receivers.sources.get(index)?;
+        if s.worker.is_none() {
+            return Some(format!("failed: {}", s.failed.as_deref().unwrap_or("not open")));
+        }
+        let stale_after = Duration::try_from_secs_f64(self.settings.guidance.stale_after_s)
+            .unwrap_or(Duration::from_secs(3));
+        Some(match (&s.state, s.last_fix_at) {
+            (Some(SourceState::Live { .. }) | None, Some(at))
+                if now.saturating_duration_since(at) > stale_after =>
+            {
+                format!("stale: no fix for {:.0} s", now.saturating_duration_since(at).as_secs_f64())
+            }
+            (Some(SourceState::Live { .. }), None) => "live, no fix yet".to_owned(),
+            (state, _) => source_state_label(state.as_ref()),
+        })
+    }
+
+    /// The comparison's turn in [`Station::pump`]: drains each comparison source's events (within the
+    /// drain budget each) and recomputes the comparison at most once a second when fixes came.
+    pub(crate) fn pump_receivers(&mut self, now: Instant) {
+        let r = &mut self.receivers;
+        for s in &mut r.sources {
+            let Some(rx) = &s.rx else { continue };
+            let mut events = Vec::new();
+            drain_within(rx, DRAIN_BUDGET, |ev| events.push(ev));
+            for ev in events {
+                match ev {
+                    GpsEvent::Fix(f) => {
+                        if f.has_position() {
+                            s.last_fix_at = f.received_at.or(Some(now));
+                        }
+                        r.changed |= s.samples.push(&f);
+                    }
+                    // A worker's last word is Stopped: after "end of input" or "lost" it says less.
+                    GpsEvent::State(SourceState::Stopped)
+                        if matches!(s.state, Some(SourceState::Finished | SourceState::Lost { .. })) => {}
+                    GpsEvent::State(state) => {
+                        if ends(&state) {
+                            s.tap.flush();
+                        }
+                        s.state = Some(state);
+                    }
+                    _ => {}
+                }
+            }
+        }
+        let with = (self.field_tests.reference().cloned(), self.field_tests.earth);
+        if r.computed_with.as_ref() != Some(&with) {
+            r.changed = true;
+        }
+        if !r.active
+            || !r.changed
+            || r.computed_at.is_some_and(|t| now.saturating_duration_since(t) < RECOMPUTE_EVERY)
+        {
+            return;
+        }
+        self.recompute_receivers(now);
+    }
+
+    /// Recomputes the comparison now (the view calls it when the reference changed; the pump once a second).
+    pub fn recompute_receivers(&mut self, now: Instant) {
+        let primary = primary_name(&self.gps_source);
+        let r = &mut self.receivers;
+        if !r.active {
+            return;
+        }
+        let receivers = r.receivers(&primary);
+        let earth = self.field_tests.earth;
+        let mut result =
+            compare(&receivers, self.field_tests.reference(), TOLERANCE_S, earth).map_err(|e| e.to_string());
+        let over: Vec<String> = std::iter::once((&primary, r.primary.over))
+            .chain(r.sources.iter().map(|s| (&s.name, s.samples.over)))
+            .filter(|(_, over)| *over > 0)
+            .map(|(n, over)| format!("{n}: {over} fixes beyond {MAX_SAMPLES} not compared"))
+            .collect();
+        if let Ok(c) = &mut result {
+            c.warnings.extend(over);
+        }
+        r.comparison = Some(result);
+        r.computed_with = Some((self.field_tests.reference().cloned(), earth));
+        r.changed = false;
+        r.computed_at = Some(now);
+    }
+
+    /// Stops every comparison source (the station is shutting down).
+    pub(crate) fn stop_receivers(&mut self) {
+        while !self.receivers.sources.is_empty() {
+            self.remove_receiver(self.receivers.sources.len() - 1);
+        }
+    }
+}
+
+/// Whether a source state ends its input for now (its recording is flushed: a reader gets all of it).
+fn ends(s: &SourceState) -> bool {
+    matches!(s, SourceState::Finished | SourceState::Lost { .. } | SourceState::Stopped | SourceState::Stale)
+}
+
+/// Whether two sources would open the same device (a serial port or a gpsd daemon read twice).
+fn same_device(a: &GpsSourceConfig, b: &GpsSourceConfig) -> bool {
+    match (a, b) {
+        (GpsSourceSpec::Serial { port: p, .. }, GpsSourceSpec::Serial { port: q, .. }) => p == q,
+        (GpsSourceSpec::ThroughVest { .. }, GpsSourceSpec::ThroughVest { .. }) => true,
+        _ => false,
+    }
+}

@@ -1,0 +1,257 @@
+//! Receivers side by side in one station session (issue 27): two replayed real gpsd logs, the primary and a
+//! comparison source, each on its own reader thread. The station's live comparison must say what
+//! `vestnav fieldtest compare` prints for the same logs — the recordings the station wrote beside its session
+//! log, and the original files — and two identical logs differ by nothing.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::{Duration, Instant};
+
+use vestnav_core::accuracy::Comparison;
+use vestnav_device::gps::{ReplaySpeed, SourceState};
+use vestnav_station::hardware::Hardware;
+use vestnav_station::sources::GpsSourceConfig;
+use vestnav_station::{Station, StationOptions};
+
+fn bin() -> &'static str {
+    env!("CARGO_BIN_EXE_vestnav")
+}
+
+fn data(rel: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data").join(rel)
+}
+
+fn tempdir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("vestnav-receivers-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// The log with every latitude `4404.1…` made `4404.2…` (0.1 arc-minute, about 185 m further north) and
+/// each changed sentence's checksum recomputed: a second receiver with a known offset and the same clock.
+fn shifted_copy(src: &Path, dst: &Path) {
+    let text = std::fs::read_to_string(src).unwrap();
+    let mut out = String::new();
+    for line in text.lines() {
+        match line.strip_prefix('$').and_then(|l| l.split_once('*')) {
+            Some((body, _)) if body.contains(",4404.1") => {
+                let body = body.replace(",4404.1", ",4404.2");
+                let sum = body.bytes().fold(0u8, |a, b| a ^ b);
+                write!(out, "${body}*{sum:02X}\r\n").unwrap();
+            }
+            _ => {
+                out.push_str(line);
+                out.push_str("\r\n");
+            }
+        }
+    }
+    std::fs::write(dst, out).unwrap();
+}
+
+fn replay(path: &Path) -> GpsSourceConfig {
+    GpsSourceConfig::Replay { path: path.to_owned(), speed: ReplaySpeed::Times(40.0) }
+}
+
+/// Runs a station with `primary` and one comparison source `other` until both replays end; returns the
+/// station's comparison and the two recordings it wrote.
+fn run_side_by_side(dir: &Path, primary: &Path, other: &Path) -> (Comparison, PathBuf, PathBuf) {
+    let mut station = Station::new(
+        Box::new(Hardware::default()),
+        StationOptions {
+            gps: Some(replay(primary)),
+            log_dir: Some(dir.to_owned()),
+            liveness: None,
+            ..StationOptions::default()
+        },
+    );
+    station.add_receiver(replay(other)).unwrap();
+    station.connect_gps(Vec::new());
+    let until = Instant::now() + Duration::from_secs(30);
+    let done = |s: &Station| {
+        matches!(s.gps.state, Some(SourceState::Finished))
+            && matches!(s.receivers().sources()[0].state, Some(SourceState::Finished))
+    };
+    while !done(&station) && Instant::now() < until {
+        station.pump(|_| {});
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    assert!(done(&station), "both replays must end: {:?}", station.receiver_status(0, Instant::now()));
+    // The last events after the end, then the comparison of everything.
+    for _ in 0..20 {
+        station.pump(|_| {});
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    station.recompute_receivers(Instant::now());
+    let cmp = station.receivers().comparison().cloned().expect("a comparison").expect("compared");
+    let rx1 = station.receivers().primary_recording().expect("primary recorded").path;
+    let rx2 = station.receivers().sources()[0].recording().expect("recorded").path;
+    station.remove_receiver(0);
+    station.shutdown();
+    (cmp, rx1, rx2)
+}
+
+fn cli_compare(a: &Path, b: &Path) -> serde_json::Value {
+    let out = Command::new(bin()).args(["fieldtest", "compare"]).args([a, b]).arg("--json").output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
+fn assert_same(live: &Comparison, cli: &serde_json::Value, what: &str) {
+    assert_eq!(
+        cli["matched_epochs"].as_u64().unwrap() as usize,
+        live.matched_epochs,
+        "{what}: matched epochs"
+    );
+    let d = &live.differences[0];
+    let c = &cli["differences"][0];
+    for (name, value) in [("rms_m", d.rms_m), ("p95_m", d.p95_m), ("max_m", d.max_m)] {
+        let v = c[name].as_f64().unwrap();
+        assert!((v - value).abs() <= 1e-9 * v.abs().max(1.0), "{what}: {name} CLI {v} live {value}");
+    }
+    for k in 0..2 {
+        let v = c["mean_en_m"][k].as_f64().unwrap();
+        assert!((v - d.mean_en_m[k]).abs() <= 1e-9 * v.abs().max(1.0), "{what}: mean_en_m[{k}]");
+    }
+}
+
+/// A real log (gpsd's `SkyTraq` DGPS, 96 fixes) as the primary and its copy moved 0.1' north as the second
+/// receiver: the station's live numbers equal what `fieldtest compare` prints on the recordings the station
+/// wrote and on the original files; every epoch matches; the difference is due north, about 185 m.
+#[test]
+fn side_by_side_equals_fieldtest_compare_on_the_same_logs() {
+    let dir = tempdir("shifted");
+    let a = data("gpsd-logs/skytraq-dgps.log");
+    let b = dir.join("skytraq-north.log");
+    shifted_copy(&a, &b);
+    let (live, rx1, rx2) = run_side_by_side(&dir, &a, &b);
+    assert_eq!(live.matched_epochs, 96, "{:?}", live.warnings);
+    assert_same(&live, &cli_compare(&rx1, &rx2), "the station's recordings");
+    assert_same(&live, &cli_compare(&a, &b), "the original logs");
+    // 0.1 arc-minute of latitude at 44° N: the meridian's radius of curvature M = a(1-e²)/(1-e² sin²φ)^1.5.
+    let (a_m, e2, phi) = (6_378_137.0_f64, 0.006_694_379_990_14_f64, 44.068_8_f64.to_radians());
+    let m = a_m * (1.0 - e2) / (1.0 - e2 * phi.sin().powi(2)).powf(1.5);
+    let expect = m * (0.1_f64 / 60.0).to_radians();
+    let d = &live.differences[0];
+    assert!((d.mean_en_m[1] - expect).abs() < 0.01, "north {} vs {expect}", d.mean_en_m[1]);
+    assert!(d.mean_en_m[0].abs() < 0.01, "east {}", d.mean_en_m[0]);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Two identical logs: every epoch matched, zero difference (closed form), and the CLI agrees.
+#[test]
+fn identical_receivers_differ_by_nothing() {
+    let dir = tempdir("same");
+    let a = data("gpsd-logs/skytraq-dgps.log");
+    let (live, rx1, rx2) = run_side_by_side(&dir, &a, &a);
+    assert_eq!(live.matched_epochs, 96);
+    let d = &live.differences[0];
+    assert!(d.rms_m < 1e-9 && d.max_m < 1e-9, "{d:?}");
+    assert_same(&live, &cli_compare(&rx1, &rx2), "the station's recordings");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// The console: the operator opens Field tests → Compare receivers, types the second receiver in `--gps`'s
+/// form and adds it, then the primary starts. The table's numbers are those `vestnav fieldtest compare`
+/// prints for the recordings the console wrote beside its session log, and each receiver's status is said
+/// once, in its row.
+#[test]
+fn console_compare_receivers_table_shows_what_fieldtest_compare_prints() {
+    use egui::accesskit::Role;
+    use egui_kittest::kittest::Queryable as _;
+    use vestnav_app::config::Config;
+    use vestnav_app::console::{Console, ConsoleOptions};
+
+    let dir = tempdir("console");
+    let a = data("gpsd-logs/skytraq-dgps.log");
+    let b = dir.join("skytraq-north.log");
+    shifted_copy(&a, &b);
+    let cfg = Config {
+        gps: replay(&a),
+        auto_connect: false,
+        map_tiles: false,
+        guidance_auto: false,
+        ..Config::default()
+    };
+    let console = Console::new(
+        Box::new(Hardware::default()),
+        ConsoleOptions { cfg, log_dir: Some(dir.clone()), ..ConsoleOptions::default() },
+    );
+    let mut h = egui_kittest::Harness::builder()
+        .with_size(egui::vec2(1400.0, 900.0))
+        .build_ui_state(|ui, c: &mut Console| c.ui(ui), console);
+    h.run_steps(2);
+    h.get_by_label("Field tests").click();
+    h.run_steps(2);
+    h.get_by_label("Compare receivers").click();
+    h.run_steps(2);
+    assert!(h.query_by_label("No receiver beside the primary: add one above.").is_some());
+    h.get_by_role_and_label(Role::TextInput, "source")
+        .set_text_value_accesskit(&format!("replay:{}@40", b.display()));
+    h.run_steps(1);
+    h.get_by_label("Add receiver").click();
+    h.run_steps(2);
+    assert_eq!(
+        h.state().station.receivers().sources().len(),
+        1,
+        "{:?}",
+        h.state().field_panel.receivers.error
+    );
+    h.state_mut().connect_gps();
+    let until = Instant::now() + Duration::from_secs(30);
+    let done = |c: &Console| {
+        matches!(c.station.gps.state, Some(SourceState::Finished))
+            && matches!(c.station.receivers().sources()[0].state, Some(SourceState::Finished))
+    };
+    while !done(h.state()) && Instant::now() < until {
+        h.step();
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    assert!(done(h.state()), "both replays must end");
+    for _ in 0..10 {
+        h.step();
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    h.state_mut().station.recompute_receivers(Instant::now());
+    h.run_steps(2);
+    let rx1 = h.state().station.receivers().primary_recording().unwrap().path;
+    let rx2 = h.state().station.receivers().sources()[0].recording().unwrap().path;
+    assert_eq!(rx1.parent(), h.state().log_path().and_then(Path::parent), "recorded beside the session log");
+    let cli = cli_compare(&rx1, &rx2);
+    let d = &cli["differences"][0];
+    let f = |k: &str| d[k].as_f64().unwrap();
+    let mean = format!(
+        "{:+.3} / {:+.3} m",
+        d["mean_en_m"][0].as_f64().unwrap(),
+        d["mean_en_m"][1].as_f64().unwrap()
+    );
+    let spread = format!("{:.3} / {:.3} / {:.3} m", f("rms_m"), f("p95_m"), f("max_m"));
+    let matched = format!("{} epochs matched within 0.1 s", cli["matched_epochs"]);
+    let live = h.state().station.receivers().comparison().cloned().unwrap().unwrap();
+    eprintln!(
+        "live matched {} primary fixes {} other {}",
+        live.matched_epochs,
+        h.state().station.receivers().primary_fixes(),
+        h.state().station.receivers().sources()[0].fixes()
+    );
+    for text in [&mean, &spread, &matched] {
+        assert!(h.query_by_label(text).is_some(), "the table shows {text}");
+    }
+    // Each source's state once: the primary's in the GPS panel, the second receiver's in its row.
+    // Each source's state once where it belongs: the primary's in the GPS panel (and the top bar's line),
+    // the second receiver's in its row only: no notice repeats it.
+    assert_eq!(h.query_all_by_label("end of input").count(), 2, "the GPS panel's and the row's");
+    let name = format!("2: replay:{}@40", b.display());
+    assert!(
+        !h.state().station.notices.all().iter().any(|n| n.text.contains(&name)),
+        "no notice repeats the receiver's state"
+    );
+    // Removing it ends the comparison and both recordings.
+    h.get_by_label("Remove receiver 2").click();
+    h.run_steps(2);
+    assert!(h.state().station.receivers().sources().is_empty());
+    assert!(!h.state().station.receivers().active());
+    drop(h);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
