@@ -84,6 +84,7 @@ fn run_side_by_side(dir: &Path, primary: &Path, other: &Path) -> (Comparison, Pa
         std::thread::sleep(Duration::from_millis(5));
     }
     station.recompute_receivers(Instant::now());
+    assert!(station.await_comparison(Duration::from_secs(30)), "the comparison must come");
     let cmp = station.receivers().comparison().cloned().expect("a comparison").expect("compared");
     let rx1 = station.receivers().primary_recording().expect("primary recorded").path;
     let rx2 = station.receivers().sources()[0].recording().expect("recorded").path;
@@ -214,6 +215,7 @@ fn console_compare_receivers_table_shows_what_fieldtest_compare_prints() {
         std::thread::sleep(Duration::from_millis(5));
     }
     h.state_mut().station.recompute_receivers(Instant::now());
+    assert!(h.state_mut().station.await_comparison(Duration::from_secs(30)), "the comparison must come");
     h.run_steps(2);
     let rx1 = h.state().station.receivers().primary_recording().unwrap().path;
     let rx2 = h.state().station.receivers().sources()[0].recording().unwrap().path;

@@ -5,7 +5,9 @@
 //! receiver-time line ([`crate::fieldtests::receiver_sample`], the rule `vestnav fieldtest compare` reads its
 //! logs by) and compares them with core's one [`compare`] (epochs matched by receiver time with the primary,
 //! their horizontal differences, each against the field tests' reference when one is set), at most once a
-//! second on the view's turn.
+//! second, on a thread of its own (`receivers-compare`): at the cap of five receivers of [`MAX_SAMPLES`]
+//! fixes one comparison takes about 0.4 s (`cargo bench -p vestnav-core --bench accuracy`), which must never
+//! be a frame of the view's. The view's turn only hands a copy of the fixes over and takes the result back.
 //!
 //! **Recordings.** While a comparison runs, each receiver's sentences (the primary's too) are recorded next
 //! to the session log as `<session log>.rx<k>.nmea` (the recording format of
@@ -16,7 +18,7 @@
 //! newest beyond are not compared, said once in the warnings; the recordings go on).
 
 use std::path::PathBuf;
-use std::sync::mpsc::Receiver;
+use std::sync::mpsc::{Receiver, SyncSender, TryRecvError};
 use std::time::{Duration, Instant};
 
 use vestnav_core::accuracy::{Comparison, Receiver as CompareReceiver, Sample, compare};
@@ -109,6 +111,45 @@ pub struct Receivers {
     computed_with: Option<(Option<vestnav_core::accuracy::Reference>, vestnav_core::geo::Earth)>,
     changed: bool,
     computed_at: Option<Instant>,
+    /// The comparison thread, started with the first comparison.
+    worker: Option<CompareWorker>,
+}
+
+/// What the comparison thread computes: the receivers' fixes (a copy), the reference and Earth model, and
+/// the warnings to add to its result.
+struct CompareJob {
+    receivers: Vec<CompareReceiver>,
+    reference: Option<vestnav_core::accuracy::Reference>,
+    earth: vestnav_core::geo::Earth,
+    warnings: Vec<String>,
+}
+
+/// The `receivers-compare` thread: one job at a time; it ends when its job channel is dropped.
+struct CompareWorker {
+    jobs: SyncSender<CompareJob>,
+    results: Receiver<Result<Comparison, String>>,
+    /// A job was handed over and its result not yet taken.
+    busy: bool,
+}
+
+impl CompareWorker {
+    fn start() -> std::io::Result<Self> {
+        let (jobs, job_rx) = std::sync::mpsc::sync_channel::<CompareJob>(1);
+        let (result_tx, results) = std::sync::mpsc::sync_channel(1);
+        std::thread::Builder::new().name("receivers-compare".into()).spawn(move || {
+            for job in job_rx {
+                let mut result = compare(&job.receivers, job.reference.as_ref(), TOLERANCE_S, job.earth)
+                    .map_err(|e| e.to_string());
+                if let Ok(c) = &mut result {
+                    c.warnings.extend(job.warnings);
+                }
+                if result_tx.send(result).is_err() {
+                    return;
+                }
+            }
+        })?;
+        Ok(Self { jobs, results, busy: false })
+    }
 }
 
 impl Receivers {
@@ -147,6 +188,25 @@ impl Receivers {
                 .map(|s| CompareReceiver { name: s.name.clone(), samples: s.samples.samples.clone() }),
         );
         all
+    }
+
+    /// Takes the comparison thread's result, if one came.
+    fn take_result(&mut self) {
+        let Some(w) = self.worker.as_mut().filter(|w| w.busy) else { return };
+        match w.results.try_recv() {
+            Ok(result) => {
+                w.busy = false;
+                // A result computed before the last receiver was removed is not shown.
+                if self.active {
+                    self.comparison = Some(result);
+                }
+            }
+            Err(TryRecvError::Empty) => {}
+            Err(TryRecvError::Disconnected) => {
+                self.worker = None;
+                self.comparison = Some(Err("the comparison thread ended".to_owned()));
+            }
+        }
     }
 
     /// The primary's recording tap, for the primary source's outputs.
@@ -323,6 +383,7 @@ impl Station {
                 }
             }
         }
+        r.take_result();
         let with = (self.field_tests.reference().cloned(), self.field_tests.earth);
         if r.computed_with.as_ref() != Some(&with) {
             r.changed = true;
@@ -336,29 +397,63 @@ impl Station {
         self.recompute_receivers(now);
     }
 
-    /// Recomputes the comparison now (the view calls it when the reference changed; the pump once a second).
+    /// Hands the comparison to its thread now (the pump does it at most once a second when fixes came);
+    /// the result replaces [`Receivers::comparison`] on a later [`Station::pump`]. While one is being
+    /// computed another is not started: the next pump after its result starts it.
     pub fn recompute_receivers(&mut self, now: Instant) {
         let primary = primary_name(&self.gps_source);
+        let reference = self.field_tests.reference().cloned();
+        let earth = self.field_tests.earth;
         let r = &mut self.receivers;
-        if !r.active {
+        if !r.active || r.worker.as_ref().is_some_and(|w| w.busy) {
             return;
         }
-        let receivers = r.receivers(&primary);
-        let earth = self.field_tests.earth;
-        let mut result =
-            compare(&receivers, self.field_tests.reference(), TOLERANCE_S, earth).map_err(|e| e.to_string());
-        let over: Vec<String> = std::iter::once((&primary, r.primary.over))
+        if r.worker.is_none() {
+            match CompareWorker::start() {
+                Ok(w) => r.worker = Some(w),
+                Err(e) => {
+                    r.comparison = Some(Err(format!("the comparison thread could not start: {e}")));
+                    return;
+                }
+            }
+        }
+        let warnings: Vec<String> = std::iter::once((&primary, r.primary.over))
             .chain(r.sources.iter().map(|s| (&s.name, s.samples.over)))
             .filter(|(_, over)| *over > 0)
             .map(|(n, over)| format!("{n}: {over} fixes beyond {MAX_SAMPLES} not compared"))
             .collect();
-        if let Ok(c) = &mut result {
-            c.warnings.extend(over);
+        let job =
+            CompareJob { receivers: r.receivers(&primary), reference: reference.clone(), earth, warnings };
+        let Some(w) = r.worker.as_mut() else { return };
+        if w.jobs.send(job).is_err() {
+            r.worker = None;
+            r.comparison = Some(Err("the comparison thread ended".to_owned()));
+            return;
         }
-        r.comparison = Some(result);
-        r.computed_with = Some((self.field_tests.reference().cloned(), earth));
+        w.busy = true;
+        r.computed_with = Some((reference, earth));
         r.changed = false;
         r.computed_at = Some(now);
+    }
+
+    /// Waits up to `timeout` for the comparison being computed and takes it (a headless caller that wants
+    /// the result of [`Station::recompute_receivers`] before going on; the view never waits). True when no
+    /// comparison is being computed any more.
+    pub fn await_comparison(&mut self, timeout: Duration) -> bool {
+        let r = &mut self.receivers;
+        let Some(w) = r.worker.as_mut().filter(|w| w.busy) else { return true };
+        match w.results.recv_timeout(timeout) {
+            Ok(result) => {
+                w.busy = false;
+                r.comparison = Some(result);
+                true
+            }
+            Err(std::sync::mpsc::RecvTimeoutError::Timeout) => false,
+            Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => {
+                r.worker = None;
+                true
+            }
+        }
     }
 
     /// Stops every comparison source (the station is shutting down).
