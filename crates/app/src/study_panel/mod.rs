@@ -150,6 +150,7 @@ fn phase_words(phase: StudyPhase) -> (&'static str, bool) {
         StudyPhase::Ready => ("READY: press Start", false),
         StudyPhase::Presenting => ("PRESENTING: the vest plays the stimulus", false),
         StudyPhase::AwaitingResponse => ("AWAITING RESPONSE: click what the wearer reports", false),
+        StudyPhase::Navigating => ("NAVIGATING: the wearer walks the route under guidance", false),
         StudyPhase::Feedback => ("FEEDBACK", false),
         StudyPhase::Interval => ("INTERVAL: the next trial follows", false),
         StudyPhase::Paused => ("PAUSED: nothing is presented until Resume", false),

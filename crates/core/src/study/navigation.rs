@@ -1,6 +1,7 @@
 //! The measures of one navigation trial ([`NavMeter`]), from the positions the wearer's receiver gave while
-//! the trial ran: the distance walked, the route's length, and the cross-track error's root mean square.
-//! The results columns `path_m`, `route_m` and `cross_track_rms_m` (`docs/study.md`) come from here.
+//! the trial ran: the distance walked, the route's length, the cross-track error's root mean square and the
+//! waypoints never reached. The results columns `path_m`, `route_m`, `cross_track_rms_m` and
+//! `missed_waypoints` (`docs/study.md`) come from here.
 
 use crate::geo::{Earth, LatLon};
 use crate::guidance::path_offset;
@@ -17,6 +18,8 @@ pub struct NavMeter {
     sum_sq_m2: f64,
     samples: usize,
     last_cross_track_m: Option<f64>,
+    /// Each waypoint with its arrival radius [m], and whether a position came inside it.
+    waypoints: Vec<(LatLon, f64, bool)>,
 }
 
 impl NavMeter {
@@ -37,7 +40,21 @@ impl NavMeter {
             sum_sq_m2: 0.0,
             samples: 0,
             last_cross_track_m: None,
+            waypoints: Vec::new(),
         })
+    }
+
+    /// The route's waypoints, each with its arrival radius [m]: one counts as reached once a position
+    /// comes within its radius.
+    #[must_use]
+    pub fn with_waypoints(mut self, waypoints: impl IntoIterator<Item = (LatLon, f64)>) -> Self {
+        self.waypoints = waypoints.into_iter().map(|(p, r)| (p, r, false)).collect();
+        self
+    }
+
+    /// Waypoints no position came within the arrival radius of (so far).
+    pub fn missed_waypoints(&self) -> usize {
+        self.waypoints.iter().filter(|w| !w.2).count()
     }
 
     /// One position of the wearer, in the order they came.
@@ -50,6 +67,11 @@ impl NavMeter {
             self.path_m += self.earth.distance_m(last, p);
         }
         self.last = Some(p);
+        for (w, radius_m, reached) in &mut self.waypoints {
+            if !*reached && self.earth.distance_m(*w, p) <= *radius_m {
+                *reached = true;
+            }
+        }
         if let Some(off) = path_offset(self.earth, &self.route, p) {
             self.sum_sq_m2 += off.cross_track_m * off.cross_track_m;
             self.samples += 1;
@@ -115,6 +137,20 @@ mod tests {
         // Each step: 10 m north and 7 m across.
         assert_relative_eq!(m.path_m(), 9.0 * (100.0f64 + 49.0).sqrt(), max_relative = 1e-4);
         assert_eq!(m.samples(), 10);
+    }
+
+    #[test]
+    fn a_waypoint_counts_as_reached_inside_its_radius_only() {
+        let earth = Earth::ThesisSphere;
+        let deg_m = earth_deg_m();
+        let (a, b, c) = (ll(0.0, 0.0), ll(0.0, 50.0 / deg_m), ll(0.0, 100.0 / deg_m));
+        let mut m =
+            NavMeter::new(vec![a, b, c], earth).unwrap().with_waypoints([(a, 5.0), (b, 5.0), (c, 5.0)]);
+        assert_eq!(m.missed_waypoints(), 3);
+        m.fix(ll(4.9 / deg_m, 0.0));
+        m.fix(ll(5.1 / deg_m, 50.0 / deg_m));
+        m.fix(c);
+        assert_eq!(m.missed_waypoints(), 1, "b was passed 5.1 m off");
     }
 
     fn earth_deg_m() -> f64 {
