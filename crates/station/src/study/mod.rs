@@ -582,7 +582,9 @@ impl StudyRunner {
         };
         self.end_trial(Outcome::Refused, &format!("stimulus refused: {reason}"), io);
         self.at += 1;
-        self.pause(Some(format!("trial {n}: {what}; recorded as refused; Resume goes on with the next trial")));
+        self.pause(Some(format!(
+            "trial {n}: {what}; recorded as refused; Resume goes on with the next trial"
+        )));
     }
 
     fn pause(&mut self, why: Option<String>) {

@@ -23,6 +23,8 @@ pub const DEFAULT_TIME_LIMIT_S: f64 = 3600.0;
 /// The route a navigation trial walks, as the station loaded it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct NavRoute {
+    /// The trial's first instant on the session clock: fixes from then on are the trial's.
+    pub start_s: f64,
     /// The route's name.
     pub name: String,
     /// Its polyline: the planned path when the file has one, else the straight legs between waypoints.
@@ -161,7 +163,7 @@ impl StudyRunner {
             self.refused("navigation not started: the route has fewer than two points", io);
             return;
         };
-        let now = io.now_s();
+        let now = route.start_s;
         io.marker(&format!("navigation_start {}", t.stimulus.label()), now);
         if let Some(r) = &mut self.running {
             r.on_s = Some(now);

@@ -96,12 +96,20 @@ impl StudyIo for Io<'_> {
         s.guidance.auto = true;
         st.set_settings(s);
         // The built-in simulator walks the station's route: it starts again on this one, from its start.
-        if matches!(st.gps_source, GpsSourceConfig::Simulator { route: None }) && st.gps_worker.is_some() {
+        // The old walker has ended before the trial's first instant, the new one starts after it.
+        let restart =
+            matches!(st.gps_source, GpsSourceConfig::Simulator { route: None }) && st.gps_worker.is_some();
+        if restart {
+            st.disconnect_gps();
+        }
+        let (since, start_s) = (Instant::now(), st.study_clock_s());
+        if restart {
             st.connect_gps(st.gps_taps.clone());
         }
-        st.study.nav_since = Some((Instant::now(), st.route.revision()));
+        st.study.nav_since = Some((since, st.route.revision()));
         let radius = |w: &crate::route::Waypoint| w.arrival_radius_m.unwrap_or(s.guidance.arrival_radius_m);
         Ok(NavRoute {
+            start_s,
             name,
             polyline: gpx.path.as_ref().map_or_else(
                 || gpx.waypoints.iter().map(crate::route::Waypoint::pos).collect(),

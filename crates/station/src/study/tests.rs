@@ -43,7 +43,8 @@ impl StudyIo for Script {
     fn hold_guidance(&mut self) {}
     fn start_navigation(&mut self, _: &Stimulus) -> Result<NavRoute, String> {
         self.nav_starts += 1;
-        self.route.clone().ok_or_else(|| "no route in this script".to_owned())
+        let route = self.route.clone().ok_or_else(|| "no route in this script".to_owned())?;
+        Ok(NavRoute { start_s: self.now, ..route })
     }
     fn end_navigation(&mut self) {
         self.nav_ends += 1;
@@ -278,7 +279,12 @@ fn nav_runner(name: &str) -> (StudyRunner, PathBuf, Script) {
     let timing = Timing { iti_s: 9.0, ..TIMING };
     let r = StudyRunner::load(&p, "P1", "S1", &d, &Limits::default(), timing).unwrap();
     let (a, b) = (LatLon::new(0.0, 0.0), LatLon::new(0.001, 0.0));
-    let route = NavRoute { name: "r".into(), polyline: vec![a, b], waypoints: vec![(a, 5.0), (b, 5.0)] };
+    let route = NavRoute {
+        start_s: 0.0,
+        name: "r".into(),
+        polyline: vec![a, b],
+        waypoints: vec![(a, 5.0), (b, 5.0)],
+    };
     (r, d, Script { route: Some(route), ..Script::default() })
 }
 
