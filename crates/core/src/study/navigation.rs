@@ -45,10 +45,14 @@ impl NavMeter {
     }
 
     /// The route's waypoints, each with its arrival radius [m]: one counts as reached once a position
-    /// comes within its radius.
+    /// comes within its radius. The route's length becomes the walk that completes it: its polyline up to
+    /// the last waypoint's arrival circle, `length - radius` (at least 0), as guidance ends the route there.
     #[must_use]
     pub fn with_waypoints(mut self, waypoints: impl IntoIterator<Item = (LatLon, f64)>) -> Self {
         self.waypoints = waypoints.into_iter().map(|(p, r)| (p, r, false)).collect();
+        if let Some((_, radius_m, _)) = self.waypoints.last() {
+            self.route_m = (self.route_m - radius_m).max(0.0);
+        }
         self
     }
 
@@ -79,7 +83,8 @@ impl NavMeter {
         }
     }
 
-    /// The route's length [m].
+    /// The route's length [m]: along its polyline, less the last waypoint's arrival radius when the
+    /// waypoints are known ([`Self::with_waypoints`]).
     pub fn route_m(&self) -> f64 {
         self.route_m
     }
@@ -151,6 +156,7 @@ mod tests {
         m.fix(ll(5.1 / deg_m, 50.0 / deg_m));
         m.fix(c);
         assert_eq!(m.missed_waypoints(), 1, "b was passed 5.1 m off");
+        assert_relative_eq!(m.route_m(), 95.0, max_relative = 1e-9);
     }
 
     fn earth_deg_m() -> f64 {

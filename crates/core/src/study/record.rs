@@ -188,7 +188,10 @@ pub const CSV_COLUMNS: [(&str, &str); 25] = [
     ),
     ("completion_s", "navigation: time from start to the end of the route [s]"),
     ("path_m", "navigation: distance walked [m]"),
-    ("route_m", "navigation: route length [m]"),
+    (
+        "route_m",
+        "navigation: the route's length up to the last waypoint's arrival radius, the shortest walk that completes it [m]",
+    ),
     ("cross_track_rms_m", "navigation: root mean square of the cross-track error [m]"),
     ("cues", "navigation: cues played"),
     ("stops", "navigation: stops during the walk"),
