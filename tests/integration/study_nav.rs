@@ -145,13 +145,23 @@ fn a_navigation_study_walked_by_the_simulator_completes_every_trial_with_checked
     }))
     .unwrap();
     // The session clock as an instant: fixes belong to a trial from its start on.
-    let epoch = Instant::now() - Duration::from_secs_f64(s.study_clock_s());
+    let epoch = Instant::now().checked_sub(Duration::from_secs_f64(s.study_clock_s())).unwrap();
     s.apply(StationCommand::Study(StudyCommand::Start)).unwrap();
+    let (fixes, plays) = run_to_the_end(&mut s, &unit);
+    check_rows(&s, epoch, &fixes, &plays);
+    drop(s);
+    let _ = std::fs::remove_dir_all(&dir);
+}
 
-    // Every fix a pump hands out while a trial walks, by trial; the unit's PLAY frames throughout.
-    let mut fixes: Vec<Vec<(Instant, (f64, f64))>> = vec![Vec::new(); 4];
+/// Fixes by trial: when each arrived, where.
+type Walks = Vec<Vec<(Instant, (f64, f64))>>;
+
+/// Pumps until the session is over: every fix a pump hands out while a trial walks, by trial, and the
+/// unit's PLAY frames throughout.
+fn run_to_the_end(s: &mut Station, unit: &PtyEmulator) -> (Walks, BTreeSet<String>) {
+    let mut fixes: Walks = vec![Vec::new(); 4];
     let mut plays = BTreeSet::new();
-    let end = Instant::now() + Duration::from_secs(120);
+    let end = Instant::now() + Duration::from_mins(2);
     loop {
         let v = s.study_view().unwrap();
         if v.phase.is_over() {
@@ -168,12 +178,18 @@ fn a_navigation_study_walked_by_the_simulator_completes_every_trial_with_checked
                 fixes[k].push((at, (la, lo)));
             }
         });
-        plays_seen(&unit, &mut plays);
+        plays_seen(unit, &mut plays);
         std::thread::sleep(Duration::from_millis(2));
     }
     // A cue handed to the vest as the last trial ended reaches the unit a moment later.
     std::thread::sleep(Duration::from_millis(300));
-    plays_seen(&unit, &mut plays);
+    plays_seen(unit, &mut plays);
+    (fixes, plays)
+}
+
+/// Every row completed, its measures against the closed forms on the trial's fixes, its cues against the
+/// unit's PLAY frames.
+fn check_rows(s: &Station, epoch: Instant, fixes: &Walks, plays: &BTreeSet<String>) {
     let v = s.study_view().unwrap();
     assert_eq!(v.phase, StudyPhase::Finished);
     let rows: Vec<TrialRecord> = vestnav_core::study::record::read_csv_file(&v.results_csv).unwrap();
@@ -223,6 +239,4 @@ fn a_navigation_study_walked_by_the_simulator_completes_every_trial_with_checked
     let analysis = vestnav_core::study::analyze(&rows);
     assert_eq!(analysis.navigation.len(), 2);
     assert!(analysis.navigation.iter().all(|c| c.trials == 2 && c.completed == 2));
-    drop(s);
-    let _ = std::fs::remove_dir_all(&dir);
 }
