@@ -92,6 +92,11 @@ impl StudyIo for Io<'_> {
         st.route
             .replace_with_path(name.clone(), gpx.waypoints.clone(), gpx.path.clone())
             .map_err(|e| format!("{}: {e}", route.display()))?;
+        // Guidance takes the route before the settings that turn its cues on: no cue toward the old route.
+        st.push_route();
+        if st.route_sent != Some(st.route.revision()) {
+            return Err("guidance did not take the route (its queue is full)".to_owned());
+        }
         st.set_settings(s);
         s.guidance.auto = true;
         st.set_settings(s);
