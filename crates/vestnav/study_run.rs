@@ -1,7 +1,9 @@
 //! `vestnav study run`: one session of a study protocol on a vest, from a terminal — the station's trial
 //! runner (`vestnav_station::study`) with no window. The operator types what the wearer reported after each
 //! stimulus (a label such as `T5` or a pattern's name), or `p` (pause), `r` (resume), `a` (abort), `stop`
-//! (STOP ALL); a simulated wearer (`--wearer sim:P`) answers by itself for demos and tests.
+//! (STOP ALL), `e` (end the navigation trial under way); a simulated wearer (`--wearer sim:P`) answers by
+//! itself for demos and tests. Navigation trials walk their route under the station's guidance (`--gps`;
+//! `--gps sim` walks each trial's route with the built-in simulator).
 //!
 //! Every finished trial is already in the results CSV (fsynced) when the next starts; the JSON is written at
 //! the end. SIGINT (Ctrl-C), SIGTERM and SIGHUP stop the vest first through the stop path, then the session
@@ -62,13 +64,14 @@ pub struct StudyRunArgs {
     /// Open Sound Control messages to HOST:PORT over UDP (docs/study.md).
     #[arg(long, value_name = "HOST:PORT", value_parser = vestnav_station::lab::parse_osc_target)]
     pub osc: Option<std::net::SocketAddr>,
-    /// Inter-trial interval [ms].
+    /// Inter-trial interval [ms] (the protocol's `iti_ms` wins when it has one).
     #[arg(long, value_name = "MS", default_value_t = 1000)]
     pub iti_ms: u32,
-    /// How long feedback is shown at least in feedback blocks [ms].
+    /// How long feedback is shown at least in feedback blocks [ms] (the protocol's `feedback_ms` wins).
     #[arg(long, value_name = "MS", default_value_t = 1000)]
     pub feedback_ms: u32,
-    /// Record a trial as no response after this many seconds from stimulus onset (default: wait).
+    /// Record a trial as no response after this many seconds from stimulus onset (default: wait; the
+    /// protocol's `response_timeout_s` wins).
     #[arg(long, value_name = "SECONDS")]
     pub response_timeout: Option<f64>,
 }
@@ -113,7 +116,11 @@ pub fn run(a: &StudyRunArgs) -> anyhow::Result<()> {
             v.results_csv.display()
         );
         if a.wearer.is_none() {
-            eprintln!("answers: {} · p pause · r resume · a abort · stop STOP ALL", v.choices.join(" "));
+            if v.choices.is_empty() {
+                eprintln!("e end the trial · p pause · r resume · a abort · stop STOP ALL");
+            } else {
+                eprintln!("answers: {} · p pause · r resume · a abort · stop STOP ALL", v.choices.join(" "));
+            }
         }
     }
     if let Some(p) = station.log_path() {
@@ -242,6 +249,17 @@ impl Prompter {
     fn show(&mut self, v: &vestnav_station::study::StudyView, station: &Station) {
         if v.rows > self.rows {
             self.rows = v.rows;
+            if let Some(n) = v.navigation.as_ref().filter(|_| v.last.is_none()) {
+                println!(
+                    "  walked {:.0} m of a {:.0} m route in {:.0} s; cross-track RMS {}; {} cues; {} missed waypoints",
+                    n.path_m,
+                    n.route_m,
+                    n.elapsed_s,
+                    n.cross_track_rms_m.map_or_else(|| "-".to_owned(), |x| format!("{x:.1} m")),
+                    n.cues,
+                    n.missed_waypoints
+                );
+            }
             if let Some(l) = &v.last {
                 let mark = if l.correct { "correct" } else { "wrong" };
                 if v.phase == StudyPhase::Feedback {
@@ -266,6 +284,18 @@ impl Prompter {
                 println!("trial {}/{} [{}{training}]: stimulus on", v.trial + 1, v.trials, v.block_name);
             }
             StudyPhase::AwaitingResponse => println!("  answer?"),
+            StudyPhase::Navigating => {
+                let training = if v.training { " training" } else { "" };
+                let (route, setup) = v.navigation.as_ref().map_or((String::new(), String::new()), |n| {
+                    (format!("{}/{}", n.route, n.condition), n.setup.clone())
+                });
+                println!(
+                    "trial {}/{} [{}{training}]: walk {route} ({setup})",
+                    v.trial + 1,
+                    v.trials,
+                    v.block_name
+                );
+            }
             StudyPhase::Paused => {
                 let stop = station.stop_alarm(Instant::now()).map(|a| vestnav_station::stop_alarm_text(&a));
                 println!(
@@ -314,6 +344,7 @@ fn typed(line: &str, station: &mut Station) {
         "p" | "pause" => Command::Study(StudyCommand::Pause),
         "r" | "resume" => Command::Study(StudyCommand::Resume),
         "a" | "abort" => Command::Study(StudyCommand::Abort),
+        "e" | "end" => Command::Study(StudyCommand::EndTrial),
         "stop" => Command::StopAll,
         answer => Command::Study(StudyCommand::Respond { answer: answer.to_owned() }),
     };

@@ -30,6 +30,7 @@ mod sim_tactor;
 mod sim_wave;
 mod study;
 #[cfg(unix)]
+mod study_nav;
 mod study_run;
 mod tiles_cli;
 // Several tests of each serve the emulated unit on a PTY (`PtyEmulator::spawn` exists on Unix only), so

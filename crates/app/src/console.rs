@@ -160,6 +160,7 @@ pub fn station_settings(cfg: &Config) -> StationSettings {
             heading_mode: cfg.heading_mode,
             off_path_m: cfg.off_path_m,
             reroute_after_s: cfg.reroute_after_s,
+            turn_in_place: vestnav_station::guidance::default_turn_in_place(),
         },
         lost_after_s: cfg.lost_after_s,
     }

@@ -70,6 +70,15 @@ pub struct GuidanceSettings {
     /// (`command::ranges::REROUTE_AFTER_S`).
     #[serde(default = "default_reroute_after_s")]
     pub reroute_after_s: f64,
+    /// Turn-on-the-spot cues for a wearer standing still (the `turn-in-place` cue set); off: the walking
+    /// cues only (a study condition's `cue_set = "walking"`).
+    #[serde(default = "default_turn_in_place")]
+    pub turn_in_place: bool,
+}
+
+/// Guidance's default cue set: with the turn-in-place cues (settings saved before it existed still load).
+pub fn default_turn_in_place() -> bool {
+    GuidanceConfig::default().turn_in_place
 }
 
 /// Guidance's default distance off a path [m] (settings saved before it existed still load).
@@ -171,6 +180,7 @@ pub fn engine_config(s: &GuidanceSettings) -> (GuidanceConfig, RouteConfig) {
         manual_hold_s: s.manual_hold_s,
         off_path_m: s.off_path_m,
         off_path_s: s.reroute_after_s,
+        turn_in_place: s.turn_in_place,
         ..GuidanceConfig::default()
     };
     let r = RouteConfig {
@@ -571,6 +581,7 @@ mod tests {
             heading_mode: HeadingMode::Cog,
             off_path_m: 20.0,
             reroute_after_s: 15.0,
+            turn_in_place: true,
         };
         let _t = spawn(in_rx, settings, ui, None).unwrap();
         let vest =

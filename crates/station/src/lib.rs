@@ -105,6 +105,7 @@ impl Default for StationSettings {
                 heading_mode: vestnav_core::guidance::HeadingMode::Auto,
                 off_path_m: guidance::default_off_path_m(),
                 reroute_after_s: guidance::default_reroute_after_s(),
+                turn_in_place: guidance::default_turn_in_place(),
             },
             lost_after_s: 10.0,
         }
@@ -176,6 +177,8 @@ pub struct Station {
     /// Settings guidance has not taken yet (a full channel never loses a change: retried every pump).
     settings_pending: bool,
     gps_worker: Option<Box<dyn GpsWorker>>,
+    /// The taps of the last [`Self::connect_gps`] (a study's navigation trial restarts the simulator).
+    gps_taps: Vec<Outbox<GpsEvent>>,
     vest_link: Option<Arc<VestHandle>>,
     view_beat: Option<Heartbeat>,
     stop: StopPath,
@@ -277,6 +280,7 @@ impl Station {
             route_sent: None,
             settings_pending: false,
             gps_worker: None,
+            gps_taps: Vec::new(),
             vest_link: None,
             view_beat: None,
             stop,
@@ -433,6 +437,7 @@ impl Station {
         }
         outputs.push(self.lab.gps_sink());
         outputs.push(self.receivers.primary_outbox());
+        self.gps_taps.clone_from(&taps);
         outputs.extend(taps);
         self.gps = GpsState::default();
         self.diagnosed.clear();
@@ -705,18 +710,17 @@ impl Station {
         }
         self.take_port_findings();
         self.pump_ntrip();
-        self.study_pump(&vest_events);
-        let mut latest = None;
-        let cues = &mut self.cues;
-        drain_within(&self.guidance_rx, DRAIN_BUDGET, |st: GuidanceStatus| {
+        let mut statuses = Vec::new();
+        drain_within(&self.guidance_rx, DRAIN_BUDGET, |st: GuidanceStatus| statuses.push(st));
+        for st in &statuses {
             if st.sent
                 && let Some(cue) = st.cue
             {
-                cues.push(cue, Instant::now());
+                self.cues.push(cue, Instant::now());
             }
-            latest = Some(st);
-        });
-        if let Some(st) = latest {
+        }
+        self.study_pump(&vest_events, &gps_events, &statuses);
+        if let Some(st) = statuses.pop() {
             if st.route_revision == self.route.revision() && st.next != self.route.next() {
                 // Guidance moved on (an arrival) on the route it has: the route's next follows, and
                 // guidance need not hear it back.

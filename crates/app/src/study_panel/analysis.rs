@@ -299,7 +299,8 @@ impl AnalysisView {
     }
 }
 
-/// The analysis's numbers: percent correct, information transfer with its bias note, response times.
+/// The analysis's numbers: percent correct, information transfer with its bias note, response times; for
+/// navigation trials the summary per condition.
 fn numbers_ui(ui: &mut egui::Ui, a: &StudyAnalysis) {
     let task = a.task.map_or("mixed or unknown task", |t| t.name());
     ui.label(format!(
@@ -311,6 +312,12 @@ fn numbers_ui(ui: &mut egui::Ui, a: &StudyAnalysis) {
         a.outcomes.iter().filter(|(_, n)| *n > 0).map(|(name, n)| format!("{name} {n}")).collect();
     ui.label(format!("{} trials: {}", a.trials, outcomes.join(", ")));
     let big = |t: String| RichText::new(t).size(18.0).strong();
+    if !a.navigation.is_empty() {
+        navigation_ui(ui, a);
+    }
+    if a.task == Some(vestnav_core::study::Task::Navigation) {
+        return;
+    }
     match a.percent_correct {
         Some(p) => ui.label(big(format!(
             "Percent correct: {p:.1} % ({} of {} answered test trials)",
@@ -333,4 +340,39 @@ fn numbers_ui(ui: &mut egui::Ui, a: &StudyAnalysis) {
             rt.median_ms, rt.q1_ms, rt.q3_ms, rt.mean_ms, rt.n
         ));
     }
+}
+
+/// The navigation summary: one row per condition, as `vestnav study analyze` prints it.
+fn navigation_ui(ui: &mut egui::Ui, a: &StudyAnalysis) {
+    let f = |x: Option<f64>, digits: usize| x.map_or_else(|| "–".to_owned(), |x| format!("{x:.digits$}"));
+    ui.label(RichText::new("Navigation by condition").size(18.0).strong());
+    egui::Grid::new("study-navigation").striped(true).show(ui, |ui| {
+        for h in [
+            "condition",
+            "walks",
+            "completed",
+            "completion [s]",
+            "path / route",
+            "cross-track RMS [m]",
+            "cues",
+            "stops",
+            "missed waypoints",
+        ] {
+            ui.label(RichText::new(h).strong());
+        }
+        ui.end_row();
+        for c in &a.navigation {
+            ui.label(&c.condition);
+            ui.label(c.trials.to_string());
+            ui.label(c.completed.to_string());
+            ui.label(f(c.completion_mean_s, 0));
+            ui.label(f(c.path_ratio_mean, 2));
+            ui.label(f(c.cross_track_rms_mean_m, 2));
+            ui.label(f(c.cues_mean, 1));
+            ui.label(c.stops_total.to_string());
+            ui.label(c.missed_waypoints_total.to_string());
+            ui.end_row();
+        }
+    });
+    ui.label(RichText::new("means per walk; completion time over the completed walks only").small());
 }

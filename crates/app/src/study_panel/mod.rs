@@ -4,7 +4,8 @@
 //! `vestnav study check` checks it — the file's own line-numbered error is shown and the file is only
 //! read), the participant (from the protocol's list or typed), the session and the results folder, then
 //! Load, Start, Pause, Resume and Abort (Abort asks first). While the study runs, the operator clicks on
-//! the large 4x4 back view (localization) or the pattern list what the wearer reported. Everything shown —
+//! the large 4x4 back view (localization) or the pattern list what the wearer reported; a navigation trial
+//! shows its route, condition, elapsed time, cross-track error and cues, and an End trial button. Everything shown —
 //! trial n/N, block, training or test, phase, the feedback, the last response time, the results file, the
 //! lab outputs — is the station's own report ([`vestnav_station::command::Snapshot`]'s `study` and `lab`),
 //! never what this tab sent: the runner lives in the station (`vestnav_station::study`), and this tab only
@@ -150,6 +151,7 @@ fn phase_words(phase: StudyPhase) -> (&'static str, bool) {
         StudyPhase::Ready => ("READY: press Start", false),
         StudyPhase::Presenting => ("PRESENTING: the vest plays the stimulus", false),
         StudyPhase::AwaitingResponse => ("AWAITING RESPONSE: click what the wearer reports", false),
+        StudyPhase::Navigating => ("NAVIGATING: the wearer walks the route under guidance", false),
         StudyPhase::Feedback => ("FEEDBACK", false),
         StudyPhase::Interval => ("INTERVAL: the next trial follows", false),
         StudyPhase::Paused => ("PAUSED: nothing is presented until Resume", false),
@@ -430,6 +432,7 @@ impl StudyPanel {
                 p,
                 StudyPhase::Presenting
                     | StudyPhase::AwaitingResponse
+                    | StudyPhase::Navigating
                     | StudyPhase::Feedback
                     | StudyPhase::Interval
             );
@@ -475,6 +478,9 @@ impl StudyPanel {
             ui.label(RichText::new(e).strong().color(ui.visuals().error_fg_color));
         }
         ui.add_space(6.0);
+        if let Some(c) = navigation_ui(ui, v) {
+            send = Some(c);
+        }
         if let Some(answer) = answer_ui(ui, v) {
             send = Some(StudyCommand::Respond { answer });
         }
@@ -576,6 +582,40 @@ impl StudyPanel {
             }
         }
     }
+}
+
+/// A navigation trial: the route and condition, the elapsed time against the limit, the cross-track error and
+/// its RMS, the distance walked and the cues, as the runner measured them at its last turn; the End trial
+/// button while the wearer walks. Returns the command clicked.
+fn navigation_ui(ui: &mut egui::Ui, v: &StudyView) -> Option<StudyCommand> {
+    let n = v.navigation.as_ref()?;
+    let walking = v.phase == StudyPhase::Navigating;
+    let head = if walking { "Walking" } else { "Last walk" };
+    ui.label(
+        RichText::new(format!("{head}: route {} · condition {}", n.route, n.condition)).size(18.0).strong(),
+    );
+    ui.label(&n.setup);
+    let m = |x: Option<f64>| x.map_or_else(|| "–".to_owned(), |x| format!("{x:+.1} m"));
+    ui.label(
+        RichText::new(format!(
+            "elapsed {:.0} s of {:.0} s · cross-track {} (RMS {}) · walked {:.0} of {:.0} m · {} cues · {} \
+             waypoints not reached · {} fixes",
+            n.elapsed_s,
+            n.time_limit_s,
+            m(n.cross_track_m),
+            n.cross_track_rms_m.map_or_else(|| "–".to_owned(), |x| format!("{x:.1} m")),
+            n.path_m,
+            n.route_m,
+            n.cues,
+            n.missed_waypoints,
+            n.fixes
+        ))
+        .size(16.0),
+    );
+    let end = ui
+        .add_enabled(walking, egui::Button::new(RichText::new("End trial").size(18.0).strong()))
+        .on_hover_text("End this walk now (recorded as ended, with what was measured so far)");
+    end.clicked().then_some(StudyCommand::EndTrial)
 }
 
 /// The answer buttons: the 4x4 back view for a localization study whose choices are the 16 tactors, else

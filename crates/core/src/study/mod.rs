@@ -6,6 +6,7 @@
 //!   square), the same on every machine;
 //! - [`record`]: one [`TrialRecord`] per trial, the tidy results CSV and JSON;
 //! - [`info`]: confusion matrices and information transfer (maximum likelihood, its bias);
+//! - [`navigation`]: one navigation trial's path length, route length and cross-track RMS;
 //! - [`analysis`]: percent correct, IT, response times, learning curve, localization map, navigation.
 //!
 //! Pure like the rest of core: the runner (vestnav-station) owns the clock, the vest and the files it
@@ -32,6 +33,7 @@
 
 pub mod analysis;
 pub mod info;
+pub mod navigation;
 mod parse;
 pub mod plan;
 pub mod protocol;
@@ -39,5 +41,5 @@ pub mod record;
 
 pub use analysis::{StudyAnalysis, analyze};
 pub use plan::{PlannedTrial, plan};
-pub use protocol::{Block, Order, Protocol, ProtocolError, Stimulus, Task};
+pub use protocol::{Block, Order, Protocol, ProtocolError, Stimulus, Task, TimingKeys};
 pub use record::{CSV_COLUMNS, Outcome, TrialRecord, read_csv, write_csv, write_json};

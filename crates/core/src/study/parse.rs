@@ -8,7 +8,8 @@ use toml::Spanned;
 
 use super::protocol::{
     Block, CUE_SETS, DEFAULT_INTENSITY, DEFAULT_ON_MS, MAX_FRAMES, MAX_PARTICIPANTS, MAX_PATTERN_FILE_BYTES,
-    MAX_STIMULI, MAX_TRIALS, Order, Problem, Protocol, ProtocolError, Stimulus, Task, parse_mask_label,
+    MAX_STIMULI, MAX_TRIALS, Order, Problem, Protocol, ProtocolError, RESPONSE_TIMEOUT_S, Stimulus,
+    TIME_LIMIT_S, TIMING_MS, Task, TimingKeys, parse_mask_label,
 };
 use crate::guidance::{HeadingMode, StrategyKind};
 use crate::vest::{Cue, Frame, Pattern, TACTOR_COUNT, TactorMask};
@@ -44,6 +45,12 @@ struct RawProtocol {
     order: Option<Spanned<String>>,
     #[serde(default)]
     seed: Option<Spanned<i64>>,
+    #[serde(default)]
+    iti_ms: Option<Spanned<i64>>,
+    #[serde(default)]
+    feedback_ms: Option<Spanned<i64>>,
+    #[serde(default)]
+    response_timeout_s: Option<Spanned<f64>>,
     #[serde(default, rename = "block")]
     blocks: Option<Spanned<Vec<Spanned<RawBlock>>>>,
     #[serde(default)]
@@ -113,6 +120,8 @@ struct RawFrame {
 #[serde(deny_unknown_fields)]
 struct RawNavigation {
     routes: Spanned<Vec<Spanned<String>>>,
+    #[serde(default)]
+    time_limit_s: Option<Spanned<f64>>,
 }
 
 #[derive(Deserialize)]
@@ -162,6 +171,23 @@ impl Checker<'_> {
         } else {
             self.fail(v, format!("{what} = {n} is outside {}..={}", range.start(), range.end()));
             default
+        }
+    }
+
+    /// A finite number in `range`, `None` when absent or out of range (a problem then).
+    fn real(
+        &mut self,
+        v: Option<&Spanned<f64>>,
+        what: &str,
+        range: std::ops::RangeInclusive<f64>,
+    ) -> Option<f64> {
+        let v = v?;
+        let x = *v.get_ref();
+        if x.is_finite() && range.contains(&x) {
+            Some(x)
+        } else {
+            self.fail(v, format!("{what} = {x} is outside {}..={}", range.start(), range.end()));
+            None
         }
     }
 
@@ -248,6 +274,7 @@ fn build(c: &mut Checker<'_>, raw: RawProtocol, source: &str, base: &Path) -> Pr
                     .to_owned(),
         });
     }
+    let timing = timing_keys(c, &raw);
     let trials: usize = blocks.iter().map(|b| b.repetitions as usize * stimuli.len()).sum();
     if trials > MAX_TRIALS {
         let line = blocks.first().map(|b| b.line);
@@ -268,6 +295,23 @@ fn build(c: &mut Checker<'_>, raw: RawProtocol, source: &str, base: &Path) -> Pr
         seed,
         stimuli,
         stimulus_lines,
+        timing,
+    }
+}
+
+/// The timing keys, each checked against its range.
+fn timing_keys(c: &mut Checker<'_>, raw: &RawProtocol) -> TimingKeys {
+    let ms = |c: &mut Checker<'_>, v: Option<&Spanned<i64>>, what: &str| {
+        v.is_some().then(|| c.int(v, what, TIMING_MS, -1)).and_then(|n| u32::try_from(n).ok())
+    };
+    TimingKeys {
+        iti_ms: ms(c, raw.iti_ms.as_ref(), "iti_ms"),
+        feedback_ms: ms(c, raw.feedback_ms.as_ref(), "feedback_ms"),
+        response_timeout_s: c.real(raw.response_timeout_s.as_ref(), "response_timeout_s", RESPONSE_TIMEOUT_S),
+        time_limit_s: raw
+            .navigation
+            .as_ref()
+            .and_then(|n| c.real(n.get_ref().time_limit_s.as_ref(), "time_limit_s", TIME_LIMIT_S)),
     }
 }
 

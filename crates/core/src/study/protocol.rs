@@ -328,7 +328,33 @@ pub struct Protocol {
     pub stimuli: Vec<Stimulus>,
     /// The 1-based line each stimulus was defined on (parallel to `stimuli`).
     pub stimulus_lines: Vec<usize>,
+    /// The timing keys the protocol sets (each wins over the runner's default for it).
+    #[serde(default)]
+    pub timing: TimingKeys,
 }
+
+/// The protocol's timing keys; `None` where the protocol leaves the runner's default (the station's
+/// settings, `vestnav study run`'s flags).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct TimingKeys {
+    /// `iti_ms`: the pause between two trials [ms] (0..=60000).
+    pub iti_ms: Option<u32>,
+    /// `feedback_ms`: how long feedback lasts at least [ms] (0..=60000).
+    pub feedback_ms: Option<u32>,
+    /// `response_timeout_s`: no response this long after stimulus onset records `no-response` [s]
+    /// (0.5..=3600).
+    pub response_timeout_s: Option<f64>,
+    /// `[navigation] time_limit_s`: a navigation trial not ended by arrival or the operator ends after
+    /// this long [s] (10..=14400).
+    pub time_limit_s: Option<f64>,
+}
+
+/// Range of `iti_ms` and `feedback_ms` [ms].
+pub const TIMING_MS: std::ops::RangeInclusive<i64> = 0..=60_000;
+/// Range of `response_timeout_s` [s].
+pub const RESPONSE_TIMEOUT_S: std::ops::RangeInclusive<f64> = 0.5..=3600.0;
+/// Range of `[navigation] time_limit_s` [s].
+pub const TIME_LIMIT_S: std::ops::RangeInclusive<f64> = 10.0..=14_400.0;
 
 impl Protocol {
     /// Parses and validates a protocol. `source` names it in errors and locates the files it refers to

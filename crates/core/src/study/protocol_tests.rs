@@ -53,6 +53,42 @@ fn every_example_protocol_parses() {
     assert_eq!(nav.stimuli[1].label(), "demo/bearing-compass");
     assert!(nav.stimuli[0].pattern().is_none());
     assert!(nav.choices().is_empty());
+    assert_eq!(nav.timing.iti_ms, Some(5000));
+    assert_eq!(nav.timing.time_limit_s, Some(900.0));
+}
+
+#[test]
+fn timing_keys_are_read_and_out_of_range_ones_name_their_line() {
+    // Top-level keys, before the first table.
+    let keys = "task = \"localization\"\niti_ms = 250\nfeedback_ms = 0\nresponse_timeout_s = 4.5\n";
+    let text = MINIMAL.replacen("task = \"localization\"\n", keys, 1);
+    let p = Protocol::parse(&text, "t.toml").unwrap();
+    assert_eq!(
+        p.timing,
+        TimingKeys {
+            iti_ms: Some(250),
+            feedback_ms: Some(0),
+            response_timeout_s: Some(4.5),
+            time_limit_s: None
+        }
+    );
+    assert_eq!(Protocol::parse(MINIMAL, "m.toml").unwrap().timing, TimingKeys::default());
+    for (key, line) in [
+        ("iti_ms = -1", 4),
+        ("iti_ms = 60001", 4),
+        ("feedback_ms = 70000", 4),
+        ("response_timeout_s = 0.1", 4),
+        ("response_timeout_s = 5000.0", 4),
+        ("response_timeout_s = nan", 4),
+    ] {
+        let text =
+            MINIMAL.replacen("task = \"localization\"\n", &format!("task = \"localization\"\n{key}\n"), 1);
+        let e = err(&text);
+        assert_eq!(e.line(), Some(line), "{key} -> {e}");
+        assert!(e.to_string().contains("is outside"), "{e}");
+    }
+    let e = err("name = \"n\"\ntask = \"navigation\"\n[navigation]\nroutes = []\ntime_limit_s = 5.0\n");
+    assert!(e.to_string().contains("broken.toml:5: time_limit_s = 5 is outside 10..=14400"), "{e}");
 }
 
 #[test]

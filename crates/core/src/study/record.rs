@@ -29,12 +29,21 @@ pub enum Outcome {
     Completed,
     /// The unit refused the stimulus (outside its limits).
     Refused,
+    /// A navigation trial ended before its last waypoint: by the operator (End trial) or its time limit.
+    Ended,
 }
 
 impl Outcome {
     /// Every outcome.
-    pub const ALL: [Self; 6] =
-        [Self::Answered, Self::NoResponse, Self::Aborted, Self::Stopped, Self::Completed, Self::Refused];
+    pub const ALL: [Self; 7] = [
+        Self::Answered,
+        Self::NoResponse,
+        Self::Aborted,
+        Self::Stopped,
+        Self::Completed,
+        Self::Refused,
+        Self::Ended,
+    ];
 
     /// The name in the CSV's `outcome` column and the LSL markers.
     pub fn name(self) -> &'static str {
@@ -45,6 +54,7 @@ impl Outcome {
             Self::Stopped => "stopped",
             Self::Completed => "completed",
             Self::Refused => "refused",
+            Self::Ended => "ended",
         }
     }
 
@@ -174,11 +184,14 @@ pub const CSV_COLUMNS: [(&str, &str); 25] = [
     ("rt_ms", "response time: response_s - stimulus_on_s [ms]"),
     (
         "outcome",
-        "answered, no-response, aborted, stopped (STOP ALL during the trial), completed (navigation), refused (the unit refused the stimulus)",
+        "answered, no-response, aborted, stopped (STOP ALL during the trial), completed (navigation: the last waypoint reached), refused (the unit refused the stimulus), ended (navigation: ended by the operator or the time limit first)",
     ),
     ("completion_s", "navigation: time from start to the end of the route [s]"),
     ("path_m", "navigation: distance walked [m]"),
-    ("route_m", "navigation: route length [m]"),
+    (
+        "route_m",
+        "navigation: the route's length up to the last waypoint's arrival radius, the shortest walk that completes it [m]",
+    ),
     ("cross_track_rms_m", "navigation: root mean square of the cross-track error [m]"),
     ("cues", "navigation: cues played"),
     ("stops", "navigation: stops during the walk"),

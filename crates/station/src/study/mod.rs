@@ -14,9 +14,13 @@
 //! appended to the results CSV and fsynced → with feedback: the correct answer shown and, after a wrong
 //! answer, the stimulus played again (`Feedback`) → the inter-trial interval (`Interval`) → the next.
 //! Pause, STOP ALL and a refusal all land in `Paused`; only the operator's Resume presents again.
+//! A navigation trial walks a route instead (module `navigation`): `Navigating` until the last waypoint,
+//! the operator's End trial or the time limit.
 
+mod navigation;
 pub mod results;
 mod station;
+pub use navigation::{DEFAULT_TIME_LIMIT_S, NavRoute, NavTick, NavView};
 pub use station::StudySlot;
 pub mod wearer;
 
@@ -56,6 +60,8 @@ pub enum StudyCommand {
     Pause,
     /// Goes on after a pause, a STOP ALL or a refused stimulus.
     Resume,
+    /// Ends the navigation trial under way before its last waypoint (recorded as `ended`).
+    EndTrial,
     /// Ends the session: every row so far kept, the trial under way recorded as aborted.
     Abort,
     /// Forgets the session (aborting it first if it runs).
@@ -73,6 +79,7 @@ impl StudyCommand {
             Self::Respond { answer } => format!("study response {answer}"),
             Self::Pause => "study pause".to_owned(),
             Self::Resume => "study resume".to_owned(),
+            Self::EndTrial => "study end trial".to_owned(),
             Self::Abort => "study abort".to_owned(),
             Self::Unload => "study unload".to_owned(),
         }
@@ -91,6 +98,8 @@ pub enum StudyPhase {
     AwaitingResponse,
     /// The correct answer is shown (and replayed on the vest after a wrong answer).
     Feedback,
+    /// A navigation trial: the wearer walks the route under guidance.
+    Navigating,
     /// The pause between two trials.
     Interval,
     /// Paused by the operator, a STOP ALL or a refused stimulus ([`StudyView::error`] says which); nothing
@@ -117,6 +126,7 @@ impl StudyPhase {
             Self::Presenting => "presenting",
             Self::AwaitingResponse => "awaiting response",
             Self::Feedback => "feedback",
+            Self::Navigating => "navigating",
             Self::Interval => "interval",
             Self::Paused => "paused",
             Self::Finished => "finished",
@@ -176,6 +186,9 @@ pub struct StudyView {
     pub error: Option<String>,
     /// Rows written so far.
     pub rows: usize,
+    /// The navigation trial under way, or the last one run.
+    #[serde(default)]
+    pub navigation: Option<NavView>,
 }
 
 /// What the runner needs of the station: the session clock, the markers, the vest.
@@ -190,9 +203,15 @@ pub trait StudyIo {
     fn stop_vest(&mut self);
     /// Turns automatic guidance cues off (a perception study must feel only its stimuli).
     fn hold_guidance(&mut self);
+    /// Starts a navigation trial through the station's own commands: the stimulus's route loaded (the one
+    /// route loader), its condition applied to guidance's settings, automatic cues on. `Err`: not started.
+    fn start_navigation(&mut self, stimulus: &Stimulus) -> Result<NavRoute, String>;
+    /// Ends a navigation trial's guidance: automatic cues off, the operator's own settings back.
+    fn end_navigation(&mut self);
 }
 
-/// Timing between trials (the station's, set by the CLI's options; not part of the protocol file yet).
+/// Timing between trials: the station's (the CLI's options), each replaced by the protocol's key when it
+/// has one ([`Timing::with_protocol`]).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Timing {
     /// Inter-trial interval [s].
@@ -202,6 +221,18 @@ pub struct Timing {
     /// A trial with no response after this long from stimulus onset is recorded as no response
     /// (`None`: wait for the operator).
     pub response_timeout_s: Option<f64>,
+}
+
+impl Timing {
+    /// This timing with the protocol's keys in place of the values they set (the protocol wins).
+    #[must_use]
+    pub fn with_protocol(self, keys: &vestnav_core::study::TimingKeys) -> Self {
+        Self {
+            iti_s: keys.iti_ms.map_or(self.iti_s, |ms| f64::from(ms) / 1000.0),
+            feedback_s: keys.feedback_ms.map_or(self.feedback_s, |ms| f64::from(ms) / 1000.0),
+            response_timeout_s: keys.response_timeout_s.or(self.response_timeout_s),
+        }
+    }
 }
 
 impl Default for Timing {
@@ -247,6 +278,8 @@ pub struct StudyRunner {
     rows: Vec<TrialRecord>,
     last: Option<LastAnswer>,
     error: Option<String>,
+    /// The navigation trial under way (kept after it for the view).
+    nav: Option<navigation::NavRun>,
 }
 
 impl std::fmt::Debug for StudyRunner {
@@ -292,13 +325,8 @@ impl StudyRunner {
             limits.check_pattern(&pattern.frames, pattern.repeats).map_err(|e| e.to_string())
         })
         .map_err(|e| e.to_string())?;
-        if p.task == Task::Navigation {
-            return Err(format!(
-                "{}: navigation trials are not run by the study runner yet (localization and pattern \
-                 identification are)",
-                protocol.display()
-            ));
-        }
+        navigation::check_conditions(&p)?;
+        let timing = timing.with_protocol(&p.timing);
         let plan = vestnav_core::study::plan(&p, participant).map_err(|e| e.to_string())?;
         if plan.is_empty() {
             return Err(format!("{}: the protocol plans no trial", protocol.display()));
@@ -324,6 +352,7 @@ impl StudyRunner {
             rows: Vec::new(),
             last: None,
             error: None,
+            nav: None,
         })
     }
 
@@ -379,6 +408,7 @@ impl StudyRunner {
             results_json: self.json.clone(),
             error: self.error.clone(),
             rows: self.rows.len(),
+            navigation: self.nav.as_ref().map(navigation::NavRun::view),
         }
     }
 
@@ -401,8 +431,9 @@ impl StudyRunner {
                 Ok(())
             }
             StudyCommand::Respond { answer } => self.respond(&answer, io),
+            StudyCommand::EndTrial => self.end_navigation_trial("ended by the operator", io),
             StudyCommand::Pause => match self.phase {
-                StudyPhase::Presenting | StudyPhase::AwaitingResponse => {
+                StudyPhase::Presenting | StudyPhase::AwaitingResponse | StudyPhase::Navigating => {
                     io.marker("pause", now);
                     self.end_trial(Outcome::Aborted, "paused during the trial", io);
                     self.again = Some("presented again after a pause".to_owned());
@@ -431,7 +462,10 @@ impl StudyRunner {
                 if self.phase.is_over() {
                     return Err(format!("study abort refused: the session is {}", self.phase.name()));
                 }
-                if matches!(self.phase, StudyPhase::Presenting | StudyPhase::Feedback) {
+                if matches!(
+                    self.phase,
+                    StudyPhase::Presenting | StudyPhase::Feedback | StudyPhase::Navigating
+                ) {
                     io.stop_vest();
                 }
                 io.marker("abort", now);
@@ -476,6 +510,10 @@ impl StudyRunner {
                 None => self.next_or_finish(now, io),
             },
             StudyPhase::Interval => self.present(io),
+            StudyPhase::Navigating => {
+                // The trial's time limit (a refusal is impossible in this phase).
+                let _ = self.end_navigation_trial("the trial's time limit passed", io);
+            }
             _ => {}
         }
     }
@@ -506,9 +544,12 @@ impl StudyRunner {
     fn stopped(&mut self, reason: &str, io: &mut dyn StudyIo) {
         let now = io.now_s();
         match self.phase {
-            StudyPhase::Presenting | StudyPhase::AwaitingResponse => {
+            StudyPhase::Presenting | StudyPhase::AwaitingResponse | StudyPhase::Navigating => {
                 io.marker("stop_all", now);
                 self.stimulus_off(now, io);
+                if let Some(n) = &mut self.nav {
+                    n.stopped();
+                }
                 let n = self.at + 1;
                 self.end_trial(Outcome::Stopped, &format!("stopped ({reason})"), io);
                 self.again = Some("presented again after STOP ALL".to_owned());
@@ -534,11 +575,15 @@ impl StudyRunner {
         // Never played: no `stimulus_off`.
         self.playing = None;
         let n = self.at + 1;
+        let what = if self.phase == StudyPhase::Navigating {
+            reason.to_owned()
+        } else {
+            format!("the vest refused the stimulus ({reason})")
+        };
         self.end_trial(Outcome::Refused, &format!("stimulus refused: {reason}"), io);
         self.at += 1;
         self.pause(Some(format!(
-            "trial {n}: the vest refused the stimulus ({reason}); recorded as refused; Resume goes on with \
-             the next trial"
+            "trial {n}: {what}; recorded as refused; Resume goes on with the next trial"
         )));
     }
 
@@ -641,6 +686,11 @@ impl StudyRunner {
         let note = self.again.take().unwrap_or_default();
         let now = io.now_s();
         io.marker(&format!("trial_start {} {}", t.index + 1, t.block_name), now);
+        self.nav = None;
+        if matches!(t.stimulus, Stimulus::Navigation { .. }) {
+            self.start_navigation(&t, note, io);
+            return;
+        }
         let Some(pattern) = t.stimulus.pattern() else {
             // Refused at load; a plan never gets here with one.
             self.running = Some(Running { on_s: None, acked: false, note });
@@ -681,6 +731,11 @@ impl StudyRunner {
         }
         self.write_row(self.record(&t, outcome, note), io);
         self.running = None;
+        if self.phase == StudyPhase::Navigating {
+            io.end_navigation();
+            // Until another phase is set: nothing runs.
+            self.phase = StudyPhase::Interval;
+        }
     }
 
     /// A row for planned trial `t`, with what the trial under way knows.
@@ -698,6 +753,9 @@ impl StudyRunner {
         r.stimulus_on_s = on;
         r.outcome = outcome;
         r.notes = notes;
+        if let Some(n) = &self.nav {
+            n.fill(&mut r);
+        }
         r
     }
 

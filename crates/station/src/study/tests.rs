@@ -17,6 +17,10 @@ struct Script {
     sent: Vec<VestCommand>,
     refuse: Option<String>,
     stops: usize,
+    /// The route a navigation trial gets, and the trials started and ended.
+    route: Option<NavRoute>,
+    nav_starts: usize,
+    nav_ends: usize,
 }
 
 impl StudyIo for Script {
@@ -37,6 +41,14 @@ impl StudyIo for Script {
         self.stops += 1;
     }
     fn hold_guidance(&mut self) {}
+    fn start_navigation(&mut self, _: &Stimulus) -> Result<NavRoute, String> {
+        self.nav_starts += 1;
+        let route = self.route.clone().ok_or_else(|| "no route in this script".to_owned())?;
+        Ok(NavRoute { start_s: self.now, ..route })
+    }
+    fn end_navigation(&mut self) {
+        self.nav_ends += 1;
+    }
 }
 
 impl Script {
@@ -239,5 +251,132 @@ fn no_response_in_time_and_feedback_replays_the_correct_stimulus() {
     assert_eq!(r.phase(), StudyPhase::Feedback);
     io.after(&mut r, 0.1);
     assert_eq!(r.phase(), StudyPhase::Finished);
+    let _ = std::fs::remove_dir_all(d);
+}
+
+/// One route (due north along the meridian 0° from the equator, 0.001° of latitude) under two conditions.
+fn nav_runner(name: &str) -> (StudyRunner, PathBuf, Script) {
+    use vestnav_core::geo::LatLon;
+    let d = dir(name);
+    std::fs::write(d.join("r.gpx"), "a file; the script loads no route").unwrap();
+    let p = d.join("nav.toml");
+    let cond = |n: &str| {
+        format!(
+            "[[condition]]\nname = \"{n}\"\nstrategy = \"bearing\"\nheading = \"cog\"\ncue_set = \"walking\"\n\
+             cue_interval_s = 3.0\n"
+        )
+    };
+    std::fs::write(
+        &p,
+        format!(
+            "name = \"nav\"\ntask = \"navigation\"\norder = \"blocked\"\niti_ms = 500\n[navigation]\n\
+             routes = [\"r.gpx\"]\ntime_limit_s = 60.0\n{}{}[[block]]\nname = \"b\"\nrepetitions = 1\n",
+            cond("a"),
+            cond("b")
+        ),
+    )
+    .unwrap();
+    let timing = Timing { iti_s: 9.0, ..TIMING };
+    let r = StudyRunner::load(&p, "P1", "S1", &d, &Limits::default(), timing).unwrap();
+    let (a, b) = (LatLon::new(0.0, 0.0), LatLon::new(0.001, 0.0));
+    let route = NavRoute {
+        start_s: 0.0,
+        name: "r".into(),
+        polyline: vec![a, b],
+        waypoints: vec![(a, 5.0), (b, 5.0)],
+    };
+    (r, d, Script { route: Some(route), ..Script::default() })
+}
+
+/// WGS-84 at the equator: metres per degree of latitude (the meridian radius of curvature a(1 - e²)) and of
+/// longitude (the equatorial radius a), closed forms.
+fn equator_m_per_deg() -> (f64, f64) {
+    let a = 6_378_137.0;
+    let f = 1.0 / 298.257_223_563;
+    let e2 = f * (2.0 - f);
+    (a * (1.0 - e2) * std::f64::consts::PI / 180.0, a * std::f64::consts::PI / 180.0)
+}
+
+#[test]
+fn a_navigation_trial_measures_the_walk_and_ends_at_arrival_by_the_operator_or_the_time_limit() {
+    use vestnav_core::geo::LatLon;
+    let (mut r, d, mut io) = nav_runner("nav");
+    // The protocol's iti_ms wins over the station's 9 s.
+    r.command(StudyCommand::Start, &mut io).unwrap();
+    assert_eq!((r.phase(), io.nav_starts), (StudyPhase::Navigating, 1));
+    assert!(r.command(StudyCommand::Respond { answer: "x".into() }, &mut io).is_err());
+    // Walk 3 m east, then 4 m west of the route, then on it at its end.
+    let (lat_m, lon_m) = equator_m_per_deg();
+    let at = |north_m: f64, east_m: f64| LatLon::new(north_m / lat_m, east_m / lon_m);
+    let walk = [at(0.0, 3.0), at(40.0, -4.0), at(110.0, 0.0)];
+    io.now += 20.0;
+    r.navigation_tick(&NavTick { positions: walk.to_vec(), cues: 3, finished: false }, &mut io);
+    let v = r.view().navigation.unwrap();
+    assert_eq!((v.route.as_str(), v.condition.as_str(), v.cues, v.fixes), ("r", "a", 3, 3));
+    approx::assert_relative_eq!(v.cross_track_m.unwrap(), 0.0, epsilon = 1e-6);
+    approx::assert_relative_eq!(v.elapsed_s, 20.0);
+    io.now += 5.0;
+    r.navigation_tick(&NavTick { positions: Vec::new(), cues: 1, finished: true }, &mut io);
+    assert_eq!((r.phase(), io.nav_ends), (StudyPhase::Interval, 1));
+    let row = &r.rows()[0];
+    assert_eq!((row.outcome, row.stimulus.as_str()), (Outcome::Completed, "r/a"));
+    approx::assert_relative_eq!(row.completion_s.unwrap(), 25.0);
+    // The route up to the last waypoint's 5 m arrival circle.
+    approx::assert_relative_eq!(row.route_m.unwrap(), 0.001 * lat_m - 5.0, max_relative = 1e-6);
+    approx::assert_relative_eq!(row.cross_track_rms_m.unwrap(), (25.0f64 / 3.0).sqrt(), max_relative = 1e-4);
+    let path = 7.0f64.hypot(40.0) + 4.0f64.hypot(70.0);
+    approx::assert_relative_eq!(row.path_m.unwrap(), path, max_relative = 1e-4);
+    assert_eq!((row.cues, row.stops, row.missed_waypoints), (Some(4), Some(0), Some(0)));
+    // Trial 2 after the protocol's 0.5 s: the operator ends it; every waypoint but the first missed.
+    io.after(&mut r, 0.51);
+    assert_eq!((r.phase(), io.nav_starts), (StudyPhase::Navigating, 2));
+    r.navigation_tick(&NavTick { positions: vec![at(0.0, 0.0)], cues: 0, finished: false }, &mut io);
+    r.command(StudyCommand::EndTrial, &mut io).unwrap();
+    let row = &r.rows()[1];
+    assert_eq!((row.outcome, row.completion_s, row.missed_waypoints), (Outcome::Ended, None, Some(1)));
+    assert!(row.notes.contains("operator"), "{}", row.notes);
+    assert_eq!(r.phase(), StudyPhase::Finished);
+    assert!(r.command(StudyCommand::EndTrial, &mut io).is_err());
+    let names = io.names();
+    assert_eq!(names.iter().filter(|m| **m == "navigation_start").count(), 2);
+    assert_eq!(names.iter().filter(|m| **m == "arrived").count(), 1);
+    let _ = std::fs::remove_dir_all(d);
+}
+
+#[test]
+fn stop_all_ends_a_walk_as_stopped_and_the_time_limit_as_ended() {
+    let (mut r, d, mut io) = nav_runner("navstop");
+    let halted = VestEvent::Halted { reason: "STOP ALL".into() };
+    r.command(StudyCommand::Start, &mut io).unwrap();
+    io.now += 1.0;
+    r.vest_event(&halted, &mut io);
+    assert_eq!((r.phase(), io.nav_ends), (StudyPhase::Paused, 1));
+    let row = &r.rows()[0];
+    assert_eq!((row.outcome, row.stops), (Outcome::Stopped, Some(1)));
+    // Resume walks the same route and condition again; the protocol's 60 s limit ends it.
+    r.command(StudyCommand::Resume, &mut io).unwrap();
+    io.after(&mut r, 0.51);
+    assert_eq!((r.phase(), io.nav_starts), (StudyPhase::Navigating, 2));
+    assert_eq!(r.current().unwrap().index, 0);
+    io.after(&mut r, 59.9);
+    assert_eq!(r.phase(), StudyPhase::Navigating);
+    io.after(&mut r, 0.2);
+    let row = &r.rows()[1];
+    assert_eq!((row.trial, row.outcome), (0, Outcome::Ended));
+    assert!(row.notes.contains("time limit"), "{}", row.notes);
+    // Abort during a walk stops the vest and records the walk as aborted.
+    io.after(&mut r, 0.51);
+    assert_eq!(r.phase(), StudyPhase::Navigating);
+    r.command(StudyCommand::Abort, &mut io).unwrap();
+    assert_eq!((io.stops, r.rows()[2].outcome, io.nav_ends), (1, Outcome::Aborted, 3));
+    let _ = std::fs::remove_dir_all(d);
+
+    // A route the station cannot load: refused, paused with the reason.
+    let (mut r, d, mut io) = nav_runner("navrefused");
+    io.route = None;
+    r.command(StudyCommand::Start, &mut io).unwrap();
+    assert_eq!(r.phase(), StudyPhase::Paused);
+    assert_eq!(r.rows()[0].outcome, Outcome::Refused);
+    assert!(r.view().error.unwrap().contains("navigation not started"));
     let _ = std::fs::remove_dir_all(d);
 }
