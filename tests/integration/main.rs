@@ -24,6 +24,7 @@ mod local_stations;
 mod nav;
 mod osm;
 mod remote;
+mod remote_study;
 mod safety;
 mod sim_tactor;
 mod sim_wave;

@@ -349,8 +349,9 @@ impl StudyPanel {
         let resolved = file_dialog::resolve(&self.protocol, &base);
         let checked = self.checked.as_ref().filter(|c| Some(&c.path) == resolved.as_ref()).map(|c| &c.result);
         ui.horizontal(|ui| {
-            ui.label("Participant");
-            ui.add(egui::TextEdit::singleline(&mut self.participant).desired_width(120.0).hint_text("P01"));
+            let label = ui.label("Participant");
+            ui.add(egui::TextEdit::singleline(&mut self.participant).desired_width(120.0).hint_text("P01"))
+                .labelled_by(label.id);
             if let Some(Ok(s)) = checked
                 && !s.participants.is_empty()
             {
@@ -364,8 +365,8 @@ impl StudyPanel {
             }
         });
         ui.horizontal(|ui| {
-            ui.label("Session");
-            ui.add(egui::TextEdit::singleline(&mut self.session).desired_width(80.0));
+            let label = ui.label("Session");
+            ui.add(egui::TextEdit::singleline(&mut self.session).desired_width(80.0)).labelled_by(label.id);
             if let Some(Ok(s)) = checked
                 && !s.sessions.is_empty()
             {
