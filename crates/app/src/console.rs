@@ -69,6 +69,8 @@ pub struct DeviceOverrides {
     pub tiles: Option<vestnav_tiles::TileSourceConfig>,
     /// `--map`: the OpenStreetMap extract drawn under the tiles (becomes the saved setting).
     pub map: Option<PathBuf>,
+    /// `--study` (and `--study-wearer`): the Study tab opens with this protocol (not saved).
+    pub study: Option<crate::study_panel::StudyLaunch>,
 }
 
 /// The console.
@@ -244,6 +246,11 @@ impl Console {
         }
         // Lab outputs that ran when the console last closed start again (the frame says how it went).
         console.lab_window.restore(&mut console.station);
+        if let Some(launch) = console.overrides.study.clone() {
+            console.tab = Tab::Study;
+            let base = console.cfg.recent.base();
+            console.study.launch(&launch, &mut console.station, &base);
+        }
         console
     }
 
