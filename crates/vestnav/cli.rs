@@ -67,7 +67,7 @@ pub struct Cli {
     #[arg(long, value_name = "PROTOCOL.toml")]
     pub study: Option<std::path::PathBuf>,
     /// Console only, with --study: a demonstration — the study is loaded into the results folder and
-    /// started, and a simulated wearer answers each trial: sim:P[:SEED[:RT_MS]] reports a 4-neighbour of
+    /// started, and a simulated wearer answers each trial: `sim:P[:SEED[:RT_MS]]` reports a 4-neighbour of
     /// the true tactor with probability P (as `vestnav study run --wearer`).
     #[arg(long, value_name = "SPEC", requires = "study", value_parser = vestnav_station::study::wearer::SimulatedWearer::parse_spec)]
     pub study_wearer: Option<vestnav_station::study::wearer::WearerSpec>,

@@ -50,6 +50,12 @@ impl Guidance {
         self.position_frozen = why;
     }
 
+    /// Why guidance holds on a position diagnosed frozen ([`Self::set_position_frozen`]), if it is.
+    fn frozen_reason(&self) -> Option<String> {
+        let why = self.position_frozen.as_ref()?;
+        Some(format!("position frozen ({why}); no cue or arrival from it until it moves"))
+    }
+
     /// Guidance along `route` with a built-in strategy.
     pub fn new(route: Route, config: GuidanceConfig, kind: StrategyKind) -> Self {
         let strategy = kind.build(&config);
@@ -290,8 +296,7 @@ impl Guidance {
         let fix_time_s = now_s - input.fix_age_s;
         let new_fix = self.last_fix_time_s.is_none_or(|t| (t - fix_time_s).abs() > 1e-6);
         self.last_fix_time_s = Some(fix_time_s);
-        if let Some(why) = self.position_frozen.clone() {
-            let why = format!("position frozen ({why}); no cue or arrival from it until it moves");
+        if let Some(why) = self.frozen_reason() {
             return self.hold(input, compass, now_s, manual, &why);
         }
         // Pinned receiver: the same position for a while although the receiver says it moves.
