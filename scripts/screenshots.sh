@@ -41,3 +41,7 @@ shot screenshot-satellites 8 '{"map_tiles": false, "show_satellite_table": true}
 "$bin" route plan --osm tests/data/osm/helsinki.osm.pbf --from 60.1700,24.9400 --to 60.1660,24.9500 \
     --profile prefer-footways --gpx "$work/helsinki-walk.gpx" >/dev/null
 shot screenshot-osm 12 '{"map_tiles": false}' --map tests/data/osm/helsinki.osm.pbf --gps "sim:$work/helsinki-walk.gpx"
+# The Study tab mid-run: the localization protocol of docs/study/ loaded for its first participant and
+# started, a simulated wearer (confusing a neighbour 1 time in 5, ~1.5 s to answer) answering on the
+# back-view grid, the training block's feedback shown.
+shot screenshot-study 14 '{"map_tiles": false}' --study docs/study/localization.toml --study-wearer sim:0.2:7:1500

@@ -62,6 +62,15 @@ pub struct Cli {
     /// choice).
     #[arg(long, value_name = "AREA.osm.pbf")]
     pub map: Option<std::path::PathBuf>,
+    /// Console only: open the Study tab with this protocol checked and its first participant proposed
+    /// (Load and Start are the operator's).
+    #[arg(long, value_name = "PROTOCOL.toml")]
+    pub study: Option<std::path::PathBuf>,
+    /// Console only, with --study: a demonstration — the study is loaded into the results folder and
+    /// started, and a simulated wearer answers each trial: `sim:P[:SEED[:RT_MS]]` reports a 4-neighbour of
+    /// the true tactor with probability P (as `vestnav study run --wearer`).
+    #[arg(long, value_name = "SPEC", requires = "study", value_parser = vestnav_station::study::wearer::SimulatedWearer::parse_spec)]
+    pub study_wearer: Option<vestnav_station::study::wearer::WearerSpec>,
     /// Console only: save a PNG of the window after --screenshot-after seconds, then close it (the vest is
     /// stopped first, as on any close). For documentation and bug reports; works under Xvfb.
     #[arg(long, value_name = "FILE.png")]

@@ -141,6 +141,10 @@ pub(crate) fn check_map_file(path: &std::path::Path) -> anyhow::Result<()> {
 fn run(cli: Cli) -> anyhow::Result<()> {
     let Some(command) = cli.command else {
         check_console_files(cli.gps.as_ref(), cli.tiles.as_ref(), cli.map.as_deref())?;
+        if let Some(p) = &cli.study {
+            // A protocol named at start is checked before the window opens, as the devices and files are.
+            vestnav_core::study::Protocol::load(p).map_err(|e| anyhow::anyhow!("--study: {e}"))?;
+        }
         let screenshot = cli.screenshot.map(|path| vestnav_app::Screenshot {
             path,
             after: std::time::Duration::from_secs_f64(cli.screenshot_after_s),
@@ -156,6 +160,11 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 vest: cli.vest,
                 tiles: cli.tiles,
                 map: cli.map,
+                study: cli.study.map(|protocol| vestnav_app::study_panel::StudyLaunch {
+                    protocol,
+                    wearer: cli.study_wearer,
+                    out_dir: None,
+                }),
             },
             screenshot,
             remote,

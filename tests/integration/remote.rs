@@ -96,14 +96,14 @@ fn make_pki(dir: &Path) {
 const USERS: [&str; 5] = ["operator", "observer", "alpha", "bravo", "charlie"];
 
 /// A Mosquitto on 127.0.0.1 with TLS, client certificates, passwords, the shipped ACL and persistence.
-struct Broker {
+pub(crate) struct Broker {
     dir: PathBuf,
     port: u16,
     child: Option<Child>,
 }
 
 impl Broker {
-    fn start(dir: &Path) -> Self {
+    pub(crate) fn start(dir: &Path) -> Self {
         make_pki(dir);
         let pw = dir.join("passwd");
         for (i, u) in USERS.iter().enumerate() {
@@ -162,7 +162,7 @@ impl Broker {
         std::fs::read_to_string(self.dir.join("mosquitto.log")).unwrap_or_default()
     }
 
-    fn client(&self, user: &str) -> BrokerConfig {
+    pub(crate) fn client(&self, user: &str) -> BrokerConfig {
         BrokerConfig {
             url: format!("mqtts://127.0.0.1:{}", self.port),
             ca: Some(self.dir.join("ca.crt")),
@@ -244,15 +244,15 @@ impl Drop for Unit {
 }
 
 /// A `vestnav station` process with its unit, its standard error kept line by line.
-struct StationProc {
+pub(crate) struct StationProc {
     name: &'static str,
     child: Child,
     lines: Arc<Mutex<Vec<(Instant, String)>>>,
-    unit: Unit,
+    pub(crate) unit: Unit,
 }
 
 impl StationProc {
-    fn spawn(broker: &Broker, name: &'static str) -> Self {
+    pub(crate) fn spawn(broker: &Broker, name: &'static str) -> Self {
         let unit = Unit::spawn();
         let c = broker.client(name);
         let mut child = Command::new(env!("CARGO_BIN_EXE_vestnav"))
@@ -291,7 +291,7 @@ impl StationProc {
         self.lines.lock().unwrap().iter().find(|(t, l)| *t >= since && l.contains(text)).cloned()
     }
 
-    fn quit(mut self) {
+    pub(crate) fn quit(mut self) {
         if let Some(i) = self.child.stdin.as_mut() {
             let _ = i.write_all(b"quit\n");
         }
@@ -328,7 +328,7 @@ fn percentile(sorted: &[f64], p: f64) -> f64 {
     sorted[i.min(sorted.len() - 1)]
 }
 
-fn in_contact(fleet: &Fleet, name: &str) -> bool {
+pub(crate) fn in_contact(fleet: &Fleet, name: &str) -> bool {
     fleet.station(name).is_some_and(|s| {
         s.state.as_ref().is_some_and(|st| {
             st.link.operator_contact
@@ -338,7 +338,7 @@ fn in_contact(fleet: &Fleet, name: &str) -> bool {
     })
 }
 
-fn temp_dir(tag: &str) -> PathBuf {
+pub(crate) fn temp_dir(tag: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("vestnav-remote-{tag}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();

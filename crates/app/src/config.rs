@@ -97,6 +97,51 @@ pub struct Config {
     pub ntrip: vestnav_station::ntrip::NtripSettings,
     /// The field tests' reference (the truth) set last, restored at start-up; `None`: none.
     pub field_reference: Option<vestnav_core::accuracy::Reference>,
+    /// The Lab outputs window's choices, and whether they ran (started again at the next start).
+    pub lab: LabSettings,
+}
+
+/// The Lab outputs (View menu) as last started or stopped.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct LabSettings {
+    /// The outputs ran when the console closed: started again at start (LSL only when liblsl is found).
+    pub on: bool,
+    /// LSL streams.
+    pub lsl: bool,
+    /// OSC messages to `osc_target`.
+    pub osc: bool,
+    /// The OSC target as typed, `HOST:PORT` (at most [`LabSettings::MAX_TEXT`] characters).
+    pub osc_target: String,
+    /// The first part of every stream's name (at most 64 characters).
+    pub stream_prefix: String,
+}
+
+impl Default for LabSettings {
+    fn default() -> Self {
+        Self {
+            on: false,
+            lsl: true,
+            osc: false,
+            osc_target: "127.0.0.1:9000".to_owned(),
+            stream_prefix: "vestnav".to_owned(),
+        }
+    }
+}
+
+impl LabSettings {
+    /// The longest OSC target kept (a host name's 253 characters and a port).
+    pub const MAX_TEXT: usize = 260;
+
+    /// Texts a hand-edited file made too long are cut (the target then fails to parse and says so when
+    /// started); outputs with nothing chosen are off.
+    fn sanitized(mut self) -> Self {
+        let cut = |t: &str, n: usize| t.trim().chars().take(n).collect::<String>();
+        self.osc_target = cut(&self.osc_target, Self::MAX_TEXT);
+        self.stream_prefix = cut(&self.stream_prefix, 64);
+        self.on &= self.lsl || self.osc;
+        self
+    }
 }
 
 impl Default for Config {
@@ -137,6 +182,7 @@ impl Default for Config {
             broker_at_start: false,
             field_reference: None,
             ntrip: vestnav_station::ntrip::NtripSettings::default(),
+            lab: LabSettings::default(),
         }
     }
 }
@@ -283,6 +329,7 @@ impl Config {
         self.prefetch_parallelism =
             self.prefetch_parallelism.clamp(1, vestnav_tiles::prefetch::MAX_PARALLELISM);
         self.recent = std::mem::take(&mut self.recent).sanitized();
+        self.lab = std::mem::take(&mut self.lab).sanitized();
         self
     }
 }
@@ -327,6 +374,18 @@ mod tests {
         assert!(err.is_none());
         assert_eq!(back.on_ms, 2000);
         assert!((back.arrival_radius_m - 1.0).abs() < 1e-12);
+        // The lab outputs' texts are cut to their limits, outputs with nothing chosen are off.
+        let long = "x".repeat(10_000);
+        std::fs::write(
+            &path,
+            format!(r#"{{"lab": {{"on": true, "lsl": false, "osc_target": "{long}", "stream_prefix": "{long}"}}}}"#),
+        )
+        .unwrap();
+        let (back, err) = Config::load(&path);
+        assert!(err.is_none());
+        assert_eq!(back.lab.osc_target.chars().count(), LabSettings::MAX_TEXT);
+        assert_eq!(back.lab.stream_prefix.chars().count(), 64);
+        assert!(!back.lab.on, "neither LSL nor OSC chosen: off");
         // Missing: the defaults, nothing to report.
         std::fs::remove_file(&path).unwrap();
         assert_eq!(Config::load(&path), (Config::default(), None));
@@ -345,6 +404,7 @@ mod tests {
             ("truncated", good[..good.len() / 2].to_vec(), "EOF"),
             ("huge", huge, "bytes"),
             ("wrong types", br#"{"on_ms": "loud", "large_text": 3}"#.to_vec(), "invalid type"),
+            ("lab wrong types", br#"{"lab": {"on": "yes", "osc_target": 9000}}"#.to_vec(), "invalid type"),
             ("binary", binary, "not valid settings"),
             ("not UTF-8", b"{\"strategy\": \"\xff\xfe\"}".to_vec(), "not valid settings"),
             ("empty", Vec::new(), "EOF"),

@@ -69,6 +69,8 @@ pub struct DeviceOverrides {
     pub tiles: Option<vestnav_tiles::TileSourceConfig>,
     /// `--map`: the OpenStreetMap extract drawn under the tiles (becomes the saved setting).
     pub map: Option<PathBuf>,
+    /// `--study` (and `--study-wearer`): the Study tab opens with this protocol (not saved).
+    pub study: Option<crate::study_panel::StudyLaunch>,
 }
 
 /// The console.
@@ -210,6 +212,7 @@ impl Console {
                 },
             },
         );
+        let lab_window = crate::lab_window::LabWindow::from_settings(&cfg.lab);
         let mut console = Self {
             gps_ui: GpsUi::from_config(&cfg.gps),
             vest_ui: VestUi::from_config(&cfg.vest),
@@ -224,7 +227,7 @@ impl Console {
             station,
             remote: None,
             broker_window: crate::broker_settings::BrokerWindow::default(),
-            lab_window: crate::lab_window::LabWindow::default(),
+            lab_window,
             tab: Tab::Map,
             compass_wizard: crate::compass_panel::Wizard::default(),
             pattern_editor: crate::pattern_editor::PatternEditor::default(),
@@ -248,6 +251,13 @@ impl Console {
         if connect_now {
             console.connect_vest();
             console.connect_gps();
+        }
+        // Lab outputs that ran when the console last closed start again (the frame says how it went).
+        console.lab_window.restore(&mut console.station);
+        if let Some(launch) = console.overrides.study.clone() {
+            console.tab = Tab::Study;
+            let base = console.cfg.recent.base();
+            console.study.launch(&launch, &mut console.station, &base);
         }
         console
     }
@@ -432,6 +442,31 @@ impl Console {
         if let Err(e) = on_disk.save(p) {
             let text = format!("SETTINGS NOT SAVED: cannot write {}: {e}", p.display());
             self.say(NoticeSeverity::Alarm, Subject::Settings, text);
+        }
+    }
+
+    /// The Lab outputs window: outputs that finished starting put in force (a restored start's outcome told
+    /// to the operator), the window drawn, its choices taken into the settings.
+    fn lab_ui(&mut self, ctx: &egui::Context) {
+        match self.lab_window.poll(&mut self.station) {
+            Some(Ok(running)) => self.say(
+                NoticeSeverity::Info,
+                Subject::Settings,
+                format!("lab outputs started again as they were saved: {running}"),
+            ),
+            Some(Err(why)) => self.say(
+                NoticeSeverity::Warning,
+                Subject::Settings,
+                format!("lab outputs saved as on were NOT started: {why} (View > Lab outputs)"),
+            ),
+            None => {}
+        }
+        self.lab_window.ui(ctx, &mut self.station);
+        if self.lab_window.settings() != &self.cfg.lab {
+            self.cfg.lab = self.lab_window.settings().clone();
+        }
+        if self.lab_window.busy() {
+            ctx.request_repaint_after(Duration::from_millis(50));
         }
     }
 

@@ -1,7 +1,12 @@
 //! The Lab outputs window (View menu): turns the local station's LSL streams and OSC messages on and off
 //! and shows their state — liblsl's version and the streams, or why LSL is missing and how to install it,
 //! and the counts of what went out. The outputs start on a short-lived `vestnav-lab-start` thread (finding
-//! liblsl may ask Python for its folders), never in a frame. The study tab shows the same status.
+//! liblsl may ask Python for its folders, an OSC host name is resolved), never in a frame. The study tab
+//! shows the same status.
+//!
+//! The choices last started or stopped are the settings' `lab` ([`LabSettings`]): outputs that ran when the
+//! console closed are started again at the next start ([`LabWindow::restore`]); when they cannot start
+//! (liblsl missing, a bad OSC target) nothing runs and the console says so.
 
 use std::sync::mpsc::{Receiver, TryRecvError, channel};
 
@@ -9,7 +14,13 @@ use egui::{Color32, RichText};
 use vestnav_station::Station;
 use vestnav_station::lab::{LabConfig, LabError, LabOutputs, LabStatus, LslState, parse_osc_target};
 
-/// The window's state (not saved: lab outputs are turned on per session).
+pub use crate::config::LabSettings;
+
+/// What the start thread hands back: the configuration and its outputs (or why they did not start), or
+/// why the OSC target is not one.
+type Started = Result<(LabConfig, Result<LabOutputs, LabError>), String>;
+
+/// The window's state.
 pub struct LabWindow {
     /// Whether the window is open.
     pub open: bool,
@@ -17,23 +28,17 @@ pub struct LabWindow {
     osc_on: bool,
     osc_text: String,
     prefix: String,
-    /// Outputs being started, with the configuration they are for.
-    starting: Option<(LabConfig, Receiver<Result<LabOutputs, LabError>>)>,
+    /// The choices last started (with `on`) or stopped (without): what the settings keep.
+    applied: LabSettings,
+    /// Outputs being started; `true` when they are the saved ones restored at start.
+    starting: Option<(bool, Receiver<Started>)>,
     /// Why the last Apply was refused (a bad OSC target).
     error: Option<String>,
 }
 
 impl Default for LabWindow {
     fn default() -> Self {
-        Self {
-            open: false,
-            lsl: true,
-            osc_on: false,
-            osc_text: "127.0.0.1:9000".to_owned(),
-            prefix: "vestnav".to_owned(),
-            starting: None,
-            error: None,
-        }
+        Self::from_settings(&LabSettings::default())
     }
 }
 
@@ -76,17 +81,56 @@ pub fn status_ui(ui: &mut egui::Ui, status: Option<&LabStatus>) {
 }
 
 impl LabWindow {
-    /// Puts outputs that finished starting in force (every frame, open or not).
-    pub fn poll(&mut self, station: &mut Station) {
-        let Some((cfg, rx)) = &self.starting else { return };
+    /// The window with the saved choices in its fields (nothing started: see [`Self::restore`]).
+    pub fn from_settings(saved: &LabSettings) -> Self {
+        Self {
+            open: false,
+            lsl: saved.lsl,
+            osc_on: saved.osc,
+            osc_text: saved.osc_target.clone(),
+            prefix: saved.stream_prefix.clone(),
+            applied: saved.clone(),
+            starting: None,
+            error: None,
+        }
+    }
+
+    /// The choices to save: those last started (`on`) or stopped.
+    pub fn settings(&self) -> &LabSettings {
+        &self.applied
+    }
+
+    /// Starts the saved outputs again when they ran when the console last closed; [`Self::poll`] says
+    /// how that went.
+    pub fn restore(&mut self, station: &mut Station) {
+        if self.applied.on {
+            self.start(station, true);
+        }
+    }
+
+    /// Puts outputs that finished starting in force (every frame, open or not). For the outputs restored
+    /// at start it returns what to tell the operator: `Ok` with what runs, `Err` with why nothing does.
+    pub fn poll(&mut self, station: &mut Station) -> Option<Result<String, String>> {
+        let (restoring, rx) = self.starting.as_ref()?;
+        let restoring = *restoring;
         let started = match rx.try_recv() {
             Ok(r) => r,
-            Err(TryRecvError::Empty) => return,
-            Err(TryRecvError::Disconnected) => Err(LabError::Thread("the start thread ended".to_owned())),
+            Err(TryRecvError::Empty) => return None,
+            Err(TryRecvError::Disconnected) => Err("the start thread ended".to_owned()),
         };
-        // An error is shown through the station's lab status.
-        let _ = station.install_lab(cfg, started);
         self.starting = None;
+        let outcome = match started {
+            Ok((cfg, outputs)) => match station.install_lab(&cfg, outputs) {
+                Ok(()) => Ok(station.lab_status().map_or_else(String::new, |s| s.summary())),
+                // The station's lab status shows it in full (what was tried, how to install liblsl).
+                Err(e) => Err(e.to_string()),
+            },
+            Err(e) => {
+                self.error = Some(e.clone());
+                Err(e)
+            }
+        };
+        restoring.then_some(outcome)
     }
 
     /// Whether outputs are being started (the view turns until they are).
@@ -94,39 +138,44 @@ impl LabWindow {
         self.starting.is_some()
     }
 
-    fn apply(&mut self, station: &mut Station) {
+    /// Starts what the fields ask for on the `vestnav-lab-start` thread (`restoring`: the saved outputs at
+    /// start).
+    fn start(&mut self, station: &mut Station, restoring: bool) {
         self.error = None;
-        let osc = if self.osc_on {
-            match parse_osc_target(&self.osc_text) {
-                Ok(a) => Some(a),
-                Err(e) => {
-                    self.error = Some(format!("OSC target {e}"));
-                    return;
-                }
-            }
-        } else {
-            None
+        self.applied = LabSettings {
+            on: true,
+            lsl: self.lsl,
+            osc: self.osc_on,
+            osc_target: self.osc_text.clone(),
+            stream_prefix: self.prefix.clone(),
         };
-        let cfg = LabConfig { lsl: self.lsl, osc, stream_prefix: self.prefix.clone() };
         // The old outlets go first: two never share a name.
         let _ = station.set_lab(None);
-        if !cfg.any() {
+        if !self.lsl && !self.osc_on {
+            self.applied.on = false;
             return;
         }
         let (tx, rx) = channel();
-        let thread_cfg = cfg.clone();
-        match std::thread::Builder::new()
-            .name("vestnav-lab-start".into())
-            .spawn(move || tx.send(LabOutputs::start(&thread_cfg)))
-        {
-            Ok(_) => self.starting = Some((cfg, rx)),
+        let (lsl, osc, prefix) = (self.lsl, self.osc_on.then(|| self.osc_text.clone()), self.prefix.clone());
+        let spawned = std::thread::Builder::new().name("vestnav-lab-start".into()).spawn(move || {
+            let started = match osc.as_deref().map(parse_osc_target).transpose() {
+                Ok(osc) => {
+                    let cfg = LabConfig { lsl, osc, stream_prefix: prefix };
+                    let outputs = LabOutputs::start(&cfg);
+                    Ok((cfg, outputs))
+                }
+                Err(e) => Err(format!("OSC target {e}")),
+            };
+            let _ = tx.send(started);
+        });
+        match spawned {
+            Ok(_) => self.starting = Some((restoring, rx)),
             Err(e) => self.error = Some(format!("cannot start: {e}")),
         }
     }
 
     /// Draws the window.
     pub fn ui(&mut self, ctx: &egui::Context, station: &mut Station) {
-        self.poll(station);
         if !self.open {
             return;
         }
@@ -155,10 +204,11 @@ impl LabWindow {
                     .add_enabled(!self.busy(), egui::Button::new(if on { "Restart" } else { "Start" }))
                     .clicked()
                 {
-                    self.apply(station);
+                    self.start(station, false);
                 }
                 if ui.add_enabled(on && !self.busy(), egui::Button::new("Stop")).clicked() {
                     let _ = station.set_lab(None);
+                    self.applied.on = false;
                 }
                 if self.busy() {
                     ui.spinner();

@@ -228,11 +228,6 @@ impl eframe::App for App {
                 p
             });
         }
-        let c = &mut self.console;
-        c.lab_window.ui(ui.ctx(), &mut c.station);
-        if c.lab_window.busy() {
-            ui.ctx().request_repaint_after(std::time::Duration::from_millis(50));
-        }
     }
 
     fn on_exit(&mut self, _gl: Option<&eframe::glow::Context>) {

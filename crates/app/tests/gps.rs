@@ -291,6 +291,7 @@ fn a_finished_replay_is_its_own_state_with_restart() {
 fn a_pinned_sirf_receiver_is_named_with_its_remedy() {
     let fake = Fake::default();
     let mut h = harness(&fake);
+    set_route(&mut h, three_waypoints(), 0);
     let stats = vestnav_device::gps::DecodeStats { sirf_sentences: 2, ..Default::default() };
     fake.gps(&GpsEvent::Stats(stats));
     // One held fix a second for 6 s, as they arrive (the station times them by their arrival).
@@ -303,9 +304,16 @@ fn a_pinned_sirf_receiver_is_named_with_its_remedy() {
         settle(&mut h, |c| c.station.gps.fixes == k);
     }
     h.run_steps(1);
-    assert!(h.query_by_label_contains("SiRF static navigation is pinning the position").is_some());
+    assert!(h.query_all_by_label_contains("SiRF static navigation is pinning the position").count() >= 1);
     assert!(h.query_by_label("Static navigation off").is_some());
-    assert!(h.query_by_label_contains("guidance sees the wearer stand still").is_some());
+    // Guidance is told: it holds on the frozen position, on the banner and on its own line.
+    assert!(h.query_all_by_label_contains("guidance is holding (attention cues, no direction").count() >= 1);
+    settle(&mut h, |c| c.station.guidance.as_ref().is_some_and(|g| g.reason.contains("position frozen")));
+    h.run_steps(1);
+    let g = h.state().station.guidance.clone().unwrap();
+    assert!(g.reason.contains("hold: position frozen (SiRF static navigation"), "{}", g.reason);
+    assert!(h.query_by_label_contains("hold: position frozen (SiRF").is_some(), "the guidance line says so");
+    assert_eq!(h.state().station.route().next(), 0, "no arrival");
     assert!(h.query_by_label_contains("ask them to walk a few steps").is_none());
     // The Receiver window starts at the family the stream shows.
     h.get_by_label("Receiver").click();

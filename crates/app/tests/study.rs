@@ -319,3 +319,58 @@ fn a_pattern_study_takes_the_answer_clicked_in_the_pattern_list() {
     assert!(h.query_by_label_contains("CORRECT: left").is_some());
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// `vestnav --study P --study-wearer sim:0` (the documentation's Study screenshot): the tab opens with the
+/// protocol checked, the study is loaded and started, and the simulated wearer (confusing nothing) answers
+/// each trial; the results file the station wrote has its rows, every one correct. Without a wearer the
+/// protocol is only checked and proposed: nothing is loaded.
+#[test]
+fn a_study_named_at_start_opens_the_tab_and_a_simulated_wearer_answers() {
+    use vestnav_app::console::{ConsoleOptions, DeviceOverrides};
+    use vestnav_app::study_panel::StudyLaunch;
+    let dir = test_dir("study-launch");
+    let protocol = write(&dir, "two.toml", TWO_TACTORS);
+    let open = |wearer| {
+        let fake = Fake::default();
+        let cfg = Config { map_tiles: false, guidance_auto: false, ..Config::default() };
+        let out_dir = Some(dir.join("results"));
+        let study = Some(StudyLaunch { protocol: protocol.clone(), wearer, out_dir });
+        let console = Console::new(
+            Box::new(fake.clone()),
+            ConsoleOptions {
+                cfg,
+                devices: DeviceOverrides { study, ..DeviceOverrides::default() },
+                ..ConsoleOptions::default()
+            },
+        );
+        let h = Harness::builder()
+            .with_size(egui::vec2(1400.0, 900.0))
+            .build_ui_state(|ui, c: &mut Console| c.ui(ui), console);
+        (fake, h)
+    };
+    let (_fake, mut h) = open(None);
+    h.run_steps(2);
+    assert_eq!(h.state().tab, Tab::Study);
+    assert!(h.query_by_label_contains("OK: two-tactors").is_some(), "the protocol checked");
+    assert_eq!(h.state().study.participant, "P07");
+    assert!(view(h.state()).is_none(), "nothing loaded: Load is the operator's");
+    drop(h);
+
+    let spec = vestnav_station::study::wearer::SimulatedWearer::parse_spec("sim:0:1:20").unwrap();
+    let (fake, mut h) = open(Some(spec));
+    let until = std::time::Instant::now() + std::time::Duration::from_secs(20);
+    while !view(h.state()).is_some_and(|v| v.phase == StudyPhase::Finished) {
+        assert!(std::time::Instant::now() < until, "{:?} {:?}", view(h.state()), h.state().study.refused);
+        h.step();
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+    let v = view(h.state()).unwrap();
+    assert!(v.results_csv.starts_with(dir.join("results")), "{}", v.results_csv.display());
+    let rows = vestnav_core::study::record::read_csv_file(&v.results_csv).unwrap();
+    let answers: Vec<_> =
+        rows.iter().map(|r| (r.answer.as_str(), r.response.as_deref(), r.correct)).collect();
+    assert_eq!(answers, [("T5", Some("T5"), Some(true)), ("T10", Some("T10"), Some(true))]);
+    assert!(presented_tactor(&fake).is_some(), "the stimuli reached the unit");
+    drop(h);
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -121,6 +121,9 @@ pub enum GuidanceInput {
     VestLink(Option<Arc<VestHandle>>, Duration),
     /// Where the cues sent are recorded for the lab (LSL, OSC).
     Lab(crate::lab::LabTap),
+    /// The station's pinned-receiver diagnosis: the receiver's position is frozen, with the cause
+    /// (`None`: no longer). Guidance holds on it (`Guidance::set_position_frozen`).
+    PositionFrozen(Option<String>),
 }
 
 /// What the worker tells the UI after each update.
@@ -239,6 +242,7 @@ pub fn spawn(
             ui,
             log,
             lab: None,
+            position_frozen: None,
         };
         let mut next_tick = Instant::now() + TICK;
         loop {
@@ -283,6 +287,8 @@ struct GuidanceWorker {
     log: Option<LogSender>,
     /// The lab outputs the cues sent are recorded in.
     lab: Option<crate::lab::LabTap>,
+    /// The receiver's position is frozen, and why (the station's diagnosis; kept over engine rebuilds).
+    position_frozen: Option<String>,
 }
 
 impl GuidanceWorker {
@@ -341,6 +347,12 @@ impl GuidanceWorker {
                 }
             }
             GuidanceInput::Lab(tap) => self.lab = Some(tap),
+            GuidanceInput::PositionFrozen(why) => {
+                if let Some(g) = &mut self.engine {
+                    g.set_position_frozen(why.clone());
+                }
+                self.position_frozen = why;
+            }
             GuidanceInput::VestLink(v, bound) => {
                 self.beat = v.as_ref().map(|h| h.heartbeat(Watched::Guidance, bound));
                 if let Some(b) = &self.beat {
@@ -372,6 +384,7 @@ impl GuidanceWorker {
                 if halted {
                     let _ = g.stop_all(0.0);
                 }
+                g.set_position_frozen(self.position_frozen.clone());
                 Some(g)
             }
             Err(e) => {

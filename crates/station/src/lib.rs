@@ -215,6 +215,8 @@ pub struct Station {
     epoch: Instant,
     /// Watches for a receiver holding its position (see [`pinned`]).
     pin: PinDetector,
+    /// The pinned-receiver cause guidance was last told (`None`: not frozen).
+    frozen_sent: Option<String>,
     /// The study session loaded, if any (see [`study`]).
     study: study::StudySlot,
     /// The lab outputs (LSL, OSC) every feeding thread sees (see [`lab`]).
@@ -303,6 +305,7 @@ impl Station {
             field_tests: FieldTests::new(),
             epoch: Instant::now(),
             pin: PinDetector::default(),
+            frozen_sent: None,
             study: study::StudySlot::default(),
             lab,
             ntrip: None,
@@ -738,6 +741,7 @@ impl Station {
         if self.settings_pending {
             self.push_settings();
         }
+        self.push_frozen();
         let alarm = self.vest.stop_alarm(Instant::now());
         if let Some(a) = &alarm
             && !self.stop_alarm_was
@@ -763,6 +767,17 @@ impl Station {
             self.notices.raise(severity, Subject::Storage, text);
         }
         self.log_health = health;
+    }
+
+    /// Tells guidance when the pinned-receiver diagnosis begins or ends (retried every pump until taken):
+    /// a frozen position is not a wearer standing still, and guidance holds on it.
+    fn push_frozen(&mut self) {
+        let frozen = self.pinned(Instant::now()).map(|p| p.cause().to_owned());
+        if frozen != self.frozen_sent
+            && self.guidance_tx.try_send(GuidanceInput::PositionFrozen(frozen.clone())).is_ok()
+        {
+            self.frozen_sent = frozen;
+        }
     }
 
     /// Tells guidance the current route (retried every pump until it is taken).

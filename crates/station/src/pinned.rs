@@ -44,7 +44,8 @@ impl Pinned {
             None => "Open Receiver in the GPS panel and turn the receiver's static navigation or hold off.",
         };
         format!(
-            "{}: the same position for {held:.0} s{evidence}; guidance sees the wearer stand still. {todo}",
+            "{}: the same position for {held:.0} s{evidence}; guidance is holding (attention cues, no \
+             direction, no arrival) until the position moves again. {todo}",
             self.cause()
         )
     }

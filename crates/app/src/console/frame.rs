@@ -235,6 +235,7 @@ impl Console {
             &base,
             ui.ctx(),
         );
+        self.lab_ui(ui.ctx());
         let pt = if self.cfg.large_text { BANNER_PT_LARGE } else { BANNER_PT };
         // Two lines of banner text and their margins, whether there are banners or not: nothing below
         // moves when they come and go (more scroll inside the strip).

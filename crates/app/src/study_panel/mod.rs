@@ -21,6 +21,9 @@
 //! same PNGs as `vestnav study analyze --figures`.
 
 pub mod analysis;
+mod launch;
+
+pub use launch::StudyLaunch;
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -124,6 +127,8 @@ pub struct StudyPanel {
     pub confirm_abort: bool,
     /// The Analysis view.
     pub analysis: analysis::AnalysisView,
+    /// The simulated wearer of `--study-wearer`, answering on the console's own station.
+    demo: Option<launch::Demo>,
 }
 
 impl Default for StudyPanel {
@@ -141,6 +146,7 @@ impl Default for StudyPanel {
             refused: None,
             confirm_abort: false,
             analysis: analysis::AnalysisView::default(),
+            demo: None,
         }
     }
 }
@@ -185,6 +191,11 @@ impl StudyPanel {
             self.target_ui(ui, remote.as_deref());
         });
         ui.separator();
+        if self.target == Target::Local
+            && let Some(d) = self.simulate(station, now)
+        {
+            ui.ctx().request_repaint_after(d);
+        }
         if self.view == View::Analysis {
             self.analysis.ui(ui, recent);
             return;
@@ -351,8 +362,9 @@ impl StudyPanel {
         let resolved = file_dialog::resolve(&self.protocol, &base);
         let checked = self.checked.as_ref().filter(|c| Some(&c.path) == resolved.as_ref()).map(|c| &c.result);
         ui.horizontal(|ui| {
-            ui.label("Participant");
-            ui.add(egui::TextEdit::singleline(&mut self.participant).desired_width(120.0).hint_text("P01"));
+            let label = ui.label("Participant");
+            ui.add(egui::TextEdit::singleline(&mut self.participant).desired_width(120.0).hint_text("P01"))
+                .labelled_by(label.id);
             if let Some(Ok(s)) = checked
                 && !s.participants.is_empty()
             {
@@ -362,23 +374,26 @@ impl StudyPanel {
                         for p in &s.participants {
                             ui.selectable_value(&mut self.participant, p.clone(), p);
                         }
-                    });
+                    })
+                    .response
+                    .labelled_by(label.id);
             }
         });
         ui.horizontal(|ui| {
-            ui.label("Session");
-            ui.add(egui::TextEdit::singleline(&mut self.session).desired_width(80.0));
+            let label = ui.label("Session");
+            ui.add(egui::TextEdit::singleline(&mut self.session).desired_width(80.0)).labelled_by(label.id);
             if let Some(Ok(s)) = checked
                 && !s.sessions.is_empty()
             {
-                egui::ComboBox::from_id_salt("study-sessions").selected_text("from the protocol").show_ui(
-                    ui,
-                    |ui| {
+                egui::ComboBox::from_id_salt("study-sessions")
+                    .selected_text("from the protocol")
+                    .show_ui(ui, |ui| {
                         for p in &s.sessions {
                             ui.selectable_value(&mut self.session, p.clone(), p);
                         }
-                    },
-                );
+                    })
+                    .response
+                    .labelled_by(label.id);
             }
         });
         ui.label("Results folder");
@@ -562,19 +577,22 @@ impl StudyPanel {
         None
     }
 
+    /// Sends `command` to the console's own station.
+    fn send_local(&mut self, command: StudyCommand, station: &mut Station) {
+        // The results folder named here is made here (the station writes into an existing one).
+        if let StudyCommand::Load { out_dir, .. } = &command
+            && let Err(e) = std::fs::create_dir_all(out_dir)
+        {
+            self.refused = Some(format!("results folder {}: {e}", out_dir.display()));
+            return;
+        }
+        self.refused = station.apply(Command::Study(command)).err();
+    }
+
     /// Sends `command` to the station driven.
     fn send(&mut self, command: StudyCommand, station: &mut Station, remote: Option<&mut RemotePanel>) {
         match &self.target {
-            Target::Local => {
-                // The results folder named here is made here (the station writes into an existing one).
-                if let StudyCommand::Load { out_dir, .. } = &command
-                    && let Err(e) = std::fs::create_dir_all(out_dir)
-                {
-                    self.refused = Some(format!("results folder {}: {e}", out_dir.display()));
-                    return;
-                }
-                self.refused = station.apply(Command::Study(command)).err();
-            }
+            Target::Local => self.send_local(command, station),
             Target::Remote(_) => {
                 if let Some(r) = remote {
                     r.send_to_driven(Command::Study(command));

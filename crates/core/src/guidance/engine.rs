@@ -24,6 +24,8 @@ pub struct Guidance {
     pending_event_cue: Option<Cue>,
     last_fix_time_s: Option<f64>,
     frozen: Option<(LatLon, f64)>,
+    /// A pinned receiver diagnosed outside (the station's detector, with evidence the engine lacks): why.
+    position_frozen: Option<String>,
     /// The rate limiter as it was before the cue of the last update was counted as played.
     undo: Option<RateState>,
     disagreement: Disagreement,
@@ -40,6 +42,20 @@ struct RateState {
 }
 
 impl Guidance {
+    /// Tells guidance that the receiver's position is frozen (a pinned receiver, diagnosed by whoever sees
+    /// more than the fixes: the station's detector with the compass and the stream's family) with why, or
+    /// that it no longer is. While it is, every update holds (attention cues, no directional cue) and no
+    /// fix counts towards an arrival: a frozen position says nothing of where the wearer is.
+    pub fn set_position_frozen(&mut self, why: Option<String>) {
+        self.position_frozen = why;
+    }
+
+    /// Why guidance holds on a position diagnosed frozen ([`Self::set_position_frozen`]), if it is.
+    fn frozen_reason(&self) -> Option<String> {
+        let why = self.position_frozen.as_ref()?;
+        Some(format!("position frozen ({why}); no cue or arrival from it until it moves"))
+    }
+
     /// Guidance along `route` with a built-in strategy.
     pub fn new(route: Route, config: GuidanceConfig, kind: StrategyKind) -> Self {
         let strategy = kind.build(&config);
@@ -60,6 +76,7 @@ impl Guidance {
             pending_event_cue: None,
             last_fix_time_s: None,
             frozen: None,
+            position_frozen: None,
             undo: None,
             disagreement: Disagreement::default(),
             off_path_since_s: None,
@@ -279,6 +296,9 @@ impl Guidance {
         let fix_time_s = now_s - input.fix_age_s;
         let new_fix = self.last_fix_time_s.is_none_or(|t| (t - fix_time_s).abs() > 1e-6);
         self.last_fix_time_s = Some(fix_time_s);
+        if let Some(why) = self.frozen_reason() {
+            return self.hold(input, compass, now_s, manual, &why);
+        }
         // Pinned receiver: the same position for a while although the receiver says it moves.
         let same =
             |a: LatLon| (a.lat_deg - pos.lat_deg).abs() < 1e-9 && (a.lon_deg - pos.lon_deg).abs() < 1e-9;

@@ -442,3 +442,29 @@ fn passing_a_waypoint_is_judged_along_a_bent_path_not_the_straight_leg() {
     assert_eq!(corner_route(false).observe(e, en(106.0, -5.0)), Some(RouteEvent::Passed(1)));
     assert_eq!(corner_route(true).observe(e, en(106.0, -5.0)), None);
 }
+
+/// Issue 23 item 3: a receiver diagnosed as pinned (zero speed, so the engine's own check cannot see it)
+/// holds guidance with the reason, even on the waypoint itself: no arrival from a frozen position, and
+/// attention cues instead of silence; once it is no longer frozen, the same fix arrives.
+#[test]
+fn a_position_diagnosed_frozen_holds_and_never_arrives() {
+    let route = route_line(2, 200.0, 0.0, RouteConfig::default());
+    let mut g = Guidance::new(route, GuidanceConfig::default(), StrategyKind::BearingOnly);
+    g.set_position_frozen(Some("SiRF static navigation".to_owned()));
+    let on_wp = at(0.0, 0.0);
+    let still = NavInput { speed_m_s: Some(0.0), ..NavInput::moving(on_wp, 0.0, 0.0) };
+    for t in 0..5 {
+        let d = g.update(&still, f64::from(t));
+        assert_eq!(d.state, NavState::Hold, "t = {t}");
+        assert!(d.event.is_none(), "no arrival: {:?}", d.event);
+        assert!(d.reason.contains("position frozen (SiRF static navigation)"), "{}", d.reason);
+        if t == 0 {
+            assert_eq!(d.cue, Some(Cue::Attention), "the wearer is told, not left in silence");
+        }
+    }
+    // Cleared: the same fixes count again (arrival is confirmed over a few fixes).
+    g.set_position_frozen(None);
+    let arrived =
+        (5..12).any(|t| matches!(g.update(&still, f64::from(t)).event, Some(RouteEvent::Arrived(_))));
+    assert!(arrived, "the waypoint is reached once the position is trusted again");
+}
