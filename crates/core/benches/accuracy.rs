@@ -30,7 +30,7 @@ fn compare_at_the_cap(c: &mut Criterion) {
     let mut g = c.benchmark_group("receivers compared");
     g.sample_size(10);
     g.bench_function("5 x 86,400 fixes, WGS-84, with a reference", |b| {
-        b.iter(|| compare(black_box(&rx), Some(&reference), 0.5, Earth::Wgs84))
+        b.iter(|| compare(black_box(&rx), Some(&reference), 0.5, Earth::Wgs84));
     });
     g.finish();
 }
