@@ -42,6 +42,25 @@ pub fn parse_tactor_label(label: &str) -> Option<usize> {
     digits.parse().ok().filter(|&n| n < TACTOR_COUNT)
 }
 
+/// The tactors next to tactor `index` on the grid, in the order above, below, left, right (two in a
+/// corner, three on an edge, four inside; none for an index off the vest): the places a wearer most often
+/// mistakes it for (the simulated wearers of study mode draw their confusions from these).
+pub fn grid_neighbours(index: usize) -> Vec<usize> {
+    if index >= TACTOR_COUNT {
+        return Vec::new();
+    }
+    let (r, c) = (index / GRID, index % GRID);
+    [
+        (r > 0).then(|| index - GRID),
+        (r + 1 < GRID).then_some(index + GRID),
+        (c > 0).then(|| index - 1),
+        (c + 1 < GRID).then_some(index + 1),
+    ]
+    .into_iter()
+    .flatten()
+    .collect()
+}
+
 /// A set of tactors: bit `i` is tactor `i` (see the module doc for the numbering).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
 pub struct TactorMask(pub u16);
@@ -426,6 +445,26 @@ fn rotate_frames(step: TurnStep, right: bool, on_ms: u16) -> (Vec<Frame>, u8) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn grid_neighbours_are_the_four_adjacent_cells() {
+        // Counted on the 4x4 grid by hand: row r, column c is tactor 4r + c.
+        assert_eq!(grid_neighbours(0), vec![4, 1]);
+        assert_eq!(grid_neighbours(3), vec![7, 2]);
+        assert_eq!(grid_neighbours(5), vec![1, 9, 4, 6]);
+        assert_eq!(grid_neighbours(13), vec![9, 12, 14]);
+        assert_eq!(grid_neighbours(15), vec![11, 14]);
+        assert!(grid_neighbours(16).is_empty());
+        // Adjacency is symmetric, and 24 edges join the 16 cells of a 4x4 grid.
+        let mut edges = 0;
+        for t in 0..TACTOR_COUNT {
+            for n in grid_neighbours(t) {
+                assert!(grid_neighbours(n).contains(&t), "{t} and {n}");
+                edges += 1;
+            }
+        }
+        assert_eq!(edges, 2 * 24);
+    }
 
     #[test]
     fn numbering_matches_the_grid() {

@@ -34,13 +34,8 @@ fn localization_results() -> Vec<TrialRecord> {
             let response = if uniform(&mut rng) < skill {
                 t.answer.clone()
             } else {
-                let nb: Vec<(i32, i32)> = [(-1, 0), (1, 0), (0, -1), (0, 1)]
-                    .into_iter()
-                    .map(|(dr, dc)| (i32::try_from(r).unwrap() + dr, i32::try_from(c).unwrap() + dc))
-                    .filter(|&(a, b)| (0..4).contains(&a) && (0..4).contains(&b))
-                    .collect();
-                let (a, b) = nb[rng.below(nb.len() as u64) as usize];
-                tactor_label((a * 4 + b) as usize)
+                let nb = vestnav_core::vest::grid_neighbours(r * 4 + c);
+                tactor_label(nb[rng.below(nb.len() as u64) as usize])
             };
             let rt =
                 650.0 - 60.0 * t.block as f64 + 900.0 * uniform(&mut rng).powi(3) + 80.0 * uniform(&mut rng);

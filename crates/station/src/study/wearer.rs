@@ -8,7 +8,6 @@
 
 use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};
-use vestnav_core::vest::GRID;
 
 /// The wearer's default mean response time [ms].
 pub const DEFAULT_RT_MS: f64 = 800.0;
@@ -111,23 +110,11 @@ fn tactor_of(label: &str) -> Option<usize> {
 /// else every other choice.
 fn confusable(answer: &str, choices: &[String]) -> Vec<String> {
     match tactor_of(answer) {
-        Some(t) => {
-            let (r, c) = (t / GRID, t % GRID);
-            let mut n = Vec::new();
-            if r > 0 {
-                n.push(t - GRID);
-            }
-            if r + 1 < GRID {
-                n.push(t + GRID);
-            }
-            if c > 0 {
-                n.push(t - 1);
-            }
-            if c + 1 < GRID {
-                n.push(t + 1);
-            }
-            n.into_iter().map(vestnav_core::vest::tactor_label).filter(|l| choices.contains(l)).collect()
-        }
+        Some(t) => vestnav_core::vest::grid_neighbours(t)
+            .into_iter()
+            .map(vestnav_core::vest::tactor_label)
+            .filter(|l| choices.contains(l))
+            .collect(),
         None => choices.iter().filter(|c| *c != answer).cloned().collect(),
     }
 }
