@@ -149,7 +149,8 @@ impl FieldTestPanel {
     /// key M; the mark is already recorded by the test).
     pub fn ui(&mut self, t: &mut FieldTests, ui: &mut egui::Ui) -> Option<FieldTestAction> {
         let mut action = None;
-        ui.horizontal(|ui| {
+        // Wrapped: at 1024 px the distance choice goes to a second line rather than past the window's edge.
+        ui.horizontal_wrapped(|ui| {
             for (p, label) in [
                 (Procedure::Drift, "Drift test"),
                 (Procedure::Cones, "Cone test"),

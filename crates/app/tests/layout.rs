@@ -188,6 +188,20 @@ fn every_tab_fits_a_1024_by_680_window() {
         assert!(stop.bottom() <= 680.0 && stop.right() <= 1024.0, "{what}: STOP ALL at {stop:?}");
     };
     check(&mut h, "Map");
+    // Issue 23 item 5: a route with long names leaves the map the larger share (its list stays within 30 %
+    // of the width beside the side panel; rows whose buttons do not fit wrap them to a second line).
+    let route: Vec<vestnav_station::route::Waypoint> = (0..7)
+        .map(|k| {
+            let p = vestnav_core::geo::LatLon::new(42.3573 + 1e-4 * f64::from(k), -71.101);
+            vestnav_station::route::Waypoint::at(format!("Waypoint with a long name {k}"), p)
+        })
+        .collect();
+    h.state_mut().station.route_mut().replace("long names".into(), route).unwrap();
+    h.run_steps(3);
+    check(&mut h, "Map with a route");
+    let side = h.get_by_label("<< Hide").rect().right();
+    let list = h.get_by_label_contains("Waypoint with a long name 6").rect().left();
+    assert!(list - side >= 450.0, "the map keeps {} of 1024 points beside the waypoint list", list - side);
     h.get_by_label("Simulation").click();
     h.run_steps(2);
     for view in ["Tactor model", "Damping sweep", "Skin waves", "Two-point"] {

@@ -317,9 +317,10 @@ impl MapView {
         self.tools_line(ui);
         let speed_m_s = fix.and_then(|f| f.speed_m_s);
         Self::next_info(ui, route, fix, guidance, speed_m_s, walking_m_s);
-        // A narrow window leaves the map the larger share.
-        let list_w = (ui.available_width() * 0.3).clamp(200.0, 290.0);
-        egui::Panel::right("waypoint-list").default_size(list_w).show(ui, |ui| {
+        // A narrow window leaves the map the larger share: the list never grows past its share of the width
+        // (at 1024 px the map keeps about 500 px; its rows put their buttons on a second line).
+        let list_w = (ui.available_width() * 0.3).clamp(200.0, 340.0);
+        egui::Panel::right("waypoint-list").default_size(list_w).max_size(list_w).show(ui, |ui| {
             self.waypoint_list(ui, route, notices);
         });
         self.map_ui(ui, route, track, fix, guidance.and_then(|g| g.heading_deg), cfg, notices);
@@ -500,21 +501,25 @@ impl MapView {
         });
         let next = route.next();
         let waypoints = route.waypoints();
-        egui::ScrollArea::vertical().show_rows(ui, 22.0, waypoints.len(), |ui, range| {
+        // Two lines a row: the name (cut with "…" when long), then its buttons, so no name widens the list
+        // past its share of the window or pushes the buttons out of it.
+        egui::ScrollArea::vertical().show_rows(ui, 44.0, waypoints.len(), |ui, range| {
             for i in range {
                 let Some(w) = waypoints.get(i) else { continue };
+                let marker = if i == next { "> " } else { "" };
+                let label = format!("{marker}{} {}", i + 1, w.name);
+                let name = ui
+                    .add(egui::Button::selectable(self.selected == Some(i), label).truncate())
+                    .on_hover_text(if i == next {
+                        "the next waypoint guidance heads for"
+                    } else {
+                        "select (Guide to below makes it the next waypoint)"
+                    });
+                if name.clicked() {
+                    self.selected = Some(i);
+                }
                 ui.horizontal(|ui| {
-                    let marker = if i == next { "> " } else { "" };
-                    let name = ui
-                        .selectable_label(self.selected == Some(i), format!("{marker}{} {}", i + 1, w.name))
-                        .on_hover_text(if i == next {
-                            "the next waypoint guidance heads for"
-                        } else {
-                            "select (Guide to below makes it the next waypoint)"
-                        });
-                    if name.clicked() {
-                        self.selected = Some(i);
-                    }
+                    ui.add_space(12.0);
                     if ui.small_button("Edit").on_hover_text("Rename, type coordinates").clicked() {
                         action = Some((i, WaypointAction::Edit));
                     }
