@@ -194,18 +194,23 @@ impl Receivers {
     fn take_result(&mut self) {
         let Some(w) = self.worker.as_mut().filter(|w| w.busy) else { return };
         match w.results.try_recv() {
-            Ok(result) => {
-                w.busy = false;
-                // A result computed before the last receiver was removed is not shown.
-                if self.active {
-                    self.comparison = Some(result);
-                }
-            }
+            Ok(result) => self.accept(result),
             Err(TryRecvError::Empty) => {}
             Err(TryRecvError::Disconnected) => {
                 self.worker = None;
                 self.comparison = Some(Err("the comparison thread ended".to_owned()));
             }
+        }
+    }
+
+    /// The comparison thread's result taken: the thread is free again. A result computed before the last
+    /// receiver was removed is not shown.
+    fn accept(&mut self, result: Result<Comparison, String>) {
+        if let Some(w) = self.worker.as_mut() {
+            w.busy = false;
+        }
+        if self.active {
+            self.comparison = Some(result);
         }
     }
 
@@ -444,8 +449,7 @@ impl Station {
         let Some(w) = r.worker.as_mut().filter(|w| w.busy) else { return true };
         match w.results.recv_timeout(timeout) {
             Ok(result) => {
-                w.busy = false;
-                r.comparison = Some(result);
+                r.accept(result);
                 true
             }
             Err(std::sync::mpsc::RecvTimeoutError::Timeout) => false,
