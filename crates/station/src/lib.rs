@@ -48,13 +48,16 @@ pub mod state;
 pub mod stop;
 pub mod study;
 pub mod view_wake;
+mod words;
 
 use devices::{DeviceFactory, GpsWorker};
 use guidance::{GuidanceInput, GuidanceSettings, GuidanceStatus};
-use route::{RouteModel, RouteState, Track};
+use route::{RouteModel, Track};
 use sources::{GpsSourceConfig, VestSourceConfig};
 pub use state::{GpsAlarm, GpsState, Notice, Notices, Severity, StopAlarm, Subject, VestReply, VestState};
 use stop::{EXIT_STOP_WAIT, StopPath};
+use words::{gps_log_entry, vest_log_entry};
+pub use words::{source_state_label, stop_alarm_text};
 
 /// Time a pump may spend per channel draining worker events.
 pub const DRAIN_BUDGET: Duration = Duration::from_millis(2);
@@ -266,7 +269,7 @@ impl Station {
         let _ = guidance_tx.try_send(GuidanceInput::Lab(lab.clone()));
         let (gps_out, gps_rx) = view_wake::outbox(EVENT_CHANNEL, waker.clone(), view_wake::gps_wakes);
         let (vest_out, vest_rx) = view_wake::outbox(EVENT_CHANNEL, waker, view_wake::vest_wakes);
-        let (route, autosave) = load_route(&route_start, &mut notices);
+        let (route, autosave) = route::load_start(&route_start, &mut notices);
         Self {
             settings,
             gps_source: gps.unwrap_or_default(),
@@ -979,136 +982,4 @@ impl Drop for Station {
     fn drop(&mut self) {
         self.shutdown();
     }
-}
-
-/// The stop alarm in words: how long, acknowledged or not, which tactors the unit reports on, what to do.
-pub fn stop_alarm_text(a: &StopAlarm) -> String {
-    let on = a.on.filter(|m| !m.is_empty()).map(|m| {
-        format!(
-            " and reports tactors {} on",
-            m.indices().map(|i| i.to_string()).collect::<Vec<_>>().join(", ")
-        )
-    });
-    let ack = if a.acked { "acknowledged STOP ALL but" } else { "not acknowledged STOP ALL" };
-    let what = match (a.acked, on) {
-        (true, Some(on)) => format!("the unit {ack}{on}"),
-        (false, Some(on)) => format!("the unit has {ack} for {:.1} s{on}", a.for_.as_secs_f64()),
-        (_, None) => format!("the unit has {ack} for {:.1} s", a.for_.as_secs_f64()),
-    };
-    format!("{what}. The wearer may still feel tactors: switch the vest unit off now.")
-}
-
-/// Loads the route the station starts with: the file named, else the autosave, else the demo route. An
-/// unreadable autosave is kept aside (`….corrupt-<time>`, so the next autosave does not overwrite what may be
-/// worth rescuing) and a notice names it.
-fn load_route(start: &RouteStart, notices: &mut Notices) -> (RouteModel, Option<route::Autosave>) {
-    let mut restored = None;
-    if start.file.is_none()
-        && let Some(path) = &start.autosave
-    {
-        match route::read_autosave(path) {
-            Ok(state) => restored = state,
-            Err(e) => {
-                let kept = match vestnav_files::keep_aside(path) {
-                    Ok(p) => format!("it was kept as {}", p.display()),
-                    Err(_) => {
-                        "it could not be moved aside and will be overwritten by the next autosave".to_owned()
-                    }
-                };
-                notices.raise(
-                    Severity::Alarm,
-                    Subject::Route,
-                    format!(
-                        "Route autosave {} is unreadable ({e}); started with the default route, {kept}.",
-                        path.display()
-                    ),
-                );
-            }
-        }
-    }
-    let state = restored.unwrap_or_else(|| {
-        let content = match &start.file {
-            Some(path) => route::read_gpx(path),
-            None => route::parse_gpx(route::DEMO_GPX).map_err(|e| format!("demo route: {e}")),
-        };
-        match content {
-            Ok(c) => RouteState {
-                name: c.name.unwrap_or_else(|| "route".into()),
-                waypoints: c.waypoints,
-                next: 0,
-                path: c.path,
-            },
-            Err(e) => {
-                notices.raise(Severity::Alarm, Subject::Route, format!("route unreadable: {e}"));
-                RouteState { name: "route".into(), ..RouteState::default() }
-            }
-        }
-    });
-    if let Err(e) = RouteModel::check_len(state.waypoints.len()) {
-        notices.raise(Severity::Alarm, Subject::Route, format!("route not loaded: {e}"));
-    }
-    let ok = RouteModel::check_len(state.waypoints.len()).is_ok();
-    let model = if ok { RouteModel::new(state) } else { RouteModel::default() };
-    let autosave = start.autosave.clone().map(|p| route::Autosave::new(p, model.state()));
-    (model, autosave)
-}
-
-/// What the session log records of a GPS event.
-fn gps_log_entry(ev: &GpsEvent) -> Option<LogEntry> {
-    match ev {
-        GpsEvent::Fix(f) if f.has_position() => Some(LogEntry::Fix {
-            lat_deg: f.lat_deg?,
-            lon_deg: f.lon_deg?,
-            error_m: f.error.map(|e| e.horizontal_m),
-            speed_m_s: f.speed_m_s,
-            course_deg: f.course_deg,
-            gps_utc: f.time.map(|t| t.to_rfc3339_opts(chrono::SecondsFormat::Millis, true)),
-        }),
-        GpsEvent::State(s) => Some(LogEntry::Note { text: format!("gps {}", source_state_label(Some(s))) }),
-        GpsEvent::Notice(n) | GpsEvent::Discontinuity(n) => {
-            Some(LogEntry::Note { text: format!("gps: {n}") })
-        }
-        GpsEvent::Attitude(a) => Some(LogEntry::heading(a)),
-        _ => None,
-    }
-}
-
-/// A GPS source state in words (the GPS panel, the top bar, the session log and `vestnav station` say it
-/// the same way).
-pub fn source_state_label(s: Option<&SourceState>) -> String {
-    match s {
-        None => "disconnected".to_owned(),
-        Some(SourceState::Connecting { detail }) => format!("connecting: {detail}"),
-        Some(SourceState::Live { .. }) => "live".to_owned(),
-        Some(SourceState::Stale) => "stale: no data".to_owned(),
-        Some(SourceState::Lost { reason }) => format!("lost: {reason}"),
-        Some(SourceState::Reconnecting { attempt, delay_ms }) => {
-            format!("reconnecting (attempt {attempt}, in {:.1} s)", *delay_ms as f64 / 1000.0)
-        }
-        Some(SourceState::Finished) => "end of input".to_owned(),
-        Some(SourceState::Stopped) => "stopped".to_owned(),
-    }
-}
-
-/// What the session log records of a vest event.
-fn vest_log_entry(ev: &VestEvent) -> Option<LogEntry> {
-    Some(match ev {
-        VestEvent::Acked { seq, kind } => LogEntry::Ack { what: format!("{} #{seq}", kind.name()) },
-        VestEvent::TactorsOn(Some(mask)) => LogEntry::TactorsOn { mask: *mask },
-        VestEvent::Rejected { kind, reason, .. } => {
-            LogEntry::Note { text: format!("vest refused {}: {reason}", kind.name()) }
-        }
-        VestEvent::State(s) => LogEntry::Note { text: format!("vest {s}") },
-        VestEvent::Transport(t) => LogEntry::Note { text: format!("vest transport: {t}") },
-        VestEvent::Halted { reason } => LogEntry::Note { text: format!("guidance halted: {reason}") },
-        VestEvent::Resumed => LogEntry::Note { text: "guidance resumed".to_owned() },
-        VestEvent::Identified(info) => LogEntry::Note {
-            text: format!(
-                "vest identified: protocol v{}, firmware {}, {} tactors, watchdog {} ms",
-                info.protocol_version, info.firmware, info.tactor_count, info.watchdog_ms
-            ),
-        },
-        VestEvent::Heading(a) => LogEntry::heading(a),
-        VestEvent::TactorsOn(None) | VestEvent::Status(_) => return None,
-    })
 }

@@ -16,6 +16,9 @@ use std::time::{Duration, Instant};
 use vestnav_core::guidance::RoutePath;
 use vestnav_device::route_file::{self, RouteFile, Track, TrackPoint};
 
+use super::RouteModel;
+use crate::{Notices, RouteStart, Severity, Subject};
+
 pub use vestnav_device::route_file::{DEMO_GPX, Waypoint};
 
 /// What the console takes from a GPX file: the route to guide along (its first route, else its
@@ -340,6 +343,61 @@ impl Autosave {
             }
         }
     }
+}
+
+/// Loads the route the station starts with: the file named, else the autosave, else the demo route. An
+/// unreadable autosave is kept aside (`….corrupt-<time>`, so the next autosave does not overwrite what may be
+/// worth rescuing) and a notice names it.
+pub(crate) fn load_start(start: &RouteStart, notices: &mut Notices) -> (RouteModel, Option<Autosave>) {
+    let mut restored = None;
+    if start.file.is_none()
+        && let Some(path) = &start.autosave
+    {
+        match read_autosave(path) {
+            Ok(state) => restored = state,
+            Err(e) => {
+                let kept = match vestnav_files::keep_aside(path) {
+                    Ok(p) => format!("it was kept as {}", p.display()),
+                    Err(_) => {
+                        "it could not be moved aside and will be overwritten by the next autosave".to_owned()
+                    }
+                };
+                notices.raise(
+                    Severity::Alarm,
+                    Subject::Route,
+                    format!(
+                        "Route autosave {} is unreadable ({e}); started with the default route, {kept}.",
+                        path.display()
+                    ),
+                );
+            }
+        }
+    }
+    let state = restored.unwrap_or_else(|| {
+        let content = match &start.file {
+            Some(path) => read_gpx(path),
+            None => parse_gpx(DEMO_GPX).map_err(|e| format!("demo route: {e}")),
+        };
+        match content {
+            Ok(c) => RouteState {
+                name: c.name.unwrap_or_else(|| "route".into()),
+                waypoints: c.waypoints,
+                next: 0,
+                path: c.path,
+            },
+            Err(e) => {
+                notices.raise(Severity::Alarm, Subject::Route, format!("route unreadable: {e}"));
+                RouteState { name: "route".into(), ..RouteState::default() }
+            }
+        }
+    });
+    if let Err(e) = RouteModel::check_len(state.waypoints.len()) {
+        notices.raise(Severity::Alarm, Subject::Route, format!("route not loaded: {e}"));
+    }
+    let ok = RouteModel::check_len(state.waypoints.len()).is_ok();
+    let model = if ok { RouteModel::new(state) } else { RouteModel::default() };
+    let autosave = start.autosave.clone().map(|p| Autosave::new(p, model.state()));
+    (model, autosave)
 }
 
 #[cfg(test)]
