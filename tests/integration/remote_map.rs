@@ -41,7 +41,7 @@ fn lines_in(h: &egui_kittest::Harness<'_, vestnav_app::console::Console>, stroke
         .filter_map(|s| match s {
             Shape::Path(p)
                 if !p.closed
-                    && p.stroke.width == stroke.width
+                    && (p.stroke.width - stroke.width).abs() < 1e-3
                     && matches!(p.stroke.color, ColorMode::Solid(c) if c == stroke.color) =>
             {
                 Some(p.points)

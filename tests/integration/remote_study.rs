@@ -13,7 +13,6 @@ use vestnav_station::study::{StudyPhase, StudyView};
 
 use crate::remote::{Broker, StationProc, in_contact, run_until_shown, temp_dir, wait_for};
 
-
 /// The study as alpha last published it to the console's fleet.
 fn alpha_study(c: &Console) -> Option<StudyView> {
     let fleet = c.remote.as_ref()?.fleet()?;
