@@ -25,6 +25,7 @@ mod nav;
 mod osm;
 mod receivers;
 mod remote;
+mod remote_map;
 mod remote_study;
 mod safety;
 mod sim_tactor;

@@ -13,27 +13,6 @@ use vestnav_station::study::{StudyPhase, StudyView};
 
 use crate::remote::{Broker, StationProc, in_contact, run_until_shown, temp_dir, wait_for};
 
-/// Two single tactors in blocked order: the first trial presents T5.
-const PROTOCOL: &str = r#"name = "remote-two"
-task = "localization"
-participants = ["P03"]
-order = "blocked"
-seed = 1
-
-[localization]
-stimuli = ["T5", "T10"]
-on_ms = 60
-intensity = 255
-repeats = 1
-isi_ms = 0
-
-[[block]]
-name = "test"
-training = false
-feedback = false
-repetitions = 1
-"#;
-
 /// The study as alpha last published it to the console's fleet.
 fn alpha_study(c: &Console) -> Option<StudyView> {
     let fleet = c.remote.as_ref()?.fleet()?;
@@ -53,8 +32,8 @@ fn turn_until(h: &mut egui_kittest::Harness<'_, Console>, what: &str, ok: impl F
 fn the_study_tab_runs_a_trial_on_a_remote_station() {
     let _t = crate::timing_exclusive();
     let dir = temp_dir("study");
-    let protocol = dir.join("remote-two.toml");
-    std::fs::write(&protocol, PROTOCOL).unwrap();
+    // Two single tactors in blocked order (T5 first), the fixture the console's own Study tests run.
+    let protocol = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/study/two-tactors.toml");
     let results = dir.join("results");
     std::fs::create_dir_all(&results).unwrap();
     let broker = Broker::start(&dir);
@@ -94,7 +73,7 @@ fn the_study_tab_runs_a_trial_on_a_remote_station() {
 
     // The protocol and the results folder on alpha's disk (this machine's here), then Load.
     h.state_mut().study.protocol = protocol.display().to_string();
-    h.state_mut().study.participant = "P03".into();
+    h.state_mut().study.participant = "P07".into();
     h.state_mut().study.out_dir = results.display().to_string();
     h.run_steps(2);
     h.get_by_label("Load").click();
@@ -132,7 +111,7 @@ fn the_study_tab_runs_a_trial_on_a_remote_station() {
     let rows = vestnav_core::study::record::read_csv_file(&v.results_csv).unwrap();
     assert_eq!(rows.len(), 1, "{rows:?}");
     let row = &rows[0];
-    assert_eq!((row.participant.as_str(), row.stimulus.as_str(), row.answer.as_str()), ("P03", "T5", "T5"));
+    assert_eq!((row.participant.as_str(), row.stimulus.as_str(), row.answer.as_str()), ("P07", "T5", "T5"));
     assert_eq!((row.response.as_deref(), row.correct), (Some("T5"), Some(true)));
 
     h.state_mut().shutdown();

@@ -185,7 +185,7 @@ impl RemotePanel {
         let stale_after = self.stations.stale_after();
         self.stations
             .stations()
-            .iter()
+            .into_iter()
             .map(|v| crate::map_panel::remote::RemoteWearer::from_view(v, now, stale_after, fix_stale_s))
             .collect()
     }

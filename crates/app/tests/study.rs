@@ -16,26 +16,9 @@ use vestnav_app::console::{Console, Tab};
 use vestnav_device::wtcu::Request;
 use vestnav_station::study::{StudyPhase, StudyView};
 
-/// A localization protocol of two single tactors, blocked order, one block with feedback.
-const TWO_TACTORS: &str = r#"name = "two-tactors"
-task = "localization"
-participants = ["P07"]
-order = "blocked"
-seed = 1
-
-[localization]
-stimuli = ["T5", "T10"]
-on_ms = 60
-intensity = 255
-repeats = 1
-isi_ms = 0
-
-[[block]]
-name = "practice"
-training = true
-feedback = true
-repetitions = 1
-"#;
+/// A localization protocol of two single tactors, blocked order (T5 first), one block with feedback: the
+/// fixture the remote Study test loads too.
+const TWO_TACTORS: &str = include_str!("../../../tests/data/study/two-tactors.toml");
 
 fn study_console(fake: &Fake) -> Harness<'static, Console> {
     let mut h = harness_with(fake, Config { map_tiles: false, guidance_auto: false, ..Config::default() });
@@ -135,17 +118,17 @@ fn a_broken_protocol_shows_its_line_and_is_not_touched() {
     let fake = Fake::default();
     let mut h = study_console(&fake);
     let dir = test_dir("study-broken");
-    // Line 4 names an order that does not exist.
+    // One line names an order that does not exist.
     let broken = TWO_TACTORS.replace("order = \"blocked\"", "order = \"sideways\"");
-    assert_eq!(broken.lines().nth(3), Some("order = \"sideways\""));
+    let line = 1 + broken.lines().position(|l| l == "order = \"sideways\"").unwrap();
     let protocol = write(&dir, "broken.toml", &broken);
     let before =
         (std::fs::read(&protocol).unwrap(), std::fs::metadata(&protocol).unwrap().modified().unwrap());
     check(&mut h, &protocol);
-    let at_line = format!("{}:4:", protocol.display());
+    let at_line = format!("{}:{line}:", protocol.display());
     assert!(
         h.query_by_label_contains(&at_line).is_some(),
-        "the error names the file and line 4: {:?}",
+        "the error names the file and line {line}: {:?}",
         h.state().study.checked.as_ref().map(|c| c.result.clone())
     );
     h.state_mut().study.participant = "P07".into();
@@ -373,4 +356,53 @@ fn a_study_named_at_start_opens_the_tab_and_a_simulated_wearer_answers() {
     assert!(presented_tactor(&fake).is_some(), "the stimuli reached the unit");
     drop(h);
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Issue 25, End trial: the documentation's navigation protocol (`docs/study/navigation.toml`: the demo
+/// route under four conditions, a 900 s limit) on the built-in GPS simulator and the emulated vest; the
+/// operator ends the first walk with the tab's End trial a few fixes in. Truth: the protocol's meaning of
+/// an ended trial (`ended`: a navigation trial ended before its last waypoint, by the operator or its time
+/// limit), read from the results file's own header and row: `ended`, well short of the limit, no
+/// completion time, waypoints left unreached.
+#[test]
+fn end_trial_ends_the_walk_and_its_row_says_ended() {
+    let dir = test_dir("study-end-trial");
+    let mut h = real_harness(None);
+    settle(&mut h, |c| c.station.vest.is_live() && c.station.gps.fix.is_some());
+    h.state_mut().side_open = false;
+    h.state_mut().tab = Tab::Study;
+    h.run_steps(2);
+    let protocol = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../docs/study/navigation.toml");
+    check(&mut h, &protocol);
+    assert!(h.query_by_label_contains("OK: strategy-comparison").is_some(), "the protocol checked");
+    load(&mut h, &dir);
+    assert!(h.query_by_label("End trial").is_none(), "no walk yet, no End trial");
+    h.get_by_label("Start").click();
+    settle(&mut h, |c| view(c).is_some_and(|v| v.phase == StudyPhase::Navigating));
+    // The simulator walks the trial's route from its start: a few fixes measured, then the operator ends it.
+    settle(&mut h, |c| view(c).and_then(|v| v.navigation).is_some_and(|n| n.fixes >= 2));
+    h.run_steps(2);
+    assert!(h.query_by_label_contains("Walking: route").is_some(), "the walk is shown");
+    assert!(!disabled(&h, "End trial"), "End trial is offered while the wearer walks");
+    h.get_by_label("End trial").click();
+    settle(&mut h, |c| view(c).is_some_and(|v| v.rows == 1));
+    let v = view(h.state()).unwrap();
+    assert_eq!(v.phase, StudyPhase::Interval, "the pause before the next walk");
+    h.run_steps(2);
+    assert!(h.query_by_label_contains("Last walk: route").is_some(), "the walk ended is shown as the last");
+    assert!(disabled(&h, "End trial"), "nothing left to end");
+
+    // The results file, read back: one row, ended, with the walk measured so far.
+    let rows = vestnav_core::study::record::read_csv_file(&v.results_csv).unwrap();
+    assert_eq!(rows.len(), 1, "one row, the walk ended: {rows:?}");
+    let row = &rows[0];
+    assert_eq!(row.outcome, vestnav_core::study::Outcome::Ended);
+    assert_eq!(row.outcome.name(), "ended");
+    let text = std::fs::read_to_string(&v.results_csv).unwrap();
+    assert!(text.lines().nth(1).is_some_and(|l| l.split(',').any(|f| f == "ended")), "{text}");
+    assert_eq!(row.completion_s, None, "ended before the last waypoint: no completion time");
+    assert!(row.missed_waypoints.is_some_and(|m| m >= 1), "waypoints left unreached: {row:?}");
+    let (path_m, route_m) = (row.path_m.unwrap(), row.route_m.unwrap());
+    assert!(path_m < route_m, "walked {path_m} m of a {route_m} m route");
+    std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -34,6 +34,7 @@ pub use vestnav_station::route::{Coordinate, UNDO_STEPS, parse_coordinate, plaus
 mod files;
 mod paint;
 pub mod remote;
+pub mod route_line;
 pub mod walk;
 
 /// Waypoints drawn as markers at most per frame: beyond it (a long route zoomed out) only the route line,

@@ -16,14 +16,12 @@ use vestnav_device::route_file::TrackPoint;
 use vestnav_station::route::{RouteModel, Track, segments};
 use vestnav_station::{Notices, Severity, Subject};
 
+use super::route_line::{self, PATH_DRAWN_MAX, PathStyle};
 use super::walk::{PROFILES, WalkRequest};
 use super::{
     MapView, TILES_OFFLINE_AFTER_S, TRACK_DRAW_MAX, TRACK_TAIL, WAYPOINT_MARKERS_MAX, WaypointAction,
     age_text, decimation_stride, nice_length_m, wearer_marker,
 };
-
-/// Most points of a route's path drawn in one frame (a longer path is drawn thinned).
-const PATH_DRAWN_MAX: usize = 20_000;
 
 /// A [`Tiles`] wrapper that counts tiles found and missing, to tell "offline" from "loading".
 struct CountingTiles<'a> {
@@ -159,27 +157,11 @@ impl MapView {
             // Route line, the leg to the next waypoint highlighted.
             let pts: Vec<Pos2> =
                 waypoints.iter().map(|w| to_pos2(projector.project(lat_lon(w.lat_deg, w.lon_deg)))).collect();
-            // A route planned along paths is drawn along its path (the section ahead highlighted), at most
+            // A route planned along paths is drawn along its path (passed, ahead, the rest), at most
             // PATH_DRAWN_MAX points a frame.
             let path = route.path();
-            let project_all = |ps: &[vestnav_core::geo::LatLon]| -> Vec<Pos2> {
-                let stride = ps.len().div_ceil(PATH_DRAWN_MAX).max(1);
-                let mut v: Vec<Pos2> = ps
-                    .iter()
-                    .step_by(stride)
-                    .map(|q| to_pos2(projector.project(lat_lon(q.lat_deg, q.lon_deg))))
-                    .collect();
-                if let Some(q) = ps.last().filter(|_| ps.len() % stride != 1 && stride > 1) {
-                    v.push(to_pos2(projector.project(lat_lon(q.lat_deg, q.lon_deg))));
-                }
-                v
-            };
             if let Some(path) = path {
-                painter.line(project_all(path.points()), Stroke::new(2.0, Color32::from_rgb(60, 120, 220)));
-                let ahead = project_all(path.leg(*next));
-                if ahead.len() >= 2 {
-                    painter.line(ahead, Stroke::new(3.0, Color32::from_rgb(240, 140, 0)));
-                }
+                route_line::draw(&painter, projector, path, *next, &PathStyle::LOCAL, PATH_DRAWN_MAX);
             } else if pts.len() >= 2 {
                 painter.line(pts.clone(), Stroke::new(2.0, Color32::from_rgb(60, 120, 220)));
             }

@@ -1,5 +1,8 @@
 //! The wearers of remote stations (`vestnav --broker`) on the console's map: each in its own colour with
-//! its name and last contact, its recent track and its route. What is drawn comes from what the station
+//! its name and last contact, its recent track and its route — along the route's path when the station
+//! sent one, drawn as this console's own path is ([`super::route_line`]: passed, ahead, the rest, in the
+//! station's colour; all remote paths together within one budget of points a frame), else as dashed
+//! straight legs. What is drawn comes from what the station
 //! last published and when it arrived: a station out of contact, or whose fix is old, is drawn hollow and
 //! grey with its age ("last known").
 
@@ -7,6 +10,7 @@ use std::fmt::Write as _;
 use std::time::{Duration, Instant};
 
 use egui::{Color32, Pos2, Stroke, vec2};
+use vestnav_core::guidance::RoutePath;
 use vestnav_remote::StationView;
 use walkers::{Projector, lat_lon};
 
@@ -43,6 +47,11 @@ pub struct RemoteWearer {
     pub route: Vec<(f64, f64)>,
     /// Index of the next waypoint in `route`.
     pub next: usize,
+    /// The path the route follows, when the station's route message carried it.
+    pub path: Option<RoutePath>,
+    /// How many points the station's path has (0: straight legs); more than the path carried when the
+    /// station's path was too long for the broker (the label says it is not shown).
+    pub path_points: usize,
 }
 
 /// A stable colour for `name` (FNV-1a over its bytes).
@@ -55,8 +64,8 @@ pub fn colour_of(name: &str) -> Color32 {
 
 impl RemoteWearer {
     /// The wearer of station `v` at `now`: stale when silent for longer than `stale_after` (or offline),
-    /// or when its fix is older than `fix_stale_s`.
-    pub fn from_view(v: &StationView, now: Instant, stale_after: Duration, fix_stale_s: f64) -> Self {
+    /// or when its fix is older than `fix_stale_s`. Takes the view (its route's path moves here, uncopied).
+    pub fn from_view(v: StationView, now: Instant, stale_after: Duration, fix_stale_s: f64) -> Self {
         let snapshot = v.state.as_ref().map(|s| &s.station);
         let position = snapshot
             .and_then(|s| s.fix.as_ref())
@@ -73,18 +82,23 @@ impl RemoteWearer {
         if let (Some(a), true) = (fix_age, old_fix) {
             let _ = write!(label, " · fix {a:.0} s old");
         }
-        let (route, next) = v.route.as_ref().map_or_else(Default::default, |r| {
-            (r.waypoints.iter().map(|w| (w.lat_deg, w.lon_deg)).collect(), r.next)
+        let (route, next, path, path_points) = v.route.map_or_else(Default::default, |r| {
+            (r.waypoints.iter().map(|w| (w.lat_deg, w.lon_deg)).collect(), r.next, r.path, r.path_points)
         });
+        if path.is_none() && path_points > 0 {
+            let _ = write!(label, " · its path of {path_points} points not shown (too long for the broker)");
+        }
         Self {
-            name: v.name.clone(),
             colour: colour_of(&v.name),
+            name: v.name,
             position,
             stale,
             label,
-            track: v.track.iter().copied().collect(),
+            track: v.track.into_iter().collect(),
             route,
             next,
+            path,
+            path_points,
         }
     }
 }
@@ -95,9 +109,15 @@ pub(super) fn draw(painter: &egui::Painter, projector: &Projector, wearers: &[Re
         let v = projector.project(lat_lon(la, lo));
         Pos2::new(v.x, v.y)
     };
+    // The remote paths share one budget of points, so the frame stays bounded whatever the stations send.
+    let with_path = wearers.iter().filter(|w| w.path.is_some()).count();
+    let budget = super::route_line::PATH_DRAWN_MAX / with_path.max(1);
     for w in wearers {
         let pts: Vec<Pos2> = w.route.iter().copied().map(project).collect();
-        if pts.len() >= 2 {
+        if let Some(path) = &w.path {
+            let style = super::route_line::PathStyle::remote(w.colour);
+            super::route_line::draw(painter, projector, path, w.next, &style, budget);
+        } else if pts.len() >= 2 {
             painter.add(egui::Shape::dashed_line(
                 &pts,
                 Stroke::new(2.0, w.colour.gamma_multiply(0.7)),
@@ -148,7 +168,7 @@ mod tests {
             last_contact: Some(now.checked_sub(Duration::from_secs(9)).unwrap()),
             ..StationView::default()
         };
-        let w = RemoteWearer::from_view(&v, now, Duration::from_secs(2), 5.0);
+        let w = RemoteWearer::from_view(v.clone(), now, Duration::from_secs(2), 5.0);
         assert!(w.stale);
         assert_eq!(w.position, None);
         assert!(w.label.contains("no contact 9 s"), "{}", w.label);
@@ -162,7 +182,7 @@ mod tests {
             }),
             ..v
         };
-        let w = RemoteWearer::from_view(&off, now, Duration::from_secs(2), 5.0);
+        let w = RemoteWearer::from_view(off, now, Duration::from_secs(2), 5.0);
         assert!(w.stale && w.label.ends_with("offline"), "{}", w.label);
         assert_eq!(colour_of("alpha"), w.colour, "a station keeps its colour");
     }
