@@ -166,6 +166,18 @@ struct Epoch {
     latest_pos: Option<LatLon>,
 }
 
+impl Epoch {
+    /// A sentence that says where the receiver is, or that it does not know (GGA, RMC, GLL, GNS, Ashtech
+    /// POS), was part of the epoch.
+    fn has_position_sentence(&self) -> bool {
+        self.gga.is_some()
+            || self.rmc.is_some()
+            || self.gll.is_some()
+            || self.gns.is_some()
+            || self.ashtech.is_some()
+    }
+}
+
 /// A GSV group being collected, and the last complete one, per group key.
 #[derive(Debug, Clone, Default)]
 struct SkyGroup {
@@ -638,6 +650,15 @@ impl NmeaDecoder {
 
     fn close_epoch(&mut self) {
         let mut epoch = std::mem::take(&mut self.epoch);
+        // The same second said again without a position sentence (a repeated time-less sentence split it
+        // off: the B&G Zeus² sends `RMC VTG ZDA RMC VTG ZDA` of one second; or a ZDA after an early-closed
+        // epoch) is not a second epoch: its fix would say "no fix" for a second that has one.
+        if epoch.substantive
+            && !epoch.has_position_sentence()
+            && epoch.tod.is_some_and(|t| self.last_closed_tod_ms == Some(sentence::tod_ms(t)))
+        {
+            epoch.substantive = false;
+        }
         // Learn the cycle's last sentence: the type that ended two consecutive epochs (however they closed).
         if epoch.substantive
             && let Some(last) = epoch.last_kind
