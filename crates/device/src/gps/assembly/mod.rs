@@ -6,6 +6,9 @@
 //! - so does a second sentence of a type already seen in this epoch (except GSA and GSV, which come in
 //!   several parts) — this separates epochs that carry no time at all (a receiver without a fix often
 //!   sends `$GPGGA,,,,,,0,...`);
+//! - an epoch that repeats the last epoch's UTC time without any position sentence (GGA, RMC, GLL, GNS,
+//!   `$PASHR,POS`) is the same second said again, split off by a repeated time-less sentence or by an
+//!   early close: it is dropped, not emitted as a "no fix" of a second that has a fix;
 //! - with `early_emit` (live sources), the decoder learns the receiver's last sentence of a cycle (the
 //!   type that ended the previous two epochs) and closes the epoch as soon as it arrives, instead of
 //!   waiting for the next epoch's first sentence; [`NmeaDecoder::handle_timeout`] closes an epoch after

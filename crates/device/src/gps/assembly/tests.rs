@@ -368,7 +368,7 @@ fn a_multiplexer_moving_gll_to_the_next_label_keeps_one_epoch_per_second() {
         (17, deg(52.0, 50.9696), deg(5.0, 18.7305), Some(-5.0), Some(kn(5.7))),
         (18, deg(52.0, 50.9695), deg(5.0, 18.7303), None, Some(kn(5.6))),
     ];
-    let text: String = ZEUS_LABEL_SWITCH.iter().map(|l| format!("{l}\r\n")).collect();
+    let text = ZEUS_LABEL_SWITCH.join("\r\n") + "\r\n";
     let check = |what: &str, fixes: &[&Fix]| {
         assert_eq!(fixes.len(), expected.len(), "{what}: one fix per labelled second");
         for (f, &(s, lat, lon, alt, speed)) in fixes.iter().zip(&expected) {
@@ -442,7 +442,7 @@ fn a_second_repeated_without_a_position_is_not_a_no_fix_epoch() {
             assert!((f.lon_deg.unwrap() - 5.309_098_333).abs() < 1e-9, "{what}");
         }
     };
-    let text: String = lines.iter().map(|l| format!("{l}\r\n")).collect();
+    let text = lines.join("\r\n") + "\r\n";
     let (fixes, _) = crate::gps::decode_reader(text.as_bytes()).unwrap();
     let seconds: Vec<_> = fixes.iter().filter_map(|f| f.time_of_day).map(|t| t.second()).collect();
     assert_eq!(seconds, [44, 45, 46], "one fix per second from a file");

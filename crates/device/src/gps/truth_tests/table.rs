@@ -127,7 +127,7 @@ const LOGS: &[(&str, &str, Judge)] = &[
             // 148 epochs less the 38 of 09:48:17-54, where gpsd's report is the GLL alone.
             strict_min: 110,
             why: "the multiplexer's GGA labels positions one second earlier than its RMC and ZDA until \
-                  09:48:54, its GLL follows GGA until 09:48:16 and RMC from 09:48:17; we report one epoch per \
+                  09:48:54, its GLL follows GGA until 09:48:15 and RMC from 09:48:17; we report one epoch per \
                   labelled second with its latest position (GGA's from 09:48:17), gpsd at 09:48:17-54 the GLL \
                   alone (its cycle continuer: no altitude, no RMC speed)",
         },
