@@ -6,6 +6,9 @@
 //! - so does a second sentence of a type already seen in this epoch (except GSA and GSV, which come in
 //!   several parts) — this separates epochs that carry no time at all (a receiver without a fix often
 //!   sends `$GPGGA,,,,,,0,...`);
+//! - an epoch that repeats the last epoch's UTC time without any position sentence (GGA, RMC, GLL, GNS,
+//!   `$PASHR,POS`) is the same second said again, split off by a repeated time-less sentence or by an
+//!   early close: it is dropped, not emitted as a "no fix" of a second that has a fix;
 //! - with `early_emit` (live sources), the decoder learns the receiver's last sentence of a cycle (the
 //!   type that ended the previous two epochs) and closes the epoch as soon as it arrives, instead of
 //!   waiting for the next epoch's first sentence; [`NmeaDecoder::handle_timeout`] closes an epoch after
@@ -164,6 +167,18 @@ struct Epoch {
     substantive: bool,
     /// The position of the epoch's most recent valid position sentence (GGA/RMC/GNS/GLL).
     latest_pos: Option<LatLon>,
+}
+
+impl Epoch {
+    /// A sentence that says where the receiver is, or that it does not know (GGA, RMC, GLL, GNS, Ashtech
+    /// POS), was part of the epoch.
+    fn has_position_sentence(&self) -> bool {
+        self.gga.is_some()
+            || self.rmc.is_some()
+            || self.gll.is_some()
+            || self.gns.is_some()
+            || self.ashtech.is_some()
+    }
 }
 
 /// A GSV group being collected, and the last complete one, per group key.
@@ -638,6 +653,15 @@ impl NmeaDecoder {
 
     fn close_epoch(&mut self) {
         let mut epoch = std::mem::take(&mut self.epoch);
+        // The same second said again without a position sentence (a repeated time-less sentence split it
+        // off: the B&G Zeus² sends `RMC VTG ZDA RMC VTG ZDA` of one second; or a ZDA after an early-closed
+        // epoch) is not a second epoch: its fix would say "no fix" for a second that has one.
+        if epoch.substantive
+            && !epoch.has_position_sentence()
+            && epoch.tod.is_some_and(|t| self.last_closed_tod_ms == Some(sentence::tod_ms(t)))
+        {
+            epoch.substantive = false;
+        }
         // Learn the cycle's last sentence: the type that ended two consecutive epochs (however they closed).
         if epoch.substantive
             && let Some(last) = epoch.last_kind

@@ -324,3 +324,138 @@ proptest! {
         prop_assert_eq!(stats.implausible_dates, 1);
     }
 }
+
+/// The sentences of gpsd's `bundg_zeus_9.log` (a B&G Zeus² multiplexer) from 09:48:15 to 09:48:18, as
+/// logged. Up to 09:48:16 its GLL carries GGA's UTC label; from 09:48:17 on it carries RMC's, one second
+/// later (GGA(16) and GLL(17) hold the same position).
+const ZEUS_LABEL_SWITCH: [&str; 18] = [
+    "$GPGGA,094815,5250.9714,N,00518.7347,E,1,12,0.60,-5,M,46.8,M,,*48",
+    "$GPGLL,5250.9714,N,00518.7347,E,094815,A,A*44",
+    "$GPGSA,A,3,07,08,10,16,20,21,26,27,29,76,75,70,1.10,0.60,0.90*0B",
+    "$GPRMC,094816,A,5250.9713,N,00518.7344,E,5.5,237.9,200818,1.4,E,A*16",
+    "$GPVTG,237.9,T,236.5,M,5.5,N,10.2,K,A*1D",
+    "$GPZDA,094816,20,08,2018,-01,00*67",
+    "$GPGGA,094816,5250.9705,N,00518.7323,E,1,12,0.60,-5,M,46.8,M,,*49",
+    "$GPGLL,5250.9705,N,00518.7323,E,094817,A,A*44",
+    "$GPGSA,A,3,07,08,10,16,20,21,26,27,29,76,75,70,1.10,0.60,0.90*0B",
+    "$GPRMC,094817,A,5250.9705,N,00518.7323,E,5.7,238.1,200818,1.4,E,A*14",
+    "$GPVTG,238.1,T,236.7,M,5.7,N,10.5,K,A*1D",
+    "$GPZDA,094817,20,08,2018,-01,00*66",
+    "$GPGGA,094817,5250.9696,N,00518.7305,E,1,12,0.60,-5,M,46.8,M,,*47",
+    "$GPGLL,5250.9696,N,00518.7305,E,094818,A,A*44",
+    "$GPGSA,A,3,07,08,10,16,20,21,26,27,29,76,75,70,1.10,0.60,0.90*0B",
+    "$GPRMC,094818,A,5250.9695,N,00518.7303,E,5.6,229.6,200818,1.4,E,A*17",
+    "$GPVTG,229.6,T,228.2,M,5.6,N,10.4,K,A*10",
+    "$GPZDA,094818,20,08,2018,-01,00*69",
+];
+
+/// One epoch per labelled second, whatever sentence type moves to another label (docs/gps.md, "Epoch rules
+/// added for the multiplexers"): the epoch's position is its latest valid position sentence's, its altitude
+/// GGA's, its speed RMC/VTG's. Expected values are the sentences' own fields (ddmm.mmmm -> degrees, knots
+/// -> m/s). gpsd differs here on purpose: GLL is its "cycle continuer", so its report for 09:48:17 is GLL(17)
+/// alone (no altitude, speed 0, its `.chk`), the GGA and RMC of that second are never reported, and
+/// 09:48:16 has no report at all. Live decoding (cycle end learned, amended fixes) ends every second with
+/// the same fix as file decoding.
+#[test]
+fn a_multiplexer_moving_gll_to_the_next_label_keeps_one_epoch_per_second() {
+    let deg = |d: f64, min: f64| d + min / 60.0;
+    let kn = |v: f64| v * 1852.0 / 3600.0;
+    // (second, lat, lon, altitude, speed): 15 GLL(15) = GGA(15); 16 GGA(16) after RMC(16); 17 GGA(17)
+    // after GLL(17) and RMC(17); 18 RMC(18) after GLL(18) (no GGA of 18 in the excerpt).
+    let expected = [
+        (15, deg(52.0, 50.9714), deg(5.0, 18.7347), Some(-5.0), None),
+        (16, deg(52.0, 50.9705), deg(5.0, 18.7323), Some(-5.0), Some(kn(5.5))),
+        (17, deg(52.0, 50.9696), deg(5.0, 18.7305), Some(-5.0), Some(kn(5.7))),
+        (18, deg(52.0, 50.9695), deg(5.0, 18.7303), None, Some(kn(5.6))),
+    ];
+    let text = ZEUS_LABEL_SWITCH.join("\r\n") + "\r\n";
+    let check = |what: &str, fixes: &[&Fix]| {
+        assert_eq!(fixes.len(), expected.len(), "{what}: one fix per labelled second");
+        for (f, &(s, lat, lon, alt, speed)) in fixes.iter().zip(&expected) {
+            assert_eq!(f.time_of_day, NaiveTime::from_hms_opt(9, 48, s), "{what}");
+            assert_eq!(f.mode, Some(FixMode::Fix3D), "{what} {s}");
+            assert!(
+                (f.lat_deg.unwrap() - lat).abs() < 1e-9 && (f.lon_deg.unwrap() - lon).abs() < 1e-9,
+                "{what} {s}"
+            );
+            assert_eq!(f.alt_m, alt, "{what} {s}");
+            match (f.speed_m_s, speed) {
+                (Some(a), Some(b)) => assert!((a - b).abs() < 1e-9, "{what} {s}: {a} m/s"),
+                (a, b) => assert_eq!(a, b, "{what} {s}"),
+            }
+        }
+    };
+    let (file_fixes, _) = crate::gps::decode_reader(text.as_bytes()).unwrap();
+    check("file", &file_fixes.iter().collect::<Vec<_>>());
+    // Live: line by line; the last fix of each second is that second's.
+    let mut d = NmeaDecoder::new(DecoderConfig::live());
+    let now = Instant::now();
+    let mut live: Vec<Fix> = Vec::new();
+    let push = |events: Vec<GpsEvent>, live: &mut Vec<Fix>| {
+        for e in events {
+            if let GpsEvent::Fix(f) = e {
+                match live.last_mut() {
+                    Some(last) if last.time_of_day == f.time_of_day => *last = *f,
+                    _ => live.push(*f),
+                }
+            }
+        }
+    };
+    for l in ZEUS_LABEL_SWITCH {
+        d.handle_bytes(format!("{l}\r\n").as_bytes(), now);
+        push(all_events(&mut d), &mut live);
+    }
+    d.finish(now);
+    push(all_events(&mut d), &mut live);
+    check("live", &live.iter().collect::<Vec<_>>());
+}
+
+/// `bundg_zeus_9.log` at 09:49:45 (gpsd's suite): the multiplexer sends the second's RMC, VTG and ZDA twice
+/// and no GGA or GLL. The repeated VTG (no time field) splits the epoch, and the `VTG ZDA` left over carries
+/// the same second without a position: it is not a second epoch, so 09:49:45 stays the RMC's 3D fix (gpsd's
+/// `.chk`: mode 3, 52.848168333, 5.309098333) instead of turning into "no fix" — in file and live decoding.
+#[test]
+fn a_second_repeated_without_a_position_is_not_a_no_fix_epoch() {
+    let lines = [
+        "$GPGGA,094944,5250.8910,N,00518.5482,E,1,12,0.60,-5,M,46.8,M,,*4A",
+        "$GPGLL,5250.8909,N,00518.5480,E,094944,A,A*4C",
+        "$GPRMC,094944,A,5250.8909,N,00518.5480,E,5.7,233.6,200818,1.4,E,A*10",
+        "$GPVTG,227.6,T,226.2,M,5.3,N,9.8,K,A*21",
+        "$GPZDA,094944,20,08,2018,-01,00*61",
+        "$GPRMC,094945,A,5250.8901,N,00518.5459,E,5.4,240.2,200818,1.4,E,A*1E",
+        "$GPVTG,240.0,T,238.6,M,5.7,N,10.5,K,A*1C",
+        "$GPZDA,094945,20,08,2018,-01,00*60",
+        "$GPRMC,094945,A,5250.8901,N,00518.5459,E,5.4,240.2,200818,1.4,E,A*1E",
+        "$GPVTG,240.0,T,238.6,M,5.7,N,10.5,K,A*1C",
+        "$GPZDA,094945,20,08,2018,-01,00*60",
+        "$GPGGA,094946,5250.8891,N,00518.5441,E,1,12,0.60,-5,M,46.8,M,,*4F",
+        "$GPGLL,5250.8890,N,00518.5439,E,094946,A,A*4D",
+        "$GPGSA,A,3,07,08,10,16,20,21,26,27,29,76,75,70,1.10,0.60,0.90*0B",
+    ];
+    let second_45 = |fixes: &[Fix], what: &str| {
+        let of_45: Vec<&Fix> =
+            fixes.iter().filter(|f| f.time_of_day == NaiveTime::from_hms_opt(9, 49, 45)).collect();
+        assert!(!of_45.is_empty(), "{what}");
+        for f in of_45 {
+            assert_eq!(f.mode, Some(FixMode::Fix3D), "{what}");
+            assert!((f.lat_deg.unwrap() - 52.848_168_333).abs() < 1e-9, "{what}");
+            assert!((f.lon_deg.unwrap() - 5.309_098_333).abs() < 1e-9, "{what}");
+        }
+    };
+    let text = lines.join("\r\n") + "\r\n";
+    let (fixes, _) = crate::gps::decode_reader(text.as_bytes()).unwrap();
+    let seconds: Vec<_> = fixes.iter().filter_map(|f| f.time_of_day).map(|t| t.second()).collect();
+    assert_eq!(seconds, [44, 45, 46], "one fix per second from a file");
+    second_45(&fixes, "file");
+    let mut d = NmeaDecoder::new(DecoderConfig::live());
+    let now = Instant::now();
+    for l in lines {
+        d.handle_bytes(format!("{l}\r\n").as_bytes(), now);
+    }
+    d.finish(now);
+    let live: Vec<Fix> = all_events(&mut d)
+        .into_iter()
+        .filter_map(|e| if let GpsEvent::Fix(f) = e { Some(*f) } else { None })
+        .collect();
+    second_45(&live, "live");
+}
