@@ -6,6 +6,10 @@
 //! SIGTERM, SIGINT and SIGHUP stop the vest first and end the process within the stop path's deadline;
 //! `quit`, `--for` and the end of a replay (`--exit-when-done`) stop it the same way.
 //!
+//! With `--compare-gps SPEC` (repeatable) more receivers run beside `--gps`, compared with it by receiver
+//! time; each status line says how they differ, and the station's snapshot carries the comparison to a
+//! remote console.
+//!
 //! With `--map AREA.osm.pbf` the station re-routes a wearer who strays off a route's path, on the extract's
 //! footways: the file is checked before anything starts, then read on the station's `osm-graph` thread.
 #![allow(clippy::print_stdout)] // the status lines on stdout are this command's interface for scripts
@@ -30,6 +34,11 @@ pub struct StationArgs {
     /// (as the console's --gps).
     #[arg(long, value_name = "SPEC", value_parser = parse_gps_spec, default_value = "sim")]
     pub gps: GpsSourceConfig,
+    /// A receiver to compare with --gps (repeatable, at most 4): the same forms as --gps. Its fixes are
+    /// compared with the primary's by receiver time (never fed to guidance); its sentences are recorded
+    /// beside the session log as SESSION.rxN.nmea for `vestnav fieldtest compare`.
+    #[arg(long = "compare-gps", value_name = "SPEC", value_parser = parse_gps_spec)]
+    pub compare_gps: Vec<GpsSourceConfig>,
     /// The vest: emulated, or serial:PATH (a WTCU on a serial or Bluetooth SPP port).
     #[arg(long, value_name = "SPEC", value_parser = parse_vest_spec, default_value = "emulated")]
     pub vest: VestSourceConfig,
@@ -109,6 +118,14 @@ pub fn run(a: &StationArgs) -> anyhow::Result<()> {
     }
     a.lab.start(&mut station, a.name.as_deref())?;
     station.connect_vest();
+    for spec in &a.compare_gps {
+        // The command a console or a remote operator sends: one path, one set of checks.
+        let command = vestnav_station::command::Command::AddReceiver { spec: spec.to_string() };
+        if let Err(e) = station.apply(command) {
+            station.shutdown();
+            anyhow::bail!("--compare-gps {spec}: {e}");
+        }
+    }
     station.connect_gps(Vec::new());
     let mut bridge = start_bridge(a, &station)?;
     if let Some(p) = station.log_path() {
@@ -154,7 +171,8 @@ pub fn run(a: &StationArgs) -> anyhow::Result<()> {
         if a.for_s.is_some_and(|s| now.duration_since(start).as_secs_f64() >= s) {
             break;
         }
-        if a.exit_when_done && matches!(station.gps.state, Some(SourceState::Finished)) {
+        if a.exit_when_done && matches!(station.gps.state, Some(SourceState::Finished)) && !receivers_running(&station)
+        {
             break;
         }
         match &mut bridge {
@@ -165,13 +183,31 @@ pub fn run(a: &StationArgs) -> anyhow::Result<()> {
             None => std::thread::sleep(Duration::from_millis(20)),
         }
     }
+    if station.receivers().active() {
+        // The last comparison covers every fix taken: the final status line says what the session measured.
+        station.pump(|_| {});
+        station.recompute_receivers(Instant::now());
+        if !station.await_comparison(Duration::from_secs(10)) {
+            eprintln!("vestnav station: the last comparison of the receivers did not come within 10 s");
+        }
+    }
+    let last = status_line(&station, Instant::now(), start, a.json);
     station.shutdown();
     if let Some(b) = &mut bridge {
         b.turn(&mut station, Instant::now());
         b.shutdown();
     }
-    println!("{}", status_line(&station, Instant::now(), start, a.json));
+    println!("{last}");
     Ok(())
+}
+
+/// Whether a comparison source is still delivering (not finished, lost, stopped or failed): a replayed
+/// comparison is read to its end before `--exit-when-done` ends the station.
+fn receivers_running(s: &Station) -> bool {
+    s.receivers().sources().iter().any(|r| {
+        r.failed.is_none()
+            && !matches!(r.state, Some(SourceState::Finished | SourceState::Lost { .. } | SourceState::Stopped))
+    })
 }
 
 /// The station's MQTT bridge when `--broker` names one (`None` without).
@@ -230,6 +266,7 @@ fn status_line(s: &Station, now: Instant, start: Instant, json: bool) -> String 
             "fixes": s.gps.fixes, "vest": vest, "tactors_on": on, "halted": s.vest.halted, "cue": cue, "hold": hold,
             "next_waypoint": next, "waypoints": s.route().waypoints().len(), "gps_alarm": alarm,
             "stop_not_confirmed": stop, "lab": s.lab_status(), "path_network": s.has_path_network(),
+            "receivers": s.receivers_snapshot(now),
         })
         .to_string()
     } else {
@@ -253,6 +290,9 @@ fn status_line(s: &Station, now: Instant, start: Instant, json: bool) -> String 
         }
         if let Some(lab) = s.lab_status() {
             let _ = write!(line, " · lab: {}", lab.summary());
+        }
+        if let Some(r) = s.receivers_snapshot(now) {
+            let _ = write!(line, " · receivers: {}", r.summary());
         }
         line
     }
