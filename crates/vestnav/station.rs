@@ -171,7 +171,9 @@ pub fn run(a: &StationArgs) -> anyhow::Result<()> {
         if a.for_s.is_some_and(|s| now.duration_since(start).as_secs_f64() >= s) {
             break;
         }
-        if a.exit_when_done && matches!(station.gps.state, Some(SourceState::Finished)) && !receivers_running(&station)
+        if a.exit_when_done
+            && matches!(station.gps.state, Some(SourceState::Finished))
+            && !receivers_running(&station)
         {
             break;
         }
@@ -186,6 +188,8 @@ pub fn run(a: &StationArgs) -> anyhow::Result<()> {
     if station.receivers().active() {
         // The last comparison covers every fix taken: the final status line says what the session measured.
         station.pump(|_| {});
+        // A comparison already being computed may predate the last fixes: its result first, then one of all.
+        let _ = station.await_comparison(Duration::from_secs(10));
         station.recompute_receivers(Instant::now());
         if !station.await_comparison(Duration::from_secs(10)) {
             eprintln!("vestnav station: the last comparison of the receivers did not come within 10 s");
@@ -206,7 +210,10 @@ pub fn run(a: &StationArgs) -> anyhow::Result<()> {
 fn receivers_running(s: &Station) -> bool {
     s.receivers().sources().iter().any(|r| {
         r.failed.is_none()
-            && !matches!(r.state, Some(SourceState::Finished | SourceState::Lost { .. } | SourceState::Stopped))
+            && !matches!(
+                r.state,
+                Some(SourceState::Finished | SourceState::Lost { .. } | SourceState::Stopped)
+            )
     })
 }
 

@@ -411,10 +411,12 @@ fn only_an_operator_adds_a_receiver_over_the_broker() {
     std::thread::sleep(Duration::from_millis(1500));
     assert!(receivers().is_none(), "an observer's receiver was opened: {:?}", receivers());
     assert!(
-        !fleet.station("alpha").unwrap().events.iter().any(|(_, e)| e
-            .answers
-            .as_ref()
-            .is_some_and(|(s, _)| s == observer.sender())),
+        !fleet
+            .station("alpha")
+            .unwrap()
+            .events
+            .iter()
+            .any(|(_, e)| e.answers.as_ref().is_some_and(|(s, _)| s == observer.sender())),
         "the station answered an observer's command"
     );
 

@@ -56,9 +56,11 @@ pub fn check_remote_receiver(spec: &str) -> Result<(), String> {
         return Err(format!("receiver refused: its spec is longer than {MAX_RECEIVER_SPEC} bytes"));
     }
     match spec.trim().parse::<GpsSourceSpec>() {
-        Ok(GpsSourceSpec::Serial { .. } | GpsSourceSpec::Gpsd { .. } | GpsSourceSpec::Simulator { route: None }) => {
-            Ok(())
-        }
+        Ok(
+            GpsSourceSpec::Serial { .. }
+            | GpsSourceSpec::Gpsd { .. }
+            | GpsSourceSpec::Simulator { route: None },
+        ) => Ok(()),
         Ok(other) => Err(format!(
             "receiver {other} refused over the broker: only serial:PATH[@BAUD], gpsd://HOST:PORT or sim \
              (a file on the station's machine or the vest's link is opened there only; docs/remote.md)"

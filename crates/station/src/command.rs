@@ -222,7 +222,9 @@ impl Station {
             Command::Study(c) => self.study_command(c)?,
             Command::AddReceiver { spec } => {
                 if spec.len() > MAX_RECEIVER_SPEC {
-                    return Err(format!("receiver refused: its spec is longer than {MAX_RECEIVER_SPEC} bytes"));
+                    return Err(format!(
+                        "receiver refused: its spec is longer than {MAX_RECEIVER_SPEC} bytes"
+                    ));
                 }
                 let spec = spec.trim().parse().map_err(|e| format!("receiver refused: {e}"))?;
                 self.add_receiver(spec).map_err(|e| format!("receiver refused: {e}"))?;
