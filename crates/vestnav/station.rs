@@ -118,13 +118,9 @@ pub fn run(a: &StationArgs) -> anyhow::Result<()> {
     }
     a.lab.start(&mut station, a.name.as_deref())?;
     station.connect_vest();
-    for spec in &a.compare_gps {
-        // The command a console or a remote operator sends: one path, one set of checks.
-        let command = vestnav_station::command::Command::AddReceiver { spec: spec.to_string() };
-        if let Err(e) = station.apply(command) {
-            station.shutdown();
-            anyhow::bail!("--compare-gps {spec}: {e}");
-        }
+    if let Err(e) = add_compared(&mut station, &a.compare_gps) {
+        station.shutdown();
+        return Err(e);
     }
     station.connect_gps(Vec::new());
     let mut bridge = start_bridge(a, &station)?;
@@ -168,13 +164,7 @@ pub fn run(a: &StationArgs) -> anyhow::Result<()> {
             next_status = now + every;
             println!("{}", status_line(&station, now, start, a.json));
         }
-        if a.for_s.is_some_and(|s| now.duration_since(start).as_secs_f64() >= s) {
-            break;
-        }
-        if a.exit_when_done
-            && matches!(station.gps.state, Some(SourceState::Finished))
-            && !receivers_running(&station)
-        {
+        if done(a, &station, now.duration_since(start)) {
             break;
         }
         match &mut bridge {
@@ -185,16 +175,7 @@ pub fn run(a: &StationArgs) -> anyhow::Result<()> {
             None => std::thread::sleep(Duration::from_millis(20)),
         }
     }
-    if station.receivers().active() {
-        // The last comparison covers every fix taken: the final status line says what the session measured.
-        station.pump(|_| {});
-        // A comparison already being computed may predate the last fixes: its result first, then one of all.
-        let _ = station.await_comparison(Duration::from_secs(10));
-        station.recompute_receivers(Instant::now());
-        if !station.await_comparison(Duration::from_secs(10)) {
-            eprintln!("vestnav station: the last comparison of the receivers did not come within 10 s");
-        }
-    }
+    last_comparison(&mut station);
     let last = status_line(&station, Instant::now(), start, a.json);
     station.shutdown();
     if let Some(b) = &mut bridge {
@@ -203,6 +184,40 @@ pub fn run(a: &StationArgs) -> anyhow::Result<()> {
     }
     println!("{last}");
     Ok(())
+}
+
+/// Adds each `--compare-gps` receiver through the command a console or a remote operator sends: one path,
+/// one set of checks; the first refusal ends the start.
+fn add_compared(station: &mut Station, specs: &[GpsSourceConfig]) -> anyhow::Result<()> {
+    for spec in specs {
+        let command = vestnav_station::command::Command::AddReceiver { spec: spec.to_string() };
+        station.apply(command).map_err(|e| anyhow::anyhow!("--compare-gps {spec}: {e}"))?;
+    }
+    Ok(())
+}
+
+/// While receivers are compared: one last comparison of every fix taken, so the final status line says what
+/// the session measured.
+fn last_comparison(station: &mut Station) {
+    if !station.receivers().active() {
+        return;
+    }
+    station.pump(|_| {});
+    // A comparison already being computed may predate the last fixes: its result first, then one of all.
+    let _ = station.await_comparison(Duration::from_secs(10));
+    station.recompute_receivers(Instant::now());
+    if !station.await_comparison(Duration::from_secs(10)) {
+        eprintln!("vestnav station: the last comparison of the receivers did not come within 10 s");
+    }
+}
+
+/// Whether the run is over: `--for` has elapsed, or with `--exit-when-done` the GPS has finished and no
+/// comparison receiver is still delivering.
+fn done(a: &StationArgs, station: &Station, elapsed: Duration) -> bool {
+    a.for_s.is_some_and(|s| elapsed.as_secs_f64() >= s)
+        || (a.exit_when_done
+            && matches!(station.gps.state, Some(SourceState::Finished))
+            && !receivers_running(station))
 }
 
 /// Whether a comparison source is still delivering (not finished, lost, stopped or failed): a replayed

@@ -26,6 +26,7 @@
 //! newest beyond are not compared, said once in the warnings; the recordings go on). A source that would
 //! open the primary's device, another comparison source's, or the vest's port is refused.
 
+use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::sync::mpsc::{Receiver, SyncSender, TryRecvError};
 use std::time::{Duration, Instant};
@@ -282,10 +283,11 @@ impl ReceiversSnapshot {
             .map(|(k, s)| {
                 let mut t = format!("{} {}, {} fixes", s.name, s.status, s.fixes);
                 if let Some((c, d)) = cmp.and_then(|c| Some((c, c.differences.get(k)?))) {
-                    t.push_str(&format!(
+                    let _ = write!(
+                        t,
                         ", {} epochs matched, mean {:.1} m E {:.1} m N, RMS {:.1} m",
                         c.matched_epochs, d.mean_en_m[0], d.mean_en_m[1], d.rms_m
-                    ));
+                    );
                 }
                 t
             })
