@@ -6,6 +6,10 @@
 //! SIGTERM, SIGINT and SIGHUP stop the vest first and end the process within the stop path's deadline;
 //! `quit`, `--for` and the end of a replay (`--exit-when-done`) stop it the same way.
 //!
+//! With `--compare-gps SPEC` (repeatable) more receivers run beside `--gps`, compared with it by receiver
+//! time; each status line says how they differ, and the station's snapshot carries the comparison to a
+//! remote console.
+//!
 //! With `--map AREA.osm.pbf` the station re-routes a wearer who strays off a route's path, on the extract's
 //! footways: the file is checked before anything starts, then read on the station's `osm-graph` thread.
 #![allow(clippy::print_stdout)] // the status lines on stdout are this command's interface for scripts
@@ -30,6 +34,11 @@ pub struct StationArgs {
     /// (as the console's --gps).
     #[arg(long, value_name = "SPEC", value_parser = parse_gps_spec, default_value = "sim")]
     pub gps: GpsSourceConfig,
+    /// A receiver to compare with --gps (repeatable, at most 4): the same forms as --gps. Its fixes are
+    /// compared with the primary's by receiver time (never fed to guidance); its sentences are recorded
+    /// beside the session log as SESSION.rxN.nmea for `vestnav fieldtest compare`.
+    #[arg(long = "compare-gps", value_name = "SPEC", value_parser = parse_gps_spec)]
+    pub compare_gps: Vec<GpsSourceConfig>,
     /// The vest: emulated, or serial:PATH (a WTCU on a serial or Bluetooth SPP port).
     #[arg(long, value_name = "SPEC", value_parser = parse_vest_spec, default_value = "emulated")]
     pub vest: VestSourceConfig,
@@ -109,6 +118,10 @@ pub fn run(a: &StationArgs) -> anyhow::Result<()> {
     }
     a.lab.start(&mut station, a.name.as_deref())?;
     station.connect_vest();
+    if let Err(e) = add_compared(&mut station, &a.compare_gps) {
+        station.shutdown();
+        return Err(e);
+    }
     station.connect_gps(Vec::new());
     let mut bridge = start_bridge(a, &station)?;
     if let Some(p) = station.log_path() {
@@ -151,10 +164,7 @@ pub fn run(a: &StationArgs) -> anyhow::Result<()> {
             next_status = now + every;
             println!("{}", status_line(&station, now, start, a.json));
         }
-        if a.for_s.is_some_and(|s| now.duration_since(start).as_secs_f64() >= s) {
-            break;
-        }
-        if a.exit_when_done && matches!(station.gps.state, Some(SourceState::Finished)) {
+        if done(a, &station, now.duration_since(start)) {
             break;
         }
         match &mut bridge {
@@ -165,13 +175,61 @@ pub fn run(a: &StationArgs) -> anyhow::Result<()> {
             None => std::thread::sleep(Duration::from_millis(20)),
         }
     }
+    last_comparison(&mut station);
+    let last = status_line(&station, Instant::now(), start, a.json);
     station.shutdown();
     if let Some(b) = &mut bridge {
         b.turn(&mut station, Instant::now());
         b.shutdown();
     }
-    println!("{}", status_line(&station, Instant::now(), start, a.json));
+    println!("{last}");
     Ok(())
+}
+
+/// Adds each `--compare-gps` receiver through the command a console or a remote operator sends: one path,
+/// one set of checks; the first refusal ends the start.
+fn add_compared(station: &mut Station, specs: &[GpsSourceConfig]) -> anyhow::Result<()> {
+    for spec in specs {
+        let command = vestnav_station::command::Command::AddReceiver { spec: spec.to_string() };
+        station.apply(command).map_err(|e| anyhow::anyhow!("--compare-gps {spec}: {e}"))?;
+    }
+    Ok(())
+}
+
+/// While receivers are compared: one last comparison of every fix taken, so the final status line says what
+/// the session measured.
+fn last_comparison(station: &mut Station) {
+    if !station.receivers().active() {
+        return;
+    }
+    station.pump(|_| {});
+    // A comparison already being computed may predate the last fixes: its result first, then one of all.
+    let _ = station.await_comparison(Duration::from_secs(10));
+    station.recompute_receivers(Instant::now());
+    if !station.await_comparison(Duration::from_secs(10)) {
+        eprintln!("vestnav station: the last comparison of the receivers did not come within 10 s");
+    }
+}
+
+/// Whether the run is over: `--for` has elapsed, or with `--exit-when-done` the GPS has finished and no
+/// comparison receiver is still delivering.
+fn done(a: &StationArgs, station: &Station, elapsed: Duration) -> bool {
+    a.for_s.is_some_and(|s| elapsed.as_secs_f64() >= s)
+        || (a.exit_when_done
+            && matches!(station.gps.state, Some(SourceState::Finished))
+            && !receivers_running(station))
+}
+
+/// Whether a comparison source is still delivering (not finished, lost, stopped or failed): a replayed
+/// comparison is read to its end before `--exit-when-done` ends the station.
+fn receivers_running(s: &Station) -> bool {
+    s.receivers().sources().iter().any(|r| {
+        r.failed.is_none()
+            && !matches!(
+                r.state,
+                Some(SourceState::Finished | SourceState::Lost { .. } | SourceState::Stopped)
+            )
+    })
 }
 
 /// The station's MQTT bridge when `--broker` names one (`None` without).
@@ -230,6 +288,7 @@ fn status_line(s: &Station, now: Instant, start: Instant, json: bool) -> String 
             "fixes": s.gps.fixes, "vest": vest, "tactors_on": on, "halted": s.vest.halted, "cue": cue, "hold": hold,
             "next_waypoint": next, "waypoints": s.route().waypoints().len(), "gps_alarm": alarm,
             "stop_not_confirmed": stop, "lab": s.lab_status(), "path_network": s.has_path_network(),
+            "receivers": s.receivers_snapshot(now),
         })
         .to_string()
     } else {
@@ -253,6 +312,9 @@ fn status_line(s: &Station, now: Instant, start: Instant, json: bool) -> String 
         }
         if let Some(lab) = s.lab_status() {
             let _ = write!(line, " · lab: {}", lab.summary());
+        }
+        if let Some(r) = s.receivers_snapshot(now) {
+            let _ = write!(line, " · receivers: {}", r.summary());
         }
         line
     }

@@ -23,7 +23,7 @@ fn logs() -> PathBuf {
 }
 
 /// Kills the child (by its own handle) when dropped.
-pub(crate) struct Kill(Child);
+pub(crate) struct Kill(pub(crate) Child);
 impl Drop for Kill {
     fn drop(&mut self) {
         let _ = self.0.kill();
@@ -140,7 +140,7 @@ fn pty_emulator_to_serial_source_with_baud_detection_loss_and_reconnect() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-fn which(prog: &str) -> Option<PathBuf> {
+pub(crate) fn which(prog: &str) -> Option<PathBuf> {
     std::env::var_os("PATH").and_then(|p| {
         std::env::split_paths(&p)
             .chain([PathBuf::from("/usr/sbin"), PathBuf::from("/sbin")])

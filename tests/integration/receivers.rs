@@ -257,3 +257,193 @@ fn console_compare_receivers_table_shows_what_fieldtest_compare_prints() {
     drop(h);
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// The closed form of [`shifted_copy`]'s offset: 0.1 arc-minute of latitude at the log's 44.0688° N, along
+/// the meridian (radius of curvature M = a(1-e²)/(1-e² sin²φ)^1.5 on WGS 84) [m].
+fn shift_north_m() -> f64 {
+    let (a_m, e2, phi) = (6_378_137.0_f64, 0.006_694_379_990_14_f64, 44.068_8_f64.to_radians());
+    let m = a_m * (1.0 - e2) / (1.0 - e2 * phi.sin().powi(2)).powf(1.5);
+    m * (0.1_f64 / 60.0).to_radians()
+}
+
+/// `vestnav station --compare-gps`: the headless station replays the log as its GPS and the shifted copy as
+/// a receiver beside it, ends when both are read, and its last status line (JSON) carries the comparison:
+/// every epoch matched, the second receiver due north by the closed-form offset. Its recording of the second
+/// receiver, read back by `vestnav fieldtest compare`, says the same.
+#[test]
+fn the_headless_station_compares_receivers_given_on_its_command_line() {
+    let dir = tempdir("cli");
+    let a = data("gpsd-logs/skytraq-dgps.log");
+    let b = dir.join("skytraq-north.log");
+    shifted_copy(&a, &b);
+    let out = Command::new(bin())
+        .args(["station", "--json", "--status-every", "0", "--exit-when-done", "--for", "60"])
+        .arg("--gps")
+        .arg(format!("replay:{}@40", a.display()))
+        .arg("--compare-gps")
+        .arg(format!("replay:{}@40", b.display()))
+        .arg("--log-dir")
+        .arg(&dir)
+        .stdin(std::process::Stdio::null())
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    let stdout = String::from_utf8(out.stdout).unwrap();
+    let last: serde_json::Value = serde_json::from_str(stdout.lines().last().unwrap()).unwrap();
+    let r = &last["receivers"];
+    let cmp = &r["comparison"]["Ok"];
+    assert_eq!(cmp["matched_epochs"], 96, "{r}\n{stderr}");
+    let d = &cmp["differences"][0];
+    let north = d["mean_en_m"][1].as_f64().unwrap();
+    assert!((north - shift_north_m()).abs() < 0.01, "north {north} m vs {} m", shift_north_m());
+    assert!(d["mean_en_m"][0].as_f64().unwrap().abs() < 0.01, "{d}");
+    assert!(d["distance_m"].as_array().unwrap().is_empty(), "a status line carries no per-epoch series");
+    assert_eq!(r["sources"][0]["name"], format!("2: replay:{}@40", b.display()));
+    assert_eq!(r["sources"][0]["fixes"], 96);
+    // The recordings beside the session log read back as the same comparison.
+    let rx = |v: &serde_json::Value| PathBuf::from(v["path"].as_str().unwrap());
+    let (rx1, rx2) = (rx(&r["primary_recording"]), rx(&r["sources"][0]["recording"]));
+    let cli = cli_compare(&rx1, &rx2);
+    assert_eq!(cli["matched_epochs"], 96);
+    let cli_north = cli["differences"][0]["mean_en_m"][1].as_f64().unwrap();
+    assert!((cli_north - north).abs() < 1e-9, "CLI {cli_north} live {north}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A receiver read from a real gpsd (fed on a PTY by our emulator with the shifted log) is recorded as the
+/// NMEA sentences gpsd passes on, so `vestnav fieldtest compare` reads the session afterwards: the primary's
+/// recording against the gpsd receiver's gives the closed-form offset due north.
+#[test]
+#[cfg(unix)]
+fn a_gpsd_receiver_is_recorded_for_fieldtest_compare() {
+    use vestnav_station::command::Command as StationCommand;
+    let Some(gpsd) = crate::gps::which("gpsd") else {
+        eprintln!("SKIPPED a_gpsd_receiver_is_recorded_for_fieldtest_compare: gpsd is not installed");
+        return;
+    };
+    let dir = tempdir("gpsd");
+    let a = data("gpsd-logs/skytraq-dgps.log");
+    let b = dir.join("skytraq-north.log");
+    shifted_copy(&a, &b);
+    let (_emu, pty) = crate::gps::emulator(&["--replay", b.to_str().unwrap(), "--speed", "10"]);
+    let port = std::net::TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port();
+    let _gpsd = crate::gps::Kill(
+        Command::new(gpsd)
+            .args(["-N", "-n", "-b", "-S", &port.to_string(), &pty])
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .unwrap(),
+    );
+    let mut station = Station::new(
+        Box::new(Hardware::default()),
+        StationOptions {
+            gps: Some(replay(&a)),
+            log_dir: Some(dir.clone()),
+            liveness: None,
+            ..StationOptions::default()
+        },
+    );
+    station.apply(StationCommand::AddReceiver { spec: format!("gpsd://127.0.0.1:{port}") }).unwrap();
+    station.connect_gps(Vec::new());
+    // Until the emulator's replay (9.6 s at ten times its pace) has gone through gpsd: no new fix for 2 s.
+    let until = Instant::now() + Duration::from_secs(40);
+    let (mut fixes, mut since) = (0, Instant::now());
+    while Instant::now() < until {
+        station.pump(|_| {});
+        let n = station.receivers().sources()[0].fixes();
+        if n != fixes {
+            (fixes, since) = (n, Instant::now());
+        } else if fixes > 0 && since.elapsed() > Duration::from_secs(2) {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    assert!(fixes >= 60, "fixes through gpsd: {fixes} ({:?})", station.receiver_status(0, Instant::now()));
+    let rx1 = station.receivers().primary_recording().unwrap().path;
+    let rec = station.receivers().sources()[0].recording().unwrap();
+    station.apply(StationCommand::RemoveReceiver { number: 2 }).unwrap();
+    station.shutdown();
+    assert!(rec.error.is_none() && rec.sentences > 0, "{rec:?}");
+    let cli = cli_compare(&rx1, &rec.path);
+    let matched = cli["matched_epochs"].as_u64().unwrap();
+    assert!(matched as usize >= fixes - 2, "matched {matched} of {fixes} fixes read through gpsd");
+    let north = cli["differences"][0]["mean_en_m"][1].as_f64().unwrap();
+    assert!((north - shift_north_m()).abs() < 0.01, "north {north} m vs {} m", shift_north_m());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Over a real Mosquitto with the shipped ACL: an observer's `add_receiver` never reaches the station (the
+/// broker drops it), an operator's opens the receiver and the station's state shows it; a file spec is
+/// refused over the broker, a fifth receiver is refused with the limit named, a removal by number applies.
+#[test]
+#[cfg(unix)]
+fn only_an_operator_adds_a_receiver_over_the_broker() {
+    use vestnav_remote::wire::{EventKind, Sender};
+    use vestnav_remote::{Fleet, FleetOptions};
+    use vestnav_station::command::Command as StationCommand;
+
+    use crate::remote::{Broker, StationProc, in_contact, temp_dir, wait_for};
+
+    let dir = temp_dir("receivers");
+    let broker = Broker::start(&dir);
+    let alpha = StationProc::spawn(&broker, "alpha");
+    let fleet = Fleet::connect(&broker.client("operator"), FleetOptions::operator("operator")).unwrap();
+    wait_for("alpha in contact", Duration::from_secs(30), || in_contact(&fleet, "alpha"));
+    let receivers = || fleet.station("alpha").and_then(|v| v.state).and_then(|s| s.station.receivers);
+    let event = |kind: EventKind, from: &Sender, text: &str| {
+        fleet.station("alpha").is_some_and(|v| {
+            v.events.iter().any(|(_, e)| {
+                e.kind == kind && e.answers.as_ref().is_some_and(|(s, _)| s == from) && e.text.contains(text)
+            })
+        })
+    };
+    let add = |spec: &str| StationCommand::AddReceiver { spec: spec.into() };
+
+    let observer = Fleet::connect(
+        &broker.client("observer"),
+        FleetOptions { heartbeats: false, ..FleetOptions::operator("observer") },
+    )
+    .unwrap();
+    wait_for("observer connected", Duration::from_secs(5), || observer.broker_status().0);
+    observer.send("alpha", add("sim")).unwrap();
+    std::thread::sleep(Duration::from_millis(1500));
+    assert!(receivers().is_none(), "an observer's receiver was opened: {:?}", receivers());
+    assert!(
+        !fleet
+            .station("alpha")
+            .unwrap()
+            .events
+            .iter()
+            .any(|(_, e)| e.answers.as_ref().is_some_and(|(s, _)| s == observer.sender())),
+        "the station answered an observer's command"
+    );
+
+    let me = fleet.sender().clone();
+    fleet.send("alpha", add("sim")).unwrap();
+    wait_for("the operator's receiver in alpha's state", Duration::from_secs(5), || {
+        receivers().is_some_and(|r| r.sources.len() == 1 && r.sources[0].name == "2: sim")
+    });
+    let e = fleet.send("alpha", add("replay:/etc/passwd@1")).unwrap_err().to_string();
+    assert!(e.contains("refused over the broker"), "{e}");
+    for _ in 0..3 {
+        fleet.send("alpha", add("sim")).unwrap();
+    }
+    wait_for("four receivers beside the primary", Duration::from_secs(5), || {
+        receivers().is_some_and(|r| r.sources.len() == 4)
+    });
+    fleet.send("alpha", add("sim")).unwrap();
+    wait_for("the fifth refused, the limit named", Duration::from_secs(5), || {
+        event(EventKind::Refused, &me, "at most 4 receivers beside the primary")
+    });
+    fleet.send("alpha", StationCommand::RemoveReceiver { number: 2 }).unwrap();
+    wait_for("receiver 2 removed", Duration::from_secs(5), || {
+        receivers().is_some_and(|r| r.sources.iter().map(|s| s.number).eq([3, 4, 5]))
+    });
+    alpha.quit();
+    drop(observer);
+    drop(fleet);
+    drop(broker);
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -462,6 +462,30 @@ pub struct Comparison {
     pub warnings: Vec<String>,
 }
 
+impl Comparison {
+    /// The same numbers without their per-epoch series (the matched times, each receiver's distance at each
+    /// epoch, each fix's error against the reference): what a status line or a remote view shows, a few
+    /// hundred bytes where the series of a day at 1 Hz are megabytes.
+    #[must_use]
+    pub fn without_series(&self) -> Self {
+        let mut c = self.clone();
+        c.t_s = Vec::new();
+        for d in &mut c.differences {
+            d.distance_m = Vec::new();
+        }
+        for s in c.against_reference.iter_mut().flatten() {
+            s.t_s = Vec::new();
+            s.error_en_m = Vec::new();
+            s.error_m = Vec::new();
+            if let Some(v) = &mut s.vertical {
+                v.t_s = Vec::new();
+                v.error_m = Vec::new();
+            }
+        }
+        c
+    }
+}
+
 /// Matches the receivers' epochs by receiver time (an epoch of the first receiver matches the nearest fix of
 /// each other receiver within `tolerance_s`; each fix is used at most once since the fixes are 1 Hz or
 /// faster and the tolerance is below half their period), gives each other receiver's horizontal distance

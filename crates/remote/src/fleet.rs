@@ -66,7 +66,8 @@ pub enum FleetError {
     #[error("cannot start the MQTT thread: {0}")]
     Thread(std::io::Error),
     /// A command the broker link does not carry (a route's path over
-    /// [`crate::wire::MAX_WIRE_PATH_POINTS`], a message over [`crate::wire::MAX_PAYLOAD`]); not sent.
+    /// [`crate::wire::MAX_WIRE_PATH_POINTS`], a message over [`crate::wire::MAX_PAYLOAD`], a receiver
+    /// spec [`crate::wire::check_remote_receiver`] refuses); not sent.
     #[error("{0}")]
     TooLarge(String),
 }

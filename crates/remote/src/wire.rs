@@ -3,7 +3,8 @@
 
 use serde::{Deserialize, Serialize};
 use vestnav_core::guidance::RoutePath;
-use vestnav_station::command::{Command, Snapshot};
+use vestnav_device::gps::GpsSourceSpec;
+use vestnav_station::command::{Command, MAX_RECEIVER_SPEC, Snapshot};
 use vestnav_station::route::{RouteModel, Waypoint};
 
 /// The schema's version, the second level of every topic.
@@ -25,8 +26,13 @@ pub const MAX_PACKET: usize = MAX_PAYLOAD + 1024;
 pub const MAX_WIRE_PATH_POINTS: usize = 40_000;
 
 /// Checks what the broker carries beyond what the station itself checks: a route's path of at most
-/// [`MAX_WIRE_PATH_POINTS`]. `Err` says why, naming the limit.
+/// [`MAX_WIRE_PATH_POINTS`]; a receiver to compare ([`Command::AddReceiver`]) of at most
+/// [`MAX_RECEIVER_SPEC`] bytes in `--gps`'s grammar, and only a receiver (see [`check_remote_receiver`]).
+/// `Err` says why, naming the limit.
 pub fn check_command(command: &Command) -> Result<(), String> {
+    if let Command::AddReceiver { spec } = command {
+        return check_remote_receiver(spec);
+    }
     if let Command::SetRoute { path: Some(p), .. } = command
         && p.points().len() > MAX_WIRE_PATH_POINTS
     {
@@ -37,6 +43,30 @@ pub fn check_command(command: &Command) -> Result<(), String> {
         ));
     }
     Ok(())
+}
+
+/// A receiver an operator may open on a station's machine over the broker: a serial port
+/// (`serial:PATH[@BAUD]`), a gpsd daemon (`gpsd://HOST:PORT`) or the simulator on the station's route
+/// (`sim`). Least privilege: a replay or a simulator's route names a file on the station's disk, and `vest`
+/// the vest's own link, none of which an operator needs to compare receivers; those are for the console
+/// and `vestnav station --compare-gps` on the machine itself. The station refuses the vest's port and a
+/// device already in use itself.
+pub fn check_remote_receiver(spec: &str) -> Result<(), String> {
+    if spec.len() > MAX_RECEIVER_SPEC {
+        return Err(format!("receiver refused: its spec is longer than {MAX_RECEIVER_SPEC} bytes"));
+    }
+    match spec.trim().parse::<GpsSourceSpec>() {
+        Ok(
+            GpsSourceSpec::Serial { .. }
+            | GpsSourceSpec::Gpsd { .. }
+            | GpsSourceSpec::Simulator { route: None },
+        ) => Ok(()),
+        Ok(other) => Err(format!(
+            "receiver {other} refused over the broker: only serial:PATH[@BAUD], gpsd://HOST:PORT or sim \
+             (a file on the station's machine or the vest's link is opened there only; docs/remote.md)"
+        )),
+        Err(e) => Err(format!("receiver refused: {e}")),
+    }
 }
 
 /// The global STOP ALL (retained, `QoS` 1): every station obeys it until it is resumed.
@@ -304,6 +334,27 @@ mod tests {
         assert!(check_name(&"x".repeat(65)).is_err());
         assert!(check_name("a/b").is_err());
         assert!(check_name("").is_err());
+    }
+
+    #[test]
+    fn only_receivers_are_opened_over_the_broker() {
+        let add = |spec: &str| check_command(&Command::AddReceiver { spec: spec.into() });
+        for ok in ["serial:/dev/ttyUSB1@9600", "gpsd://127.0.0.1:2947", " sim "] {
+            assert_eq!(add(ok), Ok(()), "{ok}");
+        }
+        for (bad, why) in [
+            ("replay:/etc/passwd@1", "refused over the broker"),
+            ("sim:/home/x/route.gpx", "refused over the broker"),
+            ("vest", "refused over the broker"),
+            ("tcp:evil", "unknown source"),
+            ("gpsd://host", "missing :PORT"),
+        ] {
+            let e = add(bad).unwrap_err();
+            assert!(e.contains(why), "{bad}: {e}");
+        }
+        let long = format!("serial:/dev/{}", "x".repeat(MAX_RECEIVER_SPEC));
+        assert!(add(&long).unwrap_err().contains("longer than 512 bytes"));
+        assert_eq!(check_command(&Command::RemoveReceiver { number: 7 }), Ok(()));
     }
 
     /// The command examples of docs/remote.md read as the station reads them.

@@ -65,6 +65,18 @@ pub enum Command {
     },
     /// A command to the study runner (see [`crate::study`]).
     Study(StudyCommand),
+    /// Adds a receiver beside the primary GPS, compared with it ([`crate::receivers`]): `spec` in `--gps`'s
+    /// text form (`serial:PATH[@BAUD]`, `gpsd://HOST:PORT`, `replay:FILE[@SPEED]`, `sim`), at most
+    /// [`MAX_RECEIVER_SPEC`] bytes. It opens a device on the station's machine.
+    AddReceiver {
+        /// Where its fixes come from.
+        spec: String,
+    },
+    /// Removes comparison receiver `number` (its number in the comparison, 2 and up).
+    RemoveReceiver {
+        /// Its number.
+        number: usize,
+    },
 }
 
 impl Command {
@@ -93,12 +105,20 @@ impl Command {
             Self::Settings(_) => "settings".to_owned(),
             Self::Mark { label } => format!("mark {label}"),
             Self::Study(c) => c.describe(),
+            Self::AddReceiver { spec } if spec.len() > MAX_RECEIVER_SPEC => {
+                format!("add receiver ({} bytes)", spec.len())
+            }
+            Self::AddReceiver { spec } => format!("add receiver {spec}"),
+            Self::RemoveReceiver { number } => format!("remove receiver {number}"),
         }
     }
 }
 
 /// Longest mark label accepted [characters].
 const MAX_MARK_LABEL: usize = 200;
+/// Longest receiver spec accepted by [`Command::AddReceiver`] [bytes] (a device path or a host name and
+/// port fit many times over).
+pub const MAX_RECEIVER_SPEC: usize = 512;
 
 /// The ranges of the operator's settings: one home for the console's settings file (clamped into them)
 /// and for settings from a command (refused outside them).
@@ -200,6 +220,16 @@ impl Station {
                 self.mark(&label);
             }
             Command::Study(c) => self.study_command(c)?,
+            Command::AddReceiver { spec } => {
+                if spec.len() > MAX_RECEIVER_SPEC {
+                    return Err(format!(
+                        "receiver refused: its spec is longer than {MAX_RECEIVER_SPEC} bytes"
+                    ));
+                }
+                let spec = spec.trim().parse().map_err(|e| format!("receiver refused: {e}"))?;
+                self.add_receiver(spec).map_err(|e| format!("receiver refused: {e}"))?;
+            }
+            Command::RemoveReceiver { number } => self.remove_receiver_number(number)?,
         }
         Ok(())
     }
@@ -262,6 +292,7 @@ impl Station {
                 .collect(),
             study: self.study_view(),
             lab: self.lab_status(),
+            receivers: self.receivers_snapshot(now),
         }
     }
 }
@@ -308,6 +339,9 @@ pub struct Snapshot {
     /// The lab outputs (LSL, OSC) and their counts (`None`: none asked for). Absent from older stations.
     #[serde(default)]
     pub lab: Option<crate::lab::LabStatus>,
+    /// The receivers side by side (`None`: none compared). Absent from older stations.
+    #[serde(default)]
+    pub receivers: Option<crate::receivers::ReceiversSnapshot>,
 }
 
 impl Snapshot {
@@ -456,6 +490,8 @@ mod tests {
                 session: "1".into(),
                 out_dir: "results".into(),
             }),
+            Command::AddReceiver { spec: "gpsd://127.0.0.1:2947".into() },
+            Command::RemoveReceiver { number: 2 },
         ];
         for c in commands {
             let text = serde_json::to_string(&c).unwrap();

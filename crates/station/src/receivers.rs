@@ -14,13 +14,24 @@
 //! [`vestnav_device::gps::record`]), so `vestnav fieldtest compare` can read the same session afterwards.
 //! A gpsd source delivers JSON, not sentences: its recording stays empty, and its status says so.
 //!
+//! A gpsd source is asked for the device's NMEA sentences beside its JSON (`vestnav_device::gps::gpsd`),
+//! so its recording holds the same sentences a serial source's would: one reader for every log.
+//!
+//! **Commands.** [`Command::AddReceiver`](crate::command::Command::AddReceiver) and
+//! [`Command::RemoveReceiver`](crate::command::Command::RemoveReceiver) are the one way in for the
+//! console's panel, `vestnav station --compare-gps` and a remote operator; [`ReceiversSnapshot`] is what the
+//! station's [`Snapshot`](crate::command::Snapshot) and status lines show of them.
+//!
 //! **Limits.** At most [`MAX_COMPARED`] comparison sources, and [`MAX_SAMPLES`] fixes per receiver (the
-//! newest beyond are not compared, said once in the warnings; the recordings go on).
+//! newest beyond are not compared, said once in the warnings; the recordings go on). A source that would
+//! open the primary's device, another comparison source's, or the vest's port is refused.
 
+use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::sync::mpsc::{Receiver, SyncSender, TryRecvError};
 use std::time::{Duration, Instant};
 
+use serde::{Deserialize, Serialize};
 use vestnav_core::accuracy::{Comparison, Receiver as CompareReceiver, Sample, compare};
 use vestnav_device::gps::record::{RecordingStatus, RecordingTap};
 use vestnav_device::gps::{GpsEvent, GpsSourceSpec, SourceState};
@@ -28,7 +39,7 @@ use vestnav_device::outbox::{Outbox, drain_within};
 
 use crate::devices::GpsWorker;
 use crate::fieldtests::receiver_sample;
-use crate::sources::GpsSourceConfig;
+use crate::sources::{GpsSourceConfig, VestSourceConfig};
 use crate::{DRAIN_BUDGET, Station, source_state_label};
 
 /// Comparison sources at most (beside the primary).
@@ -107,6 +118,8 @@ pub struct Receivers {
     /// The numbering of the next source (1 is the primary).
     next_number: usize,
     comparison: Option<Result<Comparison, String>>,
+    /// The same without its per-epoch series, for snapshots (made once per result).
+    summary: Option<Result<Comparison, String>>,
     /// The reference and Earth model the comparison was computed with (a change recomputes it).
     computed_with: Option<(Option<vestnav_core::accuracy::Reference>, vestnav_core::geo::Earth)>,
     changed: bool,
@@ -198,7 +211,7 @@ impl Receivers {
             Err(TryRecvError::Empty) => {}
             Err(TryRecvError::Disconnected) => {
                 self.worker = None;
-                self.comparison = Some(Err("the comparison thread ended".to_owned()));
+                self.failed("the comparison thread ended".to_owned());
             }
         }
     }
@@ -210,8 +223,21 @@ impl Receivers {
             w.busy = false;
         }
         if self.active {
+            self.summary = Some(result.as_ref().map(Comparison::without_series).map_err(Clone::clone));
             self.comparison = Some(result);
         }
+    }
+
+    /// No comparison, for this reason.
+    fn failed(&mut self, why: String) {
+        self.summary = Some(Err(why.clone()));
+        self.comparison = Some(Err(why));
+    }
+
+    /// Forgets the comparison (and its summary).
+    fn clear(&mut self) {
+        self.comparison = None;
+        self.summary = None;
     }
 
     /// The primary's recording tap, for the primary source's outputs.
@@ -227,6 +253,65 @@ impl Receivers {
             _ => {}
         }
     }
+}
+
+/// The receivers side by side as the station shows them (see [`Station::receivers_snapshot`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ReceiversSnapshot {
+    /// The primary's name in the comparison (`1: replay:walk.nmea@1`).
+    pub primary: String,
+    /// The primary's fixes taken for the comparison.
+    pub primary_fixes: usize,
+    /// The primary's recording (`None`: no session log).
+    pub primary_recording: Option<RecordingStatus>,
+    /// Each comparison source, in the order they were added.
+    pub sources: Vec<ReceiverSnapshot>,
+    /// The latest comparison without its per-epoch series ([`Comparison::without_series`]), or why there
+    /// is none yet (`None`: not computed yet).
+    pub comparison: Option<Result<Comparison, String>>,
+}
+
+impl ReceiversSnapshot {
+    /// One line: each comparison source's state and fixes, and its difference from the primary
+    /// (`2: replay:b.nmea@40 live, 96 fixes, 96 epochs matched, mean 0.0 m E 185.2 m N, RMS 185.2 m`).
+    pub fn summary(&self) -> String {
+        let cmp = self.comparison.as_ref().and_then(|c| c.as_ref().ok());
+        let mut parts: Vec<String> = self
+            .sources
+            .iter()
+            .enumerate()
+            .map(|(k, s)| {
+                let mut t = format!("{} {}, {} fixes", s.name, s.status, s.fixes);
+                if let Some((c, d)) = cmp.and_then(|c| Some((c, c.differences.get(k)?))) {
+                    let _ = write!(
+                        t,
+                        ", {} epochs matched, mean {:.1} m E {:.1} m N, RMS {:.1} m",
+                        c.matched_epochs, d.mean_en_m[0], d.mean_en_m[1], d.rms_m
+                    );
+                }
+                t
+            })
+            .collect();
+        if let Some(Err(e)) = &self.comparison {
+            parts.push(format!("no comparison yet: {e}"));
+        }
+        parts.join("; ")
+    }
+}
+
+/// One comparison source as the station shows it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ReceiverSnapshot {
+    /// Its number in the comparison (2 and up; [`crate::command::Command::RemoveReceiver`] names it).
+    pub number: usize,
+    /// Its name in the comparison (`2: gpsd://127.0.0.1:2947`).
+    pub name: String,
+    /// Its state in words (`live`, `stale: no fix for 4 s`, `failed: …`).
+    pub status: String,
+    /// Its fixes taken for the comparison.
+    pub fixes: usize,
+    /// Its recording (`None`: no session log).
+    pub recording: Option<RecordingStatus>,
 }
 
 /// The label of the primary receiver in the comparison.
@@ -259,11 +344,17 @@ impl Station {
         if same_device(&spec, &self.gps_source) || r.sources.iter().any(|s| same_device(&spec, &s.spec)) {
             return Err(format!("{spec} is already a receiver of this session"));
         }
+        if let (GpsSourceSpec::Serial { port, .. }, VestSourceConfig::Serial { port: vest }) =
+            (&spec, &self.vest_source)
+            && port == vest
+        {
+            return Err(format!("{spec} is the vest's port, not a receiver"));
+        }
         if !r.active {
             r.active = true;
             r.primary = Samples::default();
             r.next_number = 2;
-            r.comparison = None;
+            r.clear();
             if let Some(log) = self.log.as_ref().map(|l| l.path().to_path_buf())
                 && let Err(e) = r.primary_tap.start(&recording_path(&log, 1))
             {
@@ -332,11 +423,51 @@ impl Station {
         if r.sources.is_empty() {
             r.active = false;
             r.primary_tap.stop();
-            r.comparison = None;
+            r.clear();
         }
         r.changed = true;
         let text = format!("receiver {} removed from the comparison", s.name);
         self.log(vestnav_device::session_log::LogEntry::Note { text });
+    }
+
+    /// Removes the comparison source numbered `number` (its number in the comparison, 2 and up; numbers are
+    /// not reused), or says there is none.
+    pub fn remove_receiver_number(&mut self, number: usize) -> Result<(), String> {
+        let index = self
+            .receivers
+            .sources
+            .iter()
+            .position(|s| s.number == number)
+            .ok_or_else(|| format!("no receiver {number} in the comparison"))?;
+        self.remove_receiver(index);
+        Ok(())
+    }
+
+    /// What a status line, a snapshot and a remote view show of the receivers side by side at `now`
+    /// (`None` while no receiver is compared).
+    pub fn receivers_snapshot(&self, now: Instant) -> Option<ReceiversSnapshot> {
+        let r = &self.receivers;
+        if !r.active {
+            return None;
+        }
+        Some(ReceiversSnapshot {
+            primary: primary_name(&self.gps_source),
+            primary_fixes: r.primary.samples.len(),
+            primary_recording: r.primary_tap.status(),
+            sources: (0..r.sources.len())
+                .filter_map(|k| {
+                    let s = r.sources.get(k)?;
+                    Some(ReceiverSnapshot {
+                        number: s.number,
+                        name: s.name.clone(),
+                        status: self.receiver_status(k, now)?,
+                        fixes: s.fixes(),
+                        recording: s.recording(),
+                    })
+                })
+                .collect(),
+            comparison: r.summary.clone(),
+        })
     }
 
     /// Each comparison source's state in words: `live`, `stale: no fix for 4 s`, `failed: …`, the
@@ -417,7 +548,7 @@ impl Station {
             match CompareWorker::start() {
                 Ok(w) => r.worker = Some(w),
                 Err(e) => {
-                    r.comparison = Some(Err(format!("the comparison thread could not start: {e}")));
+                    r.failed(format!("the comparison thread could not start: {e}"));
                     return;
                 }
             }
@@ -432,7 +563,7 @@ impl Station {
         let Some(w) = r.worker.as_mut() else { return };
         if w.jobs.send(job).is_err() {
             r.worker = None;
-            r.comparison = Some(Err("the comparison thread ended".to_owned()));
+            r.failed("the comparison thread ended".to_owned());
             return;
         }
         w.busy = true;

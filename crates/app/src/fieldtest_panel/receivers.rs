@@ -1,6 +1,7 @@
 //! The Field tests panel's **Compare receivers**: more GPS sources beside the primary one in this session
 //! (`vestnav_station::receivers`: each on its own reader thread; guidance keeps the primary). The operator
-//! adds a source in `--gps`'s text form (the one [`GpsSourceSpec`] the primary takes) and removes it; the
+//! adds a source in `--gps`'s text form (the one [`GpsSourceSpec`](vestnav_device::gps::GpsSourceSpec)
+//! the primary takes) and removes it, through the station's `Command`s as a remote operator does; the
 //! view draws the station's comparison — a row per receiver with its status (said once, in its row), its
 //! fixes and recording, its difference from the primary at the epochs matched by receiver time and, with a
 //! reference set, its accuracy against it — and the sheet `vestnav fieldtest compare --png` draws
@@ -9,11 +10,11 @@
 use std::time::Instant;
 
 use vestnav_core::accuracy::Comparison;
-use vestnav_device::gps::GpsSourceSpec;
 use vestnav_report::Figure;
 use vestnav_report::accuracy::CompareReport;
 use vestnav_report::fieldtest::Source;
 use vestnav_station::Station;
+use vestnav_station::command::Command;
 use vestnav_station::receivers::{MAX_COMPARED, primary_name};
 
 use crate::sim_panel::figure_grid;
@@ -47,10 +48,8 @@ impl ReceiversView {
                 .labelled_by(name.id);
             let room = station.receivers().sources().len() < MAX_COMPARED;
             if ui.add_enabled(room, egui::Button::new("Add receiver")).clicked() {
-                self.error = match self.spec.trim().parse::<GpsSourceSpec>() {
-                    Ok(spec) => station.add_receiver(spec).err(),
-                    Err(e) => Some(format!("{e}")),
-                };
+                // The command a remote operator and `vestnav station --compare-gps` send: one path.
+                self.error = station.apply(Command::AddReceiver { spec: self.spec.clone() }).err();
                 if self.error.is_none() {
                     self.spec.clear();
                 }
@@ -64,8 +63,8 @@ impl ReceiversView {
             return;
         }
         let remove = table(station, ui);
-        if let Some(k) = remove {
-            station.remove_receiver(k);
+        if let Some(number) = remove {
+            self.error = station.apply(Command::RemoveReceiver { number }).err();
             self.figure = None;
             return;
         }
@@ -104,7 +103,7 @@ pub fn report(station: &Station, cmp: &Comparison) -> CompareReport {
     }
 }
 
-/// The receivers' table; returns the comparison source whose Remove was pressed.
+/// The receivers' table; returns the number of the comparison source whose Remove was pressed.
 fn table(station: &Station, ui: &mut egui::Ui) -> Option<usize> {
     let now = Instant::now();
     let r = station.receivers();
@@ -155,7 +154,7 @@ fn table(station: &Station, ui: &mut egui::Ui) -> Option<usize> {
         for (k, s) in r.sources().iter().enumerate() {
             ui.label(&s.name);
             if ui.button(format!("Remove receiver {}", s.number)).clicked() {
-                remove = Some(k);
+                remove = Some(s.number);
             }
             let status = station.receiver_status(k, now).unwrap_or_default();
             if status.starts_with("failed") || status.starts_with("lost") {

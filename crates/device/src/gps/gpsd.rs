@@ -1,9 +1,16 @@
 //! gpsd's JSON protocol: TPV and SKY reports to [`Fix`]es, ATT reports to [`Attitude`]s (sans-IO; the TCP
 //! transport is in [`super::source`]).
 //!
-//! We send `?WATCH={"enable":true,"json":true}` and read one JSON object per line. A TPV with a new
+//! We send `?WATCH={"enable":true,"json":true,"nmea":true}` and read one report per line. A TPV with a new
 //! `time` completes a fix; the latest SKY supplies DOPs and satellites. gpsd's own `eph` (its DOP model, or
 //! the receiver's GST/PGRME) becomes the error estimate.
+//!
+//! With `"nmea":true` gpsd interleaves the NMEA sentences of the device with the JSON reports (an NMEA
+//! receiver's own sentences; for a binary receiver, the pseudo-NMEA gpsd makes from its fixes,
+//! `gpsd_json(5)` under WATCH). Each one whose checksum is right becomes a [`GpsEvent::Raw`], as a serial
+//! source's sentences do: the NMEA monitor shows it and a recording ([`super::record`]) writes it, so a
+//! session read from gpsd is recorded in the one format `vestnav fieldtest compare` and the replay read.
+//! Positions still come from the JSON alone (no fix is made twice).
 //!
 //! An ATT report (`gpsd_json(5)`: `heading` = degrees from true north, `mheading` = degrees from magnetic
 //! north, `pitch`, `roll`, `mag_st`, ...) becomes one [`Attitude`] with origin [`HeadingOrigin::Gpsd`]:
@@ -23,8 +30,8 @@ use super::fix::{Constellation, ErrorEstimate, ErrorSource, Fix, FixMode, Satell
 use super::framing::DecodeStats;
 use crate::heading::{Attitude, HeadingOrigin, HeadingReference};
 
-/// The command that starts the JSON stream.
-pub const WATCH: &str = "?WATCH={\"enable\":true,\"json\":true}\n";
+/// The command that starts the JSON stream and the device's NMEA sentences beside it.
+pub const WATCH: &str = "?WATCH={\"enable\":true,\"json\":true,\"nmea\":true}\n";
 
 /// Longest report line accepted [bytes]: 64 KiB.
 ///
@@ -166,9 +173,14 @@ impl GpsdClient {
 
     /// Handles one line whose bytes arrived at `now`: [`GpsEvent::Fix`] when a TPV with a new time arrives
     /// (validated, `received_at = now`), [`GpsEvent::Attitude`] for an ATT report with a heading (validated,
-    /// `received_at = now`; see the module doc for true vs magnetic), else nothing.
+    /// `received_at = now`; see the module doc for true vs magnetic), [`GpsEvent::Raw`] for an NMEA sentence
+    /// with a right checksum (counted in `sentences`; a wrong or missing one in `bad_checksum` or
+    /// `missing_checksum`), else nothing.
     pub fn handle_report(&mut self, line: &str, now: Instant) -> Option<GpsEvent> {
         self.stats.bytes += line.len() as u64;
+        if line.starts_with(['$', '!']) {
+            return self.nmea(line.trim_end(), now);
+        }
         let Ok(v) = serde_json::from_str::<serde_json::Value>(line.trim()) else {
             self.ignored_lines += 1;
             self.stats.malformed += 1;
@@ -206,6 +218,27 @@ impl GpsdClient {
                 None
             }
         }
+    }
+
+    /// An NMEA sentence gpsd passed on: a [`GpsEvent::Raw`] when its checksum is right and it is no longer
+    /// than [`super::MAX_SENTENCE_LEN`].
+    fn nmea(&mut self, line: &str, now: Instant) -> Option<GpsEvent> {
+        let checked = line
+            .len()
+            .checked_sub(3)
+            .filter(|_| line.len() <= super::MAX_SENTENCE_LEN)
+            .and_then(|star| Some((line.get(1..star)?, line.get(star..)?.strip_prefix('*')?)))
+            .and_then(|(body, sum)| Some((body, u8::from_str_radix(sum, 16).ok()?)));
+        let Some((body, sum)) = checked else {
+            self.stats.missing_checksum += 1;
+            return None;
+        };
+        if super::framing::nmea_checksum(body.as_bytes()) != sum {
+            self.stats.bad_checksum += 1;
+            return None;
+        }
+        self.stats.sentences += 1;
+        Some(GpsEvent::Raw(super::RawLine { text: line.to_owned(), received_at: now }))
     }
 
     fn apply_sky(&mut self, v: &serde_json::Value) {
@@ -334,11 +367,39 @@ mod tests {
         assert!((fixes[0].lat_deg.unwrap() - 57.163_445).abs() < 1e-9);
         assert_eq!(fixes[0].mode, Some(FixMode::Fix3D));
         assert_eq!(fixes[0].sats_used, Some(8));
-        assert!(c.ignored_lines > 0, "NMEA echo lines are ignored");
+        // The NMEA lines between the reports are the log's sentences: each one passed on once, unchanged.
+        let mut c2 = GpsdClient::new();
+        let raw: Vec<String> = text
+            .lines()
+            .filter_map(|l| match c2.handle_report(l, now) {
+                Some(GpsEvent::Raw(r)) => Some(r.text),
+                _ => None,
+            })
+            .collect();
+        let nmea: Vec<&str> = text.lines().map(str::trim_end).filter(|l| l.starts_with('$')).collect();
+        assert!(!nmea.is_empty());
+        assert_eq!(raw, nmea);
         assert!(fixes.iter().all(|f| f.received_at == Some(now)));
         let st = c.stats();
         assert_eq!(st.epochs, 16);
         assert_eq!((st.invalid_positions, st.implausible_values), (0, 0), "gpsd's own output is plausible");
+    }
+
+    /// Sentences gpsd passes on with `"nmea":true`: a right checksum is a raw line as received, a wrong or
+    /// missing one is counted and dropped (the GGA is the NMEA reference's example, checksum 0x76).
+    #[test]
+    fn nmea_lines_are_passed_on_when_their_checksum_is_right() {
+        let mut c = GpsdClient::new();
+        let now = Instant::now();
+        let good = "$GPGGA,092750.000,5321.6802,N,00630.3372,W,1,8,1.03,61.7,M,55.2,M,,*76";
+        let Some(GpsEvent::Raw(r)) = c.handle_report(&format!("{good}\r"), now) else { panic!("raw") };
+        assert_eq!((r.text.as_str(), r.received_at), (good, now));
+        assert!(c.handle_report(&good.replace("*76", "*77"), now).is_none());
+        assert!(c.handle_report("$GPGGA,092750.000", now).is_none());
+        assert!(c.handle_report("$*", now).is_none());
+        assert!(c.handle_report(&format!("${}*00", "A".repeat(300)), now).is_none());
+        let st = c.stats();
+        assert_eq!((st.sentences, st.bad_checksum, st.missing_checksum), (1, 1, 3));
     }
 
     fn tpv(n: u32, fields: &str) -> String {

@@ -114,8 +114,8 @@ pub fn new_recording_path(dir: &Path, now: chrono::DateTime<chrono::Local>) -> P
     path
 }
 
-/// What a [`RecordingTap`] has written.
-#[derive(Debug, Clone, PartialEq, Eq, Default)]
+/// What a [`RecordingTap`] has written (serde: a station's snapshot carries it to a remote view).
+#[derive(Debug, Clone, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 pub struct RecordingStatus {
     /// The file.
     pub path: PathBuf,
