@@ -212,9 +212,12 @@ fn check(input: &[u8], counts: &mut Counts) -> Result<(), String> {
     if st.epochs != fixes {
         return Err(format!("epoch count: stats say {}, {fixes} fixes", st.epochs));
     }
-    if st.sentences + st.malformed != lines {
+    // Every line is counted once: a report or a passed-on NMEA sentence, malformed, or an NMEA line whose
+    // checksum is wrong or missing.
+    let bad_nmea = st.bad_checksum + st.missing_checksum;
+    if st.sentences + st.malformed + bad_nmea != lines {
         return Err(format!(
-            "line count: {} parsed + {} malformed != {lines} lines",
+            "line count: {} parsed + {} malformed + {bad_nmea} NMEA without a right checksum != {lines} lines",
             st.sentences, st.malformed
         ));
     }

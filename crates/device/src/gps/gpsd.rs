@@ -153,10 +153,12 @@ impl GpsdClient {
         Self::default()
     }
 
-    /// Counts so far: `bytes` and `sentences` (report lines parsed as JSON), `malformed` (lines that are
-    /// not JSON, ATT reports that fail [`Attitude::validate`]), `unsupported` (other classes, ATT without a
-    /// heading), `epochs` (fixes made), and what [`Fix::validate`] removed from them (`invalid_positions`,
-    /// `implausible_values`).
+    /// Counts so far: `bytes` and `sentences` (report lines parsed as JSON, and NMEA sentences passed on),
+    /// `malformed` (lines that are not JSON, ATT reports that fail [`Attitude::validate`]),
+    /// `bad_checksum` and `missing_checksum` (NMEA lines dropped), `unsupported` (other classes, ATT without
+    /// a heading), `epochs` (fixes made), and what [`Fix::validate`] removed from them (`invalid_positions`,
+    /// `implausible_values`). Each line is counted once in `sentences`, `malformed`, `bad_checksum` or
+    /// `missing_checksum`.
     pub fn stats(&self) -> DecodeStats {
         self.stats
     }
