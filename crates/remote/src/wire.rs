@@ -21,8 +21,11 @@ pub const MAX_PAYLOAD: usize = 4 << 20;
 /// that passes the [`MAX_PAYLOAD`] check is never refused by the client for its headers.
 pub const MAX_PACKET: usize = MAX_PAYLOAD + 1024;
 /// Most points of a route's path carried over the broker (a route command, a station's route topic).
-/// About 56 bytes of JSON each: 40,000 points are 2.2 MB, leaving room under [`MAX_PAYLOAD`] for 10,000
-/// named waypoints; a walk planned node by node (a few metres apart) of 100 km and more fits.
+/// At most about 62 bytes of JSON each (every digit of an `f64` written): 40,000 points are 2.5 MB, and with
+/// 10,000 waypoints named "Waypoint N" the message is 3.3 MB of [`MAX_PAYLOAD`] (measured by the test
+/// `the_largest_route_with_the_largest_path_fits_in_one_message`); a walk planned node by node (a few metres
+/// apart) of 100 km and more fits. Much longer names can still take a route past [`MAX_PAYLOAD`]: the
+/// sender refuses it, naming its size.
 pub const MAX_WIRE_PATH_POINTS: usize = 40_000;
 
 /// Checks what the broker carries beyond what the station itself checks: a route's path of at most
@@ -334,6 +337,52 @@ mod tests {
         assert!(check_name(&"x".repeat(65)).is_err());
         assert!(check_name("a/b").is_err());
         assert!(check_name("").is_err());
+    }
+
+    /// The limits agree: a route of the most waypoints a station takes, each named, with a path of the
+    /// most points the broker carries, at full `f64` precision (the longest JSON numbers), fits in one
+    /// message with its envelope. Prints the bytes a path point costs (docs/remote.md quotes it).
+    #[test]
+    fn the_largest_route_with_the_largest_path_fits_in_one_message() {
+        use vestnav_core::geo::LatLon;
+        let n = MAX_WIRE_PATH_POINTS;
+        let wps = vestnav_station::route::MAX_WAYPOINTS;
+        // Points a few metres apart with every digit of an f64 used (an irrational step).
+        let point = |i: usize| LatLon {
+            lat_deg: -33.0 - i as f64 * std::f64::consts::PI * 1e-5,
+            lon_deg: -151.0 - i as f64 * std::f64::consts::E * 1e-5,
+        };
+        let points: Vec<LatLon> = (0..n).map(point).collect();
+        let at: Vec<usize> = (0..wps).map(|k| k * (n - 1) / (wps - 1)).collect();
+        let waypoints: Vec<Waypoint> = at
+            .iter()
+            .enumerate()
+            .map(|(k, &i)| Waypoint {
+                name: format!("Waypoint {}", k + 1),
+                lat_deg: points[i].lat_deg,
+                lon_deg: points[i].lon_deg,
+                arrival_radius_m: None,
+            })
+            .collect();
+        let path = RoutePath::new(points, at).unwrap();
+        let straight =
+            Command::SetRoute { name: "r".into(), waypoints: waypoints.clone(), next: 0, path: None };
+        let with_path = Command::SetRoute { name: "r".into(), waypoints, next: 0, path: Some(path) };
+        let env = |command| Envelope {
+            to: "x".repeat(MAX_NAME),
+            from: Sender { operator: "y".repeat(MAX_NAME), session: u64::MAX },
+            seq: u64::MAX,
+            sent_ms: i64::MAX,
+            command,
+        };
+        let bytes = |c| serde_json::to_vec(&env(c)).unwrap().len();
+        let (without, with) = (bytes(straight), bytes(with_path.clone()));
+        assert_eq!(check_command(&with_path), Ok(()));
+        assert!(with <= MAX_PAYLOAD, "{with} bytes > {MAX_PAYLOAD}");
+        let per_point = (with - without) as f64 / n as f64;
+        eprintln!(
+            "{wps} waypoints: {without} B; with a {n}-point path: {with} B ({per_point:.1} B a point); limit {MAX_PAYLOAD} B"
+        );
     }
 
     #[test]
