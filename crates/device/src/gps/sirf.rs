@@ -415,19 +415,9 @@ impl SirfDecoder {
 
     /// Position, altitude, velocity and error estimate from a valid MID 67 SID 1.
     fn fill_from_gnss(fix: &mut Fix, g: &GnssNav) {
-        fix.lat_deg = Some(f64::from(g.lat_e7) * 1e-7);
-        fix.lon_deg = Some(f64::from(g.lon_e7) * 1e-7);
-        fix.alt_m = Some(f64::from(g.alt_msl_cm) / 100.0);
-        fix.geoid_sep_m = Some((f64::from(g.alt_hae_cm) - f64::from(g.alt_msl_cm)) / 100.0);
-        if g.solution_info & GNSS_VELOCITY_INVALID == 0 {
-            fix.speed_m_s = Some(f64::from(g.speed_cm_s) / 100.0);
-            fix.course_deg = Some(f64::from(g.course_cdeg) / 100.0);
-        }
-        fix.error = (g.ehpe_cm > 0).then(|| ErrorEstimate {
-            horizontal_m: f64::from(g.ehpe_cm) / 100.0,
-            vertical_m: (g.evpe_cm > 0).then(|| f64::from(g.evpe_cm) / 100.0),
-            source: ErrorSource::Sirf,
-        });
+        let (lat, lon) = g.solution.lat_lon_deg();
+        (fix.lat_deg, fix.lon_deg) = (Some(lat), Some(lon));
+        g.solution.fill(fix, g.solution_info & GNSS_VELOCITY_INVALID == 0);
         Self::dop_model_error(fix);
     }
 
@@ -477,8 +467,8 @@ impl SirfDecoder {
                 fix.lon_deg = Some(lon.to_degrees());
             }
         } else if let Some(g) = geo {
-            fix.lat_deg = Some(f64::from(g.lat_e7) * 1e-7);
-            fix.lon_deg = Some(f64::from(g.lon_e7) * 1e-7);
+            let (lat, lon) = g.solution.lat_lon_deg();
+            (fix.lat_deg, fix.lon_deg) = (Some(lat), Some(lon));
         }
         if fix.lat_deg.is_none() {
             // The receiver claimed a fix at a position that is not one: say so rather than guess.
@@ -488,19 +478,7 @@ impl SirfDecoder {
         }
 
         if let Some(g) = geo {
-            fix.alt_m = Some(f64::from(g.alt_msl_cm) / 100.0);
-            fix.geoid_sep_m = Some((f64::from(g.alt_hae_cm) - f64::from(g.alt_msl_cm)) / 100.0);
-            if g.nav_type & NAV_TYPE_VELOCITY_INVALID == 0 {
-                fix.speed_m_s = Some(f64::from(g.speed_cm_s) / 100.0);
-                fix.course_deg = Some(f64::from(g.course_cdeg) / 100.0);
-            }
-            if g.ehpe_cm > 0 {
-                fix.error = Some(ErrorEstimate {
-                    horizontal_m: f64::from(g.ehpe_cm) / 100.0,
-                    vertical_m: (g.evpe_cm > 0).then(|| f64::from(g.evpe_cm) / 100.0),
-                    source: ErrorSource::Sirf,
-                });
-            }
+            g.solution.fill(fix, g.nav_type & NAV_TYPE_VELOCITY_INVALID == 0);
         } else if let (Some(n), Some((lat, lon, _))) = (nav, ecef_geodetic)
             && n.mode2 & MODE2_VELOCITY_INVALID == 0
         {
@@ -614,6 +592,64 @@ impl NavSolution {
     }
 }
 
+/// The fields MID 41 and MID 67 SID 1 share, with the same scales at different offsets.
+#[derive(Debug, Clone)]
+struct Solution {
+    /// Latitude, longitude ×10^7 [deg].
+    lat_e7: i32,
+    lon_e7: i32,
+    /// Altitude above the ellipsoid and above MSL ×100 [m].
+    alt_hae_cm: i32,
+    alt_msl_cm: i32,
+    /// Speed over ground ×100 [m/s], course over ground ×100 [deg].
+    speed_cm_s: u16,
+    course_cdeg: u16,
+    /// Estimated horizontal and vertical position error ×100 [m].
+    ehpe_cm: u32,
+    evpe_cm: u32,
+}
+
+impl Solution {
+    /// Reads the position (latitude at `position`, then longitude, altitude above the ellipsoid and above
+    /// MSL, 4 bytes each), the velocity (speed at `velocity`, then course) and the error estimate
+    /// (horizontal at `error`, then vertical).
+    fn read(f: &Fields<'_>, position: usize, velocity: usize, error: usize) -> Result<Self, SirfUnused> {
+        Ok(Self {
+            lat_e7: f.i32(position)?,
+            lon_e7: f.i32(position + 4)?,
+            alt_hae_cm: f.i32(position + 8)?,
+            alt_msl_cm: f.i32(position + 12)?,
+            speed_cm_s: f.u16(velocity)?,
+            course_cdeg: f.u16(velocity + 2)?,
+            ehpe_cm: f.u32(error)?,
+            evpe_cm: f.u32(error + 4)?,
+        })
+    }
+
+    /// Latitude and longitude [deg].
+    fn lat_lon_deg(&self) -> (f64, f64) {
+        (f64::from(self.lat_e7) * 1e-7, f64::from(self.lon_e7) * 1e-7)
+    }
+
+    /// Altitude, geoid separation, speed and course (unless the receiver says the velocity is invalid)
+    /// and the receiver's error estimate (when it gives one) into `fix`.
+    fn fill(&self, fix: &mut Fix, velocity_valid: bool) {
+        fix.alt_m = Some(f64::from(self.alt_msl_cm) / 100.0);
+        fix.geoid_sep_m = Some((f64::from(self.alt_hae_cm) - f64::from(self.alt_msl_cm)) / 100.0);
+        if velocity_valid {
+            fix.speed_m_s = Some(f64::from(self.speed_cm_s) / 100.0);
+            fix.course_deg = Some(f64::from(self.course_cdeg) / 100.0);
+        }
+        if self.ehpe_cm > 0 {
+            fix.error = Some(ErrorEstimate {
+                horizontal_m: f64::from(self.ehpe_cm) / 100.0,
+                vertical_m: (self.evpe_cm > 0).then(|| f64::from(self.evpe_cm) / 100.0),
+                source: ErrorSource::Sirf,
+            });
+        }
+    }
+}
+
 /// MID 41, Geodetic Navigation Data (91 bytes).
 #[derive(Debug, Clone)]
 struct Geodetic {
@@ -627,18 +663,8 @@ struct Geodetic {
     utc: Option<DateTime<Utc>>,
     /// Satellites used, bit 0 = PRN 1 (bytes 19–22).
     sv_bitmap: u32,
-    /// Latitude, longitude ×10^7 [deg] (bytes 23–30).
-    lat_e7: i32,
-    lon_e7: i32,
-    /// Altitude above the ellipsoid and above MSL ×100 [m] (bytes 31–38).
-    alt_hae_cm: i32,
-    alt_msl_cm: i32,
-    /// Speed over ground ×100 [m/s], course over ground ×100 [deg] (bytes 40–43).
-    speed_cm_s: u16,
-    course_cdeg: u16,
-    /// Estimated horizontal and vertical position error ×100 [m] (bytes 50–57).
-    ehpe_cm: u32,
-    evpe_cm: u32,
+    /// Position (bytes 23–38), velocity (40–43) and error estimate (50–57).
+    solution: Solution,
     /// Satellites in the fix (byte 88), HDOP ×5 (byte 89).
     sats_used: u8,
     hdop_x5: u8,
@@ -675,18 +701,8 @@ struct GnssNav {
     tow_ms: i64,
     /// GPS − UTC [s] (byte 32).
     leap_s: u8,
-    /// Latitude, longitude ×10^7 [deg] (bytes 54–61).
-    lat_e7: i32,
-    lon_e7: i32,
-    /// Altitude above the ellipsoid and above MSL ×100 [m] (bytes 62–69).
-    alt_hae_cm: i32,
-    alt_msl_cm: i32,
-    /// Speed over ground ×100 [m/s], course over ground ×100 [deg] (bytes 70–73).
-    speed_cm_s: u16,
-    course_cdeg: u16,
-    /// Estimated horizontal and vertical position error ×100 [m] (bytes 86–93).
-    ehpe_cm: u32,
-    evpe_cm: u32,
+    /// Position (bytes 54–69), velocity (70–73) and error estimate (86–93).
+    solution: Solution,
     /// GDOP, PDOP, HDOP, VDOP, TDOP ×5 (bytes 96–100).
     dop_x5: [u8; 5],
     /// Satellites in the solution (byte 101).
@@ -816,14 +832,7 @@ fn decode_geodetic(f: &Fields<'_>) -> Result<Geodetic, SirfUnused> {
         tow_ms: f.u32(7)?,
         utc,
         sv_bitmap: f.u32(19)?,
-        lat_e7: f.i32(23)?,
-        lon_e7: f.i32(27)?,
-        alt_hae_cm: f.i32(31)?,
-        alt_msl_cm: f.i32(35)?,
-        speed_cm_s: f.u16(40)?,
-        course_cdeg: f.u16(42)?,
-        ehpe_cm: f.u32(50)?,
-        evpe_cm: f.u32(54)?,
+        solution: Solution::read(f, 23, 40, 50)?,
         sats_used: f.u8(88)?,
         hdop_x5: f.u8(89)?,
     })
@@ -840,14 +849,7 @@ fn decode_gnss(f: &Fields<'_>) -> Result<GnssNav, SirfUnused> {
         week: f.u16(10)?,
         tow_ms: i64::from(f.u32(12)?) + (sub_ms + 500_000) / 1_000_000,
         leap_s: f.u8(32)?,
-        lat_e7: f.i32(54)?,
-        lon_e7: f.i32(58)?,
-        alt_hae_cm: f.i32(62)?,
-        alt_msl_cm: f.i32(66)?,
-        speed_cm_s: f.u16(70)?,
-        course_cdeg: f.u16(72)?,
-        ehpe_cm: f.u32(86)?,
-        evpe_cm: f.u32(90)?,
+        solution: Solution::read(f, 54, 70, 86)?,
         dop_x5: f.bytes(96)?,
         sats_used: f.u8(101)?,
     })
