@@ -4,7 +4,7 @@
 use serde::{Deserialize, Serialize};
 use vestnav_core::guidance::RoutePath;
 use vestnav_device::gps::GpsSourceSpec;
-use vestnav_station::command::{Command, MAX_RECEIVER_SPEC, Snapshot};
+use vestnav_station::command::{Command, Snapshot, parse_receiver_spec};
 use vestnav_station::route::{RouteModel, Waypoint};
 
 /// The schema's version, the second level of every topic.
@@ -30,7 +30,7 @@ pub const MAX_WIRE_PATH_POINTS: usize = 40_000;
 
 /// Checks what the broker carries beyond what the station itself checks: a route's path of at most
 /// [`MAX_WIRE_PATH_POINTS`]; a receiver to compare ([`Command::AddReceiver`]) of at most
-/// [`MAX_RECEIVER_SPEC`] bytes in `--gps`'s grammar, and only a receiver (see [`check_remote_receiver`]).
+/// [`MAX_RECEIVER_SPEC`](vestnav_station::command::MAX_RECEIVER_SPEC) bytes in `--gps`'s grammar, and only a receiver (see [`check_remote_receiver`]).
 /// `Err` says why, naming the limit.
 pub fn check_command(command: &Command) -> Result<(), String> {
     if let Command::AddReceiver { spec } = command {
@@ -55,20 +55,14 @@ pub fn check_command(command: &Command) -> Result<(), String> {
 /// and `vestnav station --compare-gps` on the machine itself. The station refuses the vest's port and a
 /// device already in use itself.
 pub fn check_remote_receiver(spec: &str) -> Result<(), String> {
-    if spec.len() > MAX_RECEIVER_SPEC {
-        return Err(format!("receiver refused: its spec is longer than {MAX_RECEIVER_SPEC} bytes"));
-    }
-    match spec.trim().parse::<GpsSourceSpec>() {
-        Ok(
-            GpsSourceSpec::Serial { .. }
-            | GpsSourceSpec::Gpsd { .. }
-            | GpsSourceSpec::Simulator { route: None },
-        ) => Ok(()),
-        Ok(other) => Err(format!(
+    match parse_receiver_spec(spec)? {
+        GpsSourceSpec::Serial { .. }
+        | GpsSourceSpec::Gpsd { .. }
+        | GpsSourceSpec::Simulator { route: None } => Ok(()),
+        other => Err(format!(
             "receiver {other} refused over the broker: only serial:PATH[@BAUD], gpsd://HOST:PORT or sim \
              (a file on the station's machine or the vest's link is opened there only; docs/remote.md)"
         )),
-        Err(e) => Err(format!("receiver refused: {e}")),
     }
 }
 
@@ -401,7 +395,7 @@ mod tests {
             let e = add(bad).unwrap_err();
             assert!(e.contains(why), "{bad}: {e}");
         }
-        let long = format!("serial:/dev/{}", "x".repeat(MAX_RECEIVER_SPEC));
+        let long = format!("serial:/dev/{}", "x".repeat(vestnav_station::command::MAX_RECEIVER_SPEC));
         assert!(add(&long).unwrap_err().contains("longer than 512 bytes"));
         assert_eq!(check_command(&Command::RemoveReceiver { number: 7 }), Ok(()));
     }

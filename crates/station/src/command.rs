@@ -120,6 +120,15 @@ const MAX_MARK_LABEL: usize = 200;
 /// port fit many times over).
 pub const MAX_RECEIVER_SPEC: usize = 512;
 
+/// Reads [`Command::AddReceiver`]'s spec at the boundary: at most [`MAX_RECEIVER_SPEC`] bytes in `--gps`'s
+/// grammar. The station and the broker's sender (`vestnav_remote::wire`) both read it here.
+pub fn parse_receiver_spec(spec: &str) -> Result<vestnav_device::gps::GpsSourceSpec, String> {
+    if spec.len() > MAX_RECEIVER_SPEC {
+        return Err(format!("receiver refused: its spec is longer than {MAX_RECEIVER_SPEC} bytes"));
+    }
+    spec.trim().parse().map_err(|e| format!("receiver refused: {e}"))
+}
+
 /// The ranges of the operator's settings: one home for the console's settings file (clamped into them)
 /// and for settings from a command (refused outside them).
 pub mod ranges {
@@ -221,12 +230,7 @@ impl Station {
             }
             Command::Study(c) => self.study_command(c)?,
             Command::AddReceiver { spec } => {
-                if spec.len() > MAX_RECEIVER_SPEC {
-                    return Err(format!(
-                        "receiver refused: its spec is longer than {MAX_RECEIVER_SPEC} bytes"
-                    ));
-                }
-                let spec = spec.trim().parse().map_err(|e| format!("receiver refused: {e}"))?;
+                let spec = parse_receiver_spec(&spec)?;
                 self.add_receiver(spec).map_err(|e| format!("receiver refused: {e}"))?;
             }
             Command::RemoveReceiver { number } => self.remove_receiver_number(number)?,
