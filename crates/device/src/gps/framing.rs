@@ -137,6 +137,11 @@ pub struct DecodeStats {
     /// epochs' date: not used for the fix's time (docs/gps.md, "Date validation").
     #[serde(default)]
     pub implausible_dates: u64,
+    /// NMEA epochs whose position sentences disagreed by more than a metre (a multiplexer labelling one
+    /// sentence type a second apart): the position most of them agree on was used (docs/gps.md,
+    /// "`bundg_zeus_9`").
+    #[serde(default)]
+    pub disagreeing_positions: u64,
     /// A binary protocol we recognise but do not decode (Trimble TSIP, Motorola Oncore, ...), confirmed by
     /// several well-formed frames: the receiver must be switched to NMEA ([`super::binary_detect`]).
     #[serde(default)]
@@ -233,6 +238,7 @@ impl DecodeStats {
         self.ublox_sentences += o.ublox_sentences;
         self.rtcm3_frames += o.rtcm3_frames;
         self.implausible_dates += o.implausible_dates;
+        self.disagreeing_positions += o.disagreeing_positions;
         self.undecoded_protocol = self.undecoded_protocol.or(o.undecoded_protocol);
         self.binary_bad_checksum += o.binary_bad_checksum;
         self.binary_malformed += o.binary_malformed;
@@ -300,6 +306,13 @@ impl std::fmt::Display for DecodeStats {
         )?;
         if self.nmea_epochs_superseded > 0 {
             write!(f, ", {} NMEA epochs superseded by binary ones", self.nmea_epochs_superseded)?;
+        }
+        if self.disagreeing_positions > 0 {
+            write!(
+                f,
+                ", {} epochs whose sentences disagree on the position (the majority's used)",
+                self.disagreeing_positions
+            )?;
         }
         write!(
             f,

@@ -165,11 +165,23 @@ struct Epoch {
     heading_invalid: bool,
     /// Anything that makes this epoch worth a fix (a position/time sentence).
     substantive: bool,
-    /// The position of the epoch's most recent valid position sentence (GGA/RMC/GNS/GLL).
-    latest_pos: Option<LatLon>,
+    /// The positions of the epoch's valid position sentences (GGA/RMC/GNS/GLL/Ashtech POS) in arrival
+    /// order with their sentence's kind, the last [`MAX_EPOCH_POSITIONS`] kept ([`consensus`] picks the
+    /// fix's).
+    positions: Vec<(Kind, LatLon)>,
 }
 
 impl Epoch {
+    /// A valid position sentence of `kind` said `pos`.
+    fn saw_position(&mut self, kind: Kind, pos: Option<LatLon>) {
+        if let Some(p) = pos {
+            if self.positions.len() == MAX_EPOCH_POSITIONS {
+                self.positions.remove(0);
+            }
+            self.positions.push((kind, p));
+        }
+    }
+
     /// A sentence that says where the receiver is, or that it does not know (GGA, RMC, GLL, GNS, Ashtech
     /// POS), was part of the epoch.
     fn has_position_sentence(&self) -> bool {
@@ -231,6 +243,9 @@ pub struct NmeaDecoder {
     binary: BinaryState,
     /// The undecoded binary protocol announced ([`GpsEvent::Notice`], once).
     undecoded_noticed: Option<super::binary_detect::Protocol>,
+    /// The kinds of position sentence (bits of [`Kind`]) the last epoch whose sentences disagreed
+    /// out-voted: they lose a tie ([`consensus`]).
+    outvoted: u16,
 }
 
 /// Who gives the epochs when a receiver sends binary frames.
@@ -285,6 +300,7 @@ impl NmeaDecoder {
             dates: date::DateCheck::default(),
             binary: BinaryState::default(),
             undecoded_noticed: None,
+            outvoted: 0,
         }
     }
 
@@ -310,6 +326,7 @@ impl NmeaDecoder {
             accuracy_sirf: c.accuracy_sirf,
             accuracy_casic: c.accuracy_casic,
             implausible_dates: c.implausible_dates,
+            disagreeing_positions: c.disagreeing_positions,
             accuracy_gpsd: c.accuracy_gpsd,
             accuracy_dop_model: c.accuracy_dop_model,
             ..*self.framer.stats()
@@ -568,14 +585,14 @@ impl NmeaDecoder {
             Parsed::Gga { pos, quality, sats, hdop, alt_m, geoid_sep_m, .. } => {
                 e.gga = Some((pos, quality, sats, given_dop(hdop), alt_m, geoid_sep_m));
                 if quality.is_some_and(FixQuality::has_position) {
-                    e.latest_pos = pos.or(e.latest_pos);
+                    e.saw_position(Kind::Gga, pos);
                 }
                 e.substantive = true;
             }
             Parsed::Rmc { date, valid, pos, speed_m_s, course_deg, .. } => {
                 e.rmc = Some((valid, pos, speed_m_s, course_deg));
                 if valid {
-                    e.latest_pos = pos.or(e.latest_pos);
+                    e.saw_position(Kind::Rmc, pos);
                 }
                 if date.is_some() {
                     e.date = date;
@@ -585,14 +602,14 @@ impl NmeaDecoder {
             Parsed::Gll { pos, valid, .. } => {
                 e.gll = Some((valid, pos));
                 if valid {
-                    e.latest_pos = pos.or(e.latest_pos);
+                    e.saw_position(Kind::Gll, pos);
                 }
                 e.substantive = true;
             }
             Parsed::Gns { pos, valid, sats, hdop, alt_m, geoid_sep_m, .. } => {
                 e.gns = Some((valid, pos, sats, given_dop(hdop), alt_m, geoid_sep_m));
                 if valid {
-                    e.latest_pos = pos.or(e.latest_pos);
+                    e.saw_position(Kind::Gns, pos);
                 }
                 e.substantive = true;
             }
@@ -607,7 +624,7 @@ impl NmeaDecoder {
             Parsed::Pgrme { horizontal_m, vertical_m } => e.pgrme = Some((horizontal_m, vertical_m)),
             p @ Parsed::AshtechPos { .. } => {
                 if let Parsed::AshtechPos { pos, quality: Some(_), .. } = p {
-                    e.latest_pos = pos.or(e.latest_pos);
+                    e.saw_position(Kind::AshtechPos, pos);
                 }
                 e.ashtech = Some(p);
                 e.substantive = true;
@@ -709,7 +726,12 @@ impl NmeaDecoder {
             }
             self.binary = BinaryState::default();
         }
-        let mut fix = self.build_fix(epoch);
+        let chosen = consensus(&epoch.positions, self.outvoted);
+        let mut fix = self.build_fix(epoch, chosen.position);
+        if fix.has_position() && chosen.outvoted != 0 {
+            self.checked.disagreeing_positions += 1;
+            self.outvoted = chosen.outvoted;
+        }
         // The one boundary check of every value before the fix leaves the decoder.
         fix.validate().count_into(&mut self.checked);
         self.checked.count_accuracy(fix.error.as_ref());
@@ -720,7 +742,7 @@ impl NmeaDecoder {
 
     // One straight pass over the sentence types, in priority order; splitting it would scatter the rules.
     #[allow(clippy::too_many_lines)]
-    fn build_fix(&self, e: &Epoch) -> Fix {
+    fn build_fix(&self, e: &Epoch, chosen: Option<LatLon>) -> Fix {
         let mut fix = Fix {
             time_of_day: e.tod,
             time: e.tod.and_then(|t| self.date.map(|d| utc(d, t))),
@@ -792,10 +814,8 @@ impl NmeaDecoder {
         let valid = valid.unwrap_or(false) && pos.is_some();
         if valid {
             // When the epoch's sentences disagree on the position (a marine multiplexer such as the B&G
-            // Zeus 2 sends GGA and GLL of the same second from different sources), the latest one wins:
-            // gpsd merges every sentence into its fix in arrival order, so its report for the second
-            // carries the last sentence's position.
-            let pos = e.latest_pos.or(pos);
+            // Zeus² labels GGA one second apart from RMC and GLL), the position most of them agree on.
+            let pos = chosen.or(pos);
             fix.lat_deg = pos.map(|p| p.0);
             fix.lon_deg = pos.map(|p| p.1);
         }
@@ -925,6 +945,55 @@ const ALL_CONSTELLATIONS: [Constellation; 8] = [
     Constellation::Navic,
     Constellation::Unknown,
 ];
+
+/// The most position sentences one epoch keeps for [`consensus`] (a receiver sends at most GGA, RMC, GLL,
+/// GNS and a proprietary one per second; a stream repeating one second's sentences keeps its last ones).
+const MAX_EPOCH_POSITIONS: usize = 8;
+
+/// Two position sentences of one epoch agree when they are at most this far apart: more than NMEA's
+/// rounding (0.0001′ is 0.19 m) and the small differences of a receiver that computes each sentence
+/// separately (under 0.7 m on the B&G Zeus²), less than one second of walking (1.4 m).
+const AGREE_M: f64 = 1.0;
+
+/// Metres per degree of latitude (mean), for [`AGREE_M`]'s flat-earth comparison.
+const M_PER_DEG: f64 = 111_195.0;
+
+/// The position an epoch reports, chosen from its sentences' positions.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Consensus {
+    /// The position with the most sentences within [`AGREE_M`] of it.
+    position: Option<LatLon>,
+    /// The kinds (bits of [`Kind`]) of the sentences more than [`AGREE_M`] from the chosen position: 0
+    /// when all agree (counted in [`DecodeStats::disagreeing_positions`]).
+    outvoted: u16,
+}
+
+/// NMEA 0183 ties a sentence to its epoch by its UTC field, so an epoch's GGA, RMC, GLL and GNS describe
+/// one instant and agree. A multiplexer that mislabels one of them (the B&G Zeus² labels GGA one second
+/// earlier than RMC and ZDA for a while, and GLL moves from GGA's label to RMC's) gives an epoch two
+/// positions a second of motion apart. The position most sentences give is the epoch's. On a tie, the
+/// sentence kinds the last disagreement out-voted (`outvoted_before`, bits of [`Kind`]) lose: they are the
+/// mislabelled ones. Then, as when all agree, the latest sentence's (docs/gps.md, "`bundg_zeus_9`").
+fn consensus(positions: &[(Kind, LatLon)], outvoted_before: u16) -> Consensus {
+    let agree = |a: LatLon, b: LatLon| {
+        let north = (a.0 - b.0) * M_PER_DEG;
+        let east = ((a.1 - b.1 + 540.0).rem_euclid(360.0) - 180.0) * M_PER_DEG * a.0.to_radians().cos();
+        north * north + east * east <= AGREE_M * AGREE_M
+    };
+    let trusted = |kind: Kind| outvoted_before & (1 << kind as u16) == 0;
+    let mut best: Option<((usize, bool), LatLon)> = None;
+    for &(kind, p) in positions {
+        let support = positions.iter().filter(|&&(_, q)| agree(p, q)).count();
+        let rank = (support, trusted(kind));
+        if best.is_none_or(|(r, _)| rank >= r) {
+            best = Some((rank, p));
+        }
+    }
+    let Some((_, position)) = best else { return Consensus { position: None, outvoted: 0 } };
+    let outvoted =
+        positions.iter().filter(|&&(_, q)| !agree(position, q)).fold(0, |bits, &(k, _)| bits | 1 << k as u16);
+    Consensus { position: Some(position), outvoted }
+}
 
 fn utc(d: NaiveDate, t: NaiveTime) -> DateTime<Utc> {
     d.and_time(t).and_utc()

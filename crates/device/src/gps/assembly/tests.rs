@@ -350,22 +350,23 @@ const ZEUS_LABEL_SWITCH: [&str; 18] = [
 ];
 
 /// One epoch per labelled second, whatever sentence type moves to another label (docs/gps.md, "Epoch rules
-/// added for the multiplexers"): the epoch's position is its latest valid position sentence's, its altitude
-/// GGA's, its speed RMC/VTG's. Expected values are the sentences' own fields (ddmm.mmmm -> degrees, knots
-/// -> m/s). gpsd differs here on purpose: GLL is its "cycle continuer", so its report for 09:48:17 is GLL(17)
-/// alone (no altitude, speed 0, its `.chk`), the GGA and RMC of that second are never reported, and
-/// 09:48:16 has no report at all. Live decoding (cycle end learned, amended fixes) ends every second with
-/// the same fix as file decoding.
+/// added for the multiplexers"): the epoch's position is the one most of its position sentences give (a
+/// tie, or all within a metre: the latest), its altitude GGA's, its speed RMC/VTG's. Expected values are
+/// the sentences' own fields (ddmm.mmmm -> degrees, knots -> m/s). At 09:48:17 GLL(17) and RMC(17) give one
+/// position and GGA(17) the next second's: the two win, which is also gpsd's report for 09:48:17 (GLL(17),
+/// its `.chk`). gpsd has no report for 09:48:16. Live decoding (cycle end learned, amended fixes) ends every
+/// second with the same fix as file decoding.
 #[test]
 fn a_multiplexer_moving_gll_to_the_next_label_keeps_one_epoch_per_second() {
     let deg = |d: f64, min: f64| d + min / 60.0;
     let kn = |v: f64| v * 1852.0 / 3600.0;
-    // (second, lat, lon, altitude, speed): 15 GLL(15) = GGA(15); 16 GGA(16) after RMC(16); 17 GGA(17)
-    // after GLL(17) and RMC(17); 18 RMC(18) after GLL(18) (no GGA of 18 in the excerpt).
+    // (second, lat, lon, altitude, speed): 15 GLL(15) = GGA(15); 16 GGA(16) after RMC(16), 2.8 m apart, a
+    // tie; 17 GLL(17) = RMC(17) against GGA(17); 18 RMC(18) after GLL(18), 0.3 m apart (no GGA of 18 in the
+    // excerpt).
     let expected = [
         (15, deg(52.0, 50.9714), deg(5.0, 18.7347), Some(-5.0), None),
         (16, deg(52.0, 50.9705), deg(5.0, 18.7323), Some(-5.0), Some(kn(5.5))),
-        (17, deg(52.0, 50.9696), deg(5.0, 18.7305), Some(-5.0), Some(kn(5.7))),
+        (17, deg(52.0, 50.9705), deg(5.0, 18.7323), Some(-5.0), Some(kn(5.7))),
         (18, deg(52.0, 50.9695), deg(5.0, 18.7303), None, Some(kn(5.6))),
     ];
     let text = ZEUS_LABEL_SWITCH.join("\r\n") + "\r\n";
@@ -385,8 +386,10 @@ fn a_multiplexer_moving_gll_to_the_next_label_keeps_one_epoch_per_second() {
             }
         }
     };
-    let (file_fixes, _) = crate::gps::decode_reader(text.as_bytes()).unwrap();
+    let (file_fixes, stats) = crate::gps::decode_reader(text.as_bytes()).unwrap();
     check("file", &file_fixes.iter().collect::<Vec<_>>());
+    // 16 (a tie) and 17 (two against one) disagree; 15 and 18 agree.
+    assert_eq!(stats.disagreeing_positions, 2, "{stats}");
     // Live: line by line; the last fix of each second is that second's.
     let mut d = NmeaDecoder::new(DecoderConfig::live());
     let now = Instant::now();
@@ -458,4 +461,65 @@ fn a_second_repeated_without_a_position_is_not_a_no_fix_epoch() {
         .filter_map(|e| if let GpsEvent::Fix(f) = e { Some(*f) } else { None })
         .collect();
     second_45(&live, "live");
+}
+
+/// [`super::consensus`] against positions laid out at known distances (metres north/east turned into degrees
+/// by the same spherical metres-per-degree): within a metre they agree, the majority wins, a tie goes to the
+/// kind not out-voted last time, then to the latest, and the antimeridian is no gap.
+#[test]
+fn an_epochs_position_is_the_one_most_of_its_sentences_give() {
+    use super::{Consensus, Kind, M_PER_DEG, consensus};
+    let lat0: f64 = 52.85;
+    let at = |north_m: f64, east_m: f64| {
+        (lat0 + north_m / M_PER_DEG, 5.3 + east_m / (M_PER_DEG * lat0.to_radians().cos()))
+    };
+    let bit = |k: Kind| 1u16 << k as u16;
+    let (gga, rmc, gll) = (Kind::Gga, Kind::Rmc, Kind::Gll);
+    assert_eq!(consensus(&[], 0), Consensus { position: None, outvoted: 0 });
+    let (a, b, c) = (at(0.0, 0.0), at(0.3, 0.4), at(-0.5, 0.2));
+    let all_near = [(gga, a), (gll, b), (rmc, c)];
+    assert_eq!(consensus(&all_near, 0), Consensus { position: Some(c), outvoted: 0 }, "all within 1 m");
+    // One second of boat motion (2.8 m) apart: two sentences against one, whatever the order.
+    let (p, q) = (at(0.0, 0.0), at(-1.5, -2.4));
+    for order in
+        [[(gll, p), (rmc, p), (gga, q)], [(gll, p), (gga, q), (rmc, p)], [(gga, q), (gll, p), (rmc, p)]]
+    {
+        let want = Consensus { position: Some(p), outvoted: bit(gga) };
+        assert_eq!(consensus(&order, 0), want, "{order:?}");
+    }
+    // A tie: the latest, unless its kind was out-voted last time.
+    let tie = [(gll, p), (gga, q)];
+    assert_eq!(consensus(&tie, 0), Consensus { position: Some(q), outvoted: bit(gll) });
+    assert_eq!(consensus(&tie, bit(gga)), Consensus { position: Some(p), outvoted: bit(gga) });
+    assert_eq!(consensus(&tie, bit(gll)), Consensus { position: Some(q), outvoted: bit(gll) });
+    // 1.2 m apart is a disagreement, 0.9 m is not.
+    assert_ne!(consensus(&[(gga, at(0.0, 0.0)), (rmc, at(0.0, 1.2))], 0).outvoted, 0);
+    assert_eq!(consensus(&[(gga, at(0.0, 0.0)), (rmc, at(0.0, 0.9))], 0).outvoted, 0);
+    // 0.67 m across the antimeridian at the equator.
+    assert_eq!(consensus(&[(gga, (0.0, 179.999_997)), (rmc, (0.0, -179.999_997))], 0).outvoted, 0);
+}
+
+/// A stream repeating one second's position sentences keeps only the epoch's last few positions (memory
+/// bounded whatever the input); the majority of those is the fix's.
+#[test]
+fn an_epoch_keeps_a_bounded_number_of_positions() {
+    use std::fmt::Write as _;
+    let mut text = String::new();
+    for i in 0..1000 {
+        // 999 GLLs at one place, then one 100 m away: all labelled 12:00:00.
+        let lat = if i < 999 { "5250.0000" } else { "5250.0540" };
+        let body = format!("GPGLL,{lat},N,00518.0000,E,120000,A,A");
+        let sum = body.bytes().fold(0u8, |s, b| s ^ b);
+        writeln!(text, "${body}*{sum:02X}\r").unwrap();
+    }
+    let mut d = NmeaDecoder::new(DecoderConfig::file());
+    d.handle_bytes(text.as_bytes(), Instant::now());
+    assert!(d.epoch.positions.len() <= super::MAX_EPOCH_POSITIONS);
+    d.finish(Instant::now());
+    let fixes: Vec<_> = all_events(&mut d)
+        .into_iter()
+        .filter_map(|e| if let GpsEvent::Fix(f) = e { Some(f) } else { None })
+        .collect();
+    assert_eq!(fixes.len(), 1);
+    assert!((fixes[0].lat_deg.unwrap() - 52.833_333_333).abs() < 1e-8, "{:?}", fixes[0].lat_deg);
 }
