@@ -146,6 +146,10 @@ pub struct DecodeStats {
     /// several well-formed frames: the receiver must be switched to NMEA ([`super::binary_detect`]).
     #[serde(default)]
     pub undecoded_protocol: Option<super::binary_detect::Protocol>,
+    /// The first UBX message seen that carries no live position (raw subframes or measurements, a stored
+    /// log read back): with no epoch, the summary says so and what to change.
+    #[serde(default)]
+    pub ubx_without_fix: Option<super::ubx::WithoutFix>,
     /// Binary frames rejected by the framer: a wrong checksum or `SiRF` end sequence, a length field over
     /// [`MAX_BINARY_PAYLOAD`], or a frame the stream ended inside (rejected; its bytes are scanned again).
     #[serde(default)]
@@ -240,6 +244,7 @@ impl DecodeStats {
         self.implausible_dates += o.implausible_dates;
         self.disagreeing_positions += o.disagreeing_positions;
         self.undecoded_protocol = self.undecoded_protocol.or(o.undecoded_protocol);
+        self.ubx_without_fix = self.ubx_without_fix.or(o.ubx_without_fix);
         self.binary_bad_checksum += o.binary_bad_checksum;
         self.binary_malformed += o.binary_malformed;
         self.nmea_epochs_superseded += o.nmea_epochs_superseded;
@@ -271,6 +276,11 @@ impl std::fmt::Display for DecodeStats {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         if let Some(p) = self.undecoded_protocol {
             write!(f, "{}; ", p.advice())?;
+        }
+        if self.epochs == 0
+            && let Some(w) = self.ubx_without_fix
+        {
+            write!(f, "{}; ", w.advice())?;
         }
         write!(
             f,

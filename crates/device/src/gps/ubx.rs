@@ -46,3 +46,47 @@ pub fn frame(class: u8, id: u8, payload: &[u8]) -> Vec<u8> {
     out.extend_from_slice(&[a, b]);
     out
 }
+
+/// UBX messages that carry no live position. A stream of only these gives no fix; the decode summary
+/// says which and what to change ([`super::DecodeStats::ubx_without_fix`]). Identifiers from the u-blox 8 /
+/// M8 receiver description (UBX-13003221).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub enum WithoutFix {
+    /// RXM-SFRBX (0x02 0x13): the navigation message subframes as broadcast.
+    RawSubframes,
+    /// RXM-MEASX (0x02 0x14), RXM-RAWX (0x02 0x15): measurements for a post-processing engine.
+    RawMeasurements,
+    /// LOG-INFO (0x21 0x08), LOG-RETRIEVEPOS (0x0B), LOG-RETRIEVESTRING (0x0D), LOG-RETRIEVEPOSEXTRA (0x0F),
+    /// LOG-BATCH (0x11), MON-BATCH (0x0A 0x32): records read back from the receiver's memory.
+    StoredLog,
+}
+
+impl WithoutFix {
+    /// The kind of a UBX message without a live position, or `None` for any other message.
+    pub fn of(class: u8, id: u8) -> Option<Self> {
+        match (class, id) {
+            (0x02, 0x13) => Some(Self::RawSubframes),
+            (0x02, 0x14 | 0x15) => Some(Self::RawMeasurements),
+            (0x21, 0x08 | 0x0B | 0x0D | 0x0F | 0x11) | (0x0A, 0x32) => Some(Self::StoredLog),
+            _ => None,
+        }
+    }
+
+    /// Why a stream of such messages gives no fix, and what to change.
+    pub fn advice(self) -> &'static str {
+        match self {
+            Self::RawSubframes => {
+                "u-blox RXM-SFRBX only (broadcast navigation subframes, no position): enable NAV-PVT or NMEA \
+                 output on the receiver"
+            }
+            Self::RawMeasurements => {
+                "u-blox RXM-RAWX/MEASX only (raw measurements for post-processing, no position): enable \
+                 NAV-PVT or NMEA output on the receiver"
+            }
+            Self::StoredLog => {
+                "u-blox stored-log read-back only (LOG-BATCH/LOG-RETRIEVE: positions recorded earlier in the \
+                 receiver's memory, not live fixes, not used): enable NAV-PVT or NMEA output on the receiver"
+            }
+        }
+    }
+}

@@ -50,7 +50,7 @@ use super::fix::{Constellation, ErrorEstimate, ErrorSource, Fix, FixMode, FixQua
 use super::framing::{DecodeStats, Frame, Framer};
 use super::sentence::{self, Parsed, Unused};
 use super::sirf::{SirfDecoder, SirfUnused};
-use super::ubx::{UbxDecoder, UbxUnused};
+use super::ubx::{UbxDecoder, UbxUnused, WithoutFix};
 use super::{GpsEvent, Mark, UERE_DGPS_M, UERE_M};
 use crate::heading::{HeadingOrigin, HeadingReference};
 pub use date::{CONFIRM_EPOCHS, FIRST_DATE, LAST_DATE, in_gps_era};
@@ -243,6 +243,8 @@ pub struct NmeaDecoder {
     binary: BinaryState,
     /// The undecoded binary protocol announced ([`GpsEvent::Notice`], once).
     undecoded_noticed: Option<super::binary_detect::Protocol>,
+    /// The UBX messages without a position announced ([`GpsEvent::Notice`], once).
+    without_fix_noticed: Option<WithoutFix>,
     /// The kinds of position sentence (bits of [`Kind`]) the last epoch whose sentences disagreed
     /// out-voted: they lose a tie ([`consensus`]).
     outvoted: u16,
@@ -258,6 +260,10 @@ struct BinaryState {
     /// NMEA epochs closed since the last binary fix.
     nmea_epochs_since: u32,
 }
+
+/// Unused binary frames, with a [`WithoutFix`] UBX message among them and no sentence or fix, after which
+/// the decoder says why there is no fix ([`GpsEvent::Notice`]).
+const WITHOUT_FIX_NOTICE_FRAMES: u64 = 3;
 
 /// NMEA epochs without a binary fix after which NMEA gives the fixes again (the receiver stopped its
 /// binary output).
@@ -300,6 +306,7 @@ impl NmeaDecoder {
             dates: date::DateCheck::default(),
             binary: BinaryState::default(),
             undecoded_noticed: None,
+            without_fix_noticed: None,
             outvoted: 0,
         }
     }
@@ -357,6 +364,17 @@ impl NmeaDecoder {
             self.undecoded_noticed = Some(p);
             self.events.push_back(GpsEvent::Notice(p.advice()));
         }
+        // UBX messages without a position and nothing else (no sentence, no fix): say why, once.
+        let stats = self.framer.stats();
+        if self.without_fix_noticed.is_none()
+            && self.epochs == 0
+            && stats.sentences == 0
+            && stats.binary_frames >= WITHOUT_FIX_NOTICE_FRAMES
+            && let Some(w) = stats.ubx_without_fix
+        {
+            self.without_fix_noticed = Some(w);
+            self.events.push_back(GpsEvent::Notice(w.advice().to_owned()));
+        }
         // Bytes that were nothing but HDG sentences say nothing about the epoch: they do not hold the
         // quiet gap open.
         if data.len() > self.attitude_bytes {
@@ -412,6 +430,9 @@ impl NmeaDecoder {
         let decoded = match frame {
             Frame::Nmea(line) => return self.handle_sentence(line, stats),
             Frame::Ubx { class, id, payload } => {
+                if stats.ubx_without_fix.is_none() {
+                    stats.ubx_without_fix = WithoutFix::of(class, id);
+                }
                 self.ubx.handle(class, id, payload, now).map_err(|e| e == UbxUnused::Malformed)
             }
             Frame::Sirf { payload } => {

@@ -226,6 +226,11 @@ pub(super) fn no_fix_reason(fixes: &[Fix], stats: &DecodeStats) -> String {
     if let Some(p) = stats.undecoded_protocol {
         return p.advice();
     }
+    if fixes.is_empty()
+        && let Some(w) = stats.ubx_without_fix
+    {
+        return format!("{} ({} UBX frames, {} unused)", w.advice(), stats.ubx_frames, stats.binary_frames);
+    }
     let with_pos = fixes.iter().filter(|f| f.lat_deg.is_some()).count();
     if !fixes.is_empty() {
         format!("{} epochs, {with_pos} with a position", fixes.len())

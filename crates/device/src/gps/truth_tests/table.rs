@@ -16,6 +16,7 @@ use super::suite::{gpsd_epochs, match_log};
 use super::{Fix, decode_file};
 use crate::gps::NmeaDecoder;
 use crate::gps::assembly::DecoderConfig;
+use crate::gps::ubx::WithoutFix;
 
 /// How a log is judged.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -34,6 +35,9 @@ enum Judge {
     Exception { min_rate: f64, date_differs: bool, why: &'static str },
     /// RTCM 3 corrections: no fix, no sentence, every RTCM 3 message of gpsd's `.chk` framed.
     Corrections,
+    /// UBX messages without a live position only (gpsd reports none either): no fix, and the decoder says
+    /// which kind and what to change.
+    NoLiveFix(WithoutFix),
 }
 
 /// (log, receiver family, how it is judged). Every `.log` of the three folders must be listed.
@@ -227,6 +231,9 @@ const LOGS: &[(&str, &str, Judge)] = &[
     ("ublox-zed-f9t-ubx_nmea_l5.log", "u-blox F9T UBX+NMEA", Judge::Nmea),
     ("ublox-zed-f9p-hp.log", "u-blox F9P high precision", Judge::Nmea),
     ("rtcm3.2.log", "RTCM 3 corrections", Judge::Corrections),
+    ("ublox-ned-m8t-sbfrx3.log", "u-blox M8T raw subframes", Judge::NoLiveFix(WithoutFix::RawSubframes)),
+    ("ublox-zoe-m8b-logbatch.log", "u-blox M8B stored log", Judge::NoLiveFix(WithoutFix::StoredLog)),
+    ("ublox-zoe-m8b-logretrieve.log", "u-blox M8B stored log", Judge::NoLiveFix(WithoutFix::StoredLog)),
     ("rtcm3.bndm.log", "RTCM 3 corrections", Judge::Corrections),
 ];
 
@@ -300,6 +307,27 @@ fn echoed_in_log(chk: &str, log: &[u8]) -> u64 {
     chk.lines().filter(|l| (l.starts_with('$') || l.starts_with('!')) && text.contains(*l)).count() as u64
 }
 
+/// [`Judge::NoLiveFix`]: no fix (gpsd has no TPV either), and the decoder names the messages first in its
+/// summary. The table's note.
+fn no_live_fix(
+    name: &str,
+    kind: WithoutFix,
+    fixes: &[Fix],
+    chk: &str,
+    stats: &crate::gps::DecodeStats,
+    failures: &mut Vec<String>,
+) -> String {
+    let reports = chk.lines().filter(|l| l.contains(r#""class":"TPV""#)).count();
+    let advice_first = stats.to_string().starts_with(kind.advice());
+    if !fixes.is_empty() || reports != 0 || stats.ubx_without_fix != Some(kind) || !advice_first {
+        failures.push(format!(
+            "{name}: gpsd {reports} TPV reports; {} fixes, expected none and {kind:?}; {stats}",
+            fixes.len()
+        ));
+    }
+    format!("no fix, as gpsd: {}", kind.advice())
+}
+
 #[test]
 fn every_log_matches_gpsd_epochs() {
     let logs = all_logs();
@@ -369,6 +397,7 @@ fn every_log_matches_gpsd_epochs() {
                 }
                 format!("exception: {why}")
             }
+            Judge::NoLiveFix(kind) => no_live_fix(&name, kind, &fixes, &chk, &stats, &mut failures),
             Judge::Corrections => {
                 let messages = chk.lines().filter(|l| l.contains(r#""class":"RTCM3""#)).count() as u64;
                 if !fixes.is_empty()

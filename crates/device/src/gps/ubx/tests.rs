@@ -640,3 +640,60 @@ mod without_nav_pvt {
         assert_eq!((fixes[0].mode, fixes[0].lat_deg), (Some(FixMode::NoFix), None));
     }
 }
+
+/// A receiver sending only UBX messages without a position (raw subframes here) gives no fix, and the
+/// decoder says why once, as a notice and first in its summary; the same messages beside NMEA (an F9P
+/// logging raw measurements) say nothing, the NMEA giving the fixes.
+#[test]
+fn messages_without_a_position_say_why_there_is_no_fix() {
+    use crate::gps::{GpsEvent, NmeaDecoder};
+    let now = std::time::Instant::now();
+    let notices = |d: &mut NmeaDecoder| -> Vec<String> {
+        std::iter::from_fn(|| d.poll_event())
+            .filter_map(|e| if let GpsEvent::Notice(n) = e { Some(n) } else { None })
+            .collect()
+    };
+    let sfrbx: Vec<u8> = (0..10u8).flat_map(|i| frame(0x02, 0x13, &[i; 48])).collect();
+    let mut d = NmeaDecoder::default();
+    d.handle_bytes(&sfrbx, now);
+    d.handle_bytes(&sfrbx, now);
+    d.finish(now);
+    let advice = WithoutFix::RawSubframes.advice();
+    assert_eq!(notices(&mut d), [advice]);
+    assert_eq!(d.stats().ubx_without_fix, Some(WithoutFix::RawSubframes));
+    assert!(d.stats().to_string().starts_with(advice), "{}", d.stats());
+    // Stored-log read-back: LOG-BATCH (0x21 0x11).
+    let mut d = NmeaDecoder::default();
+    d.handle_bytes(&(0..5).flat_map(|_| frame(0x21, 0x11, &[0; 100])).collect::<Vec<u8>>(), now);
+    assert_eq!(notices(&mut d), [WithoutFix::StoredLog.advice()]);
+    // RXM-RAWX among NMEA: no notice, no advice.
+    let gga = "$GPGGA,123519,4807.038,N,01131.000,E,1,08,0.9,545.4,M,46.9,M,,*47\r\n";
+    let mut mixed = Vec::new();
+    for _ in 0..5 {
+        mixed.extend(frame(0x02, 0x15, &[0; 16]));
+        mixed.extend_from_slice(gga.as_bytes());
+    }
+    let mut d = NmeaDecoder::default();
+    d.handle_bytes(&mixed, now);
+    d.finish(now);
+    assert!(notices(&mut d).is_empty());
+    assert_eq!(d.stats().ubx_without_fix, Some(WithoutFix::RawMeasurements));
+    assert!(!d.stats().to_string().contains(WithoutFix::RawMeasurements.advice()));
+}
+
+/// The message identifiers of [`WithoutFix`] against the u-blox 8 / M8 receiver description's tables;
+/// the navigation messages that give fixes are not among them.
+#[test]
+fn messages_without_a_position_are_named_by_their_identifiers() {
+    assert_eq!(WithoutFix::of(0x02, 0x13), Some(WithoutFix::RawSubframes));
+    assert_eq!(WithoutFix::of(0x02, 0x15), Some(WithoutFix::RawMeasurements));
+    assert_eq!(WithoutFix::of(0x02, 0x14), Some(WithoutFix::RawMeasurements));
+    for id in [0x08, 0x0B, 0x0D, 0x0F, 0x11] {
+        assert_eq!(WithoutFix::of(0x21, id), Some(WithoutFix::StoredLog), "LOG 0x{id:02X}");
+    }
+    assert_eq!(WithoutFix::of(0x0A, 0x32), Some(WithoutFix::StoredLog));
+    // NAV-PVT, NAV-SOL, NAV-POSLLH, HNR-PVT, MON-VER.
+    for (class, id) in [(0x01, 0x07), (0x01, 0x06), (0x01, 0x02), (0x28, 0x00), (0x0A, 0x04)] {
+        assert_eq!(WithoutFix::of(class, id), None);
+    }
+}
