@@ -305,8 +305,8 @@ fn a_pattern_study_takes_the_answer_clicked_in_the_pattern_list() {
 
 /// `vestnav --study P --study-wearer sim:0` (the documentation's Study screenshot): the tab opens with the
 /// protocol checked, the study is loaded and started, and the simulated wearer (confusing nothing) answers
-/// each trial; the results file the station wrote has its rows, every one correct. Without a wearer the
-/// protocol is only checked and proposed: nothing is loaded.
+/// each trial, also while the operator looks at the map; the results file the station wrote has its rows,
+/// every one correct. Without a wearer the protocol is only checked and proposed: nothing is loaded.
 #[test]
 fn a_study_named_at_start_opens_the_tab_and_a_simulated_wearer_answers() {
     use vestnav_app::console::{ConsoleOptions, DeviceOverrides};
@@ -341,6 +341,10 @@ fn a_study_named_at_start_opens_the_tab_and_a_simulated_wearer_answers() {
 
     let spec = vestnav_station::study::wearer::SimulatedWearer::parse_spec("sim:0:1:20").unwrap();
     let (fake, mut h) = open(Some(spec));
+    h.run_steps(2);
+    assert_eq!(h.state().tab, Tab::Study);
+    // The operator turns to the map: the wearer goes on answering.
+    h.state_mut().tab = Tab::Map;
     let until = std::time::Instant::now() + std::time::Duration::from_secs(20);
     while !view(h.state()).is_some_and(|v| v.phase == StudyPhase::Finished) {
         assert!(std::time::Instant::now() < until, "{:?} {:?}", view(h.state()), h.state().study.refused);

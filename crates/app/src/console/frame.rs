@@ -263,6 +263,10 @@ impl Console {
                     });
             });
 
+        // `--study-wearer`'s simulated wearer answers the console's own study whichever tab is shown.
+        if let Some(d) = self.study.simulate(&mut self.station, Instant::now()) {
+            ui.ctx().request_repaint_after(d);
+        }
         // Every settings change of the frame reaches the station here, once (ticking automatic cues back
         // on is the operator's deliberate resume).
         self.settings_changed();

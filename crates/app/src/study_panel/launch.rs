@@ -76,9 +76,10 @@ impl StudyPanel {
         self.demo = Some(Demo { wearer, answer_at: None });
     }
 
-    /// The simulated wearer's turn (each frame): each trial is answered once, its response time after the
-    /// tab first saw it waiting. Returns how soon the view must turn again for it (`None`: no wearer).
-    pub(super) fn simulate(&mut self, station: &mut Station, now: Instant) -> Option<Duration> {
+    /// The simulated wearer's turn, every frame whichever tab is shown (the console's frame calls it): each
+    /// trial of the console's own station is answered once, its response time after the wearer first saw
+    /// it waiting. Returns how soon the view must turn again for it (`None`: no wearer).
+    pub fn simulate(&mut self, station: &mut Station, now: Instant) -> Option<Duration> {
         let demo = self.demo.as_mut()?;
         let v = station.study_view()?;
         if v.phase.is_over() {

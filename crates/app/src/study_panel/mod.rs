@@ -191,11 +191,6 @@ impl StudyPanel {
             self.target_ui(ui, remote.as_deref());
         });
         ui.separator();
-        if self.target == Target::Local
-            && let Some(d) = self.simulate(station, now)
-        {
-            ui.ctx().request_repaint_after(d);
-        }
         if self.view == View::Analysis {
             self.analysis.ui(ui, recent);
             return;
