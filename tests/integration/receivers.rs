@@ -447,3 +447,72 @@ fn only_an_operator_adds_a_receiver_over_the_broker() {
     drop(broker);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A comparison receiver that stops giving fixes but stays connected (a PTY nobody writes to after three
+/// GGAs) is stale: the station says so with the age of its last fix, measured against the test's own clock,
+/// and the age is a number beside the words, so two snapshots a second apart compare equal once ages are
+/// set aside (a remote publisher sends on change, not every second).
+#[test]
+fn a_stale_receivers_age_is_a_number_not_part_of_its_words() {
+    use std::io::Write as _;
+    use vestnav_station::receivers::ReceiverStatus;
+    let nmea = |body: &str| format!("${body}*{:02X}\r\n", body.bytes().fold(0u8, |a, b| a ^ b));
+    let mut pty = vestnav_device::serial::Pty::open().unwrap();
+    let mut station = Station::new(
+        Box::new(Hardware::default()),
+        StationOptions {
+            gps: Some(replay(&data("gpsd-logs/skytraq-dgps.log"))),
+            liveness: None,
+            ..StationOptions::default()
+        },
+    );
+    let mut settings = *station.settings();
+    settings.guidance.stale_after_s = 1.0;
+    station.set_settings(settings);
+    station.add_receiver(GpsSourceConfig::Serial { port: pty.path().to_owned(), baud: Some(9600) }).unwrap();
+    station.connect_gps(Vec::new());
+    let pump_for = |station: &mut Station, d: Duration| {
+        let until = Instant::now() + d;
+        while Instant::now() < until {
+            station.pump(|_| {});
+            std::thread::sleep(Duration::from_millis(5));
+        }
+    };
+    let mut last_write = Instant::now();
+    for s in 0..3 {
+        let gga = nmea(&format!("GPGGA,1200{s:02}.00,4807.038,N,01131.000,E,1,08,0.9,545.4,M,46.9,M,,"));
+        last_write = Instant::now();
+        pty.write_all(gga.as_bytes()).unwrap();
+        pump_for(&mut station, Duration::from_millis(150));
+    }
+    let fixes = |s: &Station| s.receivers().sources()[0].fixes();
+    let until = Instant::now() + Duration::from_secs(10);
+    while fixes(&station) < 3 && Instant::now() < until {
+        station.pump(|_| {});
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    assert!(fixes(&station) >= 3, "{:?}", station.receiver_status(0, Instant::now()));
+    pump_for(&mut station, Duration::from_millis(1500));
+    let now = Instant::now();
+    let status = station.receiver_status(0, now).unwrap();
+    let ReceiverStatus::Stale { age_s } = status else { panic!("not stale: {status}") };
+    let since_write = now.duration_since(last_write).as_secs_f64();
+    assert!(
+        (since_write - 0.5..=since_write + 0.1).contains(&age_s),
+        "age {age_s} s, written {since_write} s ago"
+    );
+    let first = station.snapshot(now).receivers.unwrap();
+    pump_for(&mut station, Duration::from_millis(1100));
+    let second = station.snapshot(Instant::now()).receivers.unwrap();
+    let (a, b) = (&first.sources[0], &second.sources[0]);
+    assert_eq!(a.status, "stale: no fix");
+    assert!(b.stale_for_s.unwrap() >= a.stale_for_s.unwrap() + 1.0, "{a:?} {b:?}");
+    assert_eq!(a.status_text(), format!("stale: no fix for {:.0} s", a.stale_for_s.unwrap()));
+    assert!(second.summary().contains("stale: no fix for"), "{}", second.summary());
+    let mut snaps = [station.snapshot(now), station.snapshot(Instant::now() + Duration::from_secs(2))];
+    for s in &mut snaps {
+        *s = s.without_ages();
+    }
+    assert_eq!(snaps[0].receivers, snaps[1].receivers, "only the age changed");
+    station.shutdown();
+}

@@ -370,6 +370,9 @@ impl Snapshot {
         for n in &mut s.notices {
             n.age_s = 0.0;
         }
+        for r in s.receivers.iter_mut().flat_map(|r| &mut r.sources) {
+            r.stale_for_s = r.stale_for_s.map(|_| 0.0);
+        }
         s
     }
 }

@@ -281,7 +281,7 @@ impl ReceiversSnapshot {
             .iter()
             .enumerate()
             .map(|(k, s)| {
-                let mut t = format!("{} {}, {} fixes", s.name, s.status, s.fixes);
+                let mut t = format!("{} {}, {} fixes", s.name, s.status_text(), s.fixes);
                 if let Some((c, d)) = cmp.and_then(|c| Some((c, c.differences.get(k)?))) {
                     let _ = write!(
                         t,
@@ -306,12 +306,85 @@ pub struct ReceiverSnapshot {
     pub number: usize,
     /// Its name in the comparison (`2: gpsd://127.0.0.1:2947`).
     pub name: String,
-    /// Its state in words (`live`, `stale: no fix for 4 s`, `failed: …`).
+    /// Its state in words, without an age (`live`, `stale: no fix`, `failed: …`; [`ReceiverStatus::label`]).
     pub status: String,
+    /// While it is stale, how long since its last fix at the snapshot [s] ([`Self::status_text`]). Absent
+    /// from older stations, whose `status` held the age.
+    #[serde(default)]
+    pub stale_for_s: Option<f64>,
     /// Its fixes taken for the comparison.
     pub fixes: usize,
     /// Its recording (`None`: no session log).
     pub recording: Option<RecordingStatus>,
+}
+
+impl ReceiverSnapshot {
+    /// Its state in words with the stale age (`stale: no fix for 4 s`).
+    pub fn status_text(&self) -> String {
+        match self.stale_for_s {
+            Some(age_s) => ReceiverStatus::Stale { age_s }.to_string(),
+            None => self.status.clone(),
+        }
+    }
+}
+
+/// A comparison source's state ([`Station::receiver_status`]).
+#[derive(Debug, Clone, PartialEq)]
+pub enum ReceiverStatus {
+    /// It could not be opened, or its worker is gone: why.
+    Failed(String),
+    /// Live, no fix yet.
+    NoFixYet,
+    /// No fix for longer than the stale time: since when [s].
+    Stale {
+        /// Seconds since its last fix.
+        age_s: f64,
+    },
+    /// The source's own state in words (`live`, `lost: …`, `end of input`).
+    State(String),
+}
+
+impl ReceiverStatus {
+    /// The state without its age, which changes every second (`stale: no fix`).
+    pub fn label(&self) -> String {
+        match self {
+            Self::Stale { .. } => "stale: no fix".to_owned(),
+            other => other.to_string(),
+        }
+    }
+
+    /// How it is drawn: a failure as an error, a stale or reconnecting source as a warning.
+    pub fn severity(&self) -> ReceiverSeverity {
+        match self {
+            Self::Failed(_) => ReceiverSeverity::Error,
+            Self::State(s) if s.starts_with("lost") => ReceiverSeverity::Error,
+            Self::Stale { .. } => ReceiverSeverity::Warning,
+            Self::State(s) if s.starts_with("reconnecting") => ReceiverSeverity::Warning,
+            _ => ReceiverSeverity::Normal,
+        }
+    }
+}
+
+/// How a [`ReceiverStatus`] is drawn.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ReceiverSeverity {
+    /// As any text.
+    Normal,
+    /// As a warning (stale, reconnecting).
+    Warning,
+    /// As an error (failed, lost).
+    Error,
+}
+
+impl std::fmt::Display for ReceiverStatus {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Failed(why) => write!(f, "failed: {why}"),
+            Self::NoFixYet => f.write_str("live, no fix yet"),
+            Self::Stale { age_s } => write!(f, "stale: no fix for {age_s:.0} s"),
+            Self::State(s) => f.write_str(s),
+        }
+    }
 }
 
 /// The label of the primary receiver in the comparison.
@@ -457,10 +530,16 @@ impl Station {
             sources: (0..r.sources.len())
                 .filter_map(|k| {
                     let s = r.sources.get(k)?;
+                    let status = self.receiver_status(k, now)?;
                     Some(ReceiverSnapshot {
                         number: s.number,
                         name: s.name.clone(),
-                        status: self.receiver_status(k, now)?,
+                        status: status.label(),
+                        stale_for_s: if let ReceiverStatus::Stale { age_s } = status {
+                            Some(age_s)
+                        } else {
+                            None
+                        },
                         fixes: s.fixes(),
                         recording: s.recording(),
                     })
@@ -470,12 +549,12 @@ impl Station {
         })
     }
 
-    /// Each comparison source's state in words: `live`, `stale: no fix for 4 s`, `failed: …`, the
-    /// source's own states otherwise (`lost: …`, `end of input`).
-    pub fn receiver_status(&self, index: usize, now: Instant) -> Option<String> {
+    /// Each comparison source's state: failed, no fix yet, stale (no fix for longer than the stale time),
+    /// or the source's own state (`live`, `lost: …`, `end of input`).
+    pub fn receiver_status(&self, index: usize, now: Instant) -> Option<ReceiverStatus> {
         let s = self.receivers.sources.get(index)?;
         if s.worker.is_none() {
-            return Some(format!("failed: {}", s.failed.as_deref().unwrap_or("not open")));
+            return Some(ReceiverStatus::Failed(s.failed.as_deref().unwrap_or("not open").to_owned()));
         }
         let stale_after = Duration::try_from_secs_f64(self.settings.guidance.stale_after_s)
             .unwrap_or(Duration::from_secs(3));
@@ -483,10 +562,10 @@ impl Station {
             (Some(SourceState::Live { .. }) | None, Some(at))
                 if now.saturating_duration_since(at) > stale_after =>
             {
-                format!("stale: no fix for {:.0} s", now.saturating_duration_since(at).as_secs_f64())
+                ReceiverStatus::Stale { age_s: now.saturating_duration_since(at).as_secs_f64() }
             }
-            (Some(SourceState::Live { .. }), None) => "live, no fix yet".to_owned(),
-            (state, _) => source_state_label(state.as_ref()),
+            (Some(SourceState::Live { .. }), None) => ReceiverStatus::NoFixYet,
+            (state, _) => ReceiverStatus::State(source_state_label(state.as_ref())),
         })
     }
 

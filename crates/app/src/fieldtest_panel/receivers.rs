@@ -15,7 +15,7 @@ use vestnav_report::accuracy::CompareReport;
 use vestnav_report::fieldtest::Source;
 use vestnav_station::Station;
 use vestnav_station::command::Command;
-use vestnav_station::receivers::{MAX_COMPARED, primary_name};
+use vestnav_station::receivers::{MAX_COMPARED, ReceiverSeverity, primary_name};
 
 use crate::sim_panel::figure_grid;
 
@@ -156,13 +156,18 @@ fn table(station: &Station, ui: &mut egui::Ui) -> Option<usize> {
             if ui.button(format!("Remove receiver {}", s.number)).clicked() {
                 remove = Some(s.number);
             }
-            let status = station.receiver_status(k, now).unwrap_or_default();
-            if status.starts_with("failed") || status.starts_with("lost") {
-                ui.colored_label(ui.visuals().error_fg_color, status);
-            } else if status.starts_with("stale") || status.starts_with("reconnecting") {
-                ui.colored_label(ui.visuals().warn_fg_color, status);
+            if let Some(status) = station.receiver_status(k, now) {
+                match status.severity() {
+                    ReceiverSeverity::Error => {
+                        ui.colored_label(ui.visuals().error_fg_color, status.to_string())
+                    }
+                    ReceiverSeverity::Warning => {
+                        ui.colored_label(ui.visuals().warn_fg_color, status.to_string())
+                    }
+                    ReceiverSeverity::Normal => ui.label(status.to_string()),
+                };
             } else {
-                ui.label(status);
+                ui.label("");
             }
             ui.label(s.fixes().to_string());
             ui.label(recorded(s.recording()));
