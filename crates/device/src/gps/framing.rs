@@ -142,6 +142,10 @@ pub struct DecodeStats {
     /// "`bundg_zeus_9`").
     #[serde(default)]
     pub disagreeing_positions: u64,
+    /// Sentences identical to the one just before them within an epoch that has its UTC time (a multiplexer
+    /// forwarding one twice): skipped, so they split no epoch (accepted, not an error).
+    #[serde(default)]
+    pub duplicate_sentences: u64,
     /// A binary protocol we recognise but do not decode (Trimble TSIP, Motorola Oncore, ...), confirmed by
     /// several well-formed frames: the receiver must be switched to NMEA ([`super::binary_detect`]).
     #[serde(default)]
@@ -243,6 +247,7 @@ impl DecodeStats {
         self.rtcm3_frames += o.rtcm3_frames;
         self.implausible_dates += o.implausible_dates;
         self.disagreeing_positions += o.disagreeing_positions;
+        self.duplicate_sentences += o.duplicate_sentences;
         self.undecoded_protocol = self.undecoded_protocol.or(o.undecoded_protocol);
         self.ubx_without_fix = self.ubx_without_fix.or(o.ubx_without_fix);
         self.binary_bad_checksum += o.binary_bad_checksum;
@@ -316,6 +321,9 @@ impl std::fmt::Display for DecodeStats {
         )?;
         if self.nmea_epochs_superseded > 0 {
             write!(f, ", {} NMEA epochs superseded by binary ones", self.nmea_epochs_superseded)?;
+        }
+        if self.duplicate_sentences > 0 {
+            write!(f, ", {} sentences repeated at once (skipped)", self.duplicate_sentences)?;
         }
         if self.disagreeing_positions > 0 {
             write!(

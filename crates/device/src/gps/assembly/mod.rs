@@ -104,6 +104,17 @@ enum Kind {
     Other,
 }
 
+/// A sentence's talker: the two characters after `$` (`GP`, `GN`, `GA`; `PG` for `$PGRME`).
+fn talker_of(line: &str) -> [u8; 2] {
+    match line.as_bytes() {
+        [_, a, b, ..] => [*a, *b],
+        _ => [0, 0],
+    }
+}
+
+/// How many [`Kind`]s there are.
+const KINDS: usize = Kind::Other as usize + 1;
+
 fn kind_of(p: &Parsed) -> Kind {
     match p {
         Parsed::Gga { .. } => Kind::Gga,
@@ -149,6 +160,8 @@ struct Epoch {
     date: Option<NaiveDate>,
     /// Bit set of the [`Kind`]s seen (bit = discriminant).
     seen: u16,
+    /// The talker (`GP`, `GA`, ...) of each [`Kind`]'s first sentence in the epoch (`[0, 0]`: none yet).
+    talkers: [[u8; 2]; KINDS],
     last_kind: Option<Kind>,
     gga: Option<GgaFacts>,
     rmc: Option<RmcFacts>,
@@ -243,6 +256,8 @@ pub struct NmeaDecoder {
     binary: BinaryState,
     /// The undecoded binary protocol announced ([`GpsEvent::Notice`], once).
     undecoded_noticed: Option<super::binary_detect::Protocol>,
+    /// The last sentence that reached the epoch rules (a duplicate check; the buffer is reused).
+    prev_sentence: String,
     /// The UBX messages without a position announced ([`GpsEvent::Notice`], once).
     without_fix_noticed: Option<WithoutFix>,
     /// The kinds of position sentence (bits of [`Kind`]) the last epoch whose sentences disagreed
@@ -306,6 +321,7 @@ impl NmeaDecoder {
             dates: date::DateCheck::default(),
             binary: BinaryState::default(),
             undecoded_noticed: None,
+            prev_sentence: String::new(),
             without_fix_noticed: None,
             outvoted: 0,
         }
@@ -557,6 +573,38 @@ impl NmeaDecoder {
         }
         let kind = kind_of(&parsed);
         let time = sentence::time_of(&parsed);
+        if !self.epoch_boundaries(line, kind, time) {
+            stats.duplicate_sentences += 1;
+            return;
+        }
+        if let Some(t) = time {
+            self.epoch.tod = Some(t);
+        }
+        self.apply(parsed);
+        self.epoch.seen |= 1 << kind as u16;
+        self.epoch.last_kind = Some(kind);
+        if self.config.early_emit && self.ender == Some(kind) && self.epoch.substantive {
+            self.close_epoch();
+            self.closed_by_ender = true;
+        }
+    }
+
+    /// The epoch rules for a sentence of `kind` with UTC `time`, before it is applied: closes the open
+    /// epoch where this sentence starts the next one. False when the sentence is a forwarding duplicate, to
+    /// be skipped.
+    fn epoch_boundaries(&mut self, line: &str, kind: Kind, time: Option<NaiveTime>) -> bool {
+        // The same sentence twice in a row, in an epoch that has its UTC time: a multiplexer forwarding it
+        // twice (the B&G Zeus² sends some VTGs so), not the start of the next epoch. GSA and GSV come in
+        // parts, which may be equal (two constellations' empty GSAs): they never split an epoch anyway.
+        let duplicate = !matches!(kind, Kind::Gsa | Kind::Gsv)
+            && self.epoch.tod.is_some()
+            && self.epoch.last_kind == Some(kind)
+            && self.prev_sentence == line;
+        self.prev_sentence.clear();
+        self.prev_sentence.push_str(line);
+        if duplicate {
+            return false;
+        }
         // Epoch boundaries.
         if let Some(t) = time {
             if self.closed_by_ender && self.epoch.seen == 0 {
@@ -577,22 +625,25 @@ impl NmeaDecoder {
         // the same second said twice (the B&G Zeus 2 multiplexer forwards some ZDAs twice), and splitting
         // would leave a second epoch of that time with no position. NMEA 0183 ties a sentence to its
         // epoch by the UTC time field; only sentences without one need the repeat rule.
+        // Nor does a repeat from another talker: a multi-constellation receiver's per-system sentences of one
+        // epoch (the Telit PLS83-W's `$GPVTG` and `$GAVTG`, time-less, between its GGAs and RMCs).
         let same_second =
             time.zip(self.epoch.tod).is_some_and(|(t, cur)| sentence::tod_ms(t) == sentence::tod_ms(cur));
-        if kind != Kind::Gsa && kind != Kind::Gsv && !same_second && self.epoch.seen & (1 << kind as u16) != 0
+        let talker = talker_of(line);
+        let first_talker = self.epoch.talkers[kind as usize];
+        let other_talker = first_talker != [0, 0] && first_talker != talker;
+        if kind != Kind::Gsa
+            && kind != Kind::Gsv
+            && !same_second
+            && !other_talker
+            && self.epoch.seen & (1 << kind as u16) != 0
         {
             self.boundary();
         }
-        if let Some(t) = time {
-            self.epoch.tod = Some(t);
+        if self.epoch.talkers[kind as usize] == [0, 0] {
+            self.epoch.talkers[kind as usize] = talker;
         }
-        self.apply(parsed);
-        self.epoch.seen |= 1 << kind as u16;
-        self.epoch.last_kind = Some(kind);
-        if self.config.early_emit && self.ender == Some(kind) && self.epoch.substantive {
-            self.close_epoch();
-            self.closed_by_ender = true;
-        }
+        true
     }
 
     /// A boundary found by the next epoch's first sentence.

@@ -506,8 +506,13 @@ fn an_epoch_keeps_a_bounded_number_of_positions() {
     use std::fmt::Write as _;
     let mut text = String::new();
     for i in 0..1000 {
-        // 999 GLLs at one place, then one 100 m away: all labelled 12:00:00.
-        let lat = if i < 999 { "5250.0000" } else { "5250.0540" };
+        // 999 GLLs at one place (0.19 m apart, alternating: no sentence repeats the one before it), then one
+        // 100 m away: all labelled 12:00:00.
+        let lat = match i {
+            999 => "5250.0540",
+            i if i % 2 == 0 => "5250.0000",
+            _ => "5250.0001",
+        };
         let body = format!("GPGLL,{lat},N,00518.0000,E,120000,A,A");
         let sum = body.bytes().fold(0u8, |s, b| s ^ b);
         writeln!(text, "${body}*{sum:02X}\r").unwrap();
@@ -521,5 +526,79 @@ fn an_epoch_keeps_a_bounded_number_of_positions() {
         .filter_map(|e| if let GpsEvent::Fix(f) = e { Some(f) } else { None })
         .collect();
     assert_eq!(fixes.len(), 1);
-    assert!((fixes[0].lat_deg.unwrap() - 52.833_333_333).abs() < 1e-8, "{:?}", fixes[0].lat_deg);
+    assert!((fixes[0].lat_deg.unwrap() - 52.833_333_333).abs() < 5e-6, "{:?}", fixes[0].lat_deg);
+}
+
+/// `bundg_zeus_9.log` at 09:48:04 (gpsd's suite): the multiplexer forwards the second's VTG twice in a row
+/// between its RMC and its GGA/GLL. The repeat is the same sentence, not the next epoch: one fix for the
+/// second, whose position is the one GGA and GLL agree on against RMC (gpsd's report for 09:48:04, its
+/// `.chk`: 52.849703333, 5.312648333). Before, the repeat split off RMC alone as a second fix of 09:48:04.
+#[test]
+fn a_sentence_forwarded_twice_does_not_split_its_second() {
+    let lines = [
+        "$GPRMC,094803,A,5250.9840,N,00518.7629,E,5.7,233.2,200818,1.4,E,A*18",
+        "$GPGLL,5250.9830,N,00518.7607,E,094803,A,A*4B",
+        "$GPRMC,094804,A,5250.9830,N,00518.7607,E,6.4,232.3,200818,1.4,E,A*14",
+        "$GPVTG,232.3,T,230.9,M,6.4,N,11.8,K,A*11",
+        "$GPVTG,232.3,T,230.9,M,6.4,N,11.8,K,A*11",
+        "$GPZDA,094804,20,08,2018,-01,00*64",
+        "$GPGGA,094804,5250.9822,N,00518.7589,E,1,12,0.60,-4,M,46.8,M,,*47",
+        "$GPGLL,5250.9822,N,00518.7589,E,094804,A,A*4A",
+    ];
+    let text = lines.join("\r\n") + "\r\n";
+    let (fixes, stats) = crate::gps::decode_reader(text.as_bytes()).unwrap();
+    let times: Vec<_> = fixes.iter().map(|f| f.time_of_day.unwrap().second()).collect();
+    assert_eq!(times, [3, 4], "{stats}");
+    assert_eq!(stats.duplicate_sentences, 1);
+    let f = &fixes[1];
+    assert!(
+        (f.lat_deg.unwrap() - 52.849_703_333).abs() < 1e-8
+            && (f.lon_deg.unwrap() - 5.312_648_333).abs() < 1e-8
+    );
+    // Two identical VTGs of two epochs with a time sentence between them are two epochs' VTGs.
+    let stationary = [
+        "$GPVTG,0.0,T,,M,0.0,N,0.0,K,A*0D",
+        "$GPRMC,120000,A,4807.038,N,01131.000,E,0.0,0.0,230394,,,A*7E",
+        "$GPVTG,0.0,T,,M,0.0,N,0.0,K,A*0D",
+        "$GPRMC,120001,A,4807.038,N,01131.000,E,0.0,0.0,230394,,,A*7F",
+    ];
+    let text = stationary.join("\r\n") + "\r\n";
+    let (fixes, stats) = crate::gps::decode_reader(text.as_bytes()).unwrap();
+    assert_eq!(fixes.len(), 2, "{stats}");
+    assert!(fixes.iter().all(|f| f.speed_m_s == Some(0.0)), "{fixes:?}");
+    assert_eq!(stats.duplicate_sentences, 0);
+}
+
+/// gpsd's `telit-pls83-w.log` (a Telit PLS83-W, multi-constellation), 04:35:40-41 as logged: per-system
+/// sentences of one epoch (`$GPGGA` and `$GAGGA`, `$GPVTG` and `$GAVTG`, `$GPRMC` and `$GARMC`). The second
+/// VTG is another talker's sentence of the same epoch, not a repeat starting the next: one fix a second.
+/// Before, `$GAVTG` split off its RMCs as a second fix of the same time.
+#[test]
+fn another_talkers_sentence_of_the_same_kind_does_not_split_the_epoch() {
+    let lines = [
+        "$GPGGA,043540.00,4333.190199,N,00127.618384,E,1,05,1.3,250.8,M,50.0,M,,*6D",
+        "$GAGGA,043540.00,4333.190199,N,00127.618384,E,1,01,1.3,250.8,M,50.0,M,,*78",
+        "$GNGNS,043540.00,4333.190199,N,00127.618384,E,AAAAN,14,1.3,250.8,50.0,,,V*6D",
+        "$GPVTG,,T,1.7,M,0.0,N,0.0,K,A*0B",
+        "$GAVTG,,T,1.7,M,0.0,N,0.0,K,A*1A",
+        "$GPRMC,043540.00,A,4333.190199,N,00127.618384,E,0.0,,040925,1.7,W,A,V*73",
+        "$GARMC,043540.00,A,4333.190199,N,00127.618384,E,0.0,,040925,1.7,W,A,V*62",
+        "$GNGSA,A,2,02,08,10,23,27,,,,,,,,1.6,1.3,0.9,1*33",
+        "$GNGSA,A,2,65,66,73,81,82,,,,,,,,1.6,1.3,0.9,2*3B",
+        "$GNGSA,A,2,33,,,,,,,,,,,,1.6,1.3,0.9,3*3E",
+        "$GNGSA,A,2,208,211,213,,,,,,,,,,1.6,1.3,0.9,4*01",
+        "$GNGSA,A,2,,,,,,,,,,,,,1.6,1.3,0.9,5*38",
+        "$GPGGA,043541.00,4333.190190,N,00127.618388,E,1,05,1.3,250.8,M,50.0,M,,*69",
+        "$GAGGA,043541.00,4333.190190,N,00127.618388,E,1,01,1.3,250.8,M,50.0,M,,*7C",
+        "$GNGNS,043541.00,4333.190190,N,00127.618388,E,AAAAN,14,1.3,250.8,50.0,,,V*69",
+        "$GPVTG,,T,1.7,M,0.0,N,0.0,K,A*0B",
+        "$GAVTG,,T,1.7,M,0.0,N,0.0,K,A*1A",
+        "$GPRMC,043541.00,A,4333.190190,N,00127.618388,E,0.0,,040925,1.7,W,A,V*77",
+        "$GARMC,043541.00,A,4333.190190,N,00127.618388,E,0.0,,040925,1.7,W,A,V*66",
+    ];
+    let text = lines.join("\r\n") + "\r\n";
+    let (fixes, stats) = crate::gps::decode_reader(text.as_bytes()).unwrap();
+    let times: Vec<_> = fixes.iter().map(|f| f.time_of_day.unwrap().second()).collect();
+    assert_eq!(times, [40, 41], "{stats}");
+    assert!(fixes.iter().all(|f| f.has_position() && f.speed_m_s == Some(0.0)), "{fixes:?}");
 }
