@@ -57,7 +57,7 @@ fn run_until_drawn(h: &mut egui_kittest::Harness<'_, vestnav_app::console::Conso
     loop {
         h.run_steps(1);
         let w = h.state().map.remote_wearers.iter().find(|w| w.name == "alpha").cloned();
-        if w.is_some_and(|w| w.path.as_ref().is_some_and(|p| p.points().len() == n)) {
+        if w.is_some_and(|w| w.path().is_some_and(|p| p.points().len() == n)) {
             h.run_steps(1);
             return;
         }

@@ -92,7 +92,7 @@ pub struct StationView {
     /// fix's age, the delay from a fix on the station to this screen (when the two clocks agree).
     pub state_arrived_ms: Option<i64>,
     /// Its route.
-    pub route: Option<RouteMsg>,
+    pub route: Option<Arc<RouteMsg>>,
     /// Its latest events, newest last, with their arrival.
     pub events: VecDeque<(Instant, EventMsg)>,
     /// When it was last heard from (a live message, not a retained replay).
@@ -462,7 +462,7 @@ impl FleetNet {
                 }
                 Err(_) => contact = false,
             },
-            StationTopic::Route => v.route = serde_json::from_slice(payload).ok(),
+            StationTopic::Route => v.route = serde_json::from_slice(payload).ok().map(Arc::new),
             StationTopic::Stop => v.own_stop = serde_json::from_slice(payload).ok(),
             StationTopic::Cmd => contact = false,
         }

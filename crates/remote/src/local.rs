@@ -336,7 +336,7 @@ impl Turn {
         let mut s = self.shared.lock().unwrap_or_else(PoisonError::into_inner);
         let Some(v) = s.views.get_mut(&self.name) else { return };
         if route_due {
-            v.route = Some(RouteMsg::of(route));
+            v.route = Some(std::sync::Arc::new(RouteMsg::of(route)));
             self.route_sent = Some(route.revision());
         }
         if due {

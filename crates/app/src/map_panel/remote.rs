@@ -7,11 +7,13 @@
 //! grey with its age ("last known").
 
 use std::fmt::Write as _;
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use egui::{Color32, Pos2, Stroke, vec2};
 use vestnav_core::guidance::RoutePath;
 use vestnav_remote::StationView;
+use vestnav_remote::wire::RouteMsg;
 use walkers::{Projector, lat_lon};
 
 /// Colours given to stations by name (a station keeps its colour across runs and window orders).
@@ -47,8 +49,9 @@ pub struct RemoteWearer {
     pub route: Vec<(f64, f64)>,
     /// Index of the next waypoint in `route`.
     pub next: usize,
-    /// The path the route follows, when the station's route message carried it.
-    pub path: Option<RoutePath>,
+    /// The station's route message, shared with the station's view (never copied: its path may hold
+    /// 40,000 points); [`Self::path`] is the path the route follows, when the message carried it.
+    pub route_msg: Option<Arc<RouteMsg>>,
     /// How many points the station's path has (0: straight legs); more than the path carried when the
     /// station's path was too long for the broker (the label says it is not shown).
     pub path_points: usize,
@@ -64,7 +67,7 @@ pub fn colour_of(name: &str) -> Color32 {
 
 impl RemoteWearer {
     /// The wearer of station `v` at `now`: stale when silent for longer than `stale_after` (or offline),
-    /// or when its fix is older than `fix_stale_s`. Takes the view (its route's path moves here, uncopied).
+    /// or when its fix is older than `fix_stale_s`. Takes the view (its route message is shared, uncopied).
     pub fn from_view(v: StationView, now: Instant, stale_after: Duration, fix_stale_s: f64) -> Self {
         let snapshot = v.state.as_ref().map(|s| &s.station);
         let position = snapshot
@@ -82,10 +85,10 @@ impl RemoteWearer {
         if let (Some(a), true) = (fix_age, old_fix) {
             let _ = write!(label, " · fix {a:.0} s old");
         }
-        let (route, next, path, path_points) = v.route.map_or_else(Default::default, |r| {
-            (r.waypoints.iter().map(|w| (w.lat_deg, w.lon_deg)).collect(), r.next, r.path, r.path_points)
+        let (route, next, path_points) = v.route.as_ref().map_or_else(Default::default, |r| {
+            (r.waypoints.iter().map(|w| (w.lat_deg, w.lon_deg)).collect(), r.next, r.path_points)
         });
-        if path.is_none() && path_points > 0 {
+        if v.route.as_ref().is_some_and(|r| r.path.is_none()) && path_points > 0 {
             let _ = write!(label, " · its path of {path_points} points not shown (too long for the broker)");
         }
         Self {
@@ -97,9 +100,14 @@ impl RemoteWearer {
             track: v.track.into_iter().collect(),
             route,
             next,
-            path,
+            route_msg: v.route,
             path_points,
         }
+    }
+
+    /// The path its route follows, when the station's route message carried it.
+    pub fn path(&self) -> Option<&RoutePath> {
+        self.route_msg.as_ref()?.path.as_ref()
     }
 }
 
@@ -110,11 +118,11 @@ pub(super) fn draw(painter: &egui::Painter, projector: &Projector, wearers: &[Re
         Pos2::new(v.x, v.y)
     };
     // The remote paths share one budget of points, so the frame stays bounded whatever the stations send.
-    let with_path = wearers.iter().filter(|w| w.path.is_some()).count();
+    let with_path = wearers.iter().filter(|w| w.path().is_some()).count();
     let budget = super::route_line::PATH_DRAWN_MAX / with_path.max(1);
     for w in wearers {
         let pts: Vec<Pos2> = w.route.iter().copied().map(project).collect();
-        if let Some(path) = &w.path {
+        if let Some(path) = w.path() {
             let style = super::route_line::PathStyle::remote(w.colour);
             super::route_line::draw(painter, projector, path, w.next, &style, budget);
         } else if pts.len() >= 2 {
