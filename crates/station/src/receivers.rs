@@ -7,7 +7,8 @@
 //! their horizontal differences, each against the field tests' reference when one is set), at most once a
 //! second, on a thread of its own (`receivers-compare`): at the cap of five receivers of [`MAX_SAMPLES`]
 //! fixes one comparison takes about 0.4 s (`cargo bench -p vestnav-core --bench accuracy`), which must never
-//! be a frame of the view's. The view's turn only hands a copy of the fixes over and takes the result back.
+//! be a frame of the view's. The view's turn only hands the fixes over (shared in chunks of 4,096, so at
+//! most the newest partial chunk of each receiver is copied) and takes the result back.
 //!
 //! **Recordings.** While a comparison runs, each receiver's sentences (the primary's too) are recorded next
 //! to the session log as `<session log>.rx<k>.nmea` (the recording format of
@@ -28,6 +29,7 @@
 
 use std::fmt::Write as _;
 use std::path::PathBuf;
+use std::sync::Arc;
 use std::sync::mpsc::{Receiver, SyncSender, TryRecvError};
 use std::time::{Duration, Instant};
 
@@ -53,24 +55,67 @@ const RECOMPUTE_EVERY: Duration = Duration::from_secs(1);
 /// Capacity of a comparison source's event channel (its sentences go to its recording, not here).
 const CHANNEL: usize = 4096;
 
-/// One receiver's fixes on its receiver-time line.
+/// Fixes per shared chunk of a receiver's fixes ([`Samples`]).
+const CHUNK: usize = 4096;
+
+/// One receiver's fixes on its receiver-time line, append-only: full chunks of [`CHUNK`] fixes are shared
+/// with the comparison thread's jobs, so a job copies at most the last partial chunk of each receiver (not
+/// up to 86,400 fixes five times a second on the view's turn).
 #[derive(Debug, Default)]
 struct Samples {
-    samples: Vec<Sample>,
+    /// Full chunks, oldest first.
+    full: Vec<Arc<[Sample]>>,
+    /// The newest fixes (fewer than [`CHUNK`]).
+    tail: Vec<Sample>,
     /// Fixes beyond [`MAX_SAMPLES`], not compared.
     over: u64,
 }
 
 impl Samples {
+    fn len(&self) -> usize {
+        self.full.len() * CHUNK + self.tail.len()
+    }
+
+    fn last(&self) -> Option<&Sample> {
+        self.tail.last().or_else(|| self.full.last().and_then(|c| c.last()))
+    }
+
     fn push(&mut self, fix: &vestnav_device::gps::Fix) -> bool {
-        let prev = self.samples.last().map(|s| s.t_s);
+        let prev = self.last().map(|s| s.t_s);
         let Some(s) = receiver_sample(fix, prev) else { return false };
-        if self.samples.len() >= MAX_SAMPLES {
+        if self.len() >= MAX_SAMPLES {
             self.over += 1;
             return false;
         }
-        self.samples.push(s);
+        self.tail.push(s);
+        if self.tail.len() == CHUNK {
+            self.full.push(Arc::from(std::mem::take(&mut self.tail)));
+        }
         true
+    }
+
+    /// The fixes as they are now, for a comparison job: the full chunks shared, the tail copied.
+    fn shared(&self) -> SharedSamples {
+        SharedSamples { full: self.full.clone(), tail: self.tail.clone() }
+    }
+}
+
+/// A receiver's fixes handed to the comparison thread ([`Samples::shared`]).
+#[derive(Debug)]
+struct SharedSamples {
+    full: Vec<Arc<[Sample]>>,
+    tail: Vec<Sample>,
+}
+
+impl SharedSamples {
+    /// The fixes in one vector (on the comparison thread, or when asked for).
+    fn to_vec(&self) -> Vec<Sample> {
+        let mut all = Vec::with_capacity(self.full.len() * CHUNK + self.tail.len());
+        for c in &self.full {
+            all.extend_from_slice(c);
+        }
+        all.extend_from_slice(&self.tail);
+        all
     }
 }
 
@@ -97,7 +142,7 @@ pub struct ComparedSource {
 impl ComparedSource {
     /// Fixes taken for the comparison.
     pub fn fixes(&self) -> usize {
-        self.samples.samples.len()
+        self.samples.len()
     }
 
     /// Its recording's status (`None`: not recorded, no session log).
@@ -131,7 +176,7 @@ pub struct Receivers {
 /// What the comparison thread computes: the receivers' fixes (a copy), the reference and Earth model, and
 /// the warnings to add to its result.
 struct CompareJob {
-    receivers: Vec<CompareReceiver>,
+    receivers: Vec<(String, SharedSamples)>,
     reference: Option<vestnav_core::accuracy::Reference>,
     earth: vestnav_core::geo::Earth,
     warnings: Vec<String>,
@@ -151,7 +196,12 @@ impl CompareWorker {
         let (result_tx, results) = std::sync::mpsc::sync_channel(1);
         std::thread::Builder::new().name("receivers-compare".into()).spawn(move || {
             for job in job_rx {
-                let mut result = compare(&job.receivers, job.reference.as_ref(), TOLERANCE_S, job.earth)
+                let receivers: Vec<CompareReceiver> = job
+                    .receivers
+                    .iter()
+                    .map(|(name, samples)| CompareReceiver { name: name.clone(), samples: samples.to_vec() })
+                    .collect();
+                let mut result = compare(&receivers, job.reference.as_ref(), TOLERANCE_S, job.earth)
                     .map_err(|e| e.to_string());
                 if let Ok(c) = &mut result {
                     c.warnings.extend(job.warnings);
@@ -178,7 +228,7 @@ impl Receivers {
 
     /// Fixes of the primary taken for the comparison.
     pub fn primary_fixes(&self) -> usize {
-        self.primary.samples.len()
+        self.primary.len()
     }
 
     /// The primary's recording status.
@@ -191,16 +241,20 @@ impl Receivers {
         self.comparison.as_ref()
     }
 
-    /// Every receiver's fixes, the primary first, named as in the comparison.
+    /// Every receiver's fixes, the primary first, named as in the comparison (copied: for a report, on
+    /// demand; the comparison thread's jobs share them).
     pub fn receivers(&self, primary_name: &str) -> Vec<CompareReceiver> {
-        let mut all =
-            vec![CompareReceiver { name: primary_name.to_owned(), samples: self.primary.samples.clone() }];
-        all.extend(
-            self.sources
-                .iter()
-                .map(|s| CompareReceiver { name: s.name.clone(), samples: s.samples.samples.clone() }),
-        );
-        all
+        self.shared(primary_name)
+            .into_iter()
+            .map(|(name, samples)| CompareReceiver { name, samples: samples.to_vec() })
+            .collect()
+    }
+
+    /// Every receiver's name and fixes, the primary first, sharing the full chunks.
+    fn shared(&self, primary_name: &str) -> Vec<(String, SharedSamples)> {
+        std::iter::once((primary_name.to_owned(), self.primary.shared()))
+            .chain(self.sources.iter().map(|s| (s.name.clone(), s.samples.shared())))
+            .collect()
     }
 
     /// Takes the comparison thread's result, if one came.
@@ -525,7 +579,7 @@ impl Station {
         }
         Some(ReceiversSnapshot {
             primary: primary_name(&self.gps_source),
-            primary_fixes: r.primary.samples.len(),
+            primary_fixes: r.primary.len(),
             primary_recording: r.primary_tap.status(),
             sources: (0..r.sources.len())
                 .filter_map(|k| {
@@ -637,8 +691,7 @@ impl Station {
             .filter(|(_, over)| *over > 0)
             .map(|(n, over)| format!("{n}: {over} fixes beyond {MAX_SAMPLES} not compared"))
             .collect();
-        let job =
-            CompareJob { receivers: r.receivers(&primary), reference: reference.clone(), earth, warnings };
+        let job = CompareJob { receivers: r.shared(&primary), reference: reference.clone(), earth, warnings };
         let Some(w) = r.worker.as_mut() else { return };
         if w.jobs.send(job).is_err() {
             r.worker = None;
@@ -689,5 +742,48 @@ fn same_device(a: &GpsSourceConfig, b: &GpsSourceConfig) -> bool {
         (GpsSourceSpec::Serial { port: p, .. }, GpsSourceSpec::Serial { port: q, .. }) => p == q,
         (GpsSourceSpec::ThroughVest { .. }, GpsSourceSpec::ThroughVest { .. }) => true,
         _ => false,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use vestnav_device::gps::Fix;
+
+    /// A fix of receiver time `t_s` (seconds of one day) with a position.
+    fn fix(t_s: u32) -> Fix {
+        let tod = chrono::NaiveTime::from_num_seconds_from_midnight_opt(t_s, 0).unwrap();
+        Fix {
+            time_of_day: Some(tod),
+            time: Some(chrono::NaiveDate::from_ymd_opt(2026, 11, 27).unwrap().and_time(tod).and_utc()),
+            lat_deg: Some(52.0 + f64::from(t_s) * 1e-6),
+            lon_deg: Some(5.0),
+            mode: Some(vestnav_device::gps::FixMode::Fix3D),
+            ..Fix::default()
+        }
+    }
+
+    /// The chunked fixes hold exactly what was pushed, in order, across chunk boundaries; a job shares the
+    /// full chunks (the same allocation, not a copy) and copies only the tail; the cap holds.
+    #[test]
+    fn fixes_are_kept_in_shared_chunks_and_capped() {
+        let mut s = Samples::default();
+        let n = 2 * CHUNK + 5;
+        for t in 0..n {
+            assert!(s.push(&fix(u32::try_from(t).unwrap())));
+        }
+        assert_eq!(s.len(), n);
+        let shared = s.shared();
+        assert_eq!((shared.full.len(), shared.tail.len()), (2, 5));
+        assert!(Arc::ptr_eq(&shared.full[0], &s.full[0]), "a full chunk is shared, not copied");
+        let all = shared.to_vec();
+        assert_eq!(all.len(), n);
+        assert!(all.windows(2).all(|w| (w[1].t_s - w[0].t_s - 1.0).abs() < 1e-9), "in order, none lost");
+        // A day and ten seconds at 1 Hz (the time of day wraps at midnight; the receiver-time line does not).
+        let mut capped = Samples::default();
+        for t in 0..MAX_SAMPLES + 10 {
+            capped.push(&fix(u32::try_from(t % 86_400).unwrap()));
+        }
+        assert_eq!((capped.len(), capped.over), (MAX_SAMPLES, 10));
     }
 }
