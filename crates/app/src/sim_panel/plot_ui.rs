@@ -51,10 +51,39 @@ fn marker_shape(m: Marker) -> MarkerShape {
     }
 }
 
-/// A series' finite points as markers (line series with markers and scatter series alike).
+/// Most points of one line series drawn a frame: beyond, each column's extremes (`decimate_minmax`).
+const LINE_DRAWN_MAX: usize = 8_000;
+/// Most markers of one series drawn a frame: beyond, every k-th, and the legend says so.
+const MARKERS_DRAWN_MAX: usize = 10_000;
+
+/// The points of `s` a frame draws, on the plot's axes (`at`): a line's decimated to [`LINE_DRAWN_MAX`]
+/// keeping each column's extremes, every point otherwise (markers are thinned by [`markers`]). A figure
+/// of five receivers' day of fixes (432,000 points) would otherwise be tessellated on every frame.
+fn drawn_points(s: &Series, at: impl Fn(f64, f64) -> [f64; 2]) -> Vec<[f64; 2]> {
+    let n = s.x.len().min(s.y.len());
+    if s.kind == SeriesKind::Line && n > LINE_DRAWN_MAX && s.marker == Marker::None {
+        let (x, y) = vestnav_plot::decimate_minmax(&s.x, &s.y, LINE_DRAWN_MAX);
+        return x.iter().zip(&y).map(|(&x, &y)| at(x, y)).collect();
+    }
+    s.x.iter().zip(&s.y).map(|(&x, &y)| at(x, y)).collect()
+}
+
+/// A series' finite points as markers (line series with markers and scatter series alike): at most
+/// [`MARKERS_DRAWN_MAX`], every k-th beyond, with the legend saying "1 in k of N points drawn".
 fn markers(s: &Series, points: Vec<[f64; 2]>, color: egui::Color32) -> Points<'static> {
+    let (finite, label) = thinned_markers(&s.label, points);
+    Points::new(label, finite).shape(marker_shape(s.marker)).radius(2.5).color(color)
+}
+
+/// [`markers`]' points and legend label.
+fn thinned_markers(label: &str, points: Vec<[f64; 2]>) -> (Vec<[f64; 2]>, String) {
     let finite: Vec<[f64; 2]> = points.into_iter().filter(|p| p[0].is_finite() && p[1].is_finite()).collect();
-    Points::new(s.label.clone(), finite).shape(marker_shape(s.marker)).radius(2.5).color(color)
+    if finite.len() <= MARKERS_DRAWN_MAX {
+        return (finite, label.to_owned());
+    }
+    let every = finite.len().div_ceil(MARKERS_DRAWN_MAX);
+    let n = finite.len();
+    (finite.into_iter().step_by(every).collect(), format!("{label} (1 in {every} of {n} points drawn)"))
 }
 
 /// Least distance between two labelled x ticks, points: room for a label such as "-12.5" and a gap.
@@ -244,7 +273,7 @@ fn show_chart(ui: &mut egui::Ui, c: &Chart, id_salt: &str, height: f32) {
     plot.show(ui, |plot_ui| {
         for (idx, s) in c.series.iter().enumerate() {
             let color = series_color(idx, s);
-            let points: Vec<[f64; 2]> = s.x.iter().zip(&s.y).map(|(&x, &y)| at(x, y)).collect();
+            let points = drawn_points(s, at);
             match s.kind {
                 SeriesKind::Line => {
                     // egui_plot does not break lines at NaN: draw each finite run separately.
@@ -396,6 +425,34 @@ pub(crate) fn figure_grid(ui: &mut egui::Ui, id: &str, figure: &Figure, height: 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A day of five receivers' fixes: each scatter series draws at most 10,000 markers spread over the whole
+    /// series, and says so; a long line keeps its extremes within 8,000 points; short series are untouched.
+    #[test]
+    #[allow(clippy::float_cmp)] // the drawn points are the series' own values, copied, not computed
+    fn long_series_are_drawn_within_a_bound() {
+        let n = 86_400;
+        let xs: Vec<f64> = (0..n).map(f64::from).collect();
+        let ys: Vec<f64> = (0..n).map(|i| (f64::from(i) * 0.01).sin()).collect();
+        let at = |x: f64, y: f64| [x, y];
+        let scatter = Series::scatter("2: serial", xs.clone(), ys.clone());
+        let (drawn, label) = thinned_markers(&scatter.label, drawn_points(&scatter, at));
+        assert!(drawn.len() <= MARKERS_DRAWN_MAX, "{}", drawn.len());
+        assert_eq!(drawn[0], [0.0, 0.0]);
+        assert!(drawn.last().unwrap()[0] > f64::from(n) - 10.0, "spread to the end");
+        assert_eq!(label, "2: serial (1 in 9 of 86400 points drawn)");
+        let line = Series::line("distance", xs.clone(), ys.clone());
+        let drawn = drawn_points(&line, at);
+        assert!(drawn.len() <= LINE_DRAWN_MAX + 2, "{}", drawn.len());
+        let (lo, hi) = drawn.iter().fold((f64::MAX, f64::MIN), |(lo, hi), p| (lo.min(p[1]), hi.max(p[1])));
+        let (tlo, thi) = ys.iter().fold((f64::MAX, f64::MIN), |(lo, hi), &y| (lo.min(y), hi.max(y)));
+        assert!((lo, hi) == (tlo, thi), "the extremes are kept: {lo} {hi} against {tlo} {thi}");
+        let short = Series::scatter("1", vec![0.0, 1.0], vec![2.0, 3.0]);
+        assert_eq!(
+            thinned_markers(&short.label, drawn_points(&short, at)),
+            (vec![[0.0, 2.0], [1.0, 3.0]], "1".into())
+        );
+    }
 
     #[test]
     fn finite_runs_split_at_nan() {
