@@ -36,5 +36,7 @@ pub use extract::{
 };
 pub use graph::{MAX_SNAP_M, PathGraph, PlanError, Profile, Route, WalkWay};
 pub use map::{Area, AreaKind, BarrierNode, Line, LineKind, MapData};
-pub use render::{ATTRIBUTION, RENDER_VERSION, Renderer, TileImage, colors, render_pixmap, render_tile};
+pub use render::{
+    ATTRIBUTION, RENDER_SOURCE_HASH, RENDER_VERSION, Renderer, TileImage, colors, render_pixmap, render_tile,
+};
 pub use tile::TileId;

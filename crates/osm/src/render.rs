@@ -23,6 +23,29 @@ use crate::tile::{TILE_SIZE, TileId};
 /// layers or labels change between releases.
 pub const RENDER_VERSION: &str = concat!(env!("CARGO_PKG_VERSION"), "+draw1");
 
+/// A hash of the drawing's own source (this file, the way rules and the map model, as compiled), part of
+/// the disk cache's name beside [`RENDER_VERSION`]: an edit of them puts the tiles drawn before in another
+/// folder even when the counter was not raised (an edit that changes nothing drawn costs one redraw).
+pub const RENDER_SOURCE_HASH: u64 =
+    fnv1a(&[include_bytes!("render.rs"), include_bytes!("rules.rs"), include_bytes!("map.rs")]);
+
+/// FNV-1a (64 bit) over `parts` in turn, at compile time.
+const fn fnv1a(parts: &[&[u8]]) -> u64 {
+    let mut h = 0xcbf2_9ce4_8422_2325_u64;
+    let mut p = 0;
+    while p < parts.len() {
+        let bytes = parts[p];
+        let mut i = 0;
+        while i < bytes.len() {
+            h ^= bytes[i] as u64;
+            h = h.wrapping_mul(0x0100_0000_01b3);
+            i += 1;
+        }
+        p += 1;
+    }
+    h
+}
+
 /// The attribution OpenStreetMap's licence (`ODbL`) requires wherever the map is shown.
 pub const ATTRIBUTION: &str = "© OpenStreetMap contributors";
 
@@ -521,5 +544,24 @@ fn draw_names(pm: &mut Pixmap, map: &MapData, id: TileId, near: &[FeatureRef]) {
         placed.push(b);
         // Once per tile: a street's many ways would repeat its name.
         names.insert(text);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// FNV-1a's published 64-bit test vectors ("a", "foobar", the latter split in two parts), and the
+    /// drawing's source hash against the same files read from disk now.
+    #[test]
+    fn the_source_hash_is_fnv1a_of_the_drawings_files() {
+        assert_eq!(fnv1a(&[b""]), 0xcbf2_9ce4_8422_2325);
+        assert_eq!(fnv1a(&[b"a"]), 0xaf63_dc4c_8601_ec8c);
+        assert_eq!(fnv1a(&[b"fo", b"obar"]), 0x8594_4171_f739_67e8);
+        let src = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+        let files: Vec<Vec<u8>> =
+            ["render.rs", "rules.rs", "map.rs"].iter().map(|f| std::fs::read(src.join(f)).unwrap()).collect();
+        let parts: Vec<&[u8]> = files.iter().map(Vec::as_slice).collect();
+        assert_eq!(RENDER_SOURCE_HASH, fnv1a(&parts));
     }
 }

@@ -13,7 +13,9 @@ use std::path::{Path, PathBuf};
 use std::sync::mpsc::{Receiver, TryRecvError};
 use std::sync::{Arc, OnceLock};
 
-use vestnav_osm::{ATTRIBUTION, Extract, ExtractStats, PathGraph, RENDER_VERSION, Renderer};
+use vestnav_osm::{
+    ATTRIBUTION, Extract, ExtractStats, PathGraph, RENDER_SOURCE_HASH, RENDER_VERSION, Renderer,
+};
 use vestnav_tiles::cache::{self, DiskCachedStore};
 use vestnav_tiles::loader::{OpenStore, TileLoader};
 use vestnav_tiles::store::{FoundTile, Origin, StoreInfo, TileStore};
@@ -63,10 +65,11 @@ impl TileStore for OsmStore {
 }
 
 /// The disk cache folder for tiles drawn from the extract at `path` under the tile cache `root`: named by
-/// the file's identity (size, modification time, a hash of its first blocks) and [`RENDER_VERSION`].
+/// the file's identity (size, modification time, a hash of its first blocks), [`RENDER_VERSION`] and
+/// [`RENDER_SOURCE_HASH`].
 pub fn extract_cache_dir(root: &Path, path: &Path) -> std::io::Result<PathBuf> {
     let id = cache::file_identity(path)?;
-    Ok(cache::rendered_dir(root, &format!("osm-extract {id} {RENDER_VERSION}")))
+    Ok(cache::rendered_dir(root, &format!("osm-extract {id} {RENDER_VERSION} {RENDER_SOURCE_HASH:016x}")))
 }
 
 /// Reads the extract at `path` and names its tile cache folder under `cache_root`: the file's identity
