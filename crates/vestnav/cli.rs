@@ -148,7 +148,7 @@ pub enum Command {
     Tiles(TilesCommand),
     /// Run the station with no window: GPS, vest, guidance and session log, commands on standard input
     /// (stop, resume, status, quit), status lines on standard output.
-    Station(station::StationArgs),
+    Station(Box<station::StationArgs>),
     /// NTRIP client: RTK corrections (RTCM 3) from a caster to a receiver on a serial port.
     Ntrip(ntrip::NtripArgs),
     /// Check this machine's set-up: serial-port permissions, Bluetooth, OpenGL libraries, folders, optional

@@ -74,6 +74,10 @@ pub struct StationArgs {
     /// cues halted (unless the operator armed "continue the route if the link drops").
     #[arg(long, value_name = "SECONDS", default_value_t = 3.0, requires = "broker")]
     pub link_bound: f64,
+    /// With --broker: a host (besides this machine) whose gpsd an operator may add as a receiver to compare
+    /// (repeatable). Without it an operator's gpsd://HOST:PORT must be this machine (localhost, loopback).
+    #[arg(long = "remote-gpsd-host", value_name = "HOST", requires = "broker")]
+    pub remote_gpsd_hosts: Vec<String>,
     /// LSL streams and OSC messages (docs/study.md).
     #[command(flatten)]
     pub lab: crate::lab_args::LabArgs,
@@ -242,6 +246,7 @@ fn start_bridge(a: &StationArgs, station: &Station) -> anyhow::Result<Option<ves
             }
             let opts = vestnav_remote::BridgeOptions {
                 link_bound: Duration::from_secs_f64(a.link_bound),
+                remote_gpsd_hosts: a.remote_gpsd_hosts.clone(),
                 ..vestnav_remote::BridgeOptions::default()
             };
             let b = vestnav_remote::StationBridge::start(&config, name, station.stop_path().clone(), opts)

@@ -427,6 +427,14 @@ fn only_an_operator_adds_a_receiver_over_the_broker() {
     });
     let e = fleet.send("alpha", add("replay:/etc/passwd@1")).unwrap_err().to_string();
     assert!(e.contains("refused over the broker"), "{e}");
+    // A gpsd elsewhere in the station's network: refused by the station (started without
+    // --remote-gpsd-host), which names the flag; nothing is opened.
+    fleet.send("alpha", add("gpsd://10.255.0.7:2947")).unwrap();
+    wait_for("gpsd on another host refused", Duration::from_secs(5), || {
+        event(EventKind::Refused, &me, "gpsd://10.255.0.7:2947 refused over the broker")
+            && event(EventKind::Refused, &me, "--remote-gpsd-host 10.255.0.7")
+    });
+    assert_eq!(receivers().map(|r| r.sources.len()), Some(1), "only the simulator beside the primary");
     for _ in 0..3 {
         fleet.send("alpha", add("sim")).unwrap();
     }

@@ -16,6 +16,7 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use rumqttc::{Client, Connection, Event, LastWill, Packet, QoS};
+use vestnav_device::gps::GpsSourceSpec;
 use vestnav_station::command::Command;
 use vestnav_station::stop::StopPath;
 use vestnav_station::{Severity, Station, Subject};
@@ -27,7 +28,7 @@ use crate::wire::{
 };
 
 /// How the bridge behaves.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct BridgeOptions {
     /// Past this long without an operator's heartbeat, the station stops the vest and halts automatic cues
     /// (unless an operator armed "continue the route if the link drops").
@@ -38,6 +39,10 @@ pub struct BridgeOptions {
     pub state_every: Duration,
     /// ... and on change, but not more often than this.
     pub state_min_gap: Duration,
+    /// Hosts besides loopback an operator's `gpsd://HOST:PORT` receiver may name
+    /// ([`check_gpsd_host`]; `vestnav station --remote-gpsd-host`). Empty: loopback only, so the broker
+    /// cannot make the station open connections into its network.
+    pub remote_gpsd_hosts: Vec<String>,
 }
 
 impl Default for BridgeOptions {
@@ -47,6 +52,7 @@ impl Default for BridgeOptions {
             late_after: Duration::from_secs(1),
             state_every: Duration::from_secs(1),
             state_min_gap: Duration::from_millis(100),
+            remote_gpsd_hosts: Vec::new(),
         }
     }
 }
@@ -362,7 +368,9 @@ impl StationBridge {
             self.event(EventKind::Refused, answers, text);
             return;
         }
-        if let Err(e) = crate::wire::check_command(&env.command) {
+        if let Err(e) = crate::wire::check_command(&env.command)
+            .and_then(|()| check_gpsd_host(&env.command, &self.opts.remote_gpsd_hosts))
+        {
             self.event(EventKind::Refused, answers, e);
             return;
         }
@@ -636,5 +644,50 @@ pub(crate) fn backoff(failures: u32, quit: &AtomicBool) {
     let until = Instant::now() + wait;
     while Instant::now() < until && !quit.load(Ordering::Relaxed) {
         std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// Least privilege for a receiver added over the broker: a `gpsd://HOST:PORT` must name this machine
+/// (`localhost`, a loopback address) or a host the station was started to allow (`allowed`, compared
+/// case-insensitively), else an operator could make the station connect anywhere it can reach.
+pub fn check_gpsd_host(command: &Command, allowed: &[String]) -> Result<(), String> {
+    let Command::AddReceiver { spec } = command else { return Ok(()) };
+    let Ok(GpsSourceSpec::Gpsd { host, port }) = vestnav_station::command::parse_receiver_spec(spec) else {
+        return Ok(());
+    };
+    let bare = host.trim_start_matches('[').trim_end_matches(']');
+    let loopback = bare.eq_ignore_ascii_case("localhost")
+        || bare.parse::<std::net::IpAddr>().is_ok_and(|a| a.is_loopback());
+    if loopback || allowed.iter().any(|h| h.eq_ignore_ascii_case(bare)) {
+        return Ok(());
+    }
+    Err(format!(
+        "receiver gpsd://{host}:{port} refused over the broker: this station lets an operator reach gpsd on \
+         this machine only (start it with --remote-gpsd-host {bare} to allow that host; docs/remote.md)"
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Loopback in every spelling passes; another host only when allowed (any case); other commands and
+    /// other receivers are not this check's.
+    #[test]
+    fn an_operators_gpsd_must_be_this_machine_or_allowed() {
+        let add = |spec: &str| Command::AddReceiver { spec: spec.into() };
+        for ok in
+            ["gpsd://localhost:2947", "gpsd://127.0.0.1:2947", "gpsd://127.8.9.10:1", "gpsd://[::1]:2947"]
+        {
+            assert_eq!(check_gpsd_host(&add(ok), &[]), Ok(()), "{ok}");
+        }
+        let e = check_gpsd_host(&add("gpsd://192.168.1.20:2947"), &[]).unwrap_err();
+        assert!(e.contains("--remote-gpsd-host 192.168.1.20"), "{e}");
+        assert!(check_gpsd_host(&add("gpsd://gps.lab.example:2947"), &[]).is_err());
+        let allowed = ["GPS.lab.example".to_owned()];
+        assert_eq!(check_gpsd_host(&add("gpsd://gps.lab.example:2947"), &allowed), Ok(()));
+        assert!(check_gpsd_host(&add("gpsd://other.lab.example:2947"), &allowed).is_err());
+        assert_eq!(check_gpsd_host(&add("serial:/dev/ttyUSB1"), &[]), Ok(()));
+        assert_eq!(check_gpsd_host(&Command::StopAll, &[]), Ok(()));
     }
 }
