@@ -219,7 +219,7 @@ mod properties {
                 Frame::Nmea(s) => Item::Nmea(s.to_owned()),
                 Frame::Ubx { class, id, payload } => Item::Ubx(class, id, payload.to_vec()),
                 Frame::Sirf { payload } => Item::Sirf(payload.to_vec()),
-                Frame::Casic { .. } | Frame::Rtcm3 { .. } => Item::Other,
+                Frame::Casic { .. } | Frame::SkyTraq { .. } | Frame::Rtcm3 { .. } => Item::Other,
             });
         };
         for c in chunks {
