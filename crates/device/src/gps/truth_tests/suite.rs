@@ -194,6 +194,9 @@ pub(super) fn family(name: &str, log: &[u8], stats: &DecodeStats) -> &'static st
     if stats.casic_frames > 0 {
         return "CASIC binary";
     }
+    if stats.skytraq_frames > 0 {
+        return "SkyTraq binary";
+    }
     let text = format!("{} {}", name.to_lowercase(), header(log));
     let has = |words: &[&str]| words.iter().any(|w| text.contains(w));
     if stats.sentences == 0 {
@@ -234,15 +237,26 @@ pub(super) fn no_fix_reason(fixes: &[Fix], stats: &DecodeStats) -> String {
     let with_pos = fixes.iter().filter(|f| f.lat_deg.is_some()).count();
     if !fixes.is_empty() {
         format!("{} epochs, {with_pos} with a position", fixes.len())
-    } else if stats.sentences + stats.ubx_frames + stats.sirf_frames + stats.casic_frames == 0 {
+    } else if stats.sentences
+        + stats.ubx_frames
+        + stats.sirf_frames
+        + stats.casic_frames
+        + stats.skytraq_frames
+        == 0
+    {
         format!(
             "nothing recognised: {} bytes, {} junk, {} RTCM 3 frames, no binary protocol detected",
             stats.bytes, stats.junk_bytes, stats.rtcm3_frames
         )
     } else {
         format!(
-            "no epoch: {} sentences, {} UBX / {} SiRF / {} CASIC frames ({} unsupported binary)",
-            stats.sentences, stats.ubx_frames, stats.sirf_frames, stats.casic_frames, stats.binary_frames
+            "no epoch: {} sentences, {} UBX / {} SiRF / {} CASIC / {} SkyTraq frames ({} unsupported binary)",
+            stats.sentences,
+            stats.ubx_frames,
+            stats.sirf_frames,
+            stats.casic_frames,
+            stats.skytraq_frames,
+            stats.binary_frames
         )
     }
 }
