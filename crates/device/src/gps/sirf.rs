@@ -556,7 +556,7 @@ fn tow_distance_ms(a: i64, b: i64) -> i64 {
 
 /// UTC of a GPS week and time of week [ms] for a receiver that does not say GPS − UTC (`SkyTraq` binary):
 /// the difference in force at that time by [`GPS_UTC_HISTORY`] (0 before the first leap second of
-/// 1981-07-01). A time within the leap second itself is a second early at most.
+/// 1981-07-01). The inserted second itself (23:59:60 UTC) is labelled as the midnight after it.
 pub(crate) fn utc_from_gps_by_history(week: u32, tow_ms: i64) -> Option<DateTime<Utc>> {
     let gps_unix_s = GPS_EPOCH_UNIX_S + i64::from(week) * WEEK_S + tow_ms.div_euclid(1000);
     let leap_s = GPS_UTC_HISTORY

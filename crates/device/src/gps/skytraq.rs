@@ -1,8 +1,10 @@
 //! `SkyTraq` Venus binary protocol (Venus 6 / Venus 8 receivers, e.g. the Venus838): frames
 //! (`A0 A1 len16be payload cs 0D 0A`) and the sans-IO decoder of its navigation messages into [`Fix`]es.
 //!
-//! Everything here follows `SkyTraq`'s application notes AN0028 "Binary Messages of `SkyTraq` Venus 6 GPS
-//! Receiver" and AN0037 "Binary Messages of `SkyTraq` Venus 8 GNSS Receiver":
+//! The layouts are those of `SkyTraq`'s binary message application notes (AN0003 for the Venus 6 GPS
+//! receiver; AN0028 and AN0037 "Binary Messages of `SkyTraq` Venus 8 GNSS Receiver"; the 0xDC–0xDF
+//! raw-measurement output as the Venus 8 notes give it), checked against gpsd's two captures of them
+//! (`tests/data/gpsd-logs-more/skytraq-*.log`, whose every position decodes to gpsd's reading):
 //! - frame: start `A0 A1`, the payload length (big-endian, counting the payload only), the payload whose
 //!   first byte is the message id, the checksum (XOR of every payload byte), end `0D 0A`. All fields are
 //!   big-endian; offsets below count from the message id (offset 0);

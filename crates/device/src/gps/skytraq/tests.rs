@@ -1,5 +1,5 @@
-//! `SkyTraq` tests: frames written field by field from the application notes' tables (AN0028, AN0037; an
-//! independent writer, not the decoder's readers), decoded through the whole NMEA decoder.
+//! `SkyTraq` tests: frames written field by field from the application notes' tables (AN0003, AN0028,
+//! AN0037; an independent writer, not the decoder's readers), decoded through the whole NMEA decoder.
 
 use proptest::prelude::*;
 
@@ -43,7 +43,7 @@ struct Nav {
     vel_cm_s: [i32; 3],
 }
 
-/// 0xA8 Navigation Data Message, 59 bytes, by the table of AN0037 (AN0028 for Venus 6).
+/// 0xA8 Navigation Data Message, 59 bytes, by the notes' table.
 fn nav_data(v: &Nav) -> Vec<u8> {
     let mut p = vec![0u8; 59];
     p[0] = 0xA8;
@@ -82,7 +82,7 @@ fn nav(mode: u8) -> Nav {
     }
 }
 
-/// 0xDF Navigation Data (raw-measurement output), 81 bytes, by AN0037's table.
+/// 0xDF Navigation Data (raw-measurement output), 81 bytes, by the notes' table.
 fn nav_raw(iod: u8, state: u8, week: u16, tow_s: f64, ecef_m: [f64; 3], vel_m_s: [f32; 3]) -> Vec<u8> {
     let mut p = vec![0u8; 81];
     p[0] = 0xDF;
@@ -102,7 +102,7 @@ fn nav_raw(iod: u8, state: u8, week: u16, tow_s: f64, ecef_m: [f64; 3], vel_m_s:
     spec_frame(&p)
 }
 
-/// 0xDE SV and channel status by AN0037's table: (PRN, C/N0, elevation, azimuth, channel status).
+/// 0xDE SV and channel status by the notes' table: (PRN, C/N0, elevation, azimuth, channel status).
 fn sv_status(iod: u8, sats: &[(u8, u8, i16, i16, u8)]) -> Vec<u8> {
     let mut p = vec![0u8; 3 + 10 * sats.len()];
     p[0] = 0xDE;
@@ -128,7 +128,7 @@ fn decode(data: &[u8]) -> (Vec<Fix>, crate::gps::DecodeStats) {
 fn the_library_checksum_and_frame_are_the_notes() {
     let payload: Vec<u8> = (0u8..59).map(|i| i.wrapping_mul(37).wrapping_add(200)).collect();
     assert_eq!(super::frame(&payload), spec_frame(&payload));
-    // The software-version query (message 0x02, type 0x01): length 2, checksum 0x02 XOR 0x01.
+    // The notes' example, the software-version query (message 0x02, type 0x01): A0 A1 00 02 02 01 03 0D 0A.
     assert_eq!(super::frame(&[0x02, 0x01]), [0xA0, 0xA1, 0x00, 0x02, 0x02, 0x01, 0x03, 0x0D, 0x0A]);
 }
 
