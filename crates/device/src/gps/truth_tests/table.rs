@@ -287,8 +287,25 @@ fn dates_differ(judge: Judge) -> bool {
 /// The log's fixes and counts; for [`Judge::GpsdClock`] with the times moved as gpsd moves the receiver's.
 fn decode_judged(log: &Path, judge: Judge) -> (Vec<Fix>, crate::gps::DecodeStats) {
     let (fixes, stats) = decode_file(log).unwrap();
-    let Judge::GpsdClock { shift_s, truncate, .. } = judge else { return (fixes, stats) };
-    let moved = fixes
+    match judge {
+        Judge::GpsdClock { shift_s, truncate, .. } => (on_gpsd_clock(fixes, shift_s, truncate), stats),
+        _ => (fixes, stats),
+    }
+}
+
+/// The (shift, truncate) of a log judged on gpsd's clock ([`Judge::GpsdClock`]), for the whole-suite
+/// measurement's second figure.
+pub(super) fn gpsd_clock_of(log_name: &str) -> Option<(i64, bool)> {
+    LOGS.iter().find_map(|&(name, _, judge)| match judge {
+        Judge::GpsdClock { shift_s, truncate, .. } if name == log_name => Some((shift_s, truncate)),
+        _ => None,
+    })
+}
+
+/// Fixes with their times moved `shift_s` seconds and, with `truncate`, cut to the whole second, as gpsd
+/// labels the receiver's solutions ([`Judge::GpsdClock`]).
+pub(super) fn on_gpsd_clock(fixes: Vec<Fix>, shift_s: i64, truncate: bool) -> Vec<Fix> {
+    fixes
         .into_iter()
         .map(|mut f| {
             f.time = f.time.map(|t| {
@@ -302,8 +319,7 @@ fn decode_judged(log: &Path, judge: Judge) -> (Vec<Fix>, crate::gps::DecodeStats
             f.time_of_day = f.time.map(|t| t.time());
             f
         })
-        .collect();
-    (moved, stats)
+        .collect()
 }
 
 /// [`Judge::GpsdClock`]: the table's note, and a failure below 99 %.
