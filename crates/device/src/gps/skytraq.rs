@@ -24,7 +24,7 @@
 //! 0xDF takes the satellites of the 0xDE with its issue of data (the receiver sends it just before). A
 //! "fix prediction" is no fix (the receiver propagating its last solution, not a measurement; gpsd reads
 //! it so too). Neither message says GPS − UTC: UTC is the GPS time less the leap seconds in force at that
-//! time ([`super::sirf::utc_from_gps_by_history`]). Other messages (0xDC measurement time, 0xDD raw
+//! time (`sirf::utc_from_gps_by_history`). Other messages (0xDC measurement time, 0xDD raw
 //! measurements, 0xE0–0xE3 subframes, replies to commands) carry no position: counted, not used.
 
 use std::time::Instant;
@@ -96,7 +96,7 @@ fn r8(p: &[u8], at: usize) -> Option<f64> {
 /// The sans-IO `SkyTraq` decoder: one verified frame's payload at a time in, fixes out.
 #[derive(Debug, Clone, Default)]
 pub(crate) struct SkyTraqDecoder {
-    /// The last 0xDE: its issue of data and satellites.
+    /// The last 0xDE not yet taken by its 0xDF: its issue of data and satellites.
     sky: Option<(u8, Vec<Satellite>)>,
 }
 
@@ -131,8 +131,9 @@ impl SkyTraqDecoder {
         Ok(Some(fix))
     }
 
-    /// 0xDF: the ECEF solution, with the satellites of the 0xDE of the same issue of data.
-    fn nav_raw(&self, p: &[u8]) -> Option<Fix> {
+    /// 0xDF: the ECEF solution, with the satellites of the 0xDE of the same issue of data (each 0xDE is
+    /// taken once: a stream that stops sending it gives no stale sky 256 solutions later).
+    fn nav_raw(&mut self, p: &[u8]) -> Option<Fix> {
         let (mode, quality) = match u1(p, 2)? {
             2 => (FixMode::Fix2D, FixQuality::Gps),
             3 => (FixMode::Fix3D, FixQuality::Gps),
@@ -144,18 +145,18 @@ impl SkyTraqDecoder {
         fix.pdop = r4(p, 65);
         fix.hdop = r4(p, 69);
         fix.vdop = r4(p, 73);
-        if let Some((iod, sats)) = &self.sky
-            && Some(*iod) == u1(p, 1)
+        if let Some((iod, sats)) = self.sky.take()
+            && Some(iod) == u1(p, 1)
         {
             fix.sats_visible = u32::try_from(sats.len()).ok();
             fix.sats_used = u32::try_from(sats.iter().filter(|s| s.used).count()).ok();
-            for s in sats {
+            for s in &sats {
                 *fix.sats_visible_by.entry(s.constellation).or_default() += 1;
                 if s.used {
                     *fix.sats_used_by.entry(s.constellation).or_default() += 1;
                 }
             }
-            fix.satellites.clone_from(sats);
+            fix.satellites = sats;
         }
         if mode != FixMode::NoFix {
             let ecef = [r8(p, 13)?, r8(p, 21)?, r8(p, 29)?];
