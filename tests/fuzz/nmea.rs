@@ -161,7 +161,8 @@ fn check(input: &[u8], counts: &mut Counts) -> Result<(), String> {
         return Err(format!("more sentences ({}) than lines ({})", stats.sentences, line_ends + 1));
     }
     // Every fix comes from at least one verified sentence or binary frame (a UBX HNR-PVT is one frame).
-    let items = stats.sentences + stats.ubx_frames + stats.sirf_frames;
+    let items =
+        stats.sentences + stats.ubx_frames + stats.sirf_frames + stats.casic_frames + stats.skytraq_frames;
     if fixes.len() as u64 > items {
         return Err(format!("fix count unbounded: {} fixes from {items} sentences and frames", fixes.len()));
     }
@@ -227,7 +228,11 @@ fn check(input: &[u8], counts: &mut Counts) -> Result<(), String> {
     drain(&mut live, &mut live_fixes);
     let lstats = live.stats();
     // One fix per epoch at most, and an epoch needs at least one sentence or binary frame.
-    let items = lstats.sentences + lstats.ubx_frames + lstats.sirf_frames;
+    let items = lstats.sentences
+        + lstats.ubx_frames
+        + lstats.sirf_frames
+        + lstats.casic_frames
+        + lstats.skytraq_frames;
     if live_fixes.len() as u64 > items {
         return Err(format!(
             "live fix count unbounded: {} fixes, {} sentences and binary frames",

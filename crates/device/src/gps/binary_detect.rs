@@ -8,7 +8,6 @@
 //!
 //! | family | layout (documentation) | check |
 //! |---|---|---|
-//! | `SkyTraq` binary | `A0 A1 len16be payload cs 0D 0A` (`SkyTraq` binary message application notes) | XOR of the payload, end `0D 0A` |
 //! | Rockwell/Conexant Zodiac | `FF 81 id16 ndata16 flags16 hcs16 [data16 x ndata dcs16]`, words little-endian (Zodiac designer's guide) | header and data words each sum to 0 mod 2^16; output ids 1000-1499 |
 //! | `NovAtel` `SuperStar` II | `01 id ~id len data cs16le` (`SuperStar` II firmware reference) | id and its complement, 16-bit sum of header and data |
 //! | Motorola Oncore | `@@` two letters, data, checksum, `0D 0A` (Oncore user's guide) | XOR of the bytes after `@@` |
@@ -21,7 +20,7 @@
 //!
 //! The layouts are the vendors' published frame structures as commonly documented (gpsd implements the
 //! same ones); they were not re-checked against each vendor document or a real capture of each family
-//! here, and the tests build frames from these layouts. NMEA, UBX, `SiRF`, CASIC and RTCM 3 streams (every log of gpsd's suite we have) never confirm a family:
+//! here, and the tests build frames from these layouts. NMEA, UBX, `SiRF`, CASIC, `SkyTraq` and RTCM 3 streams (every log of gpsd's suite we have) never confirm a family:
 //! a false frame in their binary payloads has to pass a checksum, and then be followed immediately by
 //! more of them. GREIS messages start with printable characters, so an NMEA line could begin a false
 //! GREIS frame: its 8-bit checksum has to agree, and two more such frames have to follow back to back,
@@ -51,8 +50,6 @@ pub enum Protocol {
     MotorolaOncore,
     /// Garmin binary (serial).
     GarminBinary,
-    /// `SkyTraq` binary.
-    SkyTraq,
     /// Rockwell/Conexant Zodiac binary.
     Zodiac,
     /// `NovAtel` `SuperStar` II binary.
@@ -74,7 +71,6 @@ impl Protocol {
             Self::TrimbleTsip => "Trimble TSIP",
             Self::MotorolaOncore => "Motorola Oncore",
             Self::GarminBinary => "Garmin binary",
-            Self::SkyTraq => "SkyTraq binary",
             Self::Zodiac => "Zodiac binary",
             Self::SuperStarII => "SuperStar II binary",
             Self::JavadGreis => "Javad GREIS",
@@ -89,11 +85,10 @@ impl Protocol {
         format!("binary protocol {} detected, not decoded: switch the receiver to NMEA", self.name())
     }
 
-    const ALL: [Self; 10] = [
+    const ALL: [Self; 9] = [
         Self::TrimbleTsip,
         Self::MotorolaOncore,
         Self::GarminBinary,
-        Self::SkyTraq,
         Self::Zodiac,
         Self::SuperStarII,
         Self::JavadGreis,
@@ -126,7 +121,7 @@ pub struct Detector {
     /// Stream position of `pending[0]`.
     offset: u64,
     /// Per family: (stream position where its last frame ended, frames back to back).
-    chains: [(u64, u32); 10],
+    chains: [(u64, u32); 9],
     found: Option<Protocol>,
 }
 
@@ -179,7 +174,6 @@ impl Detector {
 fn probe(b: &[u8]) -> Probe {
     let Some(&first) = b.first() else { return Probe::No };
     let specific = match first {
-        0xA0 => skytraq(b),
         0xFF => zodiac(b),
         0x01 => superstar(b),
         0x02 => navcom(b),
@@ -316,27 +310,6 @@ fn byte(b: &[u8], i: usize) -> Option<u8> {
     b.get(i).copied()
 }
 
-/// `A0 A1 len16be payload xor 0D 0A`.
-fn skytraq(b: &[u8]) -> Probe {
-    match b {
-        [_, second, ..] if *second != 0xA1 => return Probe::No,
-        [_] | [_, _] | [_, _, _] => return Probe::NeedMore,
-        _ => {}
-    }
-    let len = usize::from(u16::from_be_bytes([b[2], b[3]]));
-    if len == 0 || len + 7 > MAX_FRAME {
-        return Probe::No;
-    }
-    let Some(frame) = b.get(..len + 7) else { return Probe::NeedMore };
-    let payload = &frame[4..4 + len];
-    let cs = payload.iter().fold(0u8, |a, x| a ^ x);
-    if frame[4 + len] == cs && frame[5 + len..] == [0x0D, 0x0A] {
-        Probe::Frame(Protocol::SkyTraq, len + 7)
-    } else {
-        Probe::No
-    }
-}
-
 /// Little-endian 16-bit words.
 fn words(b: &[u8]) -> impl Iterator<Item = u16> + '_ {
     b.chunks_exact(2).map(|w| u16::from_le_bytes([w[0], w[1]]))
@@ -455,15 +428,6 @@ fn dle_framed(b: &[u8]) -> Probe {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// `SkyTraq` binary, by AN0037's layout: A0 A1, payload length (big-endian), payload, XOR, 0D 0A.
-    fn skytraq_frame(payload: &[u8]) -> Vec<u8> {
-        let mut out = vec![0xA0, 0xA1, (payload.len() >> 8) as u8, payload.len() as u8];
-        out.extend_from_slice(payload);
-        out.push(payload.iter().fold(0, |a, x| a ^ x));
-        out.extend_from_slice(&[0x0D, 0x0A]);
-        out
-    }
 
     /// Zodiac: five header words summing to zero, data words and their zero-sum checksum word.
     fn zodiac_frame(id: u16, data: &[u16]) -> Vec<u16> {
@@ -592,7 +556,6 @@ mod tests {
             Protocol::NavCom => navcom_frame(0xB1, &[i, 0x02, 0x99, 0x66, 0x03, 0x10]),
             Protocol::ITalk => italk_frame(0x0B, &[u16::from(i), 0xFFFF, 0x3E3C, 0x2101]),
             Protocol::Geostar => geostar_frame(0x20, &[u32::from(i), 0x4747_5350, 0xFFFF_FFFF]),
-            Protocol::SkyTraq => skytraq_frame(&[0xA8, i, 0x10, 0x0D, 0x0A, 0xA0, 0xA1]),
             Protocol::Zodiac => le_bytes(&zodiac_frame(1000, &[u16::from(i), 0x8181, 0xFFFF])),
             Protocol::SuperStarII => superstar_frame(20, &[i, 0x01, 0xFE, 0x10]),
             Protocol::MotorolaOncore => oncore_frame(*b"Ea", &[i, 0x40, 0x40, 0x00, 0x10, 0x03]),
@@ -733,17 +696,6 @@ mod tests {
             01051ad0073f7000051f10100e29250015201c0c11610015019cff12f00000049cff05c20000179cff1c360100199cff\
             03230000ff0000000000007c1003",
             Protocol::GarminBinary,
-        ),
-        (
-            "skytraq-bin.log",
-            299,
-            "a0a10049de93070002070021002d00b41f011c07001b000900701f020c01ff1300300134030318070115003600f61f04\
-            11070016001e003c0f0513070018003a00321f0ed305ff00004d001f01fe0d0aa0a10051df93020762411b2873ff1110\
-            fbc142344cddf0e21fc14dec7933f1b7974150d6e030f4bdad3c14a9683e67a12ebd8b2a44c113eb00ec272a90c0557a\
-            77400e0a8c3ffd50823fdce57a3f77f9d43f80963b680d0aa0a10049de94070002070020002d00b41f011c07001b0009\
-            00701f020c01ff1400300134030318070117003600f61f0411070016001e003c0f0513070017003a00320f0ed305ff00\
-            004d001f01e20d0a",
-            Protocol::SkyTraq,
         ),
         (
             "greis-test2.log",

@@ -9,6 +9,9 @@
 //!   ([`super::sirf::checksum`]) and end sequence are correct;
 //! - a CASIC binary frame (`BA CE len16le class id payload ck32le`, `ZhongKeWei` / Quectel L76K) whose
 //!   32-bit word sum ([`super::casic::checksum`]) is correct;
+//! - a `SkyTraq` binary frame (`A0 A1 len16be payload cs 0D 0A`, Venus 6/8) whose XOR checksum
+//!   ([`super::skytraq::checksum`]) and end sequence are correct (`A0` then `A1` is `SkyTraq`, `A0 A2`
+//!   `SiRF`);
 //! - an RTCM 3 frame (`D3 len10 payload crc24`) whose CRC-24Q ([`super::rtcm3::crc24q`]) is correct: handed
 //!   out so it is skipped whole (receivers mixing UBX, NMEA and RTCM 3 lose nothing to it).
 //!
@@ -29,7 +32,7 @@
 //! - sentences without a checksum, or with a wrong one, are rejected (gpsd rejects them too);
 //! - lines starting with `#` are comments (gpsd's test logs) and are skipped, not counted as errors.
 
-use super::{casic, rtcm3, sirf, ubx};
+use super::{casic, rtcm3, sirf, skytraq, ubx};
 
 /// Longest sentence accepted, `$` to the last checksum digit: above the longest real receiver sentence we
 /// know (`MediaTek`'s 32-channel `$PMTKCHN`, 203 characters), about three times NMEA's 82.
@@ -65,6 +68,11 @@ pub enum Frame<'a> {
         /// Message id within the class.
         id: u8,
         /// The payload (without header, length and checksum).
+        payload: &'a [u8],
+    },
+    /// A `SkyTraq` binary frame: its payload, message id first (never empty).
+    SkyTraq {
+        /// The payload (without start, length, checksum and end).
         payload: &'a [u8],
     },
     /// An RTCM 3 frame (corrections; not decoded): its payload, message number in the first 12 bits.
@@ -122,6 +130,9 @@ pub struct DecodeStats {
     /// CASIC binary frames with a correct checksum (decoded or ignored).
     #[serde(default)]
     pub casic_frames: u64,
+    /// `SkyTraq` binary frames with a correct checksum and end sequence (decoded or ignored).
+    #[serde(default)]
+    pub skytraq_frames: u64,
     /// `SiRF` proprietary NMEA sentences (`$PSRF…`, e.g. the power-on `$PSRFTXT` banner) with a correct
     /// checksum: the stream is a `SiRF` receiver's.
     #[serde(default)]
@@ -242,6 +253,7 @@ impl DecodeStats {
         self.ubx_frames += o.ubx_frames;
         self.sirf_frames += o.sirf_frames;
         self.casic_frames += o.casic_frames;
+        self.skytraq_frames += o.skytraq_frames;
         self.sirf_sentences += o.sirf_sentences;
         self.ublox_sentences += o.ublox_sentences;
         self.rtcm3_frames += o.rtcm3_frames;
@@ -273,6 +285,7 @@ impl DecodeStats {
             + self.ubx_frames
             + self.sirf_frames
             + self.casic_frames
+            + self.skytraq_frames
             + self.rtcm3_frames
     }
 }
@@ -294,6 +307,9 @@ impl std::fmt::Display for DecodeStats {
         )?;
         if self.casic_frames > 0 {
             write!(f, "{} CASIC frames, ", self.casic_frames)?;
+        }
+        if self.skytraq_frames > 0 {
+            write!(f, "{} SkyTraq frames, ", self.skytraq_frames)?;
         }
         if self.rtcm3_frames > 0 {
             write!(f, "{} RTCM 3 frames (skipped), ", self.rtcm3_frames)?;
@@ -356,6 +372,7 @@ enum Proto {
     Ubx,
     Sirf,
     Casic,
+    SkyTraq,
     Rtcm3,
 }
 
@@ -364,30 +381,32 @@ impl Proto {
     const fn sync_len(self) -> usize {
         match self {
             Self::Rtcm3 => 1,
-            Self::Ubx | Self::Sirf | Self::Casic => 2,
+            Self::Ubx | Self::Sirf | Self::Casic | Self::SkyTraq => 2,
         }
     }
 
-    /// Bytes of the header after the sync bytes (UBX: class, id, len16le; `SiRF`: len16be; CASIC: len16le,
-    /// class, id; RTCM 3: reserved 6 bits and len10).
+    /// Bytes of the header after the sync bytes (UBX: class, id, len16le; `SiRF`, `SkyTraq`: len16be; CASIC:
+    /// len16le, class, id; RTCM 3: reserved 6 bits and len10).
     const fn header_len(self) -> usize {
         match self {
             Self::Ubx | Self::Casic => 4,
-            Self::Sirf | Self::Rtcm3 => 2,
+            Self::Sirf | Self::SkyTraq | Self::Rtcm3 => 2,
         }
     }
 
-    /// Bytes after the payload (UBX: `ck_a ck_b`; `SiRF`: ck16be, B0 B3; CASIC: ck32le; RTCM 3: CRC-24Q).
+    /// Bytes after the payload (UBX: `ck_a ck_b`; `SiRF`: ck16be, B0 B3; CASIC: ck32le; `SkyTraq`: XOR,
+    /// 0D 0A; RTCM 3: CRC-24Q).
     const fn trailer_len(self) -> usize {
         match self {
             Self::Ubx => 2,
-            Self::Rtcm3 => 3,
+            Self::SkyTraq | Self::Rtcm3 => 3,
             Self::Sirf | Self::Casic => 4,
         }
     }
 
     /// The payload length a complete header announces; `None` when it cannot be a frame (RTCM 3's reserved
-    /// bits set, a CASIC payload that is not whole 4-byte words).
+    /// bits set, a CASIC payload that is not whole 4-byte words, an empty `SkyTraq` payload: it has no
+    /// message id).
     fn payload_len(self, header: &[u8]) -> Option<usize> {
         match (self, header) {
             (Self::Sirf, &[hi, lo]) => Some(usize::from(u16::from_be_bytes([hi, lo]))),
@@ -395,6 +414,7 @@ impl Proto {
             (Self::Casic, &[lo, hi, _, _]) => {
                 Some(usize::from(u16::from_le_bytes([lo, hi]))).filter(|n| n.is_multiple_of(4))
             }
+            (Self::SkyTraq, &[hi, lo]) => Some(usize::from(u16::from_be_bytes([hi, lo]))).filter(|&n| n > 0),
             (Self::Rtcm3, &[hi, lo]) if hi & 0xFC == 0 => Some(usize::from(u16::from_be_bytes([hi, lo]))),
             _ => None,
         }
@@ -411,7 +431,7 @@ enum State {
     Line,
     /// After an overlong line: discard until the end of the line.
     Discard,
-    /// Saw the first of two sync bytes (UBX 0xB5, `SiRF` 0xA0, CASIC 0xBA).
+    /// Saw the first of two sync bytes (UBX 0xB5, `SiRF` and `SkyTraq` 0xA0, CASIC 0xBA).
     Sync(Proto),
     /// Collecting a binary frame after its sync bytes into `bin`: the header, then payload and trailer.
     /// `total` is the frame's length after the sync bytes, known once the header is in (0 before).
@@ -598,10 +618,13 @@ impl Framer {
                 _ => self.stats.junk_bytes += 1,
             },
             State::Sync(proto) => {
-                let second = match proto {
-                    Proto::Sirf => sirf::START[1],
-                    Proto::Casic => casic::SYNC[1],
-                    Proto::Ubx | Proto::Rtcm3 => ubx::SYNC_2,
+                // `SiRF` and `SkyTraq` share the first byte (0xA0): the second tells them apart.
+                let (second, proto) = match proto {
+                    Proto::Sirf if b == skytraq::START[1] => (b, Proto::SkyTraq),
+                    Proto::Sirf => (sirf::START[1], proto),
+                    Proto::Casic => (casic::SYNC[1], proto),
+                    Proto::SkyTraq => (skytraq::START[1], proto),
+                    Proto::Ubx | Proto::Rtcm3 => (ubx::SYNC_2, proto),
                 };
                 if b == second {
                     self.bin.clear();
@@ -672,6 +695,9 @@ impl Framer {
                 (casic::checksum(*class, *id, payload) == u32::from_le_bytes([*c0, *c1, *c2, *c3]))
                     .then_some(Frame::Casic { class: *class, id: *id, payload })
             }
+            (Proto::SkyTraq, [_, _, payload @ .., cs, e0, e1]) => ([*e0, *e1] == skytraq::END
+                && skytraq::checksum(payload) == *cs)
+                .then_some(Frame::SkyTraq { payload }),
             (Proto::Rtcm3, [h0, h1, payload @ .., c0, c1, c2]) => {
                 let mut crc = rtcm3::CRC24Q.digest();
                 crc.update(&[rtcm3::PREAMBLE, *h0, *h1]);
@@ -688,6 +714,7 @@ impl Framer {
             Frame::Sirf { .. } => self.stats.sirf_frames += 1,
             Frame::Ubx { .. } => self.stats.ubx_frames += 1,
             Frame::Casic { .. } => self.stats.casic_frames += 1,
+            Frame::SkyTraq { .. } => self.stats.skytraq_frames += 1,
             Frame::Rtcm3 { .. } => self.stats.rtcm3_frames += 1,
             Frame::Nmea(_) => {}
         }
@@ -808,6 +835,7 @@ mod tests {
             Frame::Ubx { class, id, payload } => format!("UBX {class:02x} {id:02x} {}", hex(payload)),
             Frame::Sirf { payload } => format!("SiRF {}", hex(payload)),
             Frame::Casic { class, id, payload } => format!("CASIC {class:02x} {id:02x} {}", hex(payload)),
+            Frame::SkyTraq { payload } => format!("SkyTraq {}", hex(payload)),
             Frame::Rtcm3 { payload } => format!("RTCM3 {}", hex(payload)),
         }
     }

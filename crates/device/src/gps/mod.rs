@@ -44,6 +44,7 @@ pub mod rtcm3;
 mod sentence;
 pub mod sim;
 pub mod sirf;
+pub mod skytraq;
 pub mod source;
 pub mod through_vest;
 #[cfg(test)]

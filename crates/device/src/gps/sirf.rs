@@ -61,6 +61,29 @@ pub fn frame(payload: &[u8]) -> Vec<u8> {
 pub(crate) const GPS_UTC_OFFSET_S: i64 = 18;
 /// Unix time of the GPS epoch, 1980-01-06T00:00:00Z [s].
 const GPS_EPOCH_UNIX_S: i64 = 315_964_800;
+/// GPS time minus UTC [s] from each leap second on: (Unix time of the UTC midnight it took effect, the new
+/// difference). The leap seconds of 1981–2016 (IERS Bulletin C; the last one before 2017-01-01 00:00 UTC
+/// made it [`GPS_UTC_OFFSET_S`]).
+const GPS_UTC_HISTORY: [(i64, i64); 18] = [
+    (362_793_600, 1),                  // 1981-07-01
+    (394_329_600, 2),                  // 1982-07-01
+    (425_865_600, 3),                  // 1983-07-01
+    (489_024_000, 4),                  // 1985-07-01
+    (567_993_600, 5),                  // 1988-01-01
+    (631_152_000, 6),                  // 1990-01-01
+    (662_688_000, 7),                  // 1991-01-01
+    (709_948_800, 8),                  // 1992-07-01
+    (741_484_800, 9),                  // 1993-07-01
+    (773_020_800, 10),                 // 1994-07-01
+    (820_454_400, 11),                 // 1996-01-01
+    (867_715_200, 12),                 // 1997-07-01
+    (915_148_800, 13),                 // 1999-01-01
+    (1_136_073_600, 14),               // 2006-01-01
+    (1_230_768_000, 15),               // 2009-01-01
+    (1_341_100_800, 16),               // 2012-07-01
+    (1_435_708_800, 17),               // 2015-07-01
+    (1_483_228_800, GPS_UTC_OFFSET_S), // 2017-01-01
+];
 /// Seconds in a GPS week.
 const WEEK_S: i64 = 604_800;
 /// Milliseconds in a GPS week (the time-of-week range).
@@ -529,6 +552,19 @@ impl SirfDecoder {
 fn tow_distance_ms(a: i64, b: i64) -> i64 {
     let d = (a - b).rem_euclid(WEEK_MS);
     d.min(WEEK_MS - d)
+}
+
+/// UTC of a GPS week and time of week [ms] for a receiver that does not say GPS − UTC (`SkyTraq` binary):
+/// the difference in force at that time by [`GPS_UTC_HISTORY`] (0 before the first leap second of
+/// 1981-07-01). The inserted second itself (23:59:60 UTC) is labelled as the midnight after it.
+pub(crate) fn utc_from_gps_by_history(week: u32, tow_ms: i64) -> Option<DateTime<Utc>> {
+    let gps_unix_s = GPS_EPOCH_UNIX_S + i64::from(week) * WEEK_S + tow_ms.div_euclid(1000);
+    let leap_s = GPS_UTC_HISTORY
+        .iter()
+        .rev()
+        .find(|&&(from_unix_s, leap)| gps_unix_s - leap >= from_unix_s)
+        .map_or(0, |&(_, leap)| leap);
+    utc_from_gps(week, tow_ms, leap_s)
 }
 
 /// UTC of a GPS week and time of week [ms], `leap_s` = GPS − UTC; `None` for a time of week outside the

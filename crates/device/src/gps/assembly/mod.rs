@@ -24,7 +24,8 @@
 //! values removed or corrected); what was removed is counted in [`DecodeStats`].
 //!
 //! Binary frames (docs/gps.md, "u-blox UBX" and "Mixed streams"): the framer hands out checksum-verified
-//! UBX and `SiRF` frames too; UBX goes to [`UbxDecoder`](super::ubx), `SiRF` to the `SiRF` decoder, and their
+//! UBX, `SiRF`, CASIC and `SkyTraq` frames too; UBX goes to [`UbxDecoder`](super::ubx), `SiRF` to the `SiRF`
+//! decoder (CASIC and `SkyTraq` to theirs), and their
 //! epochs become fixes exactly like NMEA ones (validated, counted, stamped with `received_at`). While a
 //! binary protocol gives fixes, it is the one source of epochs: NMEA epochs of the same receiver are
 //! counted as superseded, not reported, so no second is reported twice with different contents; after
@@ -50,6 +51,7 @@ use super::fix::{Constellation, ErrorEstimate, ErrorSource, Fix, FixMode, FixQua
 use super::framing::{DecodeStats, Frame, Framer};
 use super::sentence::{self, Parsed, Unused};
 use super::sirf::{SirfDecoder, SirfUnused};
+use super::skytraq::SkyTraqDecoder;
 use super::ubx::{UbxDecoder, UbxUnused, WithoutFix};
 use super::{GpsEvent, Mark, UERE_DGPS_M, UERE_M};
 use crate::heading::{HeadingOrigin, HeadingReference};
@@ -251,6 +253,7 @@ pub struct NmeaDecoder {
     ubx: UbxDecoder,
     sirf: SirfDecoder,
     casic: CasicDecoder,
+    skytraq: SkyTraqDecoder,
     /// Dates waiting for confirmation (docs/gps.md, "Date validation").
     dates: date::DateCheck,
     binary: BinaryState,
@@ -318,6 +321,7 @@ impl NmeaDecoder {
             ubx: UbxDecoder::new(),
             sirf: SirfDecoder::new(),
             casic: CasicDecoder::new(),
+            skytraq: SkyTraqDecoder::new(),
             dates: date::DateCheck::default(),
             binary: BinaryState::default(),
             undecoded_noticed: None,
@@ -456,6 +460,9 @@ impl NmeaDecoder {
             }
             Frame::Casic { class, id, payload } => {
                 self.casic.handle(class, id, payload, now).map_err(|e| e == UbxUnused::Malformed)
+            }
+            Frame::SkyTraq { payload } => {
+                self.skytraq.handle(payload, now).map_err(|e| e == UbxUnused::Malformed)
             }
             // Corrections: counted by the framer, nothing to decode.
             Frame::Rtcm3 { .. } => return,

@@ -194,6 +194,9 @@ pub(super) fn family(name: &str, log: &[u8], stats: &DecodeStats) -> &'static st
     if stats.casic_frames > 0 {
         return "CASIC binary";
     }
+    if stats.skytraq_frames > 0 {
+        return "SkyTraq binary";
+    }
     let text = format!("{} {}", name.to_lowercase(), header(log));
     let has = |words: &[&str]| words.iter().any(|w| text.contains(w));
     if stats.sentences == 0 {
@@ -234,15 +237,26 @@ pub(super) fn no_fix_reason(fixes: &[Fix], stats: &DecodeStats) -> String {
     let with_pos = fixes.iter().filter(|f| f.lat_deg.is_some()).count();
     if !fixes.is_empty() {
         format!("{} epochs, {with_pos} with a position", fixes.len())
-    } else if stats.sentences + stats.ubx_frames + stats.sirf_frames + stats.casic_frames == 0 {
+    } else if stats.sentences
+        + stats.ubx_frames
+        + stats.sirf_frames
+        + stats.casic_frames
+        + stats.skytraq_frames
+        == 0
+    {
         format!(
             "nothing recognised: {} bytes, {} junk, {} RTCM 3 frames, no binary protocol detected",
             stats.bytes, stats.junk_bytes, stats.rtcm3_frames
         )
     } else {
         format!(
-            "no epoch: {} sentences, {} UBX / {} SiRF / {} CASIC frames ({} unsupported binary)",
-            stats.sentences, stats.ubx_frames, stats.sirf_frames, stats.casic_frames, stats.binary_frames
+            "no epoch: {} sentences, {} UBX / {} SiRF / {} CASIC / {} SkyTraq frames ({} unsupported binary)",
+            stats.sentences,
+            stats.ubx_frames,
+            stats.sirf_frames,
+            stats.casic_frames,
+            stats.skytraq_frames,
+            stats.binary_frames
         )
     }
 }
@@ -299,7 +313,8 @@ impl Counts {
 /// The whole suite: `VESTNAV_GPSD_SUITE=DIR` (a gpsd `test/daemon/` folder; `scripts/gpsd-suite.sh`
 /// fetches it). Per log and per family: gpsd's epochs with a position, those we have an epoch for, those
 /// identical (same time and lat/lon within 1e-7 deg, issue 21's measure), and those with gpsd's fix mode
-/// too; the whole-suite share, with and without the binary families we detect but do not decode; the logs
+/// too; the whole-suite share, with and without the binary families we detect but do not decode (and, for
+/// the logs the repository's table judges on gpsd's clock, how many are identical so); the logs
 /// that give no fix and the decoder's reason. A measurement, not a pass/fail test: it fails only when the
 /// folder cannot be read.
 #[test]
@@ -317,6 +332,8 @@ fn gpsd_suite() {
     assert!(!logs.is_empty(), "no .log in {}", dir.to_string_lossy());
     let mut families: BTreeMap<&str, Counts> = BTreeMap::new();
     let (mut all, mut decoded) = (Counts::default(), Counts::default());
+    // Logs the repository's table judges on gpsd's clock: gpsd's epochs with a position, ours identical so.
+    let (mut on_clock_n, mut on_clock_same) = (0, 0);
     let mut no_fix = Vec::new();
     let mut out = String::new();
     let head =
@@ -342,7 +359,17 @@ fn gpsd_suite() {
             decoded.add(&m);
         }
         families.entry(fam).or_default().add(&m);
-        let misses = if m.matched < m.gpsd { m.misses.join("; ") } else { String::new() };
+        let mut misses = if m.matched < m.gpsd { m.misses.join("; ") } else { String::new() };
+        if let Some((shift_s, truncate)) = super::table::gpsd_clock_of(&name) {
+            let moved = super::table::on_gpsd_clock(fixes.clone(), shift_s, truncate);
+            let c = match_log(&moved, &gpsd_epochs(&chk, &bytes), false, 1e-7);
+            on_clock_n += c.gpsd;
+            on_clock_same += c.same_position;
+            misses = format!(
+                "on gpsd's clock (the table's GpsdClock exception) {}/{}; {misses}",
+                c.same_position, c.gpsd
+            );
+        }
         let _ = writeln!(out, "{name:<36} {fam:<24} {}  {misses}", one.row());
         if fixes.iter().all(|f| f.lat_deg.is_none()) {
             no_fix.push(format!(
@@ -375,6 +402,11 @@ fn gpsd_suite() {
             c.present
         );
     }
+    let _ = writeln!(
+        out,
+        "of which judged on gpsd's clock (the table's GpsdClock exceptions: gpsd truncates or applies today's leap \
+         seconds to the receiver's time): {on_clock_same}/{on_clock_n} identical so"
+    );
     println!("{out}");
 }
 

@@ -1,4 +1,4 @@
-//! Issue 13's truth table, extended by issue 21: every log of the vendored gpsd folders (62), per log the share
+//! Issue 13's truth table, extended by issue 21: every log of the vendored gpsd folders (67), per log the share
 //! of gpsd's epochs with a position that we match (same UTC time, lat/lon within 1e-7 deg, same fix mode),
 //! goal >= 99 %; the RTCM 3 correction streams give no fix, no sentence and no detected binary family, and
 //! every one of their frames that gpsd decoded is recognised.
@@ -7,7 +7,9 @@
 //! 10 Hz u-blox logs key on the `.20`/`.10` times of the sentences gpsd generated). The u-blox UBX and
 //! `SiRF` binary logs are judged like NMEA ones: gpsd's `.chk` for a binary log holds the NMEA gpsd
 //! *generated* from the binary plus its TPV/SKY reports, and [`super::parse_chk`] reads both; the real
-//! NMEA lines among a log's frames (the NEO-M8L's `$GNTXT`) must still be framed and accepted.
+//! NMEA lines among a log's frames (the NEO-M8L's `$GNTXT`) must still be framed and accepted. The two
+//! `SkyTraq` binary logs are judged the same way on gpsd's clock ([`Judge::GpsdClock`]: gpsd truncates one's
+//! times and applies today's leap seconds to the other's 2016 times).
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -33,6 +35,11 @@ enum Judge {
     /// A named deliberate difference (docs/gps.md, "Truth against gpsd"): at least this share matched;
     /// with `date_differs` the date is also a deliberate difference and the time of day is compared.
     Exception { min_rate: f64, date_differs: bool, why: &'static str },
+    /// gpsd labels the receiver's solutions by a different clock (named in docs/gps.md, "Truth against
+    /// gpsd"): our times are moved as gpsd's are (by `shift_s` seconds, then with `truncate` cut to the
+    /// whole second) and the epochs judged as NMEA ones (>= 99 %, time, mode, 1e-7 deg); our own times stay
+    /// the receiver's.
+    GpsdClock { shift_s: i64, truncate: bool, why: &'static str },
     /// RTCM 3 corrections: no fix, no sentence, every RTCM 3 message of gpsd's `.chk` framed.
     Corrections,
     /// UBX messages without a live position only (gpsd reports none either): no fix, and the decoder says
@@ -235,6 +242,26 @@ const LOGS: &[(&str, &str, Judge)] = &[
     ("ublox-zoe-m8b-logbatch.log", "u-blox M8B stored log", Judge::NoLiveFix(WithoutFix::StoredLog)),
     ("ublox-zoe-m8b-logretrieve.log", "u-blox M8B stored log", Judge::NoLiveFix(WithoutFix::StoredLog)),
     ("rtcm3.bndm.log", "RTCM 3 corrections", Judge::Corrections),
+    (
+        "skytraq-A8.log",
+        "SkyTraq binary (0xA8)",
+        Judge::GpsdClock {
+            shift_s: 0,
+            truncate: true,
+            why: "gpsd cuts 0xA8's time of week (0.01 s) to the whole second: the receiver's 2 Hz solutions of \
+                  19:53:49.49 and .99 are both 19:53:49.000 there (the later one kept); we report .490 and .990",
+        },
+    ),
+    (
+        "skytraq-bin.log",
+        "SkyTraq binary (0xDF)",
+        Judge::GpsdClock {
+            shift_s: -1,
+            truncate: false,
+            why: "gpsd subtracts its compiled-in 18 leap seconds from the receiver's GPS time of 2016-04-01, when \
+                  GPS - UTC was 17 s (the 18th came on 2017-01-01): gpsd 03:35:38.999, we 03:35:39.999",
+        },
+    ),
 ];
 
 fn all_logs() -> Vec<PathBuf> {
@@ -255,6 +282,59 @@ fn name_of(p: &Path) -> String {
 /// True when the log's dates differ from gpsd's by design (only the time of day is compared).
 fn dates_differ(judge: Judge) -> bool {
     matches!(judge, Judge::DateDiffers(_) | Judge::Exception { date_differs: true, .. })
+}
+
+/// The log's fixes and counts; for [`Judge::GpsdClock`] with the times moved as gpsd moves the receiver's.
+fn decode_judged(log: &Path, judge: Judge) -> (Vec<Fix>, crate::gps::DecodeStats) {
+    let (fixes, stats) = decode_file(log).unwrap();
+    match judge {
+        Judge::GpsdClock { shift_s, truncate, .. } => (on_gpsd_clock(fixes, shift_s, truncate), stats),
+        _ => (fixes, stats),
+    }
+}
+
+/// The (shift, truncate) of a log judged on gpsd's clock ([`Judge::GpsdClock`]), for the whole-suite
+/// measurement's second figure.
+pub(super) fn gpsd_clock_of(log_name: &str) -> Option<(i64, bool)> {
+    LOGS.iter().find_map(|&(name, _, judge)| match judge {
+        Judge::GpsdClock { shift_s, truncate, .. } if name == log_name => Some((shift_s, truncate)),
+        _ => None,
+    })
+}
+
+/// Fixes with their times moved `shift_s` seconds and, with `truncate`, cut to the whole second, as gpsd
+/// labels the receiver's solutions ([`Judge::GpsdClock`]).
+pub(super) fn on_gpsd_clock(fixes: Vec<Fix>, shift_s: i64, truncate: bool) -> Vec<Fix> {
+    fixes
+        .into_iter()
+        .map(|mut f| {
+            f.time = f.time.map(|t| {
+                let t = t + chrono::TimeDelta::seconds(shift_s);
+                if truncate {
+                    chrono::DurationRound::duration_trunc(t, chrono::TimeDelta::seconds(1)).unwrap()
+                } else {
+                    t
+                }
+            });
+            f.time_of_day = f.time.map(|t| t.time());
+            f
+        })
+        .collect()
+}
+
+/// [`Judge::GpsdClock`]: the table's note, and a failure below 99 %.
+fn gpsd_clock_note(
+    name: &str,
+    why: &str,
+    rate: f64,
+    misses: &[String],
+    stats: &crate::gps::DecodeStats,
+    failures: &mut Vec<String>,
+) -> String {
+    if rate < 0.99 {
+        failures.push(format!("{name}: {:.1} % of epochs matched on gpsd's clock; {misses:?}", rate * 100.0));
+    }
+    format!("exception: {why}; {} SkyTraq frames", stats.skytraq_frames)
 }
 
 /// (gpsd's epochs with a position, of those matched by ours; first few misses). gpsd's epochs are keyed
@@ -343,7 +423,7 @@ fn every_log_matches_gpsd_epochs() {
             failures.push(format!("{name}: not in the table"));
             continue;
         };
-        let (fixes, stats) = decode_file(log).unwrap();
+        let (fixes, stats) = decode_judged(log, judge);
         let Ok(chk) = std::fs::read_to_string(log.with_extension("log.chk")) else {
             eprintln!(
                 "{name:<34} {family:<22} {:>6} {:>7} {:>7}  no .chk in gpsd's suite; {stats}",
@@ -397,6 +477,7 @@ fn every_log_matches_gpsd_epochs() {
                 }
                 format!("exception: {why}")
             }
+            Judge::GpsdClock { why, .. } => gpsd_clock_note(&name, why, rate, &misses, &stats, &mut failures),
             Judge::NoLiveFix(kind) => no_live_fix(&name, kind, &fixes, &chk, &stats, &mut failures),
             Judge::Corrections => {
                 let messages = chk.lines().filter(|l| l.contains(r#""class":"RTCM3""#)).count() as u64;

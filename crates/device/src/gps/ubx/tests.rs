@@ -208,6 +208,7 @@ mod properties {
         Nmea(String),
         Ubx(u8, u8, Vec<u8>),
         Sirf(Vec<u8>),
+        SkyTraq(Vec<u8>),
         Other,
     }
 
@@ -219,6 +220,7 @@ mod properties {
                 Frame::Nmea(s) => Item::Nmea(s.to_owned()),
                 Frame::Ubx { class, id, payload } => Item::Ubx(class, id, payload.to_vec()),
                 Frame::Sirf { payload } => Item::Sirf(payload.to_vec()),
+                Frame::SkyTraq { payload } => Item::SkyTraq(payload.to_vec()),
                 Frame::Casic { .. } | Frame::Rtcm3 { .. } => Item::Other,
             });
         };
@@ -234,6 +236,8 @@ mod properties {
     enum Piece {
         /// A real UBX frame.
         Ubx(u8, u8, Vec<u8>),
+        /// A real `SkyTraq` frame (its `A0` is `SiRF`'s first sync byte too).
+        SkyTraq(Vec<u8>),
         /// A real NMEA sentence (body between `$` and `*`).
         Nmea(String),
         /// Line noise: any bytes but `#` (a comment at a line start is skipped to its end by design).
@@ -248,6 +252,7 @@ mod properties {
         prop_oneof![
             (any::<u8>(), any::<u8>(), proptest::collection::vec(any::<u8>(), 0..300))
                 .prop_map(|(c, i, p)| Piece::Ubx(c, i, p)),
+            proptest::collection::vec(any::<u8>(), 1..300).prop_map(Piece::SkyTraq),
             "[A-Z]{5}(,[0-9A-Za-z.]{0,8}){0,12}".prop_map(Piece::Nmea),
             proptest::collection::vec(any::<u8>().prop_filter("no comment", |b| *b != b'#'), 0..40)
                 .prop_map(Piece::Junk),
@@ -266,6 +271,10 @@ mod properties {
                 Piece::Ubx(c, i, payload) => {
                     bytes.extend_from_slice(&frame(*c, *i, payload));
                     real.push(Item::Ubx(*c, *i, payload.clone()));
+                }
+                Piece::SkyTraq(payload) => {
+                    bytes.extend_from_slice(&crate::gps::skytraq::frame(payload));
+                    real.push(Item::SkyTraq(payload.clone()));
                 }
                 Piece::Nmea(body) => {
                     let s = with_checksum(body);
@@ -350,7 +359,7 @@ mod properties {
         #[test]
         fn arbitrary_bytes_never_panic_the_decoder(
             data in proptest::collection::vec(
-                prop_oneof![any::<u8>(), Just(0xB5), Just(0x62), Just(0x01), Just(0xA0), Just(0xA2)],
+                prop_oneof![any::<u8>(), Just(0xB5), Just(0x62), Just(0x01), Just(0xA0), Just(0xA1), Just(0xA2)],
                 0..3000,
             ),
             cuts in proptest::collection::vec(any::<usize>(), 0..8),
