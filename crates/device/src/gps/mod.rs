@@ -35,6 +35,7 @@ pub mod binary_detect;
 pub mod casic;
 pub mod fix;
 pub mod framing;
+pub mod gps_time;
 pub mod gpsd;
 mod le;
 pub mod nmea_out;

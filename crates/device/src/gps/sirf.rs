@@ -15,6 +15,7 @@ use std::time::Instant;
 
 use chrono::{DateTime, NaiveDate, Utc};
 
+use super::gps_time::{GPS_EPOCH_UNIX_S, GPS_UTC_OFFSET_S, WEEK_MS, WEEK_S, utc_from_gps};
 use super::{Constellation, ErrorEstimate, ErrorSource, Fix, FixMode, FixQuality, Satellite};
 
 /// Start sequence.
@@ -51,43 +52,6 @@ pub fn frame(payload: &[u8]) -> Vec<u8> {
 // Decoding
 // ---------------------------------------------------------------------------------------------------------
 
-/// GPS time minus UTC [s] since 2017-01-01 (IERS Bulletin C 52; no leap second announced since).
-///
-/// A `SiRF` receiver learns the current value from the almanac's UTC page (subframe 4, page 18, broadcast
-/// every 12.5 min) and uses a firmware default until then: the `SiRF` II of gpsd's `sirf2.log` still said
-/// 13 s (the value of 1999–2005) after 13 minutes of navigating in 2021. GPS minus UTC has only ever grown,
-/// so a receiver's smaller value is such a stale default; the decoder takes the larger of this constant and
-/// what MID 41 implies.
-pub(crate) const GPS_UTC_OFFSET_S: i64 = 18;
-/// Unix time of the GPS epoch, 1980-01-06T00:00:00Z [s].
-const GPS_EPOCH_UNIX_S: i64 = 315_964_800;
-/// GPS time minus UTC [s] from each leap second on: (Unix time of the UTC midnight it took effect, the new
-/// difference). The leap seconds of 1981–2016 (IERS Bulletin C; the last one before 2017-01-01 00:00 UTC
-/// made it [`GPS_UTC_OFFSET_S`]).
-const GPS_UTC_HISTORY: [(i64, i64); 18] = [
-    (362_793_600, 1),                  // 1981-07-01
-    (394_329_600, 2),                  // 1982-07-01
-    (425_865_600, 3),                  // 1983-07-01
-    (489_024_000, 4),                  // 1985-07-01
-    (567_993_600, 5),                  // 1988-01-01
-    (631_152_000, 6),                  // 1990-01-01
-    (662_688_000, 7),                  // 1991-01-01
-    (709_948_800, 8),                  // 1992-07-01
-    (741_484_800, 9),                  // 1993-07-01
-    (773_020_800, 10),                 // 1994-07-01
-    (820_454_400, 11),                 // 1996-01-01
-    (867_715_200, 12),                 // 1997-07-01
-    (915_148_800, 13),                 // 1999-01-01
-    (1_136_073_600, 14),               // 2006-01-01
-    (1_230_768_000, 15),               // 2009-01-01
-    (1_341_100_800, 16),               // 2012-07-01
-    (1_435_708_800, 17),               // 2015-07-01
-    (1_483_228_800, GPS_UTC_OFFSET_S), // 2017-01-01
-];
-/// Seconds in a GPS week.
-const WEEK_S: i64 = 604_800;
-/// Milliseconds in a GPS week (the time-of-week range).
-const WEEK_MS: i64 = WEEK_S * 1000;
 /// The week a 10-bit GPS week number (MID 2, MID 4) is counted from when no extended week has been seen:
 /// the rollover of 2019-04-07 (week 2048), so the window is 2019-04-07 .. 2039-11-20.
 const PIVOT_WEEK: u32 = 2048;
@@ -552,29 +516,6 @@ impl SirfDecoder {
 fn tow_distance_ms(a: i64, b: i64) -> i64 {
     let d = (a - b).rem_euclid(WEEK_MS);
     d.min(WEEK_MS - d)
-}
-
-/// UTC of a GPS week and time of week [ms] for a receiver that does not say GPS − UTC (`SkyTraq` binary):
-/// the difference in force at that time by [`GPS_UTC_HISTORY`] (0 before the first leap second of
-/// 1981-07-01). The inserted second itself (23:59:60 UTC) is labelled as the midnight after it.
-pub(crate) fn utc_from_gps_by_history(week: u32, tow_ms: i64) -> Option<DateTime<Utc>> {
-    let gps_unix_s = GPS_EPOCH_UNIX_S + i64::from(week) * WEEK_S + tow_ms.div_euclid(1000);
-    let leap_s = GPS_UTC_HISTORY
-        .iter()
-        .rev()
-        .find(|&&(from_unix_s, leap)| gps_unix_s - leap >= from_unix_s)
-        .map_or(0, |&(_, leap)| leap);
-    utc_from_gps(week, tow_ms, leap_s)
-}
-
-/// UTC of a GPS week and time of week [ms], `leap_s` = GPS − UTC; `None` for a time of week outside the
-/// week.
-fn utc_from_gps(week: u32, tow_ms: i64, leap_s: i64) -> Option<DateTime<Utc>> {
-    if !(0..WEEK_MS).contains(&tow_ms) {
-        return None;
-    }
-    let s = GPS_EPOCH_UNIX_S + i64::from(week) * WEEK_S + tow_ms.div_euclid(1000) - leap_s;
-    DateTime::from_timestamp(s, (tow_ms.rem_euclid(1000) * 1_000_000) as u32)
 }
 
 /// Fix mode and quality from the "position mode" bits shared by MID 2's mode 1 and the low byte of MID 41's

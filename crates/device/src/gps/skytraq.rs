@@ -24,13 +24,14 @@
 //! 0xDF takes the satellites of the 0xDE with its issue of data (the receiver sends it just before). A
 //! "fix prediction" is no fix (the receiver propagating its last solution, not a measurement; gpsd reads
 //! it so too). Neither message says GPS − UTC: UTC is the GPS time less the leap seconds in force at that
-//! time (`sirf::utc_from_gps_by_history`). Other messages (0xDC measurement time, 0xDD raw
+//! time (`gps_time::utc_from_gps_by_history`). Other messages (0xDC measurement time, 0xDD raw
 //! measurements, 0xE0–0xE3 subframes, replies to commands) carry no position: counted, not used.
 
 use std::time::Instant;
 
 use super::fix::{Constellation, Fix, FixMode, FixQuality, Satellite};
-use super::sirf::{enu_from_ecef_velocity, utc_from_gps_by_history, wgs84_from_ecef};
+use super::gps_time::utc_from_gps_by_history;
+use super::sirf::{enu_from_ecef_velocity, wgs84_from_ecef};
 use super::ubx::{UbxUnused, nmea_id};
 
 /// Start sequence.

@@ -468,7 +468,8 @@ fn a_second_repeated_without_a_position_is_not_a_no_fix_epoch() {
 /// kind not out-voted last time, then to the latest, and the antimeridian is no gap.
 #[test]
 fn an_epochs_position_is_the_one_most_of_its_sentences_give() {
-    use super::{Consensus, Kind, M_PER_DEG, consensus};
+    use super::Kind;
+    use super::consensus::{Consensus, M_PER_DEG, consensus};
     let lat0: f64 = 52.85;
     let at = |north_m: f64, east_m: f64| {
         (lat0 + north_m / M_PER_DEG, 5.3 + east_m / (M_PER_DEG * lat0.to_radians().cos()))
@@ -519,7 +520,7 @@ fn an_epoch_keeps_a_bounded_number_of_positions() {
     }
     let mut d = NmeaDecoder::new(DecoderConfig::file());
     d.handle_bytes(text.as_bytes(), Instant::now());
-    assert!(d.epoch.positions.len() <= super::MAX_EPOCH_POSITIONS);
+    assert!(d.epoch.positions.len() <= super::consensus::MAX_EPOCH_POSITIONS);
     d.finish(Instant::now());
     let fixes: Vec<_> = all_events(&mut d)
         .into_iter()

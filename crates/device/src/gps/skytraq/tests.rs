@@ -233,7 +233,7 @@ fn the_raw_navigation_data_gives_the_ecef_solution_and_its_satellites() {
 
 #[test]
 fn utc_follows_the_leap_seconds_in_force() {
-    use crate::gps::sirf::utc_from_gps_by_history;
+    use crate::gps::gps_time::utc_from_gps_by_history;
     let utc =
         |week, ms| utc_from_gps_by_history(week, ms).unwrap().format("%Y-%m-%dT%H:%M:%S%.3f").to_string();
     // 2017-01-01 00:00:00 UTC is GPS week 1930, 18 s (GPS - UTC 18 from then on).
