@@ -370,6 +370,25 @@ impl TimingKeys {
     pub fn is_empty(&self) -> bool {
         *self == Self::default()
     }
+
+    /// The keys set, as a protocol writes them (`iti_ms = 500, response_timeout_s = 3`); `none` when
+    /// none is.
+    pub fn summary(&self) -> String {
+        let mut out: Vec<String> = Vec::new();
+        if let Some(v) = self.iti_ms {
+            out.push(format!("iti_ms = {v}"));
+        }
+        if let Some(v) = self.feedback_ms {
+            out.push(format!("feedback_ms = {v}"));
+        }
+        if let Some(v) = self.response_timeout_s {
+            out.push(format!("response_timeout_s = {v}"));
+        }
+        if let Some(v) = self.time_limit_s {
+            out.push(format!("time_limit_s = {v}"));
+        }
+        if out.is_empty() { "none".to_owned() } else { out.join(", ") }
+    }
 }
 
 /// Range of `iti_ms` and `feedback_ms` [ms].
