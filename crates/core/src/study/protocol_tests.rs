@@ -32,6 +32,16 @@ fn every_example_protocol_parses() {
     assert_eq!(loc.trials_per_participant(), 16 * 7);
     assert_eq!(loc.choices()[0], "T0");
     assert_eq!(loc.choices().len(), 16);
+    // Its training block gives 2.5 s of feedback and waits; its test blocks time out after 4 s, 800 ms apart.
+    let training = loc.block_timing(0);
+    assert_eq!(
+        (training.feedback_ms, training.response_timeout_s, training.iti_ms),
+        (Some(2500), None, None)
+    );
+    for b in 1..4 {
+        let test = loc.block_timing(b);
+        assert_eq!((test.feedback_ms, test.response_timeout_s, test.iti_ms), (None, Some(4.0), Some(800)));
+    }
 
     let pat = Protocol::load(&docs().join("pattern-id.toml")).unwrap();
     assert_eq!(pat.task, Task::PatternId);
