@@ -493,7 +493,7 @@ fn a_navigation_blocks_time_limit_ends_its_walks_and_the_next_block_takes_the_pr
                   [[block]]\nname = \"test\"\nrepetitions = 1\n";
     let (mut r, d, mut io) = nav_runner_with("navblocks", blocks);
     r.command(StudyCommand::Start, &mut io).unwrap();
-    assert_eq!(r.view().navigation.unwrap().time_limit_s, 20.0);
+    approx::assert_relative_eq!(r.view().navigation.unwrap().time_limit_s, 20.0);
     step_to(&mut io, &mut r, 19.99);
     assert_eq!(r.phase(), StudyPhase::Navigating);
     // Both practice walks (two conditions) end at the block's 20 s; 0.5 s apart (the protocol's iti_ms).
@@ -507,7 +507,7 @@ fn a_navigation_blocks_time_limit_ends_its_walks_and_the_next_block_takes_the_pr
     }
     // The test block: the protocol's 60 s.
     assert_eq!(r.current().unwrap().block_name, "test");
-    assert_eq!(r.view().navigation.unwrap().time_limit_s, 60.0);
+    approx::assert_relative_eq!(r.view().navigation.unwrap().time_limit_s, 60.0);
     step_to(&mut io, &mut r, starts[2] + 59.9);
     assert_eq!((r.phase(), r.rows().len()), (StudyPhase::Navigating, 2));
     step_to(&mut io, &mut r, starts[2] + 60.1);
