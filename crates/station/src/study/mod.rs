@@ -16,6 +16,9 @@
 //! Pause, STOP ALL and a refusal all land in `Paused`; only the operator's Resume presents again.
 //! A navigation trial walks a route instead (module `navigation`): `Navigating` until the last waypoint,
 //! the operator's End trial or the time limit.
+//!
+//! Every trial runs under its block's timing ([`Timing::for_block`]: the block's keys, else the protocol's,
+//! else the station's): its response timeout, its feedback, the interval after it, its time limit.
 
 mod navigation;
 pub mod results;
