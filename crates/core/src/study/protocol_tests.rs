@@ -133,6 +133,9 @@ fn block_timing_keys_win_over_the_protocols_and_leave_the_rest_to_it() {
     // Test: its own timeout, the protocol's ITI and feedback.
     assert_eq!(p.block_timing(1), keys(Some(800), Some(1500), Some(3.0)));
     assert_eq!(p.block_timing(7), p.timing);
+    // As `vestnav study check` prints them.
+    assert_eq!(p.block_timing(1).summary(), "iti_ms = 800, feedback_ms = 1500, response_timeout_s = 3");
+    assert_eq!(TimingKeys::default().summary(), "none");
     // A protocol without block keys: every block's timing is the protocol's (as before block keys).
     let plain = TWO_BLOCKS
         .lines()

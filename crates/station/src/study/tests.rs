@@ -427,6 +427,7 @@ fn each_block_runs_under_its_own_timing_keys() {
     // What a view shows of the first block, before anything runs.
     let v = r.view().timing.unwrap();
     assert_eq!((v.response_timeout_s, v.iti_s, v.feedback_s), (Some(1.0), 0.2, 0.4));
+    assert_eq!(v.describe(Task::Localization), "ITI 200 ms · feedback 400 ms · no-response after 1 s");
     r.command(StudyCommand::Start, &mut io).unwrap();
     // Block "fast": nobody answers. Each trial ends as no-response 1 s after its onset, the next starts
     // 200 ms later.
