@@ -85,15 +85,16 @@ fn run_check(args: &CheckArgs) -> anyhow::Result<()> {
         p.order.name(),
         p.seed
     );
-    for b in &p.blocks {
+    for (i, b) in p.blocks.iter().enumerate() {
         println!(
-            "  block {:?}: {} x {} trials, {}, feedback {}, order {}",
+            "  block {:?}: {} x {} trials, {}, feedback {}, order {}; timing keys: {} (the station's for the rest)",
             b.name,
             b.repetitions,
             p.stimuli.len(),
             if b.training { "training" } else { "test" },
             if b.feedback { "on" } else { "off" },
-            b.order.name()
+            b.order.name(),
+            p.block_timing(i).summary()
         );
     }
     let choices = p.choices();

@@ -202,6 +202,7 @@ fn open_station(a: &StudyRunArgs, stop: StopPath, interrupted: &AtomicBool) -> a
         iti_s: f64::from(a.iti_ms) / 1000.0,
         feedback_s: f64::from(a.feedback_ms) / 1000.0,
         response_timeout_s: a.response_timeout,
+        ..Timing::default()
     });
     station.connect_vest();
     if a.gps.is_some() {
@@ -236,6 +237,8 @@ fn wait_for_vest(station: &mut Station, interrupted: &AtomicBool) -> anyhow::Res
 struct Prompter {
     /// (trial, phase) last shown.
     shown: Option<(usize, StudyPhase)>,
+    /// The block whose timing was shown last.
+    block_shown: Option<String>,
     /// Rows already reported.
     rows: usize,
     /// Error last shown.
@@ -278,6 +281,15 @@ impl Prompter {
             return;
         }
         self.shown = Some(key);
+        if matches!(v.phase, StudyPhase::Presenting | StudyPhase::Navigating)
+            && self.block_shown.as_deref() != Some(v.block_name.as_str())
+        {
+            // A block begins: the timing its trials run under (block > protocol > these options).
+            if let Some(t) = &v.timing {
+                println!("block {}: {}", v.block_name, t.describe(v.task));
+            }
+            self.block_shown = Some(v.block_name.clone());
+        }
         match v.phase {
             StudyPhase::Presenting => {
                 let training = if v.training { " training" } else { "" };

@@ -128,7 +128,12 @@ fn a_navigation_study_walked_by_the_simulator_completes_every_trial_with_checked
         },
     );
     // The station's own defaults lose to the protocol's iti_ms.
-    s.set_study_timing(Timing { iti_s: 30.0, feedback_s: 0.0, response_timeout_s: None });
+    s.set_study_timing(Timing {
+        iti_s: 30.0,
+        feedback_s: 0.0,
+        response_timeout_s: None,
+        ..Timing::default()
+    });
     s.connect_vest();
     s.connect_gps(Vec::new());
     let start = Instant::now();

@@ -184,7 +184,12 @@ fn station_on(unit: &PtyEmulator) -> Station {
             ..StationOptions::default()
         },
     );
-    s.set_study_timing(Timing { iti_s: 0.02, feedback_s: 0.02, response_timeout_s: None });
+    s.set_study_timing(Timing {
+        iti_s: 0.02,
+        feedback_s: 0.02,
+        response_timeout_s: None,
+        ..Timing::default()
+    });
     s.connect_vest();
     pump_until(&mut s, Duration::from_secs(5), |s| s.vest.state == Some(LinkState::Ready));
     s

@@ -74,6 +74,14 @@ struct RawBlock {
     repetitions: Spanned<i64>,
     #[serde(default)]
     order: Option<Spanned<String>>,
+    #[serde(default)]
+    iti_ms: Option<Spanned<i64>>,
+    #[serde(default)]
+    feedback_ms: Option<Spanned<i64>>,
+    #[serde(default)]
+    response_timeout_s: Option<Spanned<f64>>,
+    #[serde(default)]
+    time_limit_s: Option<Spanned<f64>>,
 }
 
 #[derive(Deserialize)]
@@ -244,7 +252,7 @@ fn build(c: &mut Checker<'_>, raw: RawProtocol, source: &str, base: &Path) -> Pr
     });
     let participants = ids(c, raw.participants.as_ref(), "participant", MAX_PARTICIPANTS);
     let sessions = ids(c, raw.sessions.as_ref(), "session", MAX_PARTICIPANTS);
-    let blocks = blocks(c, raw.blocks.as_ref(), order, text_end(c));
+    let blocks = blocks(c, raw.blocks.as_ref(), order, text_end(c), task_of(&raw.task));
     let (stimuli, stimulus_lines) = match task {
         Task::Localization => {
             misplaced(c, raw.patterns.as_ref(), "[[pattern]]", task);
@@ -299,20 +307,49 @@ fn build(c: &mut Checker<'_>, raw: RawProtocol, source: &str, base: &Path) -> Pr
     }
 }
 
-/// The timing keys, each checked against its range.
+/// The protocol's timing keys, each checked against its range.
 fn timing_keys(c: &mut Checker<'_>, raw: &RawProtocol) -> TimingKeys {
+    let time_limit = raw.navigation.as_ref().and_then(|n| n.get_ref().time_limit_s.as_ref());
+    checked_timing(
+        c,
+        raw.iti_ms.as_ref(),
+        raw.feedback_ms.as_ref(),
+        raw.response_timeout_s.as_ref(),
+        time_limit,
+        "",
+    )
+}
+
+/// Timing keys (a protocol's or a block's), each checked against its range; problems name the key's line,
+/// and `within` (`block "NAME": ` or empty) says where it is.
+fn checked_timing(
+    c: &mut Checker<'_>,
+    iti_ms: Option<&Spanned<i64>>,
+    feedback_ms: Option<&Spanned<i64>>,
+    response_timeout_s: Option<&Spanned<f64>>,
+    time_limit_s: Option<&Spanned<f64>>,
+    within: &str,
+) -> TimingKeys {
     let ms = |c: &mut Checker<'_>, v: Option<&Spanned<i64>>, what: &str| {
-        v.is_some().then(|| c.int(v, what, TIMING_MS, -1)).and_then(|n| u32::try_from(n).ok())
+        v.is_some()
+            .then(|| c.int(v, &format!("{within}{what}"), TIMING_MS, -1))
+            .and_then(|n| u32::try_from(n).ok())
     };
     TimingKeys {
-        iti_ms: ms(c, raw.iti_ms.as_ref(), "iti_ms"),
-        feedback_ms: ms(c, raw.feedback_ms.as_ref(), "feedback_ms"),
-        response_timeout_s: c.real(raw.response_timeout_s.as_ref(), "response_timeout_s", RESPONSE_TIMEOUT_S),
-        time_limit_s: raw
-            .navigation
-            .as_ref()
-            .and_then(|n| c.real(n.get_ref().time_limit_s.as_ref(), "time_limit_s", TIME_LIMIT_S)),
+        iti_ms: ms(c, iti_ms, "iti_ms"),
+        feedback_ms: ms(c, feedback_ms, "feedback_ms"),
+        response_timeout_s: c.real(
+            response_timeout_s,
+            &format!("{within}response_timeout_s"),
+            RESPONSE_TIMEOUT_S,
+        ),
+        time_limit_s: c.real(time_limit_s, &format!("{within}time_limit_s"), TIME_LIMIT_S),
     }
+}
+
+/// The task `task` names, if it names one (its own problem is reported where it is read).
+fn task_of(task: &Spanned<String>) -> Option<Task> {
+    Task::from_name(task.get_ref())
 }
 
 fn text_end(c: &Checker<'_>) -> usize {
@@ -359,6 +396,7 @@ fn blocks(
     raw: Option<&Spanned<Vec<Spanned<RawBlock>>>>,
     order: Order,
     end_line: usize,
+    task: Option<Task>,
 ) -> Vec<Block> {
     let Some(raw) = raw.filter(|r| !r.get_ref().is_empty()) else {
         c.problems.push(Problem {
@@ -387,6 +425,23 @@ fn blocks(
         let feedback = r.feedback.as_ref().map_or(training, |f| *f.get_ref());
         let repetitions = c.int(Some(&r.repetitions), "repetitions", 1..=1000, 1);
         let block_order = r.order.as_ref().map_or(order, |o| parse_order(c, o));
+        if let Some(v) = &r.time_limit_s
+            && task.is_some_and(|t| t != Task::Navigation)
+        {
+            c.fail(
+                v,
+                format!("block {name:?}: time_limit_s applies to the blocks of a navigation protocol only"),
+            );
+        }
+        let time_limit = r.time_limit_s.as_ref().filter(|_| task.is_none_or(|t| t == Task::Navigation));
+        let timing = checked_timing(
+            c,
+            r.iti_ms.as_ref(),
+            r.feedback_ms.as_ref(),
+            r.response_timeout_s.as_ref(),
+            time_limit,
+            &format!("block {name:?}: "),
+        );
         out.push(Block {
             name,
             training,
@@ -394,6 +449,7 @@ fn blocks(
             repetitions: u32::try_from(repetitions).unwrap_or(1),
             order: block_order,
             line: c.line(&r.name),
+            timing,
         });
     }
     out

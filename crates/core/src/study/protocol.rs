@@ -96,7 +96,7 @@ impl Order {
 }
 
 /// One block of trials: every stimulus of the protocol `repetitions` times.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Block {
     /// Name shown to the operator and written to the results.
     pub name: String,
@@ -110,6 +110,10 @@ pub struct Block {
     pub order: Order,
     /// The 1-based line of the block's table in the protocol file.
     pub line: usize,
+    /// The timing keys the block sets itself; each wins over the protocol's key of the same name
+    /// ([`Protocol::block_timing`]).
+    #[serde(default)]
+    pub timing: TimingKeys,
 }
 
 /// What the vest presents in one trial.
@@ -333,8 +337,9 @@ pub struct Protocol {
     pub timing: TimingKeys,
 }
 
-/// The protocol's timing keys; `None` where the protocol leaves the runner's default (the station's
-/// settings, `vestnav study run`'s flags).
+/// Timing keys of a protocol or of one of its blocks; `None` where the file leaves the value to the next
+/// level: a block's to the protocol's, the protocol's to the runner's default (the station's settings,
+/// `vestnav study run`'s flags).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
 pub struct TimingKeys {
     /// `iti_ms`: the pause between two trials [ms] (0..=60000).
@@ -344,9 +349,46 @@ pub struct TimingKeys {
     /// `response_timeout_s`: no response this long after stimulus onset records `no-response` [s]
     /// (0.5..=3600).
     pub response_timeout_s: Option<f64>,
-    /// `[navigation] time_limit_s`: a navigation trial not ended by arrival or the operator ends after
-    /// this long [s] (10..=14400).
+    /// `[navigation] time_limit_s` (a navigation block's `time_limit_s`): a navigation trial not ended by
+    /// arrival or the operator ends after this long [s] (10..=14400).
     pub time_limit_s: Option<f64>,
+}
+
+impl TimingKeys {
+    /// These keys, each one left out taken from `outer` (a block's keys over its protocol's).
+    #[must_use]
+    pub fn over(self, outer: &Self) -> Self {
+        Self {
+            iti_ms: self.iti_ms.or(outer.iti_ms),
+            feedback_ms: self.feedback_ms.or(outer.feedback_ms),
+            response_timeout_s: self.response_timeout_s.or(outer.response_timeout_s),
+            time_limit_s: self.time_limit_s.or(outer.time_limit_s),
+        }
+    }
+
+    /// Whether no key is set.
+    pub fn is_empty(&self) -> bool {
+        *self == Self::default()
+    }
+
+    /// The keys set, as a protocol writes them (`iti_ms = 500, response_timeout_s = 3`); `none` when
+    /// none is.
+    pub fn summary(&self) -> String {
+        let mut out: Vec<String> = Vec::new();
+        if let Some(v) = self.iti_ms {
+            out.push(format!("iti_ms = {v}"));
+        }
+        if let Some(v) = self.feedback_ms {
+            out.push(format!("feedback_ms = {v}"));
+        }
+        if let Some(v) = self.response_timeout_s {
+            out.push(format!("response_timeout_s = {v}"));
+        }
+        if let Some(v) = self.time_limit_s {
+            out.push(format!("time_limit_s = {v}"));
+        }
+        if out.is_empty() { "none".to_owned() } else { out.join(", ") }
+    }
 }
 
 /// Range of `iti_ms` and `feedback_ms` [ms].
@@ -429,6 +471,13 @@ impl Protocol {
     /// Trials one participant runs (every block, every repetition).
     pub fn trials_per_participant(&self) -> usize {
         self.blocks.iter().map(|b| b.repetitions as usize * self.stimuli.len()).sum()
+    }
+
+    /// The timing keys of block `block` (0-based): the block's own keys, each one it leaves out taken from
+    /// the protocol's. Keys set at neither level stay `None` (the runner's default). A block index past
+    /// the last gives the protocol's keys.
+    pub fn block_timing(&self, block: usize) -> TimingKeys {
+        self.blocks.get(block).map_or(self.timing, |b| b.timing.over(&self.timing))
     }
 
     /// Where `participant` stands in [`Self::participants`] (0-based).

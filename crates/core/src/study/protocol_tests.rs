@@ -32,6 +32,16 @@ fn every_example_protocol_parses() {
     assert_eq!(loc.trials_per_participant(), 16 * 7);
     assert_eq!(loc.choices()[0], "T0");
     assert_eq!(loc.choices().len(), 16);
+    // Its training block gives 2.5 s of feedback and waits; its test blocks time out after 4 s, 800 ms apart.
+    let training = loc.block_timing(0);
+    assert_eq!(
+        (training.feedback_ms, training.response_timeout_s, training.iti_ms),
+        (Some(2500), None, None)
+    );
+    for b in 1..4 {
+        let test = loc.block_timing(b);
+        assert_eq!((test.feedback_ms, test.response_timeout_s, test.iti_ms), (None, Some(4.0), Some(800)));
+    }
 
     let pat = Protocol::load(&docs().join("pattern-id.toml")).unwrap();
     assert_eq!(pat.task, Task::PatternId);
@@ -89,6 +99,126 @@ fn timing_keys_are_read_and_out_of_range_ones_name_their_line() {
     }
     let e = err("name = \"n\"\ntask = \"navigation\"\n[navigation]\nroutes = []\ntime_limit_s = 5.0\n");
     assert!(e.to_string().contains("broken.toml:5: time_limit_s = 5 is outside 10..=14400"), "{e}");
+}
+
+/// Two blocks: a training block that sets its own feedback and ITI, a test block with a response timeout;
+/// the protocol's own `iti_ms` serves the test block.
+const TWO_BLOCKS: &str = r#"name = "b"
+task = "localization"
+iti_ms = 800
+feedback_ms = 1500
+[localization]
+stimuli = ["T0", "T1"]
+[[block]]
+name = "training"
+training = true
+repetitions = 1
+feedback_ms = 4000
+iti_ms = 2000
+[[block]]
+name = "test"
+repetitions = 2
+response_timeout_s = 3.0
+"#;
+
+#[test]
+fn block_timing_keys_win_over_the_protocols_and_leave_the_rest_to_it() {
+    let p = Protocol::parse(TWO_BLOCKS, "b.toml").unwrap();
+    let keys =
+        |iti, fb, rt| TimingKeys { iti_ms: iti, feedback_ms: fb, response_timeout_s: rt, time_limit_s: None };
+    assert_eq!(p.blocks[0].timing, keys(Some(2000), Some(4000), None));
+    assert_eq!(p.blocks[1].timing, keys(None, None, Some(3.0)));
+    // Training: its own ITI and feedback, no response timeout anywhere (the runner's default then).
+    assert_eq!(p.block_timing(0), keys(Some(2000), Some(4000), None));
+    // Test: its own timeout, the protocol's ITI and feedback.
+    assert_eq!(p.block_timing(1), keys(Some(800), Some(1500), Some(3.0)));
+    assert_eq!(p.block_timing(7), p.timing);
+    // As `vestnav study check` prints them.
+    assert_eq!(p.block_timing(1).summary(), "iti_ms = 800, feedback_ms = 1500, response_timeout_s = 3");
+    assert_eq!(TimingKeys::default().summary(), "none");
+    // A protocol without block keys: every block's timing is the protocol's (as before block keys).
+    let plain = TWO_BLOCKS
+        .lines()
+        .filter(|l| {
+            !(l.starts_with("feedback_ms = 4000")
+                || l.starts_with("iti_ms = 2000")
+                || l.starts_with("response_timeout_s"))
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
+    let plain = Protocol::parse(&plain, "plain.toml").unwrap();
+    assert!(plain.blocks.iter().all(|b| b.timing.is_empty()));
+    assert_eq!((plain.block_timing(0), plain.block_timing(1)), (plain.timing, plain.timing));
+    // The example protocols without block keys read as before.
+    for name in ["pattern-id.toml", "navigation.toml"] {
+        let p = Protocol::load(&docs().join(name)).unwrap();
+        assert!(p.blocks.iter().all(|b| b.timing.is_empty()), "{name}");
+    }
+}
+
+#[test]
+fn out_of_range_block_timing_keys_name_the_key_line_in_the_block_table() {
+    // TWO_BLOCKS's line 16 is the test block's `response_timeout_s = 3.0`; lines 11 and 12 the training
+    // block's `feedback_ms = 4000` and `iti_ms = 2000`.
+    for (from, to, line, says) in [
+        (
+            "response_timeout_s = 3.0",
+            "response_timeout_s = 0.2",
+            16,
+            "block \"test\": response_timeout_s = 0.2 is outside 0.5..=3600",
+        ),
+        (
+            "response_timeout_s = 3.0",
+            "response_timeout_s = inf",
+            16,
+            "block \"test\": response_timeout_s = inf is outside",
+        ),
+        ("iti_ms = 2000", "iti_ms = 60001", 12, "block \"training\": iti_ms = 60001 is outside 0..=60000"),
+        ("iti_ms = 2000", "iti_ms = -5", 12, "block \"training\": iti_ms = -5 is outside"),
+        (
+            "feedback_ms = 4000",
+            "feedback_ms = 99999",
+            11,
+            "block \"training\": feedback_ms = 99999 is outside",
+        ),
+        (
+            "response_timeout_s = 3.0",
+            "time_limit_s = 60.0",
+            16,
+            "time_limit_s applies to the blocks of a navigation protocol only",
+        ),
+        ("response_timeout_s = 3.0", "response_timeout_s = \"3\"", 16, "invalid type"),
+    ] {
+        let text = TWO_BLOCKS.replacen(from, to, 1);
+        let e = err(&text);
+        assert_eq!(e.line(), Some(line), "{to} -> {e}");
+        assert_eq!(e.problems.len(), 1, "{e}");
+        assert!(e.to_string().contains(says), "{to} -> {e}");
+        assert!(e.to_string().starts_with(&format!("broken.toml:{line}: ")), "{e}");
+    }
+    // Every bad key of a file is reported, each with its line, in file order.
+    let text = TWO_BLOCKS.replacen("iti_ms = 2000", "iti_ms = 70000", 1).replacen("= 3.0", "= 0.0", 1);
+    let lines: Vec<Option<usize>> = err(&text).problems.iter().map(|p| p.line).collect();
+    assert_eq!(lines, [Some(12), Some(16)]);
+}
+
+#[test]
+fn a_navigation_block_may_set_its_own_time_limit() {
+    let dir = std::env::temp_dir().join(format!("vestnav-blocktiming-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("r.gpx"), "any file: parsing only checks that it is one").unwrap();
+    let text = "name = \"n\"\ntask = \"navigation\"\n[navigation]\nroutes = [\"r.gpx\"]\ntime_limit_s = 600.0\n\
+                [[condition]]\nname = \"c\"\nstrategy = \"bearing\"\nheading = \"cog\"\ncue_set = \"walking\"\n\
+                cue_interval_s = 3.0\n[[block]]\nname = \"practice\"\nrepetitions = 1\ntime_limit_s = 120.0\n\
+                [[block]]\nname = \"test\"\nrepetitions = 1\n";
+    let p = Protocol::parse_in(text, "n.toml", &dir).unwrap();
+    assert_eq!((p.block_timing(0).time_limit_s, p.block_timing(1).time_limit_s), (Some(120.0), Some(600.0)));
+    let e = Protocol::parse_in(&text.replace("120.0", "5.0"), "n.toml", &dir).unwrap_err();
+    assert!(
+        e.to_string().contains("n.toml:15: block \"practice\": time_limit_s = 5 is outside 10..=14400"),
+        "{e}"
+    );
+    let _ = std::fs::remove_dir_all(dir);
 }
 
 #[test]

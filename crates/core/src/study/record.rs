@@ -115,6 +115,20 @@ pub struct TrialRecord {
     pub stops: Option<u32>,
     /// Navigation: waypoints not reached.
     pub missed_waypoints: Option<u32>,
+    /// The pause after this trial [ms]: its block's `iti_ms`, else the protocol's, else the station's.
+    /// `None` in files from before the timing columns.
+    #[serde(default)]
+    pub iti_ms: Option<u32>,
+    /// Feedback trials: how long feedback lasted at least [ms] (block > protocol > station).
+    #[serde(default)]
+    pub feedback_ms: Option<u32>,
+    /// Localization and pattern trials: the response timeout the trial ran under [s]; `None`: the runner
+    /// waited for the operator (or a file from before the timing columns).
+    #[serde(default)]
+    pub response_timeout_s: Option<f64>,
+    /// Navigation: the trial's time limit [s].
+    #[serde(default)]
+    pub time_limit_s: Option<f64>,
     /// Free text from the operator or the runner.
     pub notes: String,
 }
@@ -147,6 +161,10 @@ impl TrialRecord {
             cues: None,
             stops: None,
             missed_waypoints: None,
+            iti_ms: None,
+            feedback_ms: None,
+            response_timeout_s: None,
+            time_limit_s: None,
             notes: String::new(),
         }
     }
@@ -160,9 +178,16 @@ impl TrialRecord {
     }
 }
 
+/// How many columns [`CSV_COLUMNS`] has.
+const COLUMNS: usize = 29;
+
+/// The columns a results file may lack: the timing columns, added after the first results files were
+/// written (read as empty then).
+pub const OPTIONAL_COLUMNS: [&str; 4] = ["iti_ms", "feedback_ms", "response_timeout_s", "time_limit_s"];
+
 /// The results CSV's columns, in order, each with its meaning (the same text as `docs/study.md`).
 /// Empty cells mean "none / not applicable".
-pub const CSV_COLUMNS: [(&str, &str); 25] = [
+pub const CSV_COLUMNS: [(&str, &str); COLUMNS] = [
     ("participant", "participant id"),
     ("session", "session id"),
     ("protocol", "protocol name"),
@@ -196,6 +221,19 @@ pub const CSV_COLUMNS: [(&str, &str); 25] = [
     ("cues", "navigation: cues played"),
     ("stops", "navigation: stops during the walk"),
     ("missed_waypoints", "navigation: waypoints not reached"),
+    (
+        "iti_ms",
+        "the pause after this trial: its block's iti_ms, else the protocol's, else the station's [ms]",
+    ),
+    (
+        "feedback_ms",
+        "feedback trials: how long feedback lasted at least (block, else protocol, else station) [ms]",
+    ),
+    (
+        "response_timeout_s",
+        "localization and pattern trials: the response timeout the trial ran under; empty: waited for the response [s]",
+    ),
+    ("time_limit_s", "navigation: the trial's time limit (block, else protocol, else station) [s]"),
     ("notes", "free text"),
 ];
 
@@ -226,7 +264,7 @@ pub fn csv_header() -> String {
 /// One record as a CSV line (with its line break), columns as [`CSV_COLUMNS`]. Numbers are written in
 /// Rust's shortest round-trip form, so [`read_csv`] gives back the same `f64`.
 pub fn csv_row(r: &TrialRecord) -> String {
-    let cells: [String; 25] = [
+    let cells: [String; COLUMNS] = [
         field(&r.participant),
         field(&r.session),
         field(&r.protocol),
@@ -251,6 +289,10 @@ pub fn csv_row(r: &TrialRecord) -> String {
         opt_u32(r.cues),
         opt_u32(r.stops),
         opt_u32(r.missed_waypoints),
+        opt_u32(r.iti_ms),
+        opt_u32(r.feedback_ms),
+        opt_f64(r.response_timeout_s),
+        opt_f64(r.time_limit_s),
         field(&r.notes),
     ];
     let mut line = cells.join(",");
@@ -356,8 +398,8 @@ fn split_records(text: &str) -> Result<Vec<(usize, Vec<String>)>, CsvError> {
 }
 
 /// Reads a results CSV written by [`write_csv`] (or edited in a spreadsheet): the header must name every
-/// column of [`CSV_COLUMNS`] (in any order; extra columns are ignored), every value is checked. At most
-/// [`MAX_CSV_BYTES`]; errors name the line.
+/// column of [`CSV_COLUMNS`] but the [`OPTIONAL_COLUMNS`] (in any order; extra columns are ignored), every
+/// value is checked. At most [`MAX_CSV_BYTES`]; errors name the line.
 pub fn read_csv(text: &str) -> Result<Vec<TrialRecord>, CsvError> {
     if text.len() > MAX_CSV_BYTES {
         return Err(CsvError { line: 1, message: format!("larger than {MAX_CSV_BYTES} bytes") });
@@ -367,12 +409,21 @@ pub fn read_csv(text: &str) -> Result<Vec<TrialRecord>, CsvError> {
     let Some((_, header)) = records.first() else {
         return Err(CsvError { line: 1, message: "empty file: no header".to_owned() });
     };
-    let mut col = [0usize; 25];
+    // A column the file lacks reads as empty cells (index past every row).
+    let mut col = [usize::MAX; COLUMNS];
     for (i, (name, _)) in CSV_COLUMNS.iter().enumerate() {
-        col[i] = header.iter().position(|h| h.trim() == *name).ok_or_else(|| CsvError {
-            line: 1,
-            message: format!("no column {name:?} in the header (is this a vestnav study results file?)"),
-        })?;
+        match header.iter().position(|h| h.trim() == *name) {
+            Some(at) => col[i] = at,
+            None if OPTIONAL_COLUMNS.contains(name) => {}
+            None => {
+                return Err(CsvError {
+                    line: 1,
+                    message: format!(
+                        "no column {name:?} in the header (is this a vestnav study results file?)"
+                    ),
+                });
+            }
+        }
     }
     records[1..].iter().map(|(line, cells)| parse_row(*line, cells, &col, header.len())).collect()
 }
@@ -380,7 +431,7 @@ pub fn read_csv(text: &str) -> Result<Vec<TrialRecord>, CsvError> {
 fn parse_row(
     line: usize,
     cells: &[String],
-    col: &[usize; 25],
+    col: &[usize; COLUMNS],
     width: usize,
 ) -> Result<TrialRecord, CsvError> {
     let err = |message: String| CsvError { line, message };
@@ -451,7 +502,11 @@ fn parse_row(
         cues: count(21)?,
         stops: count(22)?,
         missed_waypoints: count(23)?,
-        notes: text(24),
+        iti_ms: count(24)?,
+        feedback_ms: count(25)?,
+        response_timeout_s: real(26)?,
+        time_limit_s: real(27)?,
+        notes: text(28),
     })
 }
 

@@ -13,6 +13,8 @@ fn sample() -> Vec<TrialRecord> {
     a.response_s = Some(12_346.1);
     a.rt_ms = Some(421.098_765_5);
     a.outcome = Outcome::Answered;
+    a.iti_ms = Some(750);
+    a.response_timeout_s = Some(2.5);
     a.notes = "line one\nline two, with \"quotes\"".into();
     let mut b = TrialRecord::new("P01", "S1", "nav", Task::Navigation);
     b.stimulus = "demo/bearing-cog".into();
@@ -27,6 +29,9 @@ fn sample() -> Vec<TrialRecord> {
     b.missed_waypoints = Some(1);
     b.training = true;
     b.feedback = true;
+    b.iti_ms = Some(5000);
+    b.feedback_ms = Some(0);
+    b.time_limit_s = Some(900.0);
     let mut c = TrialRecord::new("P02", "S1", "loc", Task::Localization);
     c.outcome = Outcome::Stopped;
     vec![a, b, c]
@@ -84,6 +89,40 @@ fn hostile_csv_errors_name_the_line() {
         assert_eq!(e.line, line, "{e}");
         assert!(e.to_string().contains(needle), "{e} lacks {needle}");
     }
+}
+
+/// A results file written before the timing columns: the same text less those four columns (cut out of a
+/// file written now), read with them empty; its JSON, without the four fields, reads the same.
+#[test]
+fn files_from_before_the_timing_columns_read_with_the_timing_empty() {
+    let rows = sample();
+    let keep: Vec<usize> = CSV_COLUMNS
+        .iter()
+        .enumerate()
+        .filter(|(_, (n, _))| !OPTIONAL_COLUMNS.contains(n))
+        .map(|(i, _)| i)
+        .collect();
+    assert_eq!(keep.len(), 25, "the 25 columns of the first results files");
+    // Row c has no comma or line break inside a field: cut by comma.
+    let cut = |line: &str| {
+        let cells: Vec<&str> = line.trim_end().split(',').collect();
+        keep.iter().map(|&i| cells[i]).collect::<Vec<_>>().join(",")
+    };
+    let old = format!("{}\n{}\n", cut(&csv_header()), cut(&csv_row(&rows[2])));
+    assert!(!old.contains("iti_ms"));
+    let mut expected = rows[2].clone();
+    (expected.iti_ms, expected.feedback_ms, expected.response_timeout_s, expected.time_limit_s) =
+        (None, None, None, None);
+    assert_eq!(read_csv(&old).unwrap(), [expected.clone()]);
+    let mut json: serde_json::Value = serde_json::from_str(&write_json(&[expected.clone()])).unwrap();
+    for name in OPTIONAL_COLUMNS {
+        json[0].as_object_mut().unwrap().remove(name);
+    }
+    let back: Vec<TrialRecord> = serde_json::from_value(json).unwrap();
+    assert_eq!(back, [expected]);
+    // Any other column is still required.
+    let e = read_csv(&old.replacen("outcome", "result", 1)).unwrap_err();
+    assert!(e.to_string().contains("\"outcome\""), "{e}");
 }
 
 #[test]

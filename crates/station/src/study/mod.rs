@@ -16,6 +16,9 @@
 //! Pause, STOP ALL and a refusal all land in `Paused`; only the operator's Resume presents again.
 //! A navigation trial walks a route instead (module `navigation`): `Navigating` until the last waypoint,
 //! the operator's End trial or the time limit.
+//!
+//! Every trial runs under its block's timing ([`Timing::for_block`]: the block's keys, else the protocol's,
+//! else the station's): its response timeout, its feedback, the interval after it, its time limit.
 
 mod navigation;
 pub mod results;
@@ -189,6 +192,10 @@ pub struct StudyView {
     /// The navigation trial under way, or the last one run.
     #[serde(default)]
     pub navigation: Option<NavView>,
+    /// The timing of that trial's block ([`Timing::for_block`]: the block's keys, else the protocol's,
+    /// else the station's).
+    #[serde(default)]
+    pub timing: Option<Timing>,
 }
 
 /// What the runner needs of the station: the session clock, the markers, the vest.
@@ -210,34 +217,64 @@ pub trait StudyIo {
     fn end_navigation(&mut self);
 }
 
-/// Timing between trials: the station's (the CLI's options), each replaced by the protocol's key when it
-/// has one ([`Timing::with_protocol`]).
+/// A trial's timing. The station holds the defaults (the station's settings, `vestnav study run`'s
+/// options); [`Timing::for_block`] turns them into the timing a block's trials run under, each value set by
+/// the block's key, else the protocol's, else the default (block > protocol > station).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Timing {
-    /// Inter-trial interval [s].
+    /// Inter-trial interval: the pause after a trial, before the next [s].
     pub iti_s: f64,
     /// How long feedback is shown at least [s].
     pub feedback_s: f64,
     /// A trial with no response after this long from stimulus onset is recorded as no response
     /// (`None`: wait for the operator).
     pub response_timeout_s: Option<f64>,
+    /// A navigation trial not ended by arrival or the operator ends after this long [s].
+    #[serde(default = "default_time_limit_s")]
+    pub time_limit_s: f64,
+}
+
+fn default_time_limit_s() -> f64 {
+    DEFAULT_TIME_LIMIT_S
 }
 
 impl Timing {
-    /// This timing with the protocol's keys in place of the values they set (the protocol wins).
+    /// This timing with `keys` in place of the values they set (the keys win).
     #[must_use]
-    pub fn with_protocol(self, keys: &vestnav_core::study::TimingKeys) -> Self {
+    pub fn with_keys(self, keys: &vestnav_core::study::TimingKeys) -> Self {
         Self {
             iti_s: keys.iti_ms.map_or(self.iti_s, |ms| f64::from(ms) / 1000.0),
             feedback_s: keys.feedback_ms.map_or(self.feedback_s, |ms| f64::from(ms) / 1000.0),
             response_timeout_s: keys.response_timeout_s.or(self.response_timeout_s),
+            time_limit_s: keys.time_limit_s.unwrap_or(self.time_limit_s),
         }
+    }
+
+    /// The timing the trials of `protocol`'s block `block` (0-based) run under, these defaults serving
+    /// the keys neither the block nor the protocol sets. The one place a trial's timing is decided: the
+    /// runner, the views and `vestnav study run` all take it from here.
+    #[must_use]
+    pub fn for_block(self, protocol: &Protocol, block: usize) -> Self {
+        self.with_keys(&protocol.block_timing(block))
+    }
+
+    /// In words for a view: `ITI 1000 ms · feedback 1000 ms · no-response after 3 s` (`waits for the
+    /// response` without a timeout; the time limit for a navigation block instead of the last two).
+    pub fn describe(&self, task: Task) -> String {
+        let iti = format!("ITI {:.0} ms", self.iti_s * 1000.0);
+        if task == Task::Navigation {
+            return format!("{iti} · time limit {} s", self.time_limit_s);
+        }
+        let wait = self
+            .response_timeout_s
+            .map_or_else(|| "waits for the response".to_owned(), |t| format!("no-response after {t} s"));
+        format!("{iti} · feedback {:.0} ms · {wait}", self.feedback_s * 1000.0)
     }
 }
 
 impl Default for Timing {
     fn default() -> Self {
-        Self { iti_s: 1.0, feedback_s: 1.0, response_timeout_s: None }
+        Self { iti_s: 1.0, feedback_s: 1.0, response_timeout_s: None, time_limit_s: DEFAULT_TIME_LIMIT_S }
     }
 }
 
@@ -259,6 +296,10 @@ pub struct StudyRunner {
     session: String,
     plan: Vec<PlannedTrial>,
     choices: Vec<String>,
+    /// The station's timing, serving the keys neither a block nor the protocol sets.
+    defaults: Timing,
+    /// The timing of the trial presented last ([`Timing::for_block`] of its block): its response timeout,
+    /// its feedback, the interval after it, its time limit.
     timing: Timing,
     /// The planned trial under way or next.
     at: usize,
@@ -326,20 +367,21 @@ impl StudyRunner {
         })
         .map_err(|e| e.to_string())?;
         navigation::check_conditions(&p)?;
-        let timing = timing.with_protocol(&p.timing);
         let plan = vestnav_core::study::plan(&p, participant).map_err(|e| e.to_string())?;
         if plan.is_empty() {
             return Err(format!("{}: the protocol plans no trial", protocol.display()));
         }
         let results = ResultsFile::create(out_dir, &p.name, participant, session)?;
         let choices = p.choices();
+        let first = timing.for_block(&p, plan[0].block);
         Ok(Self {
             protocol: p,
             participant: participant.to_owned(),
             session: session.to_owned(),
             plan,
             choices,
-            timing,
+            defaults: timing,
+            timing: first,
             at: 0,
             phase: StudyPhase::Ready,
             until_s: None,
@@ -376,6 +418,11 @@ impl StudyRunner {
         self.plan.get(self.at)
     }
 
+    /// The timing planned trial `t`'s block runs under (block > protocol > station, [`Timing::for_block`]).
+    pub fn timing_of(&self, t: &PlannedTrial) -> Timing {
+        self.defaults.for_block(&self.protocol, t.block)
+    }
+
     /// The session clock instant the runner next needs a turn at, if it waits for time (a view that sleeps
     /// between events wakes by then).
     pub fn next_deadline_s(&self) -> Option<f64> {
@@ -409,6 +456,7 @@ impl StudyRunner {
             error: self.error.clone(),
             rows: self.rows.len(),
             navigation: self.nav.as_ref().map(navigation::NavRun::view),
+            timing: t.map(|t| self.timing_of(t)),
         }
     }
 
@@ -684,6 +732,7 @@ impl StudyRunner {
             return;
         };
         let note = self.again.take().unwrap_or_default();
+        self.timing = self.timing_of(&t);
         let now = io.now_s();
         io.marker(&format!("trial_start {} {}", t.index + 1, t.block_name), now);
         self.nav = None;
@@ -755,6 +804,16 @@ impl StudyRunner {
         r.notes = notes;
         if let Some(n) = &self.nav {
             n.fill(&mut r);
+        }
+        // The timing this trial ran under.
+        let timing = self.timing_of(t);
+        let ms = |s: f64| (s * 1000.0).round() as u32;
+        r.iti_ms = Some(ms(timing.iti_s));
+        r.feedback_ms = t.feedback.then(|| ms(timing.feedback_s));
+        if self.protocol.task == Task::Navigation {
+            r.time_limit_s = Some(timing.time_limit_s);
+        } else {
+            r.response_timeout_s = timing.response_timeout_s;
         }
         r
     }

@@ -6,7 +6,7 @@
 //! hands the runner the positions the receiver gave since the start, the cues guidance played and whether
 //! guidance reached the route's last waypoint ([`NavTick`]), measured by core's
 //! [`NavMeter`](vestnav_core::study::navigation::NavMeter) → the trial ends at that arrival (`completed`),
-//! by the operator's End trial or the protocol's `time_limit_s` (`ended`), by STOP ALL (`stopped`) or a
+//! by the operator's End trial or its `time_limit_s` (the block's, else the protocol's; `ended`), by STOP ALL (`stopped`) or a
 //! pause or abort (`aborted`) → guidance's automatic cues off ([`StudyIo::end_navigation`]), the row
 //! written with the navigation columns → the inter-trial interval.
 
@@ -17,7 +17,8 @@ use vestnav_core::study::{Outcome, PlannedTrial, Protocol, Stimulus, TrialRecord
 
 use super::{StudyIo, StudyPhase, StudyRunner};
 
-/// A navigation trial that runs for at most this long unless the protocol sets `time_limit_s` [s].
+/// A navigation trial runs for at most this long unless its block or the protocol sets `time_limit_s` [s]
+/// (the station's default, [`super::Timing::time_limit_s`]).
 pub const DEFAULT_TIME_LIMIT_S: f64 = 3600.0;
 
 /// The route a navigation trial walks, as the station loaded it.
@@ -168,7 +169,7 @@ impl StudyRunner {
         if let Some(r) = &mut self.running {
             r.on_s = Some(now);
         }
-        let limit_s = self.protocol.timing.time_limit_s.unwrap_or(DEFAULT_TIME_LIMIT_S);
+        let limit_s = self.timing.time_limit_s;
         self.nav = Some(NavRun {
             meter: meter.with_waypoints(route.waypoints),
             route: route.name,

@@ -89,7 +89,8 @@ fn runner(name: &str, feedback: bool, timing: Timing) -> (StudyRunner, PathBuf) 
     (r, d)
 }
 
-const TIMING: Timing = Timing { iti_s: 0.5, feedback_s: 0.4, response_timeout_s: None };
+const TIMING: Timing =
+    Timing { iti_s: 0.5, feedback_s: 0.4, response_timeout_s: None, time_limit_s: DEFAULT_TIME_LIMIT_S };
 
 #[test]
 fn one_trial_speaks_the_marker_vocabulary_and_writes_its_row_at_once() {
@@ -256,6 +257,11 @@ fn no_response_in_time_and_feedback_replays_the_correct_stimulus() {
 
 /// One route (due north along the meridian 0° from the equator, 0.001° of latitude) under two conditions.
 fn nav_runner(name: &str) -> (StudyRunner, PathBuf, Script) {
+    nav_runner_with(name, "[[block]]\nname = \"b\"\nrepetitions = 1\n")
+}
+
+/// [`nav_runner`] with these `[[block]]` tables.
+fn nav_runner_with(name: &str, blocks: &str) -> (StudyRunner, PathBuf, Script) {
     use vestnav_core::geo::LatLon;
     let d = dir(name);
     std::fs::write(d.join("r.gpx"), "a file; the script loads no route").unwrap();
@@ -270,7 +276,7 @@ fn nav_runner(name: &str) -> (StudyRunner, PathBuf, Script) {
         &p,
         format!(
             "name = \"nav\"\ntask = \"navigation\"\norder = \"blocked\"\niti_ms = 500\n[navigation]\n\
-             routes = [\"r.gpx\"]\ntime_limit_s = 60.0\n{}{}[[block]]\nname = \"b\"\nrepetitions = 1\n",
+             routes = [\"r.gpx\"]\ntime_limit_s = 60.0\n{}{}{blocks}",
             cond("a"),
             cond("b")
         ),
@@ -378,5 +384,135 @@ fn stop_all_ends_a_walk_as_stopped_and_the_time_limit_as_ended() {
     assert_eq!(r.phase(), StudyPhase::Paused);
     assert_eq!(r.rows()[0].outcome, Outcome::Refused);
     assert!(r.view().error.unwrap().contains("navigation not started"));
+    let _ = std::fs::remove_dir_all(d);
+}
+
+/// Moves the clock in 10 ms steps (whole milliseconds, no drift) up to `until_s`, the runner's turn at each.
+fn step_to(io: &mut Script, r: &mut StudyRunner, until_s: f64) {
+    let mut ms = (io.now * 1000.0).round() as i64;
+    while (ms as f64) / 1000.0 < until_s - 1e-9 {
+        ms += 10;
+        io.now = ms as f64 / 1000.0;
+        r.turn(io);
+    }
+}
+
+/// `dt_s` is `expected_s` on a clock turned every 10 ms: not before it, at most one step after.
+fn assert_took(dt_s: f64, expected_s: f64, what: &str) {
+    assert!(dt_s >= expected_s - 1e-9 && dt_s < expected_s + 0.0101, "{what}: {dt_s} s, not {expected_s} s");
+}
+
+/// When each marker whose text starts with `prefix` was stamped, in order.
+fn times(io: &Script, prefix: &str) -> Vec<f64> {
+    io.markers.iter().filter(|(m, _)| m.starts_with(prefix)).map(|(_, t)| *t).collect()
+}
+
+/// Issue 25's follow-up: each block's timing keys rule its own trials. The protocol states the intended
+/// timing; the clock says what the runner did. Block "fast": no-response after 1 s, 200 ms between
+/// trials. Block "slow": no timeout (the station sets none), feedback 1.5 s, the protocol's ITI (700 ms).
+#[test]
+fn each_block_runs_under_its_own_timing_keys() {
+    let d = dir("blocktiming");
+    let p = d.join("p.toml");
+    std::fs::write(
+        &p,
+        "name = \"blocks\"\ntask = \"localization\"\norder = \"blocked\"\niti_ms = 700\n\
+         [localization]\nstimuli = [\"T5\"]\non_ms = 300\n\
+         [[block]]\nname = \"fast\"\nrepetitions = 2\nresponse_timeout_s = 1.0\niti_ms = 200\n\
+         [[block]]\nname = \"slow\"\nrepetitions = 2\nfeedback = true\nfeedback_ms = 1500\n",
+    )
+    .unwrap();
+    let mut r = StudyRunner::load(&p, "P1", "S1", &d, &Limits::default(), TIMING).unwrap();
+    let mut io = Script::default();
+    // What a view shows of the first block, before anything runs.
+    let v = r.view().timing.unwrap();
+    assert_eq!((v.response_timeout_s, v.iti_s, v.feedback_s), (Some(1.0), 0.2, 0.4));
+    assert_eq!(v.describe(Task::Localization), "ITI 200 ms · feedback 400 ms · no-response after 1 s");
+    r.command(StudyCommand::Start, &mut io).unwrap();
+    // Block "fast": nobody answers. Each trial ends as no-response 1 s after its onset, the next starts
+    // 200 ms later.
+    step_to(&mut io, &mut r, 0.99);
+    assert_eq!((r.phase(), r.rows().len()), (StudyPhase::AwaitingResponse, 0));
+    step_to(&mut io, &mut r, 3.0);
+    let (on, end) = (times(&io, "stimulus_on"), times(&io, "trial_end"));
+    assert_eq!(r.rows()[..2].iter().map(|row| row.outcome).collect::<Vec<_>>(), [Outcome::NoResponse; 2]);
+    for i in 0..2 {
+        assert_took(end[i] - on[i], 1.0, &format!("trial {i}: no-response"));
+    }
+    assert_took(on[1] - end[0], 0.2, "ITI in block fast");
+    // After the fast block's last trial its own 200 ms, then block "slow", which waits for the response.
+    assert_took(on[2] - end[1], 0.2, "ITI after block fast's last trial");
+    assert_eq!(r.current().unwrap().block_name, "slow");
+    assert_eq!(r.view().timing.unwrap().response_timeout_s, None);
+    step_to(&mut io, &mut r, on[2] + 60.0);
+    assert_eq!((r.phase(), r.rows().len()), (StudyPhase::AwaitingResponse, 2), "block slow waits");
+    r.command(StudyCommand::Respond { answer: "T5".into() }, &mut io).unwrap();
+    let answered = io.now;
+    // Correct: feedback for the block's 1.5 s (not the station's 0.4 s), then the protocol's 700 ms ITI.
+    step_to(&mut io, &mut r, answered + 1.49);
+    assert_eq!(r.phase(), StudyPhase::Feedback);
+    step_to(&mut io, &mut r, answered + 1.51);
+    assert_eq!(r.phase(), StudyPhase::Interval);
+    step_to(&mut io, &mut r, answered + 3.0);
+    assert_took(times(&io, "stimulus_on")[3] - answered, 2.2, "feedback 1.5 s + ITI 0.7 s");
+    assert_eq!(r.phase(), StudyPhase::AwaitingResponse);
+    // The rows say which timing each trial ran under.
+    let rows = vestnav_core::study::record::read_csv_file(&r.view().results_csv).unwrap();
+    assert_eq!(rows[0].response_timeout_s, Some(1.0));
+    assert_eq!((rows[0].iti_ms, rows[0].feedback_ms), (Some(200), None));
+    assert_eq!(
+        (rows[2].response_timeout_s, rows[2].iti_ms, rows[2].feedback_ms),
+        (None, Some(700), Some(1500))
+    );
+    let _ = std::fs::remove_dir_all(d);
+}
+
+/// The station's defaults serve what neither level sets; a protocol's key wins over the default, a block's
+/// over both.
+#[test]
+fn block_keys_win_over_the_protocols_which_win_over_the_stations() {
+    let d = dir("whowins");
+    let p = d.join("p.toml");
+    std::fs::write(
+        &p,
+        "name = \"w\"\ntask = \"localization\"\nresponse_timeout_s = 5.0\n[localization]\nstimuli = [\"T1\"]\n\
+         [[block]]\nname = \"a\"\nrepetitions = 1\nresponse_timeout_s = 2.0\n[[block]]\nname = \"b\"\nrepetitions = 1\n",
+    )
+    .unwrap();
+    let station = Timing { response_timeout_s: Some(9.0), ..TIMING };
+    let r = StudyRunner::load(&p, "P1", "S1", &d, &Limits::default(), station).unwrap();
+    let by_block: Vec<Timing> = r.plan().iter().map(|t| r.timing_of(t)).collect();
+    assert_eq!(by_block.iter().map(|t| t.response_timeout_s).collect::<Vec<_>>(), [Some(2.0), Some(5.0)]);
+    // Neither level sets the ITI or the feedback: the station's.
+    assert!(by_block.iter().all(|t| (t.iti_s, t.feedback_s) == (TIMING.iti_s, TIMING.feedback_s)));
+    let _ = std::fs::remove_dir_all(d);
+}
+
+#[test]
+fn a_navigation_blocks_time_limit_ends_its_walks_and_the_next_block_takes_the_protocols() {
+    let blocks = "[[block]]\nname = \"practice\"\nrepetitions = 1\ntime_limit_s = 20.0\n\
+                  [[block]]\nname = \"test\"\nrepetitions = 1\n";
+    let (mut r, d, mut io) = nav_runner_with("navblocks", blocks);
+    r.command(StudyCommand::Start, &mut io).unwrap();
+    approx::assert_relative_eq!(r.view().navigation.unwrap().time_limit_s, 20.0);
+    step_to(&mut io, &mut r, 19.99);
+    assert_eq!(r.phase(), StudyPhase::Navigating);
+    // Both practice walks (two conditions) end at the block's 20 s; 0.5 s apart (the protocol's iti_ms).
+    step_to(&mut io, &mut r, 41.5);
+    let ends = times(&io, "trial_end");
+    let starts = times(&io, "navigation_start");
+    assert_eq!(ends.len(), 2);
+    for i in 0..2 {
+        assert_took(ends[i] - starts[i], 20.0, &format!("walk {i}"));
+        assert_eq!(r.rows()[i].outcome, Outcome::Ended);
+    }
+    // The test block: the protocol's 60 s.
+    assert_eq!(r.current().unwrap().block_name, "test");
+    approx::assert_relative_eq!(r.view().navigation.unwrap().time_limit_s, 60.0);
+    step_to(&mut io, &mut r, starts[2] + 59.9);
+    assert_eq!((r.phase(), r.rows().len()), (StudyPhase::Navigating, 2));
+    step_to(&mut io, &mut r, starts[2] + 60.1);
+    assert_eq!(r.rows()[2].outcome, Outcome::Ended);
+    assert_eq!((r.rows()[0].time_limit_s, r.rows()[2].time_limit_s), (Some(20.0), Some(60.0)));
     let _ = std::fs::remove_dir_all(d);
 }
