@@ -89,6 +89,11 @@ fn a_loaded_protocol_runs_a_trial_and_takes_the_answer_clicked_on_the_grid() {
     assert!(h.query_by_label_contains("READY").is_some());
     start(&mut h);
     assert_eq!(view(h.state()).unwrap().phase, StudyPhase::AwaitingResponse);
+    // The protocol sets no timing: the station's defaults (docs/study.md: 1000 ms, 1000 ms, no timeout).
+    assert!(
+        h.query_by_label("Timing: ITI 1000 ms · feedback 1000 ms · waits for the response").is_some(),
+        "the trial's timing is shown"
+    );
     // Blocked order: the protocol's first stimulus, T5 (index 5), reached the unit.
     let presented = presented_tactor(&fake).expect("the unit was sent a stimulus");
     assert_eq!(presented, 5, "{:?}", fake.sent());

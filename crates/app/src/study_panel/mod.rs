@@ -474,6 +474,10 @@ impl StudyPanel {
             .size(20.0)
             .strong(),
         );
+        // The timing this trial runs under (its block's keys, else the protocol's, else the station's).
+        if let Some(t) = &v.timing {
+            ui.label(RichText::new(format!("Timing: {}", t.describe(v.task))).weak());
+        }
         let (words, alarm) = phase_words(v.phase);
         let color = if alarm { ui.visuals().error_fg_color } else { ui.visuals().strong_text_color() };
         ui.label(RichText::new(words).size(20.0).strong().color(color));
