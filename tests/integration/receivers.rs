@@ -240,6 +240,13 @@ fn console_compare_receivers_table_shows_what_fieldtest_compare_prints() {
     for text in [&mean, &spread, &matched] {
         assert!(h.query_by_label(text).is_some(), "the table shows {text}");
     }
+    // The sheet `vestnav fieldtest compare --png` draws, drawn on a thread of its own, arrives in the tab.
+    let until = Instant::now() + Duration::from_secs(10);
+    while h.query_by_label_contains("Fixes about the first fix").is_none() {
+        assert!(Instant::now() < until, "the receivers sheet never arrived");
+        h.step();
+        std::thread::sleep(Duration::from_millis(20));
+    }
     // Each source's state once: the primary's in the GPS panel, the second receiver's in its row.
     // Each source's state once where it belongs: the primary's in the GPS panel (and the top bar's line),
     // the second receiver's in its row only: no notice repeats it.

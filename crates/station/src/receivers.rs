@@ -100,16 +100,17 @@ impl Samples {
     }
 }
 
-/// A receiver's fixes handed to the comparison thread ([`Samples::shared`]).
-#[derive(Debug)]
-struct SharedSamples {
+/// A receiver's fixes handed to another thread ([`Samples::shared`]; [`Receivers::tracks`]): the full chunks
+/// shared, the tail copied.
+#[derive(Debug, Clone)]
+pub struct SharedSamples {
     full: Vec<Arc<[Sample]>>,
     tail: Vec<Sample>,
 }
 
 impl SharedSamples {
-    /// The fixes in one vector (on the comparison thread, or when asked for).
-    fn to_vec(&self) -> Vec<Sample> {
+    /// The fixes in one vector (on the thread that asked for them).
+    pub fn to_vec(&self) -> Vec<Sample> {
         let mut all = Vec::with_capacity(self.full.len() * CHUNK + self.tail.len());
         for c in &self.full {
             all.extend_from_slice(c);
@@ -165,6 +166,8 @@ pub struct Receivers {
     comparison: Option<Result<Comparison, String>>,
     /// The same without its per-epoch series, for snapshots (made once per result).
     summary: Option<Result<Comparison, String>>,
+    /// Raised when `comparison` changes ([`Self::comparison_revision`]).
+    revision: u64,
     /// The reference and Earth model the comparison was computed with (a change recomputes it).
     computed_with: Option<(Option<vestnav_core::accuracy::Reference>, vestnav_core::geo::Earth)>,
     changed: bool,
@@ -241,6 +244,12 @@ impl Receivers {
         self.comparison.as_ref()
     }
 
+    /// Raised by each comparison taken (or its failure, or its clearing): a view redraws what depends on
+    /// [`Self::comparison`] when this changes, without comparing or copying the comparison every frame.
+    pub fn comparison_revision(&self) -> u64 {
+        self.revision
+    }
+
     /// Every receiver's fixes, the primary first, named as in the comparison (copied: for a report, on
     /// demand; the comparison thread's jobs share them).
     pub fn receivers(&self, primary_name: &str) -> Vec<CompareReceiver> {
@@ -248,6 +257,12 @@ impl Receivers {
             .into_iter()
             .map(|(name, samples)| CompareReceiver { name, samples: samples.to_vec() })
             .collect()
+    }
+
+    /// Every receiver's name and fixes, the primary first, sharing the full chunks: cheap to take on the
+    /// view's turn and hand to a thread that draws them (the console's sheet).
+    pub fn tracks(&self, primary_name: &str) -> Vec<(String, SharedSamples)> {
+        self.shared(primary_name)
     }
 
     /// Every receiver's name and fixes, the primary first, sharing the full chunks.
@@ -279,6 +294,7 @@ impl Receivers {
         if self.active {
             self.summary = Some(result.as_ref().map(Comparison::without_series).map_err(Clone::clone));
             self.comparison = Some(result);
+            self.revision += 1;
         }
     }
 
@@ -286,12 +302,14 @@ impl Receivers {
     fn failed(&mut self, why: String) {
         self.summary = Some(Err(why.clone()));
         self.comparison = Some(Err(why));
+        self.revision += 1;
     }
 
     /// Forgets the comparison (and its summary).
     fn clear(&mut self) {
         self.comparison = None;
         self.summary = None;
+        self.revision += 1;
     }
 
     /// The primary's recording tap, for the primary source's outputs.

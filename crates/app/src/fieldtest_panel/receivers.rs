@@ -7,7 +7,8 @@
 //! reference set, its accuracy against it — and the sheet `vestnav fieldtest compare --png` draws
 //! (`CompareReport::figure`, the same code for the same fixes).
 
-use std::time::Instant;
+use std::sync::mpsc::{Receiver, TryRecvError};
+use std::time::{Duration, Instant};
 
 use vestnav_core::accuracy::Comparison;
 use vestnav_report::Figure;
@@ -29,8 +30,12 @@ pub struct ReceiversView {
     pub spec: String,
     /// Why the last source was refused.
     pub error: Option<String>,
-    /// The sheet and the comparison it was drawn from.
-    figure: Option<(Comparison, Figure)>,
+    /// The sheet and the comparison revision it was drawn from
+    /// ([`Receivers::comparison_revision`](vestnav_station::receivers::Receivers::comparison_revision)).
+    figure: Option<(u64, Figure)>,
+    /// The sheet being drawn on a thread of its own, for that revision (at the cap five receivers of a day's
+    /// fixes: 432,000 points to convert, never on a frame).
+    drawing: Option<(u64, Receiver<Figure>)>,
 }
 
 impl ReceiversView {
@@ -68,7 +73,7 @@ impl ReceiversView {
             self.figure = None;
             return;
         }
-        let Some(Ok(cmp)) = station.receivers().comparison().cloned() else {
+        let Some(Ok(cmp)) = station.receivers().comparison() else {
             if let Some(Err(e)) = station.receivers().comparison() {
                 ui.weak(format!("No comparison yet: {e}"));
             }
@@ -77,14 +82,61 @@ impl ReceiversView {
         for w in &cmp.warnings {
             ui.colored_label(ui.visuals().warn_fg_color, format!("Warning: {w}"));
         }
-        if self.figure.as_ref().is_none_or(|(c, _)| *c != cmp) {
-            let figure = report(station, &cmp).figure();
-            self.figure = Some((cmp, figure));
-        }
+        self.turn_drawing(station, ui.ctx());
         if let Some((_, figure)) = &self.figure {
             egui::ScrollArea::vertical()
                 .id_salt("receivers-sheet")
                 .show(ui, |ui| figure_grid(ui, "receivers-sheet", figure, 260.0));
+        }
+    }
+}
+
+impl ReceiversView {
+    /// Takes a sheet drawn, and starts drawing the station's newest comparison when the sheet shown is of
+    /// an older one and no drawing is under way: the comparison is cloned once per revision and the fixes
+    /// are handed over shared ([`Receivers::tracks`](vestnav_station::receivers::Receivers::tracks)).
+    fn turn_drawing(&mut self, station: &Station, ctx: &egui::Context) {
+        if let Some((rev, rx)) = &self.drawing {
+            match rx.try_recv() {
+                Ok(figure) => {
+                    self.figure = Some((*rev, figure));
+                    self.drawing = None;
+                }
+                Err(TryRecvError::Empty) => ctx.request_repaint_after(Duration::from_millis(100)),
+                Err(TryRecvError::Disconnected) => self.drawing = None,
+            }
+        }
+        let rev = station.receivers().comparison_revision();
+        if self.drawing.is_some() || self.figure.as_ref().is_some_and(|(r, _)| *r == rev) {
+            return;
+        }
+        let Some(Ok(cmp)) = station.receivers().comparison() else { return };
+        let primary = primary_name(station.gps_source());
+        let tracks = station.receivers().tracks(&primary);
+        let (cmp, earth, reference) =
+            (cmp.clone(), station.field_tests.earth, station.field_tests.reference().cloned());
+        let (tx, rx) = std::sync::mpsc::sync_channel(1);
+        let ctx = ctx.clone();
+        let spawned = std::thread::Builder::new().name("receivers-sheet".into()).spawn(move || {
+            let report = CompareReport {
+                test: "compare".into(),
+                sources: tracks.iter().map(|_| Source::live()).collect(),
+                earth,
+                reference_point: reference,
+                comparison: cmp,
+                tracks: tracks.iter().map(|(_, t)| t.to_vec()).collect(),
+            };
+            let _ = tx.send(report.figure());
+            ctx.request_repaint();
+        });
+        match spawned {
+            Ok(_) => self.drawing = Some((rev, rx)),
+            // No thread: the sheet is drawn here, once per comparison, as before.
+            Err(_) => {
+                if let Some(Ok(c)) = station.receivers().comparison() {
+                    self.figure = Some((rev, report(station, c).figure()));
+                }
+            }
         }
     }
 }
