@@ -100,7 +100,7 @@ impl Samples {
     }
 }
 
-/// A receiver's fixes handed to another thread ([`Samples::shared`]; [`Receivers::tracks`]): the full chunks
+/// A receiver's fixes handed to another thread ([`Receivers::tracks`], and the comparison's jobs): the full chunks
 /// shared, the tail copied.
 #[derive(Debug, Clone)]
 pub struct SharedSamples {
