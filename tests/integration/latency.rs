@@ -17,7 +17,11 @@
 //! (turn left, turn right, ...). The next epoch is written only after the previous pattern and the
 //! engine's minimum gap between cues have passed, so the rate limiter never holds a cue back. No timing
 //! assertions (speed goals live in benches): the test prints p50/p99/max and asserts that at least 90 % of
-//! the epochs produced the expected PLAY frame and that every frame decodes and is accepted by the unit.
+//! the epochs produced the expected PLAY frame (within the stage's 1 s) and that every frame decodes and is
+//! accepted by the unit. A PLAY of another cue while an epoch's is awaited (on a loaded 2-core machine a
+//! cue now and then reaches the unit about 750 ms late, so the previous epoch's arrives after this one's fix
+//! was written) is counted and printed, not taken for this epoch's: one late cue no longer fails the next
+//! epochs in a cascade. The late cue itself stays in the figures (p99).
 
 // Pseudo-terminals are Unix-only.
 #![cfg(unix)]
@@ -297,11 +301,18 @@ fn nmea_fix_to_vest_play_latency_p50_p99() {
         // Warm-up epochs are closed by the decoder's 400 ms quiet gap: allow for it.
         let timeout = if measured { STAGE_TIMEOUT } else { STAGE_TIMEOUT + Duration::from_millis(400) };
         let waited = Instant::now() + timeout;
+        let expected = course_and_cue(k).1.pattern(ON_MS);
         let play = loop {
             // The test thread is the station's view here: drain as a view would.
             console.pump(|_| {});
             if let Ok(p) = play_rx.recv_timeout(Duration::from_millis(5)) {
-                break Some(p);
+                if p.frames == expected.frames && p.repeats == expected.repeats {
+                    break Some(p);
+                }
+                // Another cue than this fix's (the previous epoch's, played late): counted, not taken for
+                // this epoch's, which is still awaited within the stage's bound.
+                wrong_play += u32::from(measured);
+                continue;
             }
             if Instant::now() > waited {
                 break None;
@@ -319,11 +330,6 @@ fn nmea_fix_to_vest_play_latency_p50_p99() {
         if !measured {
             continue;
         }
-        let expected = course_and_cue(k).1.pattern(ON_MS);
-        if play.frames != expected.frames || play.repeats != expected.repeats {
-            wrong_play += 1;
-            continue;
-        }
         total.push(play.at.saturating_duration_since(t_write));
     }
 
@@ -336,7 +342,7 @@ fn nmea_fix_to_vest_play_latency_p50_p99() {
 
     eprintln!(
         "NMEA fix -> the console's guidance -> vest PLAY over two PTYs, {} of {EPOCHS} epochs measured \
-         (no PLAY {no_play}, wrong PLAY {wrong_play}, stale {stale}; {} s in all)",
+         (no PLAY of the epoch's cue {no_play}, other cues while waiting {wrong_play}, stale {stale}; {} s in all)",
         total.len(),
         test_start.elapsed().as_secs_f64().round()
     );
