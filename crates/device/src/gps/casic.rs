@@ -278,14 +278,13 @@ fn sat_info(id: u8, p: &[u8]) -> Result<(usize, Vec<Satellite>), UbxUnused> {
                 _ => return None,
             };
             let (elev, azim, cno) = (i1(b, 5)?, i2(b, 6)?, u1(b, 4)?);
-            Some(Satellite {
-                prn,
-                constellation,
-                elevation_deg: (-90..=90).contains(&elev).then_some(f64::from(elev)),
-                azimuth_deg: (0..=360).contains(&azim).then_some(f64::from(azim)),
-                snr_dbhz: (cno > 0).then_some(f64::from(cno)),
-                used: u1(b, 2)? & 0x01 != 0,
-            })
+            Some(Satellite::from_binary(
+                (constellation, prn),
+                i16::from(elev),
+                azim,
+                cno,
+                u1(b, 2)? & 0x01 != 0,
+            ))
         })
         .collect();
     Ok((system, list))

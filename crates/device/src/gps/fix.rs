@@ -164,6 +164,22 @@ pub struct Satellite {
     pub used: bool,
 }
 
+impl Satellite {
+    /// One satellite of a binary receiver message (UBX, CASIC, `SkyTraq`): elevation and azimuth in whole
+    /// degrees, C/N0 in dB-Hz. An elevation outside -90..=90 or an azimuth outside 0..=360 is "not known"
+    /// (u-blox sends -91), and a C/N0 of 0 means not tracked.
+    pub(crate) fn from_binary(id: (Constellation, u16), elev: i16, azim: i16, cno: u8, used: bool) -> Self {
+        Self {
+            prn: id.1,
+            constellation: id.0,
+            elevation_deg: (-90..=90).contains(&elev).then_some(f64::from(elev)),
+            azimuth_deg: (0..=360).contains(&azim).then_some(f64::from(azim)),
+            snr_dbhz: (cno > 0).then_some(f64::from(cno)),
+            used,
+        }
+    }
+}
+
 /// Where the error estimate of a fix comes from.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum ErrorSource {

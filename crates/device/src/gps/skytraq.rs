@@ -262,14 +262,7 @@ fn sv_status(p: &[u8]) -> Option<(u8, Vec<Satellite>)> {
                 _ => return None,
             };
             let (cno, elev, azim) = (u1(b, 4)?, i2(b, 5)?, i2(b, 7)?);
-            Some(Satellite {
-                prn: id,
-                constellation,
-                elevation_deg: (-90..=90).contains(&elev).then_some(f64::from(elev)),
-                azimuth_deg: (0..=360).contains(&azim).then_some(f64::from(azim)),
-                snr_dbhz: (cno > 0).then_some(f64::from(cno)),
-                used: u1(b, 9)? & 0x30 != 0,
-            })
+            Some(Satellite::from_binary((constellation, id), elev, azim, cno, u1(b, 9)? & 0x30 != 0))
         })
         .collect();
     Some((iod, sats))

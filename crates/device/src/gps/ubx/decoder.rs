@@ -497,15 +497,7 @@ fn apply_timeutc(e: &mut Epoch, p: &[u8]) -> Option<()> {
 
 /// One satellite: elevation (deg, I1), azimuth (deg, I2), C/N0 (dBHz, U1; 0 = not tracked).
 fn satellite(id: (Constellation, u16), elev: i8, azim: i16, cno: u8, used: bool) -> Satellite {
-    Satellite {
-        prn: id.1,
-        constellation: id.0,
-        // u-blox sends -91 (SVINFO) or out-of-range values for an unknown position.
-        elevation_deg: (-90..=90).contains(&elev).then_some(f64::from(elev)),
-        azimuth_deg: (0..=360).contains(&azim).then_some(f64::from(azim)),
-        snr_dbhz: (cno > 0).then_some(f64::from(cno)),
-        used,
-    }
+    Satellite::from_binary(id, i16::from(elev), azim, cno, used)
 }
 
 /// NAV-SAT (0x01 0x35): `numSvs` at 5, then 12 bytes per satellite from 8: gnssId 0, svId 1, cno 2,
