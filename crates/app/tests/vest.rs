@@ -39,8 +39,26 @@ fn stop_all_button_and_key() {
     settle(&mut h, |_| fake.sent().len() == 1);
     h.key_press(egui::Key::Space);
     settle(&mut h, |_| fake.sent().len() == 2);
+    // The clicked button keeps the keyboard focus; Space must not press it as well.
+    h.run_steps(3);
+    std::thread::sleep(Duration::from_millis(50));
+    h.run_steps(2);
     assert_eq!(fake.sent(), vec![Request::StopAll, Request::StopAll]);
     assert!(!h.state().cfg.guidance_auto);
+}
+
+#[test]
+fn space_stops_the_vest_without_pressing_the_focused_button() {
+    let fake = Fake::default();
+    let mut h = harness(&fake);
+    h.get_by_label("Multi-select").focus();
+    h.run_steps(2);
+    let multi = h.state().vest_ui.select_mode;
+    h.key_press(egui::Key::Space);
+    settle(&mut h, |_| !fake.sent().is_empty());
+    h.run_steps(3);
+    assert_eq!(fake.sent(), vec![Request::StopAll]);
+    assert_eq!(h.state().vest_ui.select_mode, multi, "the focused checkbox was not toggled");
 }
 
 #[test]

@@ -332,10 +332,14 @@ impl Console {
 
     fn handle_keys(&mut self, ui: &egui::Ui) {
         let typing = ui.ctx().text_edit_focused();
-        // STOP ALL has its own key; Esc is left to close menus and pop-ups, as everywhere else.
-        let space = ui.input(|i| i.key_pressed(egui::Key::Space));
-        if space && !typing {
-            self.stop_all();
+        // STOP ALL has its own key; Esc is left to close menus and pop-ups, as everywhere else. The key is
+        // taken before any widget is drawn, so Space never also presses the focused button (STOP ALL once
+        // more, or whatever else holds the focus after a click).
+        if !typing {
+            let space = ui.input_mut(|i| i.consume_key(i.modifiers, egui::Key::Space));
+            if space {
+                self.stop_all();
+            }
         }
         let m = ui.input(|i| i.key_pressed(egui::Key::M));
         if m && !typing && self.tab != Tab::FieldTests {
