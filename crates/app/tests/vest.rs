@@ -420,3 +420,18 @@ fn intensity_is_sent_before_the_play() {
         ]
     );
 }
+
+#[test]
+fn space_on_a_focused_tactor_button_stops_and_does_not_fire_it() {
+    let fake = Fake::default();
+    let mut h = harness(&fake);
+    h.get_by_label("T5").focus();
+    h.run_steps(2);
+    h.key_press(egui::Key::Space);
+    settle(&mut h, |_| !fake.sent().is_empty());
+    h.run_steps(3);
+    std::thread::sleep(Duration::from_millis(50));
+    h.run_steps(2);
+    assert_eq!(fake.sent(), vec![Request::StopAll]);
+    assert_eq!(on(h.state()), TactorMask::NONE);
+}
