@@ -214,13 +214,18 @@ impl Guidance {
             .or_else(|| input.hdop.filter(|h| h.is_finite() && *h >= 0.0).map(|h| h * self.config.uere_m))
     }
 
-    /// Whether the rate limiter lets `cue` play at `now_s`: the previous pattern has ended and `gap_s` passed;
-    /// for the same cue again, its repeat interval has passed since that cue's pattern **ended** (so a long
-    /// pattern plus the wearer's reaction and turn are over before it is repeated).
+    /// Whether the rate limiter lets `cue` play at `now_s`: see [`Guidance::allowed_from_s`].
     fn allowed(&self, cue: Cue, now_s: f64) -> bool {
-        if now_s < self.busy_until_s + self.config.gap_s {
-            return false;
-        }
+        now_s >= self.allowed_from_s(cue)
+    }
+
+    /// From when the rate limiter lets `cue` play [s, on [`Guidance::update`]'s clock]: once the previous
+    /// pattern has ended and `gap_s` passed; for the same cue again, once its repeat interval has also passed
+    /// since that cue's pattern **ended** (so a long pattern plus the wearer's reaction and turn are over
+    /// before it is repeated). A caller holding a wanted cue wakes at this instant instead of at its next
+    /// periodic update.
+    pub fn allowed_from_s(&self, cue: Cue) -> f64 {
+        let free_s = self.busy_until_s + self.config.gap_s;
         // Turn-in-place cues of one side count as the same cue whatever their size: a smaller turn to the
         // same side while the wearer is still turning would add to the first one.
         let family = |c: Cue| match c {
@@ -235,9 +240,9 @@ impl Guidance {
                     Cue::Attention => self.config.attention_repeat_s,
                     _ => self.config.repeat_s,
                 };
-                now_s - end_s >= interval
+                free_s.max(end_s + interval)
             }
-            _ => true,
+            _ => free_s,
         }
     }
 

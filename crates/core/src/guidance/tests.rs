@@ -144,10 +144,18 @@ fn rate_limit_one_cue_at_a_time_and_repeat_intervals() {
     let d = g.update(&mv(p, 90.0, 0.0), 0.0);
     assert_eq!(d.cue, Some(Cue::TurnLeft));
     // Turn pattern = 4 x 250 ms = 1 s, + 0.5 s gap; the same cue needs 3 s after the pattern ended.
+    assert_relative_eq!(g.allowed_from_s(Cue::TurnRight), 1.5);
+    assert_relative_eq!(g.allowed_from_s(Cue::TurnLeft), 4.0);
+    assert_relative_eq!(
+        g.allowed_from_s(Cue::RotateLeft(crate::vest::TurnStep::Deg60)),
+        4.0,
+        epsilon = 1e-12
+    );
     assert_eq!(g.update(&mv(p, 90.0, 1.0), 1.0).cue, None);
     assert_eq!(g.update(&mv(p, 90.0, 3.9), 3.9).cue, None);
     assert_eq!(g.update(&mv(p, 90.0, 4.0), 4.0).cue, Some(Cue::TurnLeft));
     // A different cue only waits for the pattern end (5.0) + gap.
+    assert_relative_eq!(g.allowed_from_s(Cue::Forward), 5.5);
     assert_eq!(g.update(&mv(p, 0.0, 5.4), 5.4).cue, None);
     let d = g.update(&mv(p, 0.0, 5.5), 5.5);
     assert_eq!(d.cue, Some(Cue::Forward));
