@@ -70,7 +70,7 @@ fn two_local_stations_are_driven_alone_and_stopped_together() {
     let t0 = Instant::now();
     h.get_by_label("T5").click();
     h.run_steps(2);
-    wait_for("the FIRE at alpha's vest", Duration::from_secs(2), || {
+    wait_for("the FIRE at alpha's vest", Duration::from_secs(5), || {
         !a.received_after(CommandKind::Fire, t0).is_empty()
     });
     run_until_shown(&mut h, "applied", "alpha's answer shown in the window");
@@ -81,7 +81,7 @@ fn two_local_stations_are_driven_alone_and_stopped_together() {
     let t1 = Instant::now();
     h.get_all_by_label("Stop").nth(1).unwrap().click();
     h.run_steps(1);
-    wait_for("STOP ALL at bravo's vest", Duration::from_secs(1), || {
+    wait_for("STOP ALL at bravo's vest", Duration::from_secs(5), || {
         !b.received_after(CommandKind::StopAll, t1).is_empty()
     });
     std::thread::sleep(Duration::from_millis(200));
@@ -93,7 +93,7 @@ fn two_local_stations_are_driven_alone_and_stopped_together() {
     // The console's STOP ALL is its stop path: both vests, straight from this thread, timed at the units.
     let t2 = Instant::now();
     stop.stop_all();
-    wait_for("STOP ALL at both vests", Duration::from_secs(1), || {
+    wait_for("STOP ALL at both vests", Duration::from_secs(5), || {
         !a.received_after(CommandKind::StopAll, t2).is_empty()
             && !b.received_after(CommandKind::StopAll, t2).is_empty()
     });
@@ -106,7 +106,7 @@ fn two_local_stations_are_driven_alone_and_stopped_together() {
     let t3 = Instant::now();
     h.get_all_by_label("Remove").next().unwrap().click();
     h.run_steps(2);
-    wait_for("alpha's vest stopped at removal", Duration::from_secs(2), || {
+    wait_for("alpha's vest stopped at removal", Duration::from_secs(5), || {
         !a.received_after(CommandKind::StopAll, t3).is_empty()
     });
     assert_eq!(stop.len(), 1, "alpha left the stop path");
@@ -115,7 +115,7 @@ fn two_local_stations_are_driven_alone_and_stopped_together() {
     // Closing the window (dropping it) ends bravo the same way.
     let t4 = Instant::now();
     drop(h);
-    wait_for("bravo's vest stopped at the end", Duration::from_secs(2), || {
+    wait_for("bravo's vest stopped at the end", Duration::from_secs(5), || {
         !b.received_after(CommandKind::StopAll, t4).is_empty()
     });
     assert!(stop.is_empty(), "no vest left on the path");
