@@ -1,5 +1,5 @@
 //! GPS time: the GPS epoch and week, GPS − UTC now and in the past (the leap seconds), and UTC of a GPS week
-//! and time of week, for the binary decoders whose messages carry GPS time (`SiRF`, `SkyTraq`).
+//! and time of week, for the binary decoders whose messages carry GPS time (`SiRF`, `SkyTraq`, UBX).
 
 use chrono::{DateTime, Utc};
 
@@ -62,4 +62,48 @@ pub(crate) fn utc_from_gps(week: u32, tow_ms: i64, leap_s: i64) -> Option<DateTi
     }
     let s = GPS_EPOCH_UNIX_S + i64::from(week) * WEEK_S + tow_ms.div_euclid(1000) - leap_s;
     DateTime::from_timestamp(s, (tow_ms.rem_euclid(1000) * 1_000_000) as u32)
+}
+
+/// UTC of a GPS week and a time of week in nanoseconds that may run a little past either end of the week
+/// (UBX's iTOW + fTOW), rounded to the millisecond, `leap_s` = GPS − UTC; `None` before the GPS epoch.
+pub(crate) fn utc_from_gps_ns(week: i64, tow_ns: i64, leap_s: i64) -> Option<DateTime<Utc>> {
+    let ms = tow_ns.checked_add(500_000)?.div_euclid(1_000_000);
+    let week = week.checked_add(ms.div_euclid(WEEK_MS))?;
+    utc_from_gps(u32::try_from(week).ok()?, ms.rem_euclid(WEEK_MS), leap_s)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn utc(s: &str) -> DateTime<Utc> {
+        DateTime::parse_from_rfc3339(s).unwrap().with_timezone(&Utc)
+    }
+
+    /// GPS week 2000 began 2018-05-06 00:00:00 GPS time (IS-GPS-200 week count from 1980-01-06, 2000 weeks
+    /// = 14,000 days), which was 2018-05-05 23:59:42 UTC with GPS − UTC = 18 s.
+    #[test]
+    fn a_week_and_time_of_week_give_utc() {
+        assert_eq!(utc_from_gps(2000, 0, 18), Some(utc("2018-05-05T23:59:42Z")));
+        assert_eq!(utc_from_gps(2000, 1_500, 18), Some(utc("2018-05-05T23:59:43.5Z")));
+        assert_eq!(utc_from_gps(2000, WEEK_MS, 18), None, "the time of week ends before the week's length");
+        assert_eq!(utc_from_gps_by_history(2000, 0), Some(utc("2018-05-05T23:59:42Z")));
+        // 1990-01-01 00:00:06 GPS, just past the leap second of that midnight (GPS − UTC 5 -> 6 s).
+        let week = (631_152_000 - GPS_EPOCH_UNIX_S) / WEEK_S;
+        let tow_ms = (631_152_000 - GPS_EPOCH_UNIX_S - week * WEEK_S + 6) * 1000;
+        assert_eq!(utc_from_gps_by_history(week as u32, tow_ms), Some(utc("1990-01-01T00:00:00Z")));
+        assert_eq!(utc_from_gps_by_history(week as u32, tow_ms - 1000), Some(utc("1990-01-01T00:00:00Z")));
+    }
+
+    /// UBX's iTOW + fTOW in nanoseconds runs a little past either end of the week: it rounds to the
+    /// millisecond and carries into the neighbouring week.
+    #[test]
+    fn nanoseconds_round_and_carry_across_the_week() {
+        assert_eq!(utc_from_gps_ns(2000, -400, 18), Some(utc("2018-05-05T23:59:42Z")));
+        assert_eq!(utc_from_gps_ns(2000, -600_000, 18), Some(utc("2018-05-05T23:59:41.999Z")));
+        assert_eq!(utc_from_gps_ns(1999, WEEK_MS * 1_000_000 - 100, 18), Some(utc("2018-05-05T23:59:42Z")));
+        assert_eq!(utc_from_gps_ns(-1, 0, 18), None);
+        assert_eq!(utc_from_gps_ns(0, -1_000_000, 0), None, "before the GPS epoch");
+        assert_eq!(utc_from_gps_ns(0, i64::MAX, 0), None, "no overflow");
+    }
 }

@@ -24,6 +24,7 @@ use std::time::Instant;
 use chrono::{DateTime, NaiveDate, TimeDelta, Utc};
 
 use crate::gps::fix::{Constellation, ErrorEstimate, ErrorSource, Fix, FixMode, FixQuality, Satellite};
+use crate::gps::gps_time::utc_from_gps_ns;
 use crate::gps::le::{i1, i2, i4, u1, u2, u4};
 use crate::gps::sirf::{enu_from_ecef_velocity, wgs84_from_ecef};
 
@@ -38,11 +39,6 @@ pub(crate) enum UbxUnused {
 
 const NAV: u8 = 0x01;
 const HNR: u8 = 0x28;
-
-/// The GPS epoch, 1980-01-06 00:00:00 (GPS time).
-fn gps_epoch() -> Option<DateTime<Utc>> {
-    NaiveDate::from_ymd_opt(1980, 1, 6).and_then(|d| d.and_hms_opt(0, 0, 0)).map(|t| t.and_utc())
-}
 
 /// UTC from the calendar fields of NAV-PVT, NAV-TIMEUTC and HNR-PVT plus their signed nanosecond
 /// correction, rounded to the millisecond (gpsd prints milliseconds; the correction is a few µs).
@@ -256,7 +252,7 @@ impl UbxDecoder {
     fn build(&self, e: &Epoch, now: Instant) -> Fix {
         let from_sol = || {
             let (week, tow_ns) = e.sol_gps?;
-            utc_from_gps(week, tow_ns, self.leap_s?)
+            utc_from_gps_ns(week.into(), tow_ns, self.leap_s?.into())
         };
         let time = e.time.or(e.gps_time).or_else(from_sol);
         let mode = e.fix_type.map_or(FixMode::NoFix, mode_of);
@@ -465,20 +461,9 @@ fn apply_timegps(e: &mut Epoch, p: &[u8]) -> Option<()> {
         e.leap_s = Some(leap);
     }
     if valid & 0x07 == 0x07 {
-        e.gps_time = utc_from_gps(week, i64::from(itow) * 1_000_000 + i64::from(ftow), leap);
+        e.gps_time = utc_from_gps_ns(week.into(), i64::from(itow) * 1_000_000 + i64::from(ftow), leap.into());
     }
     Some(())
-}
-
-/// UTC of a GPS week and time of week [ns] with the receiver's leap seconds, rounded to the millisecond.
-fn utc_from_gps(week: i16, tow_ns: i64, leap_s: i8) -> Option<DateTime<Utc>> {
-    if week < 0 {
-        return None;
-    }
-    let ms = (tow_ns + 500_000).div_euclid(1_000_000);
-    gps_epoch()?.checked_add_signed(
-        TimeDelta::weeks(i64::from(week)) + TimeDelta::milliseconds(ms) - TimeDelta::seconds(leap_s.into()),
-    )
 }
 
 /// NAV-TIMEUTC (0x01 0x21, 20 bytes): UTC when validUTC (bit 2) is set.
