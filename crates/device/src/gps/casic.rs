@@ -205,16 +205,8 @@ impl CasicDecoder {
                 source: ErrorSource::Casic,
             });
         }
-        let lists: Vec<&Satellite> = self.sky.iter().flatten().flatten().collect();
         if self.sky.iter().any(Option::is_some) {
-            fix.sats_visible = u32::try_from(lists.len()).ok();
-            for s in &lists {
-                *fix.sats_visible_by.entry(s.constellation).or_default() += 1;
-                if s.used {
-                    *fix.sats_used_by.entry(s.constellation).or_default() += 1;
-                }
-            }
-            fix.satellites = lists.into_iter().copied().collect();
+            fix.set_sky(self.sky.iter().flatten().flatten().copied().collect());
         }
         fix
     }

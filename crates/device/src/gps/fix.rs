@@ -278,6 +278,22 @@ pub struct Fix {
 }
 
 impl Fix {
+    /// Takes a binary receiver's (or gpsd's) satellite list as the fix's sky: the list, how many are in
+    /// view, and per constellation how many are in view and used. The total used (`sats_used`) is left to
+    /// the caller, as receivers state it apart from the list.
+    pub fn set_sky(&mut self, satellites: Vec<Satellite>) {
+        self.sats_visible = u32::try_from(satellites.len()).ok();
+        self.sats_visible_by.clear();
+        self.sats_used_by.clear();
+        for s in &satellites {
+            *self.sats_visible_by.entry(s.constellation).or_default() += 1;
+            if s.used {
+                *self.sats_used_by.entry(s.constellation).or_default() += 1;
+            }
+        }
+        self.satellites = satellites;
+    }
+
     /// True when the fix carries a position (mode 2D/3D and lat/lon present).
     pub fn has_position(&self) -> bool {
         matches!(self.mode, Some(FixMode::Fix2D | FixMode::Fix3D))
@@ -485,6 +501,31 @@ impl Fix {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_sky_list_is_counted_per_constellation_and_replaces_the_last() {
+        let sat = |prn, constellation, used| Satellite {
+            prn,
+            constellation,
+            elevation_deg: None,
+            azimuth_deg: None,
+            snr_dbhz: Some(40.0),
+            used,
+        };
+        let mut f = Fix::default();
+        f.set_sky(vec![sat(1, Constellation::Beidou, true)]);
+        f.set_sky(vec![
+            sat(3, Constellation::Gps, true),
+            sat(7, Constellation::Gps, false),
+            sat(70, Constellation::Glonass, true),
+        ]);
+        assert_eq!(f.sats_visible, Some(3));
+        assert_eq!(f.sats_used, None, "the receiver's own total is the caller's");
+        let by = |m: &BTreeMap<Constellation, u32>| m.iter().map(|(c, n)| (*c, *n)).collect::<Vec<_>>();
+        assert_eq!(by(&f.sats_visible_by), [(Constellation::Gps, 2), (Constellation::Glonass, 1)]);
+        assert_eq!(by(&f.sats_used_by), [(Constellation::Gps, 1), (Constellation::Glonass, 1)]);
+        assert_eq!(f.satellites.len(), 3);
+    }
 
     fn good() -> Fix {
         Fix {

@@ -251,9 +251,8 @@ impl GpsdClient {
         // Saturated rather than wrapped, so that an absurd count is seen (and refused) by `Fix::validate`.
         let count = |n: u64| u32::try_from(n).unwrap_or(u32::MAX);
         f.sats_used = v["uSat"].as_u64().map(count).or(f.sats_used);
-        f.sats_visible = v["nSat"].as_u64().map(count).or(f.sats_visible);
         if let Some(list) = v["satellites"].as_array() {
-            f.satellites = list
+            let satellites = list
                 .iter()
                 .filter_map(|s| {
                     let prn = u16::try_from(s["PRN"].as_u64()?).ok()?;
@@ -278,15 +277,10 @@ impl GpsdClient {
                     })
                 })
                 .collect();
-            f.sats_used_by.clear();
-            f.sats_visible_by.clear();
-            for s in &f.satellites {
-                *f.sats_visible_by.entry(s.constellation).or_insert(0) += 1;
-                if s.used {
-                    *f.sats_used_by.entry(s.constellation).or_insert(0) += 1;
-                }
-            }
+            f.set_sky(satellites);
         }
+        // gpsd's own count of satellites in view wins over the list's length.
+        f.sats_visible = v["nSat"].as_u64().map(count).or(f.sats_visible);
     }
 
     fn tpv(&mut self, v: &serde_json::Value, now: Instant) -> Option<Fix> {

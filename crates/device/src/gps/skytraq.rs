@@ -149,15 +149,8 @@ impl SkyTraqDecoder {
         if let Some((iod, sats)) = self.sky.take()
             && Some(iod) == u1(p, 1)
         {
-            fix.sats_visible = u32::try_from(sats.len()).ok();
             fix.sats_used = u32::try_from(sats.iter().filter(|s| s.used).count()).ok();
-            for s in &sats {
-                *fix.sats_visible_by.entry(s.constellation).or_default() += 1;
-                if s.used {
-                    *fix.sats_used_by.entry(s.constellation).or_default() += 1;
-                }
-            }
-            fix.satellites = sats;
+            fix.set_sky(sats);
         }
         if mode != FixMode::NoFix {
             let ecef = [r8(p, 13)?, r8(p, 21)?, r8(p, 29)?];

@@ -319,14 +319,7 @@ impl UbxDecoder {
         fix.hdop = e.hdop;
         fix.vdop = e.vdop;
         if let Some(sky) = &self.sky {
-            fix.sats_visible = u32::try_from(sky.len()).ok();
-            for s in sky {
-                *fix.sats_visible_by.entry(s.constellation).or_default() += 1;
-                if s.used {
-                    *fix.sats_used_by.entry(s.constellation).or_default() += 1;
-                }
-            }
-            fix.satellites.clone_from(sky);
+            fix.set_sky(sky.clone());
         }
         fix
     }
