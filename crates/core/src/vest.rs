@@ -159,6 +159,14 @@ pub struct Pattern {
 }
 
 impl Pattern {
+    /// What a wearer feels of the pattern, durations aside: each change of the tactors that are on (off
+    /// included) over every repeat, without the off before the first or after the last. Frames of no
+    /// duration are not felt.
+    pub fn felt_masks(&self) -> Vec<TactorMask> {
+        let played = (0..self.repeats.max(1)).flat_map(|_| self.frames.iter());
+        felt(played.filter(|f| f.duration_ms > 0).map(|f| f.mask))
+    }
+
     /// Total time the pattern takes [ms], all repeats included: `max(repeats, 1) * sum(duration_ms)`, saturating
     /// at `u32::MAX` (a pattern read from a file may hold any number of frames).
     pub fn total_ms(&self) -> u32 {
@@ -356,6 +364,21 @@ impl Cue {
         Self::RotateRight(TurnStep::Deg135),
     ];
 
+    /// The cue a wearer who knows the vocabulary recognises in a sequence of tactor states (each change of
+    /// the tactors on, as [`Pattern::felt_masks`] gives it; offs before and after are ignored): the cue of
+    /// [`Cue::ALL`] or [`Cue::TURN_IN_PLACE`] whose pattern feels the same, at any on-time. `None` for
+    /// anything else (a tactor fired by hand, a pattern cut short by STOP ALL, a user's pattern).
+    pub fn recognise(masks: &[TactorMask]) -> Option<Self> {
+        let seq = felt(masks.iter().copied());
+        if seq.is_empty() {
+            return None;
+        }
+        Self::ALL
+            .into_iter()
+            .chain(Self::TURN_IN_PLACE)
+            .find(|c| c.pattern(DEFAULT_ON_MS).felt_masks() == seq)
+    }
+
     /// The turn-in-place cue toward a bearing error `error_deg` (positive = aim to the right), graded by
     /// [`TurnStep::for_error_deg`].
     pub fn rotate_toward(error_deg: f64) -> Self {
@@ -428,6 +451,20 @@ impl Cue {
 /// Frames of a turn-in-place cue: the lower half of a column (rows 2 and 3, two tactors) sweeps toward the
 /// turn side over [`TurnStep::columns`] columns, ending at the outer column of that side, `on_ms / 2` per
 /// column; for [`TurnStep::Deg135`] a pause of `on_ms / 2` follows and the whole is played twice.
+/// A sequence of tactor states as felt: consecutive equal states merged, offs at either end dropped.
+fn felt(masks: impl Iterator<Item = TactorMask>) -> Vec<TactorMask> {
+    let mut out: Vec<TactorMask> = Vec::new();
+    for m in masks {
+        if out.last() != Some(&m) && !(out.is_empty() && m == TactorMask::NONE) {
+            out.push(m);
+        }
+    }
+    while out.last() == Some(&TactorMask::NONE) {
+        out.pop();
+    }
+    out
+}
+
 fn rotate_frames(step: TurnStep, right: bool, on_ms: u16) -> (Vec<Frame>, u8) {
     let lower = TactorMask::row(2) | TactorMask::row(3);
     let n = step.columns();
@@ -445,6 +482,31 @@ fn rotate_frames(step: TurnStep, right: bool, on_ms: u16) -> (Vec<Frame>, u8) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn every_cue_feels_different_and_is_recognised_at_any_on_time() {
+        let cues: Vec<Cue> = Cue::ALL.into_iter().chain(Cue::TURN_IN_PLACE).collect();
+        for (i, a) in cues.iter().enumerate() {
+            for b in &cues[i + 1..] {
+                assert_ne!(a.pattern(500).felt_masks(), b.pattern(500).felt_masks(), "{a:?} and {b:?}");
+            }
+            for on_ms in [20, 500, 2000] {
+                assert_eq!(Cue::recognise(&a.pattern(on_ms).felt_masks()), Some(*a), "{a:?} at {on_ms} ms");
+            }
+        }
+        // Offs around a pattern and a frame repeated are felt as one state.
+        let col = TactorMask::column;
+        assert_eq!(
+            Cue::recognise(&[TactorMask::NONE, col(3), col(3), col(2), col(1), col(0), TactorMask::NONE]),
+            Some(Cue::TurnLeft)
+        );
+        // Part of a pattern, or one column lit by hand, is no cue... except where it is one: column 0 alone
+        // is "slight left".
+        assert_eq!(Cue::recognise(&[col(3), col(2)]), None);
+        assert_eq!(Cue::recognise(&[TactorMask::from_indices([5])]), None);
+        assert_eq!(Cue::recognise(&[]), None);
+        assert_eq!(Cue::recognise(&[col(0)]), Some(Cue::SlightLeft));
+    }
 
     #[test]
     fn grid_neighbours_are_the_four_adjacent_cells() {

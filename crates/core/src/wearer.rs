@@ -59,8 +59,10 @@ use crate::guidance::{
 };
 use crate::vest::Cue;
 
+mod body;
 mod heading;
 
+pub use body::{Body, Skin};
 use heading::CompassSensor;
 pub use heading::{HeadingSim, SIM_DATE, SteelPlacement};
 
@@ -437,13 +439,7 @@ pub fn simulate_along(
     if hs.is_some() {
         heading = sensor_rng.random_range(0.0..360.0);
     }
-    let mut target_heading = heading;
-    let mut pos = line_en[0];
-    let mut walking = hs.is_none();
-    let mut stopped = false;
-    let mut last_directional_s = 0.0;
-    // (time to act, heading change, on the spot), in cue order.
-    let mut pending: Vec<(f64, f64, bool)> = Vec::new();
+    let mut body = Body::new(line_en[0], heading, hs.is_none());
     // (time, position, cog, speed); the position is mapped to WGS-84 once per fix, not once per step.
     let mut last_fix: Option<(f64, LatLon, f64, f64)> = None;
     let mut result = SimResult {
@@ -479,7 +475,8 @@ pub fn simulate_along(
             break;
         }
         // Sensor: a fix every `fix_every` steps.
-        let speed = if walking { pace } else { 0.0 };
+        let (pos, heading) = (body.pos_en_m, body.heading_deg);
+        let speed = body.speed_m_s(&w);
         if step.is_multiple_of(fix_every) {
             let fix_en = gnss.apply(fix_interval_s, pos, speed);
             let cog = match &hs {
@@ -535,60 +532,16 @@ pub fn simulate_along(
         if let (Some(cue), Some(pattern)) = (decision.cue, decision.pattern.as_ref()) {
             result.cues += 1;
             *result.cue_counts.entry(cue.name().to_owned()).or_default() += 1;
-            if rng.random::<f64>() < w.recognition {
-                let act_at = t + f64::from(pattern.total_ms()) / 1000.0 + w.reaction_s;
-                if cue == Cue::Stop {
-                    walking = false;
-                    stopped = true;
-                } else if let Some(turn) = w.turn_for(cue) {
-                    let noise = if turn == 0.0 { 0.0 } else { w.turn_noise_deg * normal(&mut rng) };
-                    pending.push((act_at, turn + noise, cue.is_turn_in_place()));
-                    last_directional_s = t;
-                }
-            }
+            body.feel(&w, cue, t + f64::from(pattern.total_ms()) / 1000.0, t, &mut rng);
         }
         if decision.state == NavState::Finished && guidance.route().is_finished() && !result.finished {
             result.finished = true;
             result.time_s = t;
             break;
         }
-        // Act on each recognised cue when its reaction time has come, in order.
-        while let Some(&(at, change, on_the_spot)) = pending.first()
-            && t >= at
-        {
-            target_heading = normalize_deg(heading + change);
-            if hs.is_some() && !stopped {
-                // A turn-in-place cue stops the wearer; Forward and the walking cues set them walking.
-                walking = !on_the_spot;
-            }
-            last_directional_s = t;
-            pending.remove(0);
-        }
-        if let Some(h) = &hs
-            && !walking
-            && !stopped
-            && pending.is_empty()
-            && t - last_directional_s >= h.idle_walk_s
-        {
-            walking = true;
-        }
-        // Walk: turn toward the target heading at the turn rate, veer, advance.
-        let diff = wrap_deg_180(target_heading - heading);
-        let rate = match &hs {
-            Some(h) if !walking => h.rotate_rate_deg_s,
-            _ => w.turn_rate_deg_s,
-        };
-        let max_turn = rate * dt;
-        heading = normalize_deg(heading + diff.clamp(-max_turn, max_turn));
-        let veer = w.veer_deg_per_sqrt_s * dt.sqrt() * normal(&mut rng);
-        heading = normalize_deg(heading + veer);
-        target_heading = normalize_deg(target_heading + veer);
-        if walking {
-            let h = heading.to_radians();
-            let stepv = DVec2::new(h.sin(), h.cos()) * pace * dt;
-            pos += stepv;
-            result.walked_m += stepv.length();
-        }
+        // Act on each recognised cue when its reaction time has come, turn, veer, walk.
+        result.walked_m += body.advance(&w, hs.as_ref(), t, dt, &mut rng);
+        let pos = body.pos_en_m;
         if left_start || (pos - line_en[0]).length() > config.route.arrival_radius_m {
             left_start = true;
             let xt = route_line.distance_m(pos);
