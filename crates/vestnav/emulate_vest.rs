@@ -109,6 +109,7 @@ impl VestArgs {
                 ideal: self.ideal_compass,
                 seed: 1,
             }),
+            skin: None,
         })
     }
 }

@@ -84,6 +84,7 @@ impl Unit {
                 ideal: true,
                 ..CompassSetup::default()
             }),
+            skin: None,
         };
         let emu = PtyEmulator::spawn(config).unwrap();
         Self {

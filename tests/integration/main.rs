@@ -30,6 +30,7 @@ mod remote_study;
 mod safety;
 mod sim_tactor;
 mod sim_wave;
+mod sim_wearer;
 mod study;
 #[cfg(unix)]
 mod study_nav;

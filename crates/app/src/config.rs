@@ -66,6 +66,8 @@ pub struct Config {
     pub stale_after_s: f64,
     /// Fix age after which the fix is called lost [s].
     pub lost_after_s: f64,
+    /// The GPS simulator's walker goes where the emulated vest's cues steer it, not along the route.
+    pub sim_follows_vest: bool,
     /// Patterns the operator saved.
     pub user_patterns: Vec<Pattern>,
     /// Directory of session logs; `None` = the platform data directory.
@@ -167,6 +169,7 @@ impl Default for Config {
             follow: true,
             stale_after_s: 3.0,
             lost_after_s: 10.0,
+            sim_follows_vest: false,
             user_patterns: Vec::new(),
             log_dir: None,
             heading_mode: vestnav_core::guidance::HeadingMode::Auto,

@@ -165,6 +165,7 @@ pub fn station_settings(cfg: &Config) -> StationSettings {
             turn_in_place: vestnav_station::guidance::default_turn_in_place(),
         },
         lost_after_s: cfg.lost_after_s,
+        sim_follows_vest: cfg.sim_follows_vest,
     }
 }
 

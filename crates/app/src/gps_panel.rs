@@ -664,7 +664,22 @@ fn satellite_table(ui: &mut egui::Ui, sats: &[Satellite], fresh: Freshness, open
     }
 }
 
-fn picker_ui(cfg: &Config, gps_ui: &mut GpsUi, ui: &mut egui::Ui, base: &std::path::Path) {
+/// The simulator's options: the route walked, or a wearer steered by the vest.
+fn simulator_ui(cfg: &mut Config, ui: &mut egui::Ui) {
+    let what = if cfg.sim_follows_vest {
+        "a wearer steered by the vest's cues, seen with a SiRF-like error model"
+    } else {
+        "walks the loaded route with a SiRF-like error model"
+    };
+    ui.label(RichText::new(what).small().weak());
+    ui.checkbox(&mut cfg.sim_follows_vest, "Walker follows the vest's cues").on_hover_text(
+        "With the emulated vest: the simulated wearer feels the tactors, recognises 92 % of the cues and \
+         turns 0.8 s after each (the wearer model of `vestnav nav simulate`), starting at the route's first \
+         waypoint, instead of walking the route. Taken when the GPS connects.",
+    );
+}
+
+fn picker_ui(cfg: &mut Config, gps_ui: &mut GpsUi, ui: &mut egui::Ui, base: &std::path::Path) {
     let p = &mut gps_ui.picker;
     let label = |k: SourceKind| match k {
         SourceKind::Simulator => "Simulator",
@@ -685,9 +700,7 @@ fn picker_ui(cfg: &Config, gps_ui: &mut GpsUi, ui: &mut egui::Ui, base: &std::pa
         }
     });
     match p.kind {
-        SourceKind::Simulator => {
-            ui.label(RichText::new("walks the loaded route with a SiRF-like error model").small().weak());
-        }
+        SourceKind::Simulator => simulator_ui(cfg, ui),
         SourceKind::Serial => {
             if !p.scanned {
                 p.ports = vestnav_device::serial::list_ports();

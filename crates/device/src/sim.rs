@@ -7,12 +7,14 @@
 //! GPS course agree as they would on a real walk. Nothing here is a protocol: the WTCU engine knows only
 //! the [`HeadingSensor`] trait, and the emulator puts the two together.
 
+use std::collections::VecDeque;
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::Instant;
 
 use chrono::Datelike as _;
 use vestnav_core::compass::{MagnetometerModel, MagnetometerSim, SensorPose, SteelObject};
 use vestnav_core::geo::LatLon;
+use vestnav_core::vest::TactorMask;
 
 use crate::wtcu::engine::HeadingSensor;
 
@@ -54,7 +56,15 @@ impl TurnInPlace {
 struct Shared {
     body: Option<BodyTruth>,
     turn: Option<TurnInPlace>,
+    /// The GPS simulator's walker is steered by the vest's cues instead of walking the route.
+    follow_vest: bool,
+    /// The emulated unit's tactor changes not yet taken by the walker (the newest [`TOUCHES_KEPT`]).
+    touches: VecDeque<(Instant, TactorMask)>,
 }
+
+/// Tactor changes kept for the walker between two of its epochs: a second of the busiest pattern is a
+/// few dozen; a unit changing faster than the walker reads loses the oldest.
+const TOUCHES_KEPT: usize = 256;
 
 /// A [`BodyTruth`] shared between threads: the GPS simulator writes it every epoch, the emulated unit's
 /// compass reads it. Empty until the simulator's first epoch. It also carries a request to turn on the
@@ -93,6 +103,37 @@ impl SharedTruth {
     /// The turn under way, if any.
     pub fn turn(&self) -> Option<TurnInPlace> {
         self.lock().turn
+    }
+
+    /// Whether the GPS simulator started from now on walks where the vest's cues steer it (core's wearer
+    /// model feeling the emulated unit's tactors) instead of along the route.
+    pub fn set_follow_vest(&self, on: bool) {
+        let mut g = self.lock();
+        g.follow_vest = on;
+        g.touches.clear();
+    }
+
+    /// See [`Self::set_follow_vest`].
+    pub fn follows_vest(&self) -> bool {
+        self.lock().follow_vest
+    }
+
+    /// The emulated unit switched the tactors in `mask` on (and every other off) at `at`: what the
+    /// simulated wearer feels. Kept only while the walker follows the vest.
+    pub fn touch(&self, mask: TactorMask, at: Instant) {
+        let mut g = self.lock();
+        if !g.follow_vest {
+            return;
+        }
+        if g.touches.len() >= TOUCHES_KEPT {
+            g.touches.pop_front();
+        }
+        g.touches.push_back((at, mask));
+    }
+
+    /// The tactor changes felt since the last call, oldest first.
+    pub fn take_touches(&self) -> Vec<(Instant, TactorMask)> {
+        self.lock().touches.drain(..).collect()
     }
 }
 

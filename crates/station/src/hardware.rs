@@ -33,6 +33,8 @@ pub const SIM_PACE_M_S: f64 = 1.4;
 /// The simulated GPS and the emulated vest it starts see one simulated wearer: the simulator publishes the
 /// walker's true position, course and pace ([`SharedTruth`]) and the emulated unit's compass measures that
 /// body (`WearerMotion::Follow`), so the compass and the GPS course agree as they would on a real walk.
+/// With [`crate::StationSettings::sim_follows_vest`] the unit also tells that wearer every tactor change
+/// (`UnitConfig::skin`), and the simulator's walker goes where the cues it feels steer it.
 ///
 /// A GPS receiver "through the vest unit" reaches its GPS source through one pipe the factory keeps: the
 /// vest worker writes the unit's forwarded bytes into it, the GPS source reads them.
@@ -84,6 +86,7 @@ impl DeviceFactory for Hardware {
                     motion: WearerMotion::Follow(self.truth.clone()),
                     ..CompassSetup::default()
                 }),
+                skin: Some(self.truth.clone()),
                 ..UnitConfig::default()
             }),
             VestSourceConfig::Serial { port } if port.trim().is_empty() => {

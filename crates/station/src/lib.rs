@@ -91,6 +91,10 @@ pub struct StationSettings {
     pub guidance: GuidanceSettings,
     /// Fix age after which the fix is lost [s].
     pub lost_after_s: f64,
+    /// The built-in GPS simulator's walker goes where the emulated vest's cues steer it (core's wearer
+    /// model feeling the unit's tactors) instead of along the route; taken when the simulator starts.
+    #[serde(default)]
+    pub sim_follows_vest: bool,
 }
 
 impl Default for StationSettings {
@@ -111,6 +115,7 @@ impl Default for StationSettings {
                 turn_in_place: guidance::default_turn_in_place(),
             },
             lost_after_s: 10.0,
+            sim_follows_vest: false,
         }
     }
 }
@@ -452,6 +457,9 @@ impl Station {
         self.pin.clear();
         // A new source: its first position must not be joined to the old source's last one.
         self.track.break_segment();
+        if let Some(wearer) = self.factory.simulated_wearer() {
+            wearer.set_follow_vest(self.settings.sim_follows_vest);
+        }
         match self.factory.open_gps(&self.gps_source, &self.route.walked(), outputs) {
             Ok(w) => self.gps_worker = Some(w),
             Err(e) => {

@@ -6,8 +6,16 @@
 
 use std::path::Path;
 
+use std::collections::VecDeque;
+
 use chrono::{DateTime, TimeDelta, Utc};
-use vestnav_core::gnss_sim::{GnssErrorModel, GnssErrorState, RouteWalker};
+use glam::DVec2;
+use rand::SeedableRng as _;
+use rand::rngs::StdRng;
+use vestnav_core::geo::{bearing_of_enu_deg, normalize_deg};
+use vestnav_core::gnss_sim::{GnssErrorModel, GnssErrorState, RouteWalker, WalkerSample};
+use vestnav_core::vest::{Cue, TactorMask};
+use vestnav_core::wearer::{Body, Skin, WearerModel};
 
 use super::GpsError;
 use super::nmea_out::{EpochOut, SimSatellite, epoch_sentences};
@@ -43,10 +51,98 @@ pub fn whole_second_now() -> DateTime<Utc> {
     DateTime::from_timestamp(Utc::now().timestamp(), 0).unwrap_or(DateTime::UNIX_EPOCH)
 }
 
+/// A walker steered by the vest instead of the route: core's wearer model ([`Body`], [`WearerModel`]'s
+/// defaults: 92 % of cues recognised, 0.8 s reaction, 70° turns with 10° of noise, veering) feeling the
+/// emulated unit's tactors through a [`Skin`]. It starts at the route's first point facing its first leg
+/// and stops when told "arrived" within [`CueWalker::END_RADIUS_M`] of the route's last point.
+#[derive(Debug)]
+struct CueWalker {
+    body: Body,
+    model: WearerModel,
+    rng: StdRng,
+    skin: Skin,
+    /// Tactor changes not yet felt: (receiver clock [s], tactors on).
+    touches: VecDeque<(f64, TactorMask)>,
+    /// The walker's clock [s] (the receiver's, in sub-steps).
+    t_s: f64,
+    walked_m: f64,
+    /// The route's last point in the route's frame [m].
+    end_m: DVec2,
+}
+
+impl CueWalker {
+    /// The wearer's sub-step [s] (as in `vestnav nav simulate`).
+    const STEP_S: f64 = 0.1;
+    /// "Arrived" within this of the route's end stops the wearer [m].
+    const END_RADIUS_M: f64 = 15.0;
+
+    fn new(walker: &RouteWalker, route: &[(f64, f64)], seed: u64) -> Self {
+        let frame = walker.frame();
+        let pts: Vec<DVec2> = route
+            .iter()
+            .map(|&(la, lo)| frame.enu_from_wgs84(vestnav_core::geo::LatLon::new(la, lo)))
+            .collect();
+        let first_leg =
+            pts.iter().skip(1).map(|p| *p - pts[0]).find(|d| d.length() > 0.0).unwrap_or(DVec2::Y);
+        Self {
+            body: Body::new(DVec2::ZERO, normalize_deg(bearing_of_enu_deg(first_leg)), true),
+            model: WearerModel::default(),
+            rng: StdRng::seed_from_u64(seed ^ 0x5EED_0FF0_110E),
+            skin: Skin::default(),
+            touches: VecDeque::new(),
+            t_s: 0.0,
+            walked_m: 0.0,
+            end_m: pts.last().copied().unwrap_or(DVec2::ZERO),
+        }
+    }
+
+    /// Walks on to `until_s` feeling the tactor changes up to each step; standing still (turning on the
+    /// spot for a calibration) it still feels, but does not move.
+    fn walk_to(&mut self, until_s: f64, standing: bool) {
+        while self.t_s + Self::STEP_S <= until_s + 1e-9 {
+            let t = self.t_s;
+            while let Some(&(at, mask)) = self.touches.front()
+                && at <= t
+            {
+                self.skin.touch(mask, at);
+                self.touches.pop_front();
+            }
+            if let Some((cue, end_s)) = self.skin.felt(t) {
+                if cue == Cue::Arrived && (self.body.pos_en_m - self.end_m).length() <= Self::END_RADIUS_M {
+                    self.body.walking = false;
+                    self.body.stopped = true;
+                } else {
+                    self.body.feel(&self.model, cue, end_s, t, &mut self.rng);
+                }
+            }
+            if !standing {
+                self.walked_m += self.body.advance(&self.model, None, t, Self::STEP_S, &mut self.rng);
+            }
+            self.t_s += Self::STEP_S;
+        }
+    }
+
+    fn sample(&self, walker: &RouteWalker) -> WalkerSample {
+        let en_m = self.body.pos_en_m;
+        let p = walker.frame().wgs84_from_enu(en_m);
+        WalkerSample {
+            lat_deg: p.lat_deg,
+            lon_deg: p.lon_deg,
+            en_m,
+            speed_m_s: self.body.speed_m_s(&self.model),
+            course_deg: self.body.heading_deg,
+            along_m: self.walked_m,
+            finished: false,
+        }
+    }
+}
+
 /// A simulated receiver walking a route: call [`Self::next_epoch`] once per second.
 #[derive(Debug)]
 pub struct SimulatedReceiver {
     walker: RouteWalker,
+    /// Steered by the vest instead ([`Self::steered_by_vest`]).
+    follower: Option<CueWalker>,
     error: GnssErrorState,
     start: DateTime<Utc>,
     t_s: f64,
@@ -67,12 +163,49 @@ impl SimulatedReceiver {
         let walker = RouteWalker::new(route, pace_m_s)
             .map_err(|e| GpsError::Route { path: "(route)".into(), reason: e.to_string() })?;
         let sigma_m = (model.noise_sigma_m.powi(2) + model.bias_sigma_m.powi(2)).sqrt();
-        Ok(Self { walker, error: GnssErrorState::new(model, seed), start, t_s: 0.0, stood_s: 0.0, sigma_m })
+        Ok(Self {
+            walker,
+            follower: None,
+            error: GnssErrorState::new(model, seed),
+            start,
+            t_s: 0.0,
+            stood_s: 0.0,
+            sigma_m,
+        })
+    }
+
+    /// The same receiver carried by a wearer whom the vest steers: from the route's first point, facing
+    /// its first leg, the walker goes where the cues it feels ([`Self::touch`]) turn it, as core's wearer
+    /// model does, and never finishes by itself.
+    #[must_use]
+    pub fn steered_by_vest(mut self, route: &[(f64, f64)], seed: u64) -> Self {
+        self.follower = Some(CueWalker::new(&self.walker, route, seed));
+        self
+    }
+
+    /// Whether the vest steers the walker.
+    pub fn is_steered_by_vest(&self) -> bool {
+        self.follower.is_some()
+    }
+
+    /// The vest switched the tactors in `mask` on (every other off) `t_s` seconds after the receiver's
+    /// start: felt by a walker the vest steers (ignored otherwise). Changes must come in time order.
+    pub fn touch(&mut self, mask: TactorMask, t_s: f64) {
+        if let Some(f) = &mut self.follower {
+            // Bounded like the shared queue it is fed from.
+            if f.touches.len() >= 4096 {
+                f.touches.pop_front();
+            }
+            f.touches.push_back((t_s.max(0.0), mask));
+        }
     }
 
     /// The walker's true state at the last epoch (position, course, speed): the simulation's truth.
-    pub fn truth(&self) -> vestnav_core::gnss_sim::WalkerSample {
-        self.walker.sample(self.t_s - self.stood_s)
+    pub fn truth(&self) -> WalkerSample {
+        match &self.follower {
+            Some(f) => f.sample(&self.walker),
+            None => self.walker.sample(self.t_s - self.stood_s),
+        }
     }
 
     /// Reconfigures static navigation (`SiRF`) / static hold (u-blox) while running: below `threshold_m_s`
@@ -108,6 +241,9 @@ impl SimulatedReceiver {
         self.t_s += dt_s;
         if standing {
             self.stood_s += dt_s;
+        }
+        if let Some(f) = &mut self.follower {
+            f.walk_to(self.t_s, standing);
         }
         let mut truth = self.truth();
         if standing {
@@ -147,6 +283,89 @@ mod tests {
     use super::*;
     use crate::gps::decode_reader;
     use vestnav_core::geo::{Earth, LatLon, LocalFrame};
+
+    /// The tactor changes of `cue`'s pattern played from `start_s` [s], ending off.
+    fn played(cue: Cue, start_s: f64) -> Vec<(f64, TactorMask)> {
+        let p = cue.pattern(vestnav_core::vest::DEFAULT_ON_MS);
+        let mut t = start_s;
+        let mut out = Vec::new();
+        for f in &p.frames {
+            out.push((t, f.mask));
+            t += f64::from(f.duration_ms) / 1000.0;
+        }
+        out.push((t, TactorMask::NONE));
+        out
+    }
+
+    #[test]
+    fn a_walker_steered_by_the_vest_turns_where_the_cues_say() {
+        // A 300 m leg due north; the walker starts at its first point facing north.
+        let start = LatLon::new(42.3562, -71.1);
+        let end = Earth::Wgs84.direct(start, 0.0, 300.0);
+        let route = [(start.lat_deg, start.lon_deg), (end.lat_deg, end.lon_deg)];
+        let model = GnssErrorModel::perfect();
+        let (mut turned, mut seeds) = (0, 0);
+        for seed in 1..=20 {
+            let mut rx = SimulatedReceiver::new(&route, 1.4, model, seed, whole_second_now())
+                .unwrap()
+                .steered_by_vest(&route, seed);
+            assert!(rx.is_steered_by_vest());
+            for _ in 0..3 {
+                rx.next_epoch(1.0);
+            }
+            let before = rx.truth();
+            // Walking north (veering a little), 3 s at 1.4 m/s, not along the route by construction.
+            assert!(before.course_deg < 20.0 || before.course_deg > 340.0, "{before:?}");
+            assert!((before.en_m.length() - 4.2).abs() < 0.2, "{before:?}");
+            // "Turn right" felt from 3.2 s (1 s pattern), then 5 s to react and turn.
+            for (t, m) in played(Cue::TurnRight, 3.2) {
+                rx.touch(m, t);
+            }
+            for _ in 0..5 {
+                rx.next_epoch(1.0);
+            }
+            let after = rx.truth();
+            seeds += 1;
+            // 70° right with N(0, 10°) of noise and some veer, when recognised (92 %).
+            if (40.0..=100.0).contains(&after.course_deg) {
+                turned += 1;
+            } else {
+                assert!(after.course_deg < 30.0 || after.course_deg > 330.0, "seed {seed}: {after:?}");
+            }
+            assert!(!rx.finished(), "a steered walker never finishes by itself");
+        }
+        // Binomial(20, 0.92): at least 15 turned with probability > 0.99 (the runs are seeded: fixed).
+        eprintln!("{turned} of {seeds} walkers turned right");
+        assert!(turned >= 15, "{turned} of {seeds} turned right");
+    }
+
+    #[test]
+    fn a_walker_told_arrived_at_the_end_stops_there() {
+        let start = LatLon::new(42.3562, -71.1);
+        let end = Earth::Wgs84.direct(start, 0.0, 10.0);
+        let route = [(start.lat_deg, start.lon_deg), (end.lat_deg, end.lon_deg)];
+        let mut rx = SimulatedReceiver::new(&route, 1.4, GnssErrorModel::perfect(), 3, whole_second_now())
+            .unwrap()
+            .steered_by_vest(&route, 3);
+        for _ in 0..7 {
+            rx.next_epoch(1.0);
+        }
+        // Arrived is recognised with the model's 92 %: played until it takes (seeded, so fixed).
+        let mut t = 7.2;
+        for _ in 0..5 {
+            for (at, m) in played(Cue::Arrived, t) {
+                rx.touch(m, at);
+            }
+            t += 3.0;
+            for _ in 0..3 {
+                rx.next_epoch(1.0);
+            }
+        }
+        let a = rx.truth();
+        assert_eq!(a.speed_m_s, 0.0, "{a:?}");
+        rx.next_epoch(1.0);
+        assert_eq!(rx.truth().en_m, a.en_m, "standing");
+    }
 
     #[test]
     fn bad_gpx_is_refused_by_the_one_reader() {

@@ -24,7 +24,7 @@ use super::codec::{FrameCodec, WireCodec};
 use super::engine::{Engine, EngineConfig, EngineEvent, EngineStats};
 use super::message::{Faults, Reply};
 use crate::serial::is_timeout;
-use crate::sim::{CompassSetup, SimulatedCompass};
+use crate::sim::{CompassSetup, SharedTruth, SimulatedCompass};
 
 /// An emulated unit: the engine's settings and, for protocol v2, the simulated magnetometer it carries.
 #[derive(Debug, Clone, PartialEq)]
@@ -33,12 +33,14 @@ pub struct UnitConfig {
     pub engine: EngineConfig,
     /// The unit's magnetometer, or none. Only a v2 unit (`engine.protocol_version >= 2`) has one.
     pub compass: Option<CompassSetup>,
+    /// The simulated wearer who feels the tactors (the in-process unit tells it every change), if any.
+    pub skin: Option<SharedTruth>,
 }
 
 impl Default for UnitConfig {
     /// A v2 unit with a typical uncalibrated magnetometer, the wearer standing facing north.
     fn default() -> Self {
-        Self { engine: EngineConfig::default(), compass: Some(CompassSetup::default()) }
+        Self { engine: EngineConfig::default(), compass: Some(CompassSetup::default()), skin: None }
     }
 }
 

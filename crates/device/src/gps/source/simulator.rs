@@ -21,8 +21,12 @@ pub(super) struct SimParams<'a> {
 }
 
 pub(super) fn run_sim(w: &Worker, p: &SimParams<'_>) {
+    // A walker the vest steers (the shared wearer's setting when the simulator starts) never finishes a lap.
+    let steered = p.truth.as_ref().is_some_and(SharedTruth::follows_vest);
     let new_lap = |lap: u64, start| {
-        SimulatedReceiver::new(p.route, p.pace_m_s, p.model, p.seed.wrapping_add(lap), start)
+        let seed = p.seed.wrapping_add(lap);
+        SimulatedReceiver::new(p.route, p.pace_m_s, p.model, seed, start)
+            .map(|r| if steered { r.steered_by_vest(p.route, seed) } else { r })
     };
     let mut rx = match new_lap(0, crate::gps::sim::whole_second_now()) {
         Ok(r) => r,
@@ -36,9 +40,26 @@ pub(super) fn run_sim(w: &Worker, p: &SimParams<'_>) {
     }
     let mut d = NmeaDecoder::new(DecoderConfig::live()).with_raw_lines();
     let start = Instant::now();
+    if steered {
+        if let Some(cell) = &p.truth {
+            // Nothing felt before this walk began counts.
+            let _ = cell.take_touches();
+        }
+        if !w.send(GpsEvent::Notice(
+            "simulator: the walker follows the emulated vest's cues, not the route".into(),
+        )) {
+            return;
+        }
+    }
     let mut k: u32 = 0;
     let mut lap: u64 = 0;
     loop {
+        // What the wearer felt of the vest since the last epoch, on the receiver's clock.
+        if let Some(cell) = p.truth.as_ref().filter(|_| steered) {
+            for (at, mask) in cell.take_touches() {
+                rx.touch(mask, at.saturating_duration_since(start).as_secs_f64());
+            }
+        }
         // A wearer asked to turn on the spot (a compass calibration) stands while turning.
         let turning = p.truth.as_ref().and_then(SharedTruth::turn);
         let text = if turning.is_some() {

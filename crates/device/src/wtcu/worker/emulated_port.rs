@@ -4,13 +4,15 @@ use std::io::{self, Read, Write};
 use std::time::{Duration, Instant};
 
 use crate::wtcu::emulator::UnitConfig;
-use crate::wtcu::engine::Engine;
+use crate::wtcu::engine::{Engine, EngineEvent};
 
 /// The emulated unit as an in-process transport: writes feed the [`Engine`] at the wall-clock time, reads
 /// return its replies, waiting at most the read timeout (the engine's timers run inside reads).
 #[derive(Debug)]
 pub struct EmulatedPort {
     engine: Engine,
+    /// The simulated wearer told of every tactor change ([`UnitConfig::skin`]).
+    skin: Option<crate::sim::SharedTruth>,
     pending: std::collections::VecDeque<u8>,
     read_timeout: Duration,
 }
@@ -18,7 +20,12 @@ pub struct EmulatedPort {
 impl EmulatedPort {
     /// A fresh unit built from `config`; reads wait at most `read_timeout`.
     pub fn new(config: &UnitConfig, read_timeout: Duration) -> Self {
-        Self { engine: config.build(), pending: std::collections::VecDeque::new(), read_timeout }
+        Self {
+            engine: config.build(),
+            skin: config.skin.clone(),
+            pending: std::collections::VecDeque::new(),
+            read_timeout,
+        }
     }
 
     /// The unit behind the port.
@@ -36,7 +43,11 @@ impl Read for EmulatedPort {
             while let Some(frame) = self.engine.poll_transmit() {
                 self.pending.extend(frame);
             }
-            while self.engine.poll_event().is_some() {}
+            while let Some(ev) = self.engine.poll_event() {
+                if let (EngineEvent::TactorsChanged(mask), Some(skin)) = (ev, &self.skin) {
+                    skin.touch(mask, now);
+                }
+            }
             if !self.pending.is_empty() {
                 let n = buf.len().min(self.pending.len());
                 for (dst, src) in buf.iter_mut().zip(self.pending.drain(..n)) {
