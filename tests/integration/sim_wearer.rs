@@ -29,8 +29,7 @@ fn wp(name: &str, p: LatLon) -> Waypoint {
 fn guidance_steers_the_simulated_wearer_round_a_corner_to_the_end() {
     let hardware = Hardware::default();
     let wearer = hardware.simulated_wearer().unwrap();
-    let mut settings = StationSettings::default();
-    settings.sim_follows_vest = true;
+    let mut settings = StationSettings { sim_follows_vest: true, ..StationSettings::default() };
     settings.guidance.auto = true;
     settings.guidance.loop_route = false;
     settings.guidance.arrival_radius_m = 6.0;
