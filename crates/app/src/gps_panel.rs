@@ -664,18 +664,13 @@ fn satellite_table(ui: &mut egui::Ui, sats: &[Satellite], fresh: Freshness, open
     }
 }
 
-/// The simulator's options: the route walked, or a wearer steered by the vest.
+/// The simulator's option: the route walked, or a wearer steered by the vest.
 fn simulator_ui(cfg: &mut Config, ui: &mut egui::Ui) {
-    let what = if cfg.sim_follows_vest {
-        "a wearer steered by the vest's cues, seen with a SiRF-like error model"
-    } else {
-        "walks the loaded route with a SiRF-like error model"
-    };
-    ui.label(RichText::new(what).small().weak());
-    ui.checkbox(&mut cfg.sim_follows_vest, "Walker follows the vest's cues").on_hover_text(
-        "With the emulated vest: the simulated wearer feels the tactors, recognises 92 % of the cues and \
-         turns 0.8 s after each (the wearer model of `vestnav nav simulate`), starting at the route's first \
-         waypoint, instead of walking the route. Taken when the GPS connects.",
+    ui.checkbox(&mut cfg.sim_follows_vest, "steered by the vest").on_hover_text(
+        "Off: the simulated receiver walks the loaded route at 1.4 m/s with a SiRF-like error model. \
+         On, with the emulated vest: the simulated wearer starts at the route's first waypoint, feels the \
+         tactors, recognises 92 % of the cues and turns 0.8 s after each (the wearer model of `vestnav nav \
+         simulate`), instead of walking the route. Taken when the GPS connects.",
     );
 }
 
@@ -688,19 +683,25 @@ fn picker_ui(cfg: &mut Config, gps_ui: &mut GpsUi, ui: &mut egui::Ui, base: &std
         SourceKind::Gpsd => "gpsd",
         SourceKind::ThroughVest => "Through the vest unit",
     };
-    egui::ComboBox::from_label("GPS source").selected_text(label(p.kind)).show_ui(ui, |ui| {
-        for k in [
-            SourceKind::Simulator,
-            SourceKind::Serial,
-            SourceKind::Replay,
-            SourceKind::Gpsd,
-            SourceKind::ThroughVest,
-        ] {
-            ui.selectable_value(&mut p.kind, k, label(k));
+    ui.horizontal(|ui| {
+        egui::ComboBox::from_label("GPS source").selected_text(label(p.kind)).show_ui(ui, |ui| {
+            for k in [
+                SourceKind::Simulator,
+                SourceKind::Serial,
+                SourceKind::Replay,
+                SourceKind::Gpsd,
+                SourceKind::ThroughVest,
+            ] {
+                ui.selectable_value(&mut p.kind, k, label(k));
+            }
+        });
+        // The simulator's one option beside it: no row of its own above the vest grid.
+        if p.kind == SourceKind::Simulator {
+            simulator_ui(cfg, ui);
         }
     });
     match p.kind {
-        SourceKind::Simulator => simulator_ui(cfg, ui),
+        SourceKind::Simulator => {}
         SourceKind::Serial => {
             if !p.scanned {
                 p.ports = vestnav_device::serial::list_ports();

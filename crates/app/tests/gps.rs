@@ -321,3 +321,26 @@ fn a_pinned_sirf_receiver_is_named_with_its_remedy() {
     assert!(h.query_by_label_contains("the stream shows a SiRF III/IV").is_some());
     assert_eq!(h.state().gps_ui.receiver.family, vestnav_device::gps::receiver_config::Family::Sirf);
 }
+
+/// The simulator's "steered by the vest" option: beside the source picker (no row of its own above the
+/// vest grid), saved in the settings, handed to the station, and taken by the simulator at the next Connect,
+/// which says so where the GPS notices show.
+#[test]
+fn the_simulated_walker_can_be_steered_by_the_emulated_vest() {
+    let mut h = real_harness(None);
+    settle(&mut h, |c| c.station.gps.fix.is_some());
+    let boxed = h.get_by_label("steered by the vest").rect();
+    assert!(boxed.right() <= 1400.0 && boxed.bottom() <= 875.0, "visible: {boxed:?}");
+    h.get_by_label("steered by the vest").click();
+    h.run_steps(3);
+    assert!(h.state().cfg.sim_follows_vest);
+    assert!(h.state().station.settings().sim_follows_vest, "the station has it");
+    h.get_by_label("Disconnect GPS").click();
+    h.run_steps(2);
+    h.get_by_label("Connect GPS").click();
+    settle(&mut h, |c| {
+        c.station.gps.notice.as_ref().is_some_and(|n| n.contains("follows the emulated vest"))
+    });
+    h.run_steps(2);
+    assert!(h.query_by_label_contains("follows the emulated vest").is_some(), "shown under the buttons");
+}
