@@ -74,6 +74,10 @@ pub struct StudyRunArgs {
     /// protocol's `response_timeout_s` wins).
     #[arg(long, value_name = "SECONDS")]
     pub response_timeout: Option<f64>,
+    /// With --gps sim and --vest emulated: navigation trials' simulated wearer walks where the trial's cues
+    /// steer them (as `vestnav station --sim-follows-vest`) instead of along the route.
+    #[arg(long)]
+    pub sim_follows_vest: bool,
 }
 
 /// How long the vest has to become ready before the session is given up.
@@ -177,6 +181,7 @@ fn open_station(a: &StudyRunArgs, stop: StopPath, interrupted: &AtomicBool) -> a
     let mut settings = StationSettings::default();
     // A perception study: the vest plays the protocol's stimuli only.
     settings.guidance.auto = false;
+    settings.sim_follows_vest = a.sim_follows_vest;
     let mut station = Station::new(
         Box::new(Hardware::default()),
         StationOptions {
