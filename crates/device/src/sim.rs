@@ -4,7 +4,10 @@
 //! The GPS simulator ([`crate::gps::sim`], run by the simulator source) publishes where its walker is and
 //! faces in a [`SharedTruth`]; the emulated vest's [`SimulatedCompass`] (core's magnetometer model behind
 //! the engine's [`HeadingSensor`] trait) reads it through [`WearerMotion::Follow`], so the compass and the
-//! GPS course agree as they would on a real walk. Nothing here is a protocol: the WTCU engine knows only
+//! GPS course agree as they would on a real walk. With [`SharedTruth::set_follow_vest`] the cell also
+//! carries the other direction: the in-process emulated unit reports each change of its tactors
+//! ([`SharedTruth::touch`]) and the simulator's walker, steered by them, takes them
+//! ([`SharedTruth::take_touches`]). Nothing here is a protocol: the WTCU engine knows only
 //! the [`HeadingSensor`] trait, and the emulator puts the two together.
 
 use std::collections::VecDeque;

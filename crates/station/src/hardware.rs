@@ -42,11 +42,18 @@ pub const SIM_PACE_M_S: f64 = 1.4;
 pub struct Hardware {
     truth: SharedTruth,
     vest_gps: (VestGpsWriter, VestGpsReader),
+    /// Simulators started so far: each draws its own noise and wearer (seeds 2026, 2027, ...), so two
+    /// trials on the simulator are two walks, and a run of the program repeats the same sequence.
+    simulators: std::sync::atomic::AtomicU64,
 }
 
 impl Default for Hardware {
     fn default() -> Self {
-        Self { truth: SharedTruth::default(), vest_gps: vest_gps_pipe() }
+        Self {
+            truth: SharedTruth::default(),
+            vest_gps: vest_gps_pipe(),
+            simulators: std::sync::atomic::AtomicU64::new(0),
+        }
     }
 }
 
@@ -60,6 +67,10 @@ impl DeviceFactory for Hardware {
         let mut config = match source {
             GpsSourceConfig::ThroughVest { baud } => {
                 SourceConfig::ThroughVest { reader: self.vest_gps.1.clone(), baud: *baud }
+            }
+            GpsSourceConfig::Simulator { .. } => {
+                let n = self.simulators.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                device_config(source, route, 2026 + n)?
             }
             _ => device_config(source, route, 2026)?,
         };
