@@ -20,10 +20,9 @@
 //! the epochs produced the expected PLAY frame (within the stage's 1 s) and that every frame decodes and is
 //! accepted by the unit. The cue interval is the longest, so guidance never repeats the previous epoch's
 //! cue between two fixes: with 0.5 s a repeat now and then fell just before the next fix and held that
-//! fix's cue back for the rate limiter's whole gap (a 750 ms "stall" until guidance also woke at the
-//! limiter's release instead of its next 250 ms tick; 500 ms since). A PLAY of another cue while an epoch's
-//! is awaited is still counted and printed, not taken for this epoch's, so one late cue cannot fail the
-//! next epochs in a cascade.
+//! fix's cue back for the rate limiter's whole gap and then to guidance's next 250 ms update (the 750 ms
+//! "stall" earlier runs printed as p99). A PLAY of another cue while an epoch's is awaited is still counted
+//! and printed, not taken for this epoch's, so one late cue cannot fail the next epochs in a cascade.
 
 // Pseudo-terminals are Unix-only.
 #![cfg(unix)]

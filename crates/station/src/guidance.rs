@@ -243,12 +243,10 @@ pub fn spawn(
             log,
             lab: None,
             position_frozen: None,
-            wake_at: None,
         };
         let mut next_tick = Instant::now() + TICK;
         loop {
-            let wake = w.wake_at.map_or(next_tick, |t| t.min(next_tick));
-            let msg = rx.recv_timeout(wake.saturating_duration_since(Instant::now()));
+            let msg = rx.recv_timeout(next_tick.saturating_duration_since(Instant::now()));
             if let Some(b) = &w.beat {
                 b.beat();
             }
@@ -259,9 +257,8 @@ pub fn spawn(
                 Err(RecvTimeoutError::Timeout) => {}
                 Err(RecvTimeoutError::Disconnected) => break,
             }
-            if now >= next_tick || w.wake_at.is_some_and(|t| now >= t) {
+            if now >= next_tick {
                 next_tick = now + TICK;
-                w.wake_at = None;
                 w.tick(now, now_s);
             }
         }
@@ -292,9 +289,6 @@ struct GuidanceWorker {
     lab: Option<crate::lab::LabTap>,
     /// The receiver's position is frozen, and why (the station's diagnosis; kept over engine rebuilds).
     position_frozen: Option<String>,
-    /// When the rate limiter releases the cue the last update wanted and held back: the worker updates
-    /// again then, not at its next [`TICK`] (which made a held cue up to 250 ms later than the gap).
-    wake_at: Option<Instant>,
 }
 
 impl GuidanceWorker {
@@ -541,15 +535,6 @@ impl GuidanceWorker {
             // It never reached the wearer: the rate limiter must not count it as played.
             g.not_played();
         }
-        self.wake_at = match (d.wanted, d.cue, &hold, &self.engine) {
-            (Some(wanted), None, None, Some(g)) if d.state != NavState::Manual => {
-                // A millisecond past the release, so the update there finds the limiter open; only ever in
-                // the future, so a cue held for another reason never spins the loop.
-                let wait_s = g.allowed_from_s(wanted) - now_s + 0.001;
-                (wait_s > 0.0 && wait_s.is_finite()).then(|| now + Duration::from_secs_f64(wait_s))
-            }
-            _ => None,
-        };
         let mut st = status(&d, reason, sent, self.hold_reason());
         st.reroute_from = input.position.filter(|_| d.reroute);
         st.declination_deg = declination;

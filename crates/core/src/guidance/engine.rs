@@ -222,8 +222,7 @@ impl Guidance {
     /// From when the rate limiter lets `cue` play [s, on [`Guidance::update`]'s clock]: once the previous
     /// pattern has ended and `gap_s` passed; for the same cue again, once its repeat interval has also passed
     /// since that cue's pattern **ended** (so a long pattern plus the wearer's reaction and turn are over
-    /// before it is repeated). A caller holding a wanted cue wakes at this instant instead of at its next
-    /// periodic update.
+    /// before it is repeated).
     pub fn allowed_from_s(&self, cue: Cue) -> f64 {
         let free_s = self.busy_until_s + self.config.gap_s;
         // Turn-in-place cues of one side count as the same cue whatever their size: a smaller turn to the
