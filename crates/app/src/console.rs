@@ -163,6 +163,7 @@ pub fn station_settings(cfg: &Config) -> StationSettings {
             off_path_m: cfg.off_path_m,
             reroute_after_s: cfg.reroute_after_s,
             turn_in_place: vestnav_station::guidance::default_turn_in_place(),
+            end_at_finish: false,
         },
         lost_after_s: cfg.lost_after_s,
         sim_follows_vest: cfg.sim_follows_vest,

@@ -74,6 +74,12 @@ pub struct GuidanceSettings {
     /// cues only (a study condition's `cue_set = "walking"`).
     #[serde(default = "default_turn_in_place")]
     pub turn_in_place: bool,
+    /// Automatic cues end with the update that finishes a route (a study's navigation trial: the arrival
+    /// ends the trial, so no cue may follow it, not even one the rate limiter held back at the arrival
+    /// and would release a moment later, before the station's "cues off" reached guidance). Off: a held
+    /// final Stop plays when the limiter lets it.
+    #[serde(default)]
+    pub end_at_finish: bool,
 }
 
 /// Guidance's default cue set: with the turn-in-place cues (settings saved before it existed still load).
@@ -535,6 +541,11 @@ impl GuidanceWorker {
             // It never reached the wearer: the rate limiter must not count it as played.
             g.not_played();
         }
+        if self.settings.end_at_finish && self.settings.auto && d.state == NavState::Finished {
+            // Latched off here, on guidance's own thread: nothing can play between the arrival and the
+            // station's turn (the station's next settings say the same or start the next trial).
+            self.settings.auto = false;
+        }
         let mut st = status(&d, reason, sent, self.hold_reason());
         st.reroute_from = input.position.filter(|_| d.reroute);
         st.declination_deg = declination;
@@ -595,6 +606,7 @@ mod tests {
             off_path_m: 20.0,
             reroute_after_s: 15.0,
             turn_in_place: true,
+            end_at_finish: false,
         };
         let _t = spawn(in_rx, settings, ui, None).unwrap();
         let vest =
@@ -618,5 +630,82 @@ mod tests {
         assert_eq!(st.cue, Some(Cue::TurnLeft), "{st:?}");
         assert!(st.sent, "{st:?}");
         assert_eq!(st.hold, None);
+    }
+
+    /// The statuses after the one that finished a one-waypoint route whose final Stop the rate limiter
+    /// held (a turn had just been played), over the next 1.5 s (the Stop is due 0.7 s after the turn).
+    fn after_the_finish(end_at_finish: bool) -> Vec<GuidanceStatus> {
+        let (in_tx, in_rx) = sync_channel(16);
+        let (ui, ui_rx) = Outbox::channel(256, Overflow::DropNewest, None);
+        let settings = GuidanceSettings {
+            auto: true,
+            arrival_radius_m: 8.0,
+            cue_interval_s: 3.0,
+            manual_hold_s: 10.0,
+            stale_after_s: 3.0,
+            on_ms: 100,
+            loop_route: false,
+            strategy: StrategyKind::BearingOnly,
+            heading_mode: HeadingMode::Cog,
+            off_path_m: 20.0,
+            reroute_after_s: 15.0,
+            turn_in_place: true,
+            end_at_finish,
+        };
+        let _t = spawn(in_rx, settings, ui, None).unwrap();
+        let vest =
+            Arc::new(VestHandle::spawn(VestConfig::Emulated(UnitConfig::default()), Vec::new()).unwrap());
+        in_tx.send(GuidanceInput::Vest(VestEvent::State(LinkState::Ready))).unwrap();
+        in_tx.send(GuidanceInput::VestLink(Some(vest), Duration::ZERO)).unwrap();
+        let wp = Waypoint { name: "N".into(), lat_deg: 42.0009, lon_deg: -71.0, arrival_radius_m: None };
+        in_tx.send(GuidanceInput::Route { waypoints: vec![wp], path: None, next: 0, revision: 1 }).unwrap();
+        let fix = |lat: f64| Fix {
+            lat_deg: Some(lat),
+            lon_deg: Some(-71.0),
+            mode: Some(FixMode::Fix3D),
+            speed_m_s: Some(1.4),
+            course_deg: Some(90.0),
+            received_at: Some(Instant::now()),
+            ..Fix::default()
+        };
+        // 100 m south of it walking east: turn left (a 200 ms pattern; the next cue waits 0.7 s).
+        in_tx.send(GuidanceInput::Gps(GpsEvent::Fix(Box::new(fix(42.0))))).unwrap();
+        // Then at the waypoint until the arrival is confirmed: the route is finished, its Stop held.
+        let finished = loop {
+            std::thread::sleep(Duration::from_millis(20));
+            in_tx.send(GuidanceInput::Gps(GpsEvent::Fix(Box::new(fix(42.0009))))).unwrap();
+            let mut done = None;
+            while let Ok(st) = ui_rx.try_recv() {
+                if st.finished {
+                    done = Some(st);
+                    break;
+                }
+            }
+            if let Some(st) = done {
+                break st;
+            }
+        };
+        assert!(!(finished.sent && finished.cue == Some(Cue::Stop)), "held, not played: {finished:?}");
+        let mut after = Vec::new();
+        let until = Instant::now() + Duration::from_millis(1500);
+        while let Some(left) = until.checked_duration_since(Instant::now()) {
+            if let Ok(st) = ui_rx.recv_timeout(left) {
+                after.push(st);
+            }
+        }
+        after
+    }
+
+    /// A study's trial ends at the arrival: with `end_at_finish` guidance plays nothing after the update
+    /// that finished the route, where without it the held Stop plays once the limiter lets it (the race
+    /// a study lost when its "cues off" came after that).
+    #[test]
+    fn nothing_plays_after_a_finish_that_ends_the_cues() {
+        let played =
+            |after: &[GuidanceStatus]| after.iter().filter(|s| s.sent).map(|s| s.cue).collect::<Vec<_>>();
+        assert_eq!(played(&after_the_finish(false)), [Some(Cue::Stop)], "the control: the held Stop plays");
+        let after = after_the_finish(true);
+        assert_eq!(played(&after), [], "{after:?}");
+        assert!(after.iter().all(|s| s.hold.as_deref() == Some("automatic cues off")), "{after:?}");
     }
 }

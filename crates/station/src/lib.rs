@@ -113,6 +113,7 @@ impl Default for StationSettings {
                 off_path_m: guidance::default_off_path_m(),
                 reroute_after_s: guidance::default_reroute_after_s(),
                 turn_in_place: guidance::default_turn_in_place(),
+                end_at_finish: false,
             },
             lost_after_s: 10.0,
             sim_follows_vest: false,

@@ -85,6 +85,8 @@ impl StudyIo for Io<'_> {
         s.guidance.cue_interval_s = *cue_interval_s;
         s.guidance.turn_in_place = cue_set == "turn-in-place";
         s.guidance.loop_route = false;
+        // The arrival ends the trial: guidance itself sends nothing after it (no race with end_navigation).
+        s.guidance.end_at_finish = true;
         s.guidance.auto = false;
         s.check()?;
         // The route through the station's one route model (undo brings the operator's back), guidance
