@@ -42,6 +42,7 @@ pub const TICK: Duration = Duration::from_millis(250);
 
 /// Guidance settings the operator controls.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[allow(clippy::struct_excessive_bools)] // independent switches of the operator's, not a state machine
 pub struct GuidanceSettings {
     /// Send cues automatically.
     pub auto: bool,
