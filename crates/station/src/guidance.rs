@@ -582,43 +582,51 @@ fn status(d: &Decision, reason: String, sent: bool, hold: Option<String>) -> Gui
 #[cfg(test)]
 mod tests {
     use super::*;
-    use std::sync::mpsc::sync_channel;
+    use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
     use vestnav_device::gps::{Fix, FixMode};
     use vestnav_device::outbox::Overflow;
     use vestnav_device::wtcu::VestConfig;
     use vestnav_device::wtcu::emulator::UnitConfig;
 
-    /// The vest worker's events reach guidance straight from the worker, so its `Ready` can arrive before
-    /// the console's message naming the new vest: guidance must still guide.
-    #[test]
-    fn a_vest_ready_before_it_is_named_still_gets_cues() {
+    /// A guidance worker with an emulated vest that said `Ready` before it was named, automatic cues on,
+    /// guiding to one waypoint 100 m due north of 42.0° N 71.0° W at `on_ms` per step: its input and the
+    /// statuses it sends.
+    fn guiding_north(
+        on_ms: u16,
+        end_at_finish: bool,
+    ) -> (SyncSender<GuidanceInput>, Receiver<GuidanceStatus>) {
         let (in_tx, in_rx) = sync_channel(16);
-        let (ui, ui_rx) = Outbox::channel(64, Overflow::DropNewest, None);
+        let (ui, ui_rx) = Outbox::channel(256, Overflow::DropNewest, None);
         let settings = GuidanceSettings {
             auto: true,
             arrival_radius_m: 8.0,
             cue_interval_s: 3.0,
             manual_hold_s: 10.0,
             stale_after_s: 3.0,
-            on_ms: 500,
+            on_ms,
             loop_route: false,
             strategy: StrategyKind::BearingOnly,
             heading_mode: HeadingMode::Cog,
             off_path_m: 20.0,
             reroute_after_s: 15.0,
             turn_in_place: true,
-            end_at_finish: false,
+            end_at_finish,
         };
+        // The worker ends when its input is dropped.
         let _t = spawn(in_rx, settings, ui, None).unwrap();
         let vest =
             Arc::new(VestHandle::spawn(VestConfig::Emulated(UnitConfig::default()), Vec::new()).unwrap());
         in_tx.send(GuidanceInput::Vest(VestEvent::State(LinkState::Ready))).unwrap();
         in_tx.send(GuidanceInput::VestLink(Some(vest), Duration::ZERO)).unwrap();
-        // One waypoint 100 m due north; the wearer walks due east: a turn is wanted at once.
         let wp = Waypoint { name: "N".into(), lat_deg: 42.0009, lon_deg: -71.0, arrival_radius_m: None };
         in_tx.send(GuidanceInput::Route { waypoints: vec![wp], path: None, next: 0, revision: 1 }).unwrap();
+        (in_tx, ui_rx)
+    }
+
+    /// A 3-D fix at `lat_deg` on 71.0° W, walking due east at 1.4 m/s, received now.
+    fn walking_east(lat_deg: f64) -> GuidanceInput {
         let fix = Fix {
-            lat_deg: Some(42.0),
+            lat_deg: Some(lat_deg),
             lon_deg: Some(-71.0),
             mode: Some(FixMode::Fix3D),
             speed_m_s: Some(1.4),
@@ -626,7 +634,16 @@ mod tests {
             received_at: Some(Instant::now()),
             ..Fix::default()
         };
-        in_tx.send(GuidanceInput::Gps(GpsEvent::Fix(Box::new(fix)))).unwrap();
+        GuidanceInput::Gps(GpsEvent::Fix(Box::new(fix)))
+    }
+
+    /// The vest worker's events reach guidance straight from the worker, so its `Ready` can arrive before
+    /// the console's message naming the new vest: guidance must still guide.
+    #[test]
+    fn a_vest_ready_before_it_is_named_still_gets_cues() {
+        let (in_tx, ui_rx) = guiding_north(500, false);
+        // The waypoint is due north, the wearer walks due east: a turn is wanted at once.
+        in_tx.send(walking_east(42.0)).unwrap();
         let st = ui_rx.recv_timeout(Duration::from_secs(2)).unwrap();
         assert_eq!(st.cue, Some(Cue::TurnLeft), "{st:?}");
         assert!(st.sent, "{st:?}");
@@ -636,53 +653,16 @@ mod tests {
     /// The statuses after the one that finished a one-waypoint route whose final Stop the rate limiter
     /// held (a turn had just been played), over the next 1.5 s (the Stop is due 0.7 s after the turn).
     fn after_the_finish(end_at_finish: bool) -> Vec<GuidanceStatus> {
-        let (in_tx, in_rx) = sync_channel(16);
-        let (ui, ui_rx) = Outbox::channel(256, Overflow::DropNewest, None);
-        let settings = GuidanceSettings {
-            auto: true,
-            arrival_radius_m: 8.0,
-            cue_interval_s: 3.0,
-            manual_hold_s: 10.0,
-            stale_after_s: 3.0,
-            on_ms: 100,
-            loop_route: false,
-            strategy: StrategyKind::BearingOnly,
-            heading_mode: HeadingMode::Cog,
-            off_path_m: 20.0,
-            reroute_after_s: 15.0,
-            turn_in_place: true,
-            end_at_finish,
-        };
-        let _t = spawn(in_rx, settings, ui, None).unwrap();
-        let vest =
-            Arc::new(VestHandle::spawn(VestConfig::Emulated(UnitConfig::default()), Vec::new()).unwrap());
-        in_tx.send(GuidanceInput::Vest(VestEvent::State(LinkState::Ready))).unwrap();
-        in_tx.send(GuidanceInput::VestLink(Some(vest), Duration::ZERO)).unwrap();
-        let wp = Waypoint { name: "N".into(), lat_deg: 42.0009, lon_deg: -71.0, arrival_radius_m: None };
-        in_tx.send(GuidanceInput::Route { waypoints: vec![wp], path: None, next: 0, revision: 1 }).unwrap();
-        let fix = |lat: f64| Fix {
-            lat_deg: Some(lat),
-            lon_deg: Some(-71.0),
-            mode: Some(FixMode::Fix3D),
-            speed_m_s: Some(1.4),
-            course_deg: Some(90.0),
-            received_at: Some(Instant::now()),
-            ..Fix::default()
-        };
+        let (in_tx, ui_rx) = guiding_north(100, end_at_finish);
         // 100 m south of it walking east: turn left (a 200 ms pattern; the next cue waits 0.7 s).
-        in_tx.send(GuidanceInput::Gps(GpsEvent::Fix(Box::new(fix(42.0))))).unwrap();
+        in_tx.send(walking_east(42.0)).unwrap();
         // Then at the waypoint until the arrival is confirmed: the route is finished, its Stop held.
+        let give_up = Instant::now() + Duration::from_secs(5);
         let finished = loop {
+            assert!(Instant::now() < give_up, "the route finished within 5 s");
             std::thread::sleep(Duration::from_millis(20));
-            in_tx.send(GuidanceInput::Gps(GpsEvent::Fix(Box::new(fix(42.0009))))).unwrap();
-            let mut done = None;
-            while let Ok(st) = ui_rx.try_recv() {
-                if st.finished {
-                    done = Some(st);
-                    break;
-                }
-            }
-            if let Some(st) = done {
+            in_tx.send(walking_east(42.0009)).unwrap();
+            if let Some(st) = ui_rx.try_iter().find(|st| st.finished) {
                 break st;
             }
         };
