@@ -161,7 +161,8 @@ fn broker_option_checks_tcp_reachability() {
     let url = format!("mqtt://127.0.0.1:{}", listener.local_addr().unwrap().port());
     let (_, json) = doctor(&[], &home.0, &["--broker", &url]);
     assert_eq!(finding(&json, "broker")["verdict"], "ok");
-    drop(listener);
+    let refusing = vestnav_device::testkit::RefusingPort::bind().unwrap();
+    let url = format!("mqtt://{}", refusing.addr());
     let (out, json) = doctor(&[], &home.0, &["--broker", &url]);
     assert_eq!(finding(&json, "broker")["verdict"], "problem");
     assert_eq!(out.status.code(), Some(1));

@@ -12,8 +12,9 @@ use vestnav_station::stop::StopPath;
 
 #[test]
 fn without_a_broker_the_window_says_so_and_stop_all_says_what_became_of_it() {
-    // A loopback port nothing listens on (bound, read, released).
-    let port = std::net::TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port();
+    // A loopback port nothing listens on, held for the whole test.
+    let refusing = vestnav_device::testkit::RefusingPort::bind().unwrap();
+    let port = refusing.port();
     let config = BrokerConfig {
         url: format!("mqtt://127.0.0.1:{port}"),
         insecure_plaintext_loopback: true,

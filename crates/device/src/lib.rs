@@ -18,7 +18,8 @@
 //!   framing with CRC-24Q;
 //! - [`backoff`]: the one exponential reconnect backoff of the workers;
 //! - [`doctor`]: the set-up checks of `vestnav doctor` (ports, Bluetooth, OpenGL, folders, optional parts);
-//! - [`outbox`]: how workers hand events to their consumers (bounded, never blocking a stop).
+//! - [`outbox`]: how workers hand events to their consumers (bounded, never blocking a stop);
+//! - [`testkit`]: instruments for tests (a TCP port that refuses).
 
 pub mod backoff;
 pub mod doctor;
@@ -31,4 +32,5 @@ pub mod rtcm3;
 pub mod serial;
 pub mod session_log;
 pub mod sim;
+pub mod testkit;
 pub mod wtcu;

@@ -757,7 +757,9 @@ mod tests {
             port
         );
         assert!(reach_broker(&format!("user:pw@127.0.0.1:{port}"), BROKER_TIMEOUT).is_ok());
-        drop(listener);
+        // A port nobody listens on, and nobody can take while the test runs.
+        let refusing = crate::testkit::RefusingPort::bind().unwrap();
+        let port = refusing.port();
         let err = reach_broker(&format!("tcp://127.0.0.1:{port}"), BROKER_TIMEOUT).unwrap_err();
         assert!(err.contains(&format!("127.0.0.1:{port}")), "{err}");
         assert!(reach_broker("mqtt://", BROKER_TIMEOUT).is_err());

@@ -123,9 +123,11 @@ fn simulator_fixes_arrive_in_order_and_never_from_the_future() {
     h.stop();
 }
 
+#[cfg(unix)]
 #[test]
 fn gpsd_refused_reports_lost_then_reconnecting() {
-    let (mut h, rx) = spawn(SourceConfig::Gpsd { host: "127.0.0.1".into(), port: 1 });
+    let refusing = crate::testkit::RefusingPort::bind().unwrap();
+    let (mut h, rx) = spawn(SourceConfig::Gpsd { host: "127.0.0.1".into(), port: refusing.port() });
     let ev = collect(
         &rx,
         |e| e.iter().any(|x| matches!(x, GpsEvent::State(SourceState::Reconnecting { .. }))),
