@@ -5,7 +5,8 @@
 //! workers deliver their events to it directly (its input channel is one of their outboxes). Every 250 ms
 //! without a fix it updates the engine with the age of the last fix — measured from the instant the fix's
 //! bytes arrived, the same clock the UI and the session log use — so a stale or lost fix turns into the
-//! engine's "attention / hold" instead of a directional cue.
+//! engine's "attention / hold" instead of a directional cue. When the engine's rate limiter holds a cue back,
+//! the worker also wakes the moment the limiter lets it go, so a held cue is not a tick late.
 //!
 //! Override rules (the engine's, see `docs/guidance.md`): STOP ALL halts automatic cues until the operator
 //! resumes them; a manual cue or tactor mutes automatic cues for the manual hold time. The STOP ALL latch
@@ -250,10 +251,13 @@ pub fn spawn(
             log,
             lab: None,
             position_frozen: None,
+            release_s: None,
         };
         let mut next_tick = Instant::now() + TICK;
         loop {
-            let msg = rx.recv_timeout(next_tick.saturating_duration_since(Instant::now()));
+            let release = w.release_at(start);
+            let wake = release.map_or(next_tick, |r| r.min(next_tick));
+            let msg = rx.recv_timeout(wake.saturating_duration_since(Instant::now()));
             if let Some(b) = &w.beat {
                 b.beat();
             }
@@ -266,6 +270,10 @@ pub fn spawn(
             }
             if now >= next_tick {
                 next_tick = now + TICK;
+                w.tick(now, now_s);
+            } else if release.is_some_and(|r| now >= r) && w.release_at(start) == release {
+                // The cue the rate limiter held may play now: decide again at once, not at the next tick.
+                w.release_s = None;
                 w.tick(now, now_s);
             }
         }
@@ -296,6 +304,9 @@ struct GuidanceWorker {
     lab: Option<crate::lab::LabTap>,
     /// The receiver's position is frozen, and why (the station's diagnosis; kept over engine rebuilds).
     position_frozen: Option<String>,
+    /// When the cue the rate limiter held at the last update may play [s, the engine's clock]: the worker
+    /// decides again then instead of at its next tick, so a held cue is not up to a tick late.
+    release_s: Option<f64>,
 }
 
 impl GuidanceWorker {
@@ -421,6 +432,13 @@ impl GuidanceWorker {
         };
     }
 
+    /// The instant of [`GuidanceWorker::release_s`] (1 ms after it, so the limiter has surely let go), if a
+    /// held cue is waiting.
+    fn release_at(&self, start: Instant) -> Option<Instant> {
+        let s = self.release_s.filter(|s| s.is_finite() && *s >= 0.0 && *s < 1e9)?;
+        Some(start + Duration::from_secs_f64(s) + Duration::from_millis(1))
+    }
+
     /// Without new fixes, keep the engine informed of the fix age (stale fix: attention, not a direction).
     fn tick(&mut self, now: Instant, now_s: f64) {
         if let Some(fix) = &self.last_fix {
@@ -503,6 +521,8 @@ impl GuidanceWorker {
         let declination = self.declination.map(|(d, _)| d);
         let Some(g) = &mut self.engine else { return };
         let d = g.update_with_compass(input, compass, now_s);
+        // Wanted but not allowed yet: the rate limiter holds it until this instant.
+        let release = if d.cue.is_none() { d.wanted.map(|w| g.allowed_from_s(w)) } else { None };
         let mut sent = false;
         let mut reason = d.reason.clone();
         if let Some(pattern) = d.pattern.clone().filter(|_| d.cue.is_some()) {
@@ -547,7 +567,9 @@ impl GuidanceWorker {
             // station's turn (the station's next settings say the same or start the next trial).
             self.settings.auto = false;
         }
-        let mut st = status(&d, reason, sent, self.hold_reason());
+        let hold_after = self.hold_reason();
+        self.release_s = release.filter(|_| hold_after.is_none());
+        let mut st = status(&d, reason, sent, hold_after);
         st.reroute_from = input.position.filter(|_| d.reroute);
         st.declination_deg = declination;
         st.route_revision = self.route_revision;
@@ -675,6 +697,41 @@ mod tests {
             }
         }
         after
+    }
+
+    /// A cue the rate limiter holds plays once the limiter lets it, never before, and without waiting for
+    /// the worker's next 250 ms update: the worker wakes at the release. Prints how late it came (no bound
+    /// tighter than the tick is asserted: speed lives in benches).
+    #[test]
+    fn a_held_cue_plays_at_its_release_not_before() {
+        let (in_tx, ui_rx) = guiding_north(100, false);
+        in_tx.send(walking_east(42.0)).unwrap();
+        let turn = ui_rx.recv_timeout(Duration::from_secs(2)).unwrap();
+        let turned_at = Instant::now();
+        assert!(turn.sent && turn.cue == Some(Cue::TurnLeft), "{turn:?}");
+        // At the waypoint until the route is finished (a few fixes); its Stop is held until 0.7 s after
+        // the turn began (the turn's 200 ms pattern and the 0.5 s gap). No fix follows: only the worker's
+        // own wake can play it.
+        let give_up = Instant::now() + Duration::from_secs(5);
+        loop {
+            assert!(Instant::now() < give_up, "the route finished within 5 s");
+            in_tx.send(walking_east(42.0009)).unwrap();
+            let st = ui_rx.recv_timeout(Duration::from_secs(2)).unwrap();
+            assert!(!st.sent, "nothing plays before the release: {st:?}");
+            if st.finished {
+                break;
+            }
+        }
+        let stop = loop {
+            let st = ui_rx.recv_timeout(Duration::from_secs(2)).expect("the held Stop plays");
+            if st.sent {
+                break st;
+            }
+        };
+        let after = turned_at.elapsed().as_secs_f64();
+        assert_eq!(stop.cue, Some(Cue::Stop), "{stop:?}");
+        println!("the held Stop played {:.0} ms after the turn (released at 700 ms)", after * 1e3);
+        assert!(after >= 0.68, "the limiter held it: {after:.3} s");
     }
 
     /// A study's trial ends at the arrival: with `end_at_finish` guidance plays nothing after the update

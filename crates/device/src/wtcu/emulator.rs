@@ -22,7 +22,7 @@ use vestnav_core::vest::{TACTOR_COUNT, TactorMask};
 
 use super::codec::{FrameCodec, WireCodec};
 use super::engine::{Engine, EngineConfig, EngineEvent, EngineStats};
-use super::message::{Faults, Reply};
+use super::message::{CommandKind, Faults, Reply};
 use crate::serial::is_timeout;
 use crate::sim::{CompassSetup, SharedTruth, SimulatedCompass};
 
@@ -167,6 +167,9 @@ pub struct EmulatorView {
     pub changes: VecDeque<(Instant, TactorMask)>,
     /// The last 64 events, in words.
     pub log: VecDeque<String>,
+    /// How many commands of each kind the unit accepted since it started (sequence numbers wrap at 256:
+    /// these do not).
+    pub accepted: std::collections::HashMap<CommandKind, u64>,
 }
 
 impl EmulatorView {
@@ -183,6 +186,9 @@ impl EmulatorView {
                 self.changes.pop_front();
             }
             self.changes.push_back((Instant::now(), *mask));
+        }
+        if let EngineEvent::Accepted { kind, .. } = event {
+            *self.accepted.entry(*kind).or_default() += 1;
         }
         if self.log.len() >= 64 {
             self.log.pop_front();

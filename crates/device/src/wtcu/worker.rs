@@ -20,6 +20,7 @@
 //! worker sends STOP ALL and waits briefly for its acknowledgement before closing the port; if the link is
 //! already gone, the unit's watchdog stops everything.
 
+use std::collections::VecDeque;
 use std::io::{self, Read, Write};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -472,6 +473,7 @@ impl VestHandle {
             shared: shared.clone(),
             gps_requested: None,
             gps_unsupported_said: false,
+            origins: VecDeque::new(),
         };
         let thread = std::thread::Builder::new().name("vest-worker".to_owned()).spawn(move || {
             worker.shared.thread.get_or_init(std::thread::current);
@@ -582,7 +584,15 @@ struct Worker {
     gps_requested: Option<u32>,
     /// This session's unit cannot forward a receiver, and the GPS source has been told so.
     gps_unsupported_said: bool,
+    /// Who sent the commands handed to the link whose outcome is not known yet, by sequence number and
+    /// kind: a command the unit refuses, never receives, or the link cancels is reported with its sender.
+    /// Bounded ([`ORIGINS_KEPT`], oldest dropped).
+    origins: VecDeque<(u8, CommandKind, CommandOrigin)>,
 }
+
+/// How many pending commands' senders the worker remembers: far more than can be queued or in flight at
+/// once.
+const ORIGINS_KEPT: usize = 64;
 
 impl Worker {
     fn run(&mut self) {
@@ -857,6 +867,12 @@ impl Worker {
             VestCommand::HeadingStop => self.link.heading_stop(now),
             VestCommand::SetCalibration(c) => self.link.set_calibration(*c, now),
         };
+        let result = result.map(|seq| {
+            if self.origins.len() >= ORIGINS_KEPT {
+                self.origins.pop_front();
+            }
+            self.origins.push_back((seq, kind, origin));
+        });
         if let Err(e) = result {
             let reason = match e {
                 CommandError::NotReady(_) => format!("vest not ready: {}", self.link.state()),
@@ -864,6 +880,14 @@ impl Worker {
             };
             self.emit(VestEvent::Rejected { kind, origin: Some(origin), reason });
         }
+    }
+
+    /// Who sent the command the link numbered `seq`, if it was handed over by [`Worker::apply`] recently
+    /// (heartbeats, GPS forwarding and the signal path's STOP ALL have no sender).
+    /// The entry is removed: the link reports one outcome per command.
+    fn origin_of(&mut self, seq: u8, kind: CommandKind) -> Option<CommandOrigin> {
+        let i = self.origins.iter().rposition(|(s, k, _)| *s == seq && *k == kind)?;
+        self.origins.remove(i).map(|(_, _, o)| o)
     }
 
     /// Forwards the link's events; returns whether there were any.
@@ -886,6 +910,7 @@ impl Worker {
                 LinkEvent::Identified(info) => VestEvent::Identified(info),
                 LinkEvent::TactorsOn(m) => VestEvent::TactorsOn(Some(m)),
                 LinkEvent::Acked { seq, kind } => {
+                    let _ = self.origin_of(seq, kind);
                     if kind == CommandKind::StopAll {
                         self.shared.stop_acked.store(true, Ordering::SeqCst);
                     }
@@ -908,19 +933,19 @@ impl Worker {
                         reason: format!("the unit refused {}: {reason}", kind.name()),
                     }
                 }
-                LinkEvent::Rejected { kind, reason, .. } => VestEvent::Rejected {
+                LinkEvent::Rejected { seq, kind, reason } => VestEvent::Rejected {
                     kind,
-                    origin: None,
+                    origin: self.origin_of(seq, kind),
                     reason: format!("the unit refused {}: {reason}", kind.name()),
                 },
-                LinkEvent::NotDelivered { kind, .. } => VestEvent::Rejected {
+                LinkEvent::NotDelivered { seq, kind } => VestEvent::Rejected {
                     kind,
-                    origin: None,
+                    origin: self.origin_of(seq, kind),
                     reason: format!("{} not acknowledged by the unit", kind.name()),
                 },
-                LinkEvent::Cancelled { kind, .. } => VestEvent::Rejected {
+                LinkEvent::Cancelled { seq, kind } => VestEvent::Rejected {
                     kind,
-                    origin: None,
+                    origin: self.origin_of(seq, kind),
                     reason: format!("{} cancelled (superseded or stopped)", kind.name()),
                 },
                 LinkEvent::Status(s) => VestEvent::Status(s),

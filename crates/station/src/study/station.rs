@@ -249,8 +249,8 @@ impl Station {
 }
 
 /// What a pump tells a navigation trial that started at `since` on route revision `revision`: the fixes
-/// that arrived since then, guidance's cues on that route minus the ones the vest refused, and its arrival
-/// at the last waypoint.
+/// that arrived since then, guidance's cues on that route minus the ones the vest refused or cancelled (each
+/// refusal names its sender, wherever it happened), and its arrival at the last waypoint.
 fn nav_tick(
     since: Instant,
     revision: u64,

@@ -78,6 +78,39 @@ fn stop_all_jumps_a_full_queue_and_cancels_what_was_queued() {
     ));
 }
 
+/// Every cue handed to the worker has exactly one outcome, and a refusal names who sent it, wherever it
+/// happened: superseded in the link's queue, cancelled by STOP ALL, or refused by the worker. (A study
+/// counts guidance's cues that reached the wearer by this.)
+#[test]
+fn every_cue_has_one_outcome_that_names_its_sender() {
+    let (vest, rx) = emulated();
+    ready(&rx);
+    let mut sent = 0;
+    // A burst: while one is in flight the next waits in the link's queue and the one after supersedes it.
+    while sent < 20 && vest.send(VestCommand::Play(long_pattern()), CommandOrigin::Guidance).is_ok() {
+        sent += 1;
+    }
+    let mut seen = Vec::new();
+    std::thread::sleep(Duration::from_millis(100));
+    vest.stop_all();
+    assert!(
+        wait(&rx, &mut seen, |e| matches!(e, VestEvent::Acked { kind: CommandKind::StopAll, .. })).is_some()
+    );
+    std::thread::sleep(Duration::from_millis(100));
+    seen.extend(rx.try_iter());
+    let acked = seen.iter().filter(|e| matches!(e, VestEvent::Acked { kind: CommandKind::Play, .. })).count();
+    let refused: Vec<_> = seen
+        .iter()
+        .filter_map(|e| match e {
+            VestEvent::Rejected { kind: CommandKind::Play, origin, reason } => Some((origin, reason)),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(acked + refused.len(), sent, "{seen:?}");
+    assert!(refused.iter().any(|(_, why)| why.contains("superseded")), "{refused:?}");
+    assert!(refused.iter().all(|(o, _)| **o == Some(CommandOrigin::Guidance)), "{refused:?}");
+}
+
 #[test]
 fn automatic_commands_are_refused_after_stop_all_until_resumed() {
     let (vest, rx) = emulated();
