@@ -433,6 +433,7 @@ fn stop_all_reaches_the_vest_within_50_ms_whatever_gpsd_sends() {
 /// After STOP ALL no automatic pattern reaches the unit until the operator resumes; then cues come again.
 #[test]
 fn guidance_cannot_start_a_pattern_after_stop_until_resumed() {
+    let _exclusive = crate::timing_exclusive();
     let unit = Unit::spawn();
     let gpsd = FakeGpsd::spawn(Hostile::Absurd, Duration::from_secs(20));
     let mut c = station(gpsd.port, &unit.path, None);
@@ -459,6 +460,7 @@ fn guidance_cannot_start_a_pattern_after_stop_until_resumed() {
 /// liveness bound.
 #[test]
 fn a_stalled_view_stops_the_vest_by_itself() {
+    let _exclusive = crate::timing_exclusive();
     let unit = Unit::spawn();
     let gpsd = FakeGpsd::spawn(Hostile::Absurd, Duration::from_secs(20));
     // The view's own bound; guidance's is relaxed so that only the view's stall is under test.
@@ -719,6 +721,7 @@ fn an_unconfirmed_stop_is_shown_naming_the_tactors_still_on() {
 /// reaches the unit at once, and the whole close is bounded.
 #[test]
 fn exit_sends_a_fresh_stop_even_with_a_retry_in_flight() {
+    let _exclusive = crate::timing_exclusive();
     let unit = Unit::spawn_as(Behaviour::NeverAcksStop { on: TactorMask::from_indices([13, 14]) });
     let gpsd = FakeGpsd::spawn(Hostile::Absurd, Duration::from_secs(20));
     let mut c = station(gpsd.port, &unit.path, None);
@@ -727,7 +730,7 @@ fn exit_sends_a_fresh_stop_even_with_a_retry_in_flight() {
         c.vest.is_live()
     });
     c.stop_all();
-    wait_for("the first STOP ALL", Duration::from_secs(1), || {
+    wait_for("the first STOP ALL", Duration::from_secs(5), || {
         !unit.received(CommandKind::StopAll).is_empty()
     });
     std::thread::sleep(Duration::from_millis(60));

@@ -13,7 +13,7 @@ use vestnav_core::study::info::ConfusionMatrix;
 use vestnav_core::study::{Outcome, TrialRecord};
 use vestnav_device::wtcu::emulator::{PtyEmulator, UnitConfig};
 use vestnav_device::wtcu::engine::EngineConfig;
-use vestnav_device::wtcu::{Limits, LinkState};
+use vestnav_device::wtcu::{CommandKind, Limits, LinkState};
 use vestnav_station::command::Command as StationCommand;
 use vestnav_station::hardware::Hardware;
 use vestnav_station::sources::VestSourceConfig;
@@ -105,8 +105,7 @@ fn a_localization_session_gives_the_confusion_models_percent_correct_and_informa
         assert_eq!(rows.iter().filter(|r| r.stimulus == t).count(), 5, "{t}");
     }
     same_rows(&dir.join("loc16_P01_S1.json"), &rows);
-    // The unit played every stimulus: 80 times some tactors went on (each stimulus is one frame; the 40 ms
-    // interval keeps two stimuli apart whatever the serial latency's jitter).
+    // The unit played every stimulus: 80 cues accepted.
     assert_eq!(presentations(&unit), 80);
 
     // The closed form: the model's confusion probabilities, as counts in exact proportion (every
@@ -159,16 +158,11 @@ fn a_localization_session_gives_the_confusion_models_percent_correct_and_informa
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// How many times the unit switched tactors on (from all off).
-fn presentations(unit: &PtyEmulator) -> usize {
-    let mut was_on = false;
-    let mut n = 0;
-    for (_, mask) in unit.view().changes {
-        let on = !mask.is_empty();
-        n += usize::from(on && !was_on);
-        was_on = on;
-    }
-    n
+/// How many cues (PLAY and FIRE) the unit accepted: its own count, which neither wraps like a sequence
+/// number nor forgets like its bounded history of tactor changes.
+fn presentations(unit: &PtyEmulator) -> u64 {
+    let accepted = unit.view().accepted;
+    [CommandKind::Play, CommandKind::Fire].iter().map(|k| accepted.get(k).copied().unwrap_or(0)).sum()
 }
 
 /// A station on the PTY unit, the vest ready, no automatic cues.

@@ -1,7 +1,7 @@
 //! A tile server that cannot be reached is reported with the true cause (issue 23, item 8): "offline" only
 //! when the host name does not resolve, "refused" when nothing listens, never "has none here" (that is the
-//! server's own 404). Real sockets: a port just closed on 127.0.0.1, and a name under `.invalid`, which
-//! RFC 6761 reserves so that it never resolves.
+//! server's own 404). Real sockets: a port of 127.0.0.1 that is bound but not listening, and a name under
+//! `.invalid`, which RFC 6761 reserves so that it never resolves.
 #![allow(clippy::unwrap_used)]
 
 use vestnav_tiles::store::TileClient;
@@ -17,10 +17,9 @@ fn cause(url: &str) -> NetworkCause {
 
 #[test]
 fn a_closed_port_is_refused_not_offline() {
-    let port = {
-        let l = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
-        l.local_addr().unwrap().port()
-    };
+    // Bound, never listening: refused for the whole test, and no other socket can take it meanwhile.
+    let refusing = vestnav_device::testkit::RefusingPort::bind().unwrap();
+    let port = refusing.port();
     let c = cause(&format!("http://127.0.0.1:{port}/0/0/0.png"));
     assert_eq!(c, NetworkCause::Refused { host: format!("127.0.0.1:{port}") });
     assert!(c.to_string().contains("refused the connection"), "{c}");

