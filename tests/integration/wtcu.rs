@@ -240,7 +240,8 @@ fn pty_fire_pattern_stop_round_trips() {
     assert!(wait_until(s, || emu.view().changes.iter().any(|(_, m)| *m == TactorMask::CORNERS)));
     wait_for(&vest, &mut seen, s, |e| *e == VestEvent::TactorsOn(Some(TactorMask::NONE)));
 
-    vest.send(VestCommand::Play(Cue::TurnLeft.pattern(DEFAULT_ON_MS))).unwrap();
+    // 500 ms a column: the STOP ALL below has that long to cut the pattern before column 0.
+    vest.send(VestCommand::Play(Cue::TurnLeft.pattern(2 * DEFAULT_ON_MS))).unwrap();
     wait_for(&vest, &mut seen, s, |e| matches!(e, VestEvent::Acked { kind: CommandKind::Play, .. }));
     wait_for(&vest, &mut seen, s, |e| *e == VestEvent::TactorsOn(Some(TactorMask::column(1))));
     vest.send(VestCommand::StopAll).unwrap();

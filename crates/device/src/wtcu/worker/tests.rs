@@ -175,6 +175,10 @@ fn the_stopper_stops_and_closes_within_the_exit_budget() {
     let t0 = Instant::now();
     assert!(stopper.stop_and_close(Duration::from_millis(180)), "STOP ALL acknowledged");
     assert!(t0.elapsed() < Duration::from_millis(200), "{:?}", t0.elapsed());
+    let until = Instant::now() + Duration::from_secs(2);
+    while vest.is_running() && Instant::now() < until {
+        std::thread::sleep(Duration::from_millis(5));
+    }
     assert!(!vest.is_running());
     assert_eq!(vest.send(VestCommand::RequestStatus, CommandOrigin::Manual), Err(VestSendError::Stopped));
 }
