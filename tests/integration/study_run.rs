@@ -348,9 +348,11 @@ fn ctrl_c_stops_the_vest_and_keeps_the_results() {
         assert!(Instant::now() < end, "two trials within 20 s");
         std::thread::sleep(Duration::from_millis(5));
     }
-    // Past the 100 ms interval, before the next answer (at least 400 ms after its stimulus): a trial is
-    // under way.
-    std::thread::sleep(Duration::from_millis(200));
+    // The third stimulus played and its answer (at least 400 ms after it) not given yet: a trial is under way.
+    while presentations(&unit) < 3 {
+        assert!(Instant::now() < end, "a third stimulus within 20 s");
+        std::thread::sleep(Duration::from_millis(2));
+    }
     let kill = Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap();
     assert!(kill.success());
     let status = child.wait().unwrap();

@@ -98,13 +98,14 @@ fn gpsd_frames() -> usize {
     std::fs::read_to_string(path).unwrap().lines().filter(|l| !l.trim().is_empty()).count()
 }
 
-/// An NTRIP 1.0 caster on 127.0.0.1 (no credentials): each connection gets `ICY 200 OK`, the log's
-/// stream, then silence (a stalled caster) until the client leaves.
+/// An NTRIP 1.0 caster on 127.0.0.1 (no credentials): each connection gets `ICY 200 OK`, the first one
+/// the log's stream, then silence (a stalled caster) until the client leaves. Only the first: the
+/// receiver's count of frames is the log's, however soon the client reconnects.
 fn caster() -> String {
     let listener = TcpListener::bind("127.0.0.1:0").unwrap();
     let addr = listener.local_addr().unwrap().to_string();
     std::thread::spawn(move || {
-        for stream in listener.incoming() {
+        for (k, stream) in listener.incoming().enumerate() {
             let Ok(mut stream) = stream else { return };
             std::thread::spawn(move || {
                 let mut reader = BufReader::new(stream.try_clone().unwrap());
@@ -113,7 +114,9 @@ fn caster() -> String {
                     line.clear();
                 }
                 let _ = stream.write_all(b"ICY 200 OK\r\n");
-                let _ = stream.write_all(&rtcm_stream());
+                if k == 0 {
+                    let _ = stream.write_all(&rtcm_stream());
+                }
                 std::thread::sleep(Duration::from_secs(20));
             });
         }
@@ -165,8 +168,12 @@ fn ntrip_status_line_with_a_serial_receiver() {
         ));
         pty.write_all(format!("{gga}\r\n").as_bytes()).unwrap();
         k += 1;
-        if let Ok(n) = pty.read(&mut buf) {
+        // Everything the port holds (a full read means there may be more).
+        while let Ok(n) = pty.read(&mut buf) {
             got.extend_from_slice(&buf[..n]);
+            if n < buf.len() {
+                break;
+            }
         }
         h.step();
         // The line shows twice (the GPS panel and the open window).

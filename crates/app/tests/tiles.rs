@@ -304,7 +304,9 @@ fn tile_folder_is_drawn_and_bad_tiles_are_named() {
 #[allow(clippy::too_many_lines)]
 fn prefetch_fetches_the_box_resumes_respects_parallelism_and_serves_offline() {
     let root = temp_dir("prefetch");
-    let mut server = TileServer::start(Duration::from_millis(15));
+    // 40 ms a tile: the cancel below, after 6 tiles, comes long before the box is done even when this
+    // thread is scheduled late.
+    let mut server = TileServer::start(Duration::from_millis(40));
     let source =
         TileSourceConfig::Xyz { url: server.url(), attribution: "test server".into(), allows_bulk: true };
     // The area: the console's own route (the demo route) plus 150 m; tiles off, so that the console
