@@ -793,9 +793,7 @@ fn the_process_exits_in_bounded_time_whatever_the_unit_does() {
         }
         let before = unit.received(CommandKind::StopAll).len();
         let t0 = Instant::now();
-        let ok =
-            std::process::Command::new("kill").arg("-TERM").arg(child.id().to_string()).status().unwrap();
-        assert!(ok.success());
+        vestnav_device::testkit::send_signal(child.id(), 15).unwrap();
         let status = loop {
             if let Some(s) = child.try_wait().unwrap() {
                 break s;
@@ -870,12 +868,7 @@ fn signals_stop_the_vest_before_the_process_exits() {
         }
         let before = unit.accepted(CommandKind::StopAll).len();
         let t0 = Instant::now();
-        let ok = std::process::Command::new("kill")
-            .arg(format!("-{name}"))
-            .arg(child.id().to_string())
-            .status()
-            .unwrap();
-        assert!(ok.success());
+        vestnav_device::testkit::send_signal(child.id(), sig).unwrap();
         let status = loop {
             if let Some(s) = child.try_wait().unwrap() {
                 break s;
@@ -903,34 +896,42 @@ struct Xvfb {
 }
 
 impl Xvfb {
+    /// Starts Xvfb on a display it picks itself (`-displayfd`: it writes the number once it accepts
+    /// connections), so neither another server nor the stale socket of a killed one is mistaken for ours.
     fn start() -> Option<Self> {
-        for n in 90..110 {
-            if std::path::Path::new(&format!("/tmp/.X11-unix/X{n}")).exists() {
-                continue;
+        use std::io::BufRead as _;
+        let mut child = std::process::Command::new("Xvfb")
+            .args(["-displayfd", "1", "-screen", "0", "1600x1000x24", "-nolisten", "tcp"])
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .ok()?;
+        let mut line = String::new();
+        let read = std::io::BufReader::new(child.stdout.take()?).read_line(&mut line);
+        match (read, line.trim().parse::<u32>()) {
+            (Ok(_), Ok(n)) => Some(Self { child, display: format!(":{n}") }),
+            _ => {
+                let _ = child.kill();
+                let _ = child.wait();
+                None
             }
-            let display = format!(":{n}");
-            let mut child = std::process::Command::new("Xvfb")
-                .args([&display, "-screen", "0", "1600x1000x24", "-nolisten", "tcp"])
-                .stdout(std::process::Stdio::null())
-                .stderr(std::process::Stdio::null())
-                .spawn()
-                .ok()?;
-            let end = Instant::now() + Duration::from_secs(5);
-            while Instant::now() < end {
-                if std::path::Path::new(&format!("/tmp/.X11-unix/X{n}")).exists() {
-                    return Some(Self { child, display });
-                }
-                if child.try_wait().ok().flatten().is_some() {
-                    break;
-                }
-                std::thread::sleep(Duration::from_millis(20));
-            }
-            let _ = child.kill();
         }
-        None
     }
 
+    /// Ends the server as a user would (SIGTERM: it removes its socket and lock), killing it only if it
+    /// has not gone within 2 s.
     fn stop(&mut self) {
+        if self.child.try_wait().ok().flatten().is_some() {
+            return;
+        }
+        let _ = vestnav_device::testkit::send_signal(self.child.id(), 15);
+        let end = Instant::now() + Duration::from_secs(2);
+        while Instant::now() < end {
+            if self.child.try_wait().ok().flatten().is_some() {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        }
         let _ = self.child.kill();
         let _ = self.child.wait();
     }

@@ -353,8 +353,7 @@ fn ctrl_c_stops_the_vest_and_keeps_the_results() {
         assert!(Instant::now() < end, "a third stimulus within 20 s");
         std::thread::sleep(Duration::from_millis(2));
     }
-    let kill = Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap();
-    assert!(kill.success());
+    vestnav_device::testkit::send_signal(child.id(), 2).unwrap();
     let status = child.wait().unwrap();
     let mut err = String::new();
     std::io::Read::read_to_string(&mut child.stderr.take().unwrap(), &mut err).unwrap();

@@ -19,7 +19,7 @@
 //! - [`backoff`]: the one exponential reconnect backoff of the workers;
 //! - [`doctor`]: the set-up checks of `vestnav doctor` (ports, Bluetooth, OpenGL, folders, optional parts);
 //! - [`outbox`]: how workers hand events to their consumers (bounded, never blocking a stop);
-//! - [`testkit`]: instruments for tests (a TCP port that refuses).
+//! - [`testkit`]: instruments for tests (a TCP port that refuses, a signal sent from this process).
 
 pub mod backoff;
 pub mod doctor;

@@ -39,6 +39,22 @@ impl RefusingPort {
     }
 }
 
+/// Sends signal number `signal` (1 HUP, 2 INT, 9 KILL, 15 TERM, ...) to process `pid`, from this process:
+/// a test that times what a signal causes starts its clock right before, without a `kill` process's
+/// start-up in the measurement.
+#[cfg(unix)]
+pub fn send_signal(pid: u32, signal: i32) -> std::io::Result<()> {
+    use rustix::process::{Pid, Signal, kill_process};
+    let pid = i32::try_from(pid)
+        .ok()
+        .and_then(Pid::from_raw)
+        .ok_or_else(|| std::io::Error::other(format!("not a process id: {pid}")))?;
+    let signal = Signal::from_named_raw(signal)
+        .ok_or_else(|| std::io::Error::other(format!("not a signal number: {signal}")))?;
+    kill_process(pid, signal)?;
+    Ok(())
+}
+
 #[cfg(all(test, unix))]
 mod tests {
     use super::*;
@@ -50,5 +66,15 @@ mod tests {
         assert_eq!(err.kind(), std::io::ErrorKind::ConnectionRefused);
         // Nobody else can bind it while we hold it.
         assert!(std::net::TcpListener::bind(port.addr()).is_err());
+    }
+
+    #[test]
+    fn a_signal_reaches_the_process() {
+        let mut child = std::process::Command::new("sleep").arg("30").spawn().unwrap();
+        send_signal(child.id(), 15).unwrap();
+        let status = child.wait().unwrap();
+        assert_eq!(std::os::unix::process::ExitStatusExt::signal(&status), Some(15));
+        assert!(send_signal(0, 15).is_err(), "0 is not a process");
+        assert!(send_signal(child.id(), 999).is_err(), "999 is not a signal");
     }
 }
