@@ -908,14 +908,12 @@ impl Xvfb {
             .ok()?;
         let mut line = String::new();
         let read = std::io::BufReader::new(child.stdout.take()?).read_line(&mut line);
-        match (read, line.trim().parse::<u32>()) {
-            (Ok(_), Ok(n)) => Some(Self { child, display: format!(":{n}") }),
-            _ => {
-                let _ = child.kill();
-                let _ = child.wait();
-                None
-            }
+        if let (Ok(_), Ok(n)) = (read, line.trim().parse::<u32>()) {
+            return Some(Self { child, display: format!(":{n}") });
         }
+        let _ = child.kill();
+        let _ = child.wait();
+        None
     }
 
     /// Ends the server as a user would (SIGTERM: it removes its socket and lock), killing it only if it
