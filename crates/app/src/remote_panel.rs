@@ -285,7 +285,10 @@ impl RemotePanel {
             }
             let mut remove = None;
             egui::Grid::new("stations-grid").striped(true).show(ui, |ui| {
-                for h in ["station", "contact", "GPS", "vest", "guidance", "battery", "stop", "", "", "", ""] {
+                // The buttons come right after the name, whose width changes only with the list: the
+                // status texts after them change width from frame to frame, and a button placed after
+                // them would move under the pointer (a click meant for Stop could land on Resume).
+                for h in ["station", "", "", "", "", "stop", "contact", "GPS", "vest", "guidance", "battery"] {
                     ui.label(RichText::new(h).strong());
                 }
                 ui.end_row();
@@ -293,17 +296,6 @@ impl RemotePanel {
                     let is_local = self.stations.is_local(&r.name);
                     let name = if is_local { format!("{} (this machine)", r.name) } else { r.name.clone() };
                     ui.label(RichText::new(name).strong());
-                    let contact = RichText::new(&r.contact);
-                    ui.label(if r.stale { contact.color(ui.visuals().error_fg_color) } else { contact });
-                    for text in [&r.gps, &r.vest, &r.guidance, &r.battery] {
-                        // A stale station's last word is shown weak: it may no longer be true.
-                        ui.label(if r.stale { RichText::new(text).weak() } else { RichText::new(text) });
-                    }
-                    ui.label(RichText::new(&r.stop).color(if r.stop.contains("NOT") {
-                        ui.visuals().error_fg_color
-                    } else {
-                        ui.visuals().text_color()
-                    }));
                     if ui.button("Stop").clicked() {
                         self.error = self.stations.stop(&r.name).err().map(|e| format!("Stop {}: {e}", r.name));
                     }
@@ -328,6 +320,8 @@ impl RemotePanel {
                         {
                             fleet.set_continue_on_loss(&r.name, armed);
                         }
+                    } else {
+                        ui.label("");
                     }
                     let driving = self.drive.selected.as_deref() == Some(r.name.as_str());
                     if ui
@@ -336,6 +330,17 @@ impl RemotePanel {
                         .clicked()
                     {
                         self.drive.selected = (!driving).then(|| r.name.clone());
+                    }
+                    ui.label(RichText::new(&r.stop).color(if r.stop.contains("NOT") {
+                        ui.visuals().error_fg_color
+                    } else {
+                        ui.visuals().text_color()
+                    }));
+                    let contact = RichText::new(&r.contact);
+                    ui.label(if r.stale { contact.color(ui.visuals().error_fg_color) } else { contact });
+                    for text in [&r.gps, &r.vest, &r.guidance, &r.battery] {
+                        // A stale station's last word is shown weak: it may no longer be true.
+                        ui.label(if r.stale { RichText::new(text).weak() } else { RichText::new(text) });
                     }
                     ui.end_row();
                 }
