@@ -14,7 +14,7 @@ use vestnav_station::hardware::Hardware;
 use vestnav_station::sources::{VestSourceConfig, parse_gps_spec};
 use vestnav_station::stop::StopPath;
 
-use crate::remote::{Unit, run_until_shown, wait_for};
+use crate::remote::{Unit, click, run_until_shown, wait_for};
 
 fn config(name: &str, unit: &Unit) -> LocalStationConfig {
     LocalStationConfig {
@@ -23,19 +23,6 @@ fn config(name: &str, unit: &Unit) -> LocalStationConfig {
         gps: parse_gps_spec("sim").unwrap(),
         log_dir: None,
     }
-}
-
-/// Clicks the `nth` widget labelled `label` as a hand does: the pointer arrives (a frame), then presses.
-/// A click in the same frame as the move lands on whatever covered the spot a frame before, such as the
-/// tooltip of the button clicked last, which a real pointer closes by leaving that button.
-fn click(
-    h: &mut egui_kittest::Harness<'_, (RemotePanel, vestnav_station::Station)>,
-    label: &str,
-    nth: usize,
-) {
-    h.get_all_by_label(label).nth(nth).unwrap().hover();
-    h.run_steps(1);
-    h.get_all_by_label(label).nth(nth).unwrap().click();
 }
 
 /// Turns the window until `ok`, for at most 10 s; on time-out, says what the window and the station show.
@@ -100,11 +87,11 @@ fn two_local_stations_are_driven_alone_and_stopped_together() {
     assert!(h.query_by_label_contains("alpha (this machine)").is_some());
     assert!(h.query_by_label_contains("bravo (this machine)").is_some());
     assert!(h.query_by_label_contains("no broker").is_some(), "the window says there is no broker");
-    h.get_all_by_label("Drive").next().unwrap().click();
+    click(&mut h, "Drive", 0);
     h.run_steps(2);
     assert!(h.query_by_label_contains("Driving alpha").is_some());
     let t0 = Instant::now();
-    h.get_by_label("T5").click();
+    click(&mut h, "T5", 0);
     h.run_steps(2);
     wait_for("the FIRE at alpha's vest", Duration::from_secs(5), || {
         !a.received_after(CommandKind::Fire, t0).is_empty()

@@ -11,7 +11,7 @@ use vestnav_app::console::{Console, ConsoleOptions, Tab};
 use vestnav_device::wtcu::CommandKind;
 use vestnav_station::study::{StudyPhase, StudyView};
 
-use crate::remote::{Broker, StationProc, in_contact, run_until_shown, temp_dir, wait_for};
+use crate::remote::{Broker, StationProc, click, in_contact, run_until_shown, temp_dir, wait_for};
 
 /// The study as alpha last published it to the console's fleet.
 fn alpha_study(c: &Console) -> Option<StudyView> {
@@ -67,7 +67,7 @@ fn the_study_tab_runs_a_trial_on_a_remote_station() {
         .with_size(egui::vec2(1400.0, 900.0))
         .build_ui_state(|ui, c: &mut Console| c.ui(ui), console);
     h.run_steps(3);
-    h.get_by_label("alpha (driven)").click();
+    click(&mut h, "alpha (driven)", 0);
     h.run_steps(2);
     assert!(h.query_by_label_contains("the path is its").is_some(), "the tab says whose disk the path is on");
 
@@ -76,7 +76,7 @@ fn the_study_tab_runs_a_trial_on_a_remote_station() {
     h.state_mut().study.participant = "P07".into();
     h.state_mut().study.out_dir = results.display().to_string();
     h.run_steps(2);
-    h.get_by_label("Load").click();
+    click(&mut h, "Load", 0);
     h.run_steps(1);
     turn_until(&mut h, "the study loaded on alpha", |c| {
         alpha_study(c).is_some_and(|v| v.phase == StudyPhase::Ready && v.trials == 2)
@@ -84,7 +84,7 @@ fn the_study_tab_runs_a_trial_on_a_remote_station() {
     run_until_shown(&mut h, "Trial 1/2", "alpha's study shown in the tab");
 
     let t0 = Instant::now();
-    h.get_by_label("Start").click();
+    click(&mut h, "Start", 0);
     h.run_steps(1);
     turn_until(&mut h, "alpha awaiting the response", |c| {
         alpha_study(c).is_some_and(|v| v.phase == StudyPhase::AwaitingResponse)
@@ -97,7 +97,7 @@ fn the_study_tab_runs_a_trial_on_a_remote_station() {
     );
     // Blocked order: T5 first. The wearer reports it right.
     h.run_steps(2);
-    h.get_by_label("T5").click();
+    click(&mut h, "T5", 0);
     h.run_steps(1);
     turn_until(&mut h, "alpha's record of the answer", |c| {
         alpha_study(c).is_some_and(|v| v.rows == 1 && v.last.is_some())
