@@ -17,6 +17,9 @@ use vestnav_remote::{StationView, Stations};
 use vestnav_station::Station;
 use vestnav_station::command::Command;
 
+/// Width of the drive panel's left column (the tactor grid and the lines above it) [points]: the grid's
+/// four 40-point buttons with their spacing, and room to spare.
+const DRIVE_GRID_COLUMN_W: f32 = 200.0;
 /// Commands kept in the outcome list (the newest).
 const SENT_KEPT: usize = 8;
 /// A command with no answer for longer is shown as unanswered.
@@ -117,6 +120,10 @@ impl Drive {
         let on_ms = local.settings().guidance.on_ms;
         ui.horizontal_top(|ui| {
             ui.vertical(|ui| {
+                // A fixed width (its lines wrap): the unit's tactor line changes length as tactors go on
+                // and off, and a column that followed it would move the command buttons beside it under
+                // the pointer.
+                ui.set_width(DRIVE_GRID_COLUMN_W);
                 self.grid_ui(ui, stations, view.as_ref(), stale, on_ms, now);
                 // The operator's saved patterns (Vest panel), played on this station.
                 ui.horizontal_wrapped(|ui| {
