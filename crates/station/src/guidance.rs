@@ -255,8 +255,7 @@ pub fn spawn(
         };
         let mut next_tick = Instant::now() + TICK;
         loop {
-            let release = w.release_at(start);
-            let wake = release.map_or(next_tick, |r| r.min(next_tick));
+            let wake = w.release_at(start).map_or(next_tick, |r| r.min(next_tick));
             let msg = rx.recv_timeout(wake.saturating_duration_since(Instant::now()));
             if let Some(b) = &w.beat {
                 b.beat();
@@ -271,7 +270,7 @@ pub fn spawn(
             if now >= next_tick {
                 next_tick = now + TICK;
                 w.tick(now, now_s);
-            } else if release.is_some_and(|r| now >= r) && w.release_at(start) == release {
+            } else if w.release_at(start).is_some_and(|r| now >= r) {
                 // The cue the rate limiter held may play now: decide again at once, not at the next tick.
                 w.release_s = None;
                 w.tick(now, now_s);
